@@ -1,0 +1,129 @@
+// drtv/formats/archive.h — a baked world: one file holding a manifest and zstd-compressed sector
+// payloads, each readable on its own without touching the others (the streamer's unit of I/O).
+//
+// File layout (version 1; integers and floats little-endian; offsets in bytes from file start):
+//
+//    0   8  char    magic "DRTVARC\0"
+//    8   4  uint32  version (1)
+//   12   4  uint32  header size (64)
+//   16   8  uint64  manifest offset
+//   24   8  uint64  manifest size
+//   32   8  uint64  manifest hash      XXH3-64 of the manifest bytes
+//   40   8  uint64  file size          the whole file; a shorter file was truncated
+//   48  16  uint8   reserved           zero
+//   64      sector payloads            each one zstd frame holding an encoded sector (sector.h)
+//   ..      manifest:
+//             f64 bounds min[3], max[3]   world metres
+//             f64 sector size             64
+//             u32 effects                 drtv::Effect mask baked into this archive
+//             u32 settings count          then per setting: u16 key length, key, u32 value
+//                                         length, value (UTF-8; bake settings for reports)
+//             u32 sector count            then per sector, 40 bytes, sorted by (ix, iy), unique:
+//               i32 ix, i32 iy, u64 payload offset, u32 compressed size, u32 raw size,
+//               u64 XXH3-64 of the compressed payload, u16 probes, u16 LPRT sources, u32 zero
+//   No trailing bytes after the manifest.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "drtv/formats/effects.h"
+#include "drtv/formats/error.h"
+#include "drtv/formats/sector.h"
+
+namespace drtv {
+
+inline constexpr uint32_t kArchiveVersion = 1;
+inline constexpr size_t kArchiveHeaderBytes = 64;
+inline constexpr size_t kArchiveSectorEntryBytes = 40;
+
+struct SectorEntry {
+  SectorKey key;
+  uint64_t offset = 0;            // of the compressed payload in the file
+  uint32_t compressed_bytes = 0;
+  uint32_t raw_bytes = 0;         // encoded sector size after decompression
+  uint64_t hash = 0;              // XXH3-64 of the compressed payload
+  uint16_t probes = 0;
+  uint16_t lprt_sources = 0;
+};
+
+struct Manifest {
+  uint32_t version = kArchiveVersion;
+  glm::dvec3 bounds_min{0.0}, bounds_max{0.0};  // world metres
+  double sector_size_m = kSectorSizeM;
+  uint32_t effects = 0;                         // drtv::Effect mask baked
+  std::vector<std::pair<std::string, std::string>> settings;  // bake settings, in order
+  std::vector<SectorEntry> sectors;             // sorted by key, unique
+
+  // The entry for `key`, or nullptr. O(log n).
+  const SectorEntry* find(SectorKey key) const;
+  // The value of setting `key`, or "" if absent.
+  std::string setting(const std::string& key) const;
+};
+
+// Writes an archive. Sectors go to "<path>.partial" as they are added; finish() appends the
+// manifest, fixes the header, flushes and renames onto `path`, so a reader never sees a half
+// archive and an interrupted writer leaves the old file (if any) intact. Not thread-safe: one
+// writer per file, sectors added from one thread.
+class ArchiveWriter {
+ public:
+  // Opens "<path>.partial" for writing. `zstd_level` as in zstd (1..19; 3 is zstd's default).
+  static Result<ArchiveWriter> create(const std::filesystem::path& path, int zstd_level = 3);
+  ArchiveWriter(ArchiveWriter&&) noexcept;
+  ArchiveWriter& operator=(ArchiveWriter&&) noexcept;
+  ~ArchiveWriter();
+
+  // Encodes, compresses and appends `sector`. Adding the same key twice is an error.
+  Result<void> addSector(const Sector& sector);
+  // Appends an already encoded sector (bytes as encodeSector wrote them; validated here).
+  Result<void> addEncodedSector(std::span<const uint8_t> encoded);
+  // Writes the manifest (`info`'s sectors are ignored: the added ones are used) and publishes.
+  Result<void> finish(const Manifest& info);
+
+ private:
+  struct Impl;
+  explicit ArchiveWriter(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+// Reads an archive: open() reads and validates the header and manifest only; each readSector
+// reads that sector's bytes alone. Errors name the file, the sector and the byte offset.
+// Thread-safe after open(): readSector may run concurrently from many threads.
+class ArchiveReader {
+ public:
+  static Result<ArchiveReader> open(const std::filesystem::path& path);
+  ArchiveReader(ArchiveReader&&) noexcept;
+  ArchiveReader& operator=(ArchiveReader&&) noexcept;
+  ~ArchiveReader();
+
+  const Manifest& manifest() const;
+  const std::filesystem::path& path() const;
+
+  // Reads, checks the hash, decompresses and decodes one sector.
+  Result<Sector> readSector(SectorKey key) const;
+  // Reads, checks the hash and decompresses one sector; returns its encoded bytes.
+  Result<std::vector<uint8_t>> readSectorBytes(SectorKey key) const;
+  // Reads one sector's compressed payload as stored, hash checked (for benchmarks and copies).
+  Result<std::vector<uint8_t>> readCompressed(SectorKey key) const;
+
+ private:
+  struct Impl;
+  explicit ArchiveReader(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+// Archive bytes <-> manifest, for tests and tools: decode checks everything open() checks.
+Result<Manifest> decodeArchiveHeaderAndManifest(std::span<const uint8_t> file_bytes, const std::string& where);
+// Reads the version of an archive file (after checking its magic).
+Result<uint32_t> peekArchiveVersion(const std::filesystem::path& path);
+
+// Decompresses a zstd frame whose decompressed size must equal `raw_bytes` exactly.
+Result<std::vector<uint8_t>> zstdDecompress(std::span<const uint8_t> frame, size_t raw_bytes, const std::string& where);
+
+}  // namespace drtv

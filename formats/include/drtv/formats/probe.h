@@ -1,0 +1,97 @@
+// drtv/formats/probe.h — the 152-byte probe record (talk [1] slide 22; DESIGN.md "What a probe
+// holds"). On disk and in memory alike; little-endian; no padding.
+//
+//  [1] Gilabert & Stefanov, "Deferred Radiance Transfer Volumes", GDC 2012.
+//
+//  byte  size  field
+//  ----  ----  ---------------------------------------------------------------------------------
+//     0    12  float32 position[3]     sector-relative metres: x, y from the sector's min corner
+//                                      (in [0, 64)), z the world height (sectors span all z)
+//    12     2  uint16  flags           ProbeFlag bits; unknown bits are rejected on read
+//    14     2  uint16  interior        0 = outside; k = inside World::interiors[k - 1]
+//    16     4  float32 prt_range       R > 0: dequantisation range of every prt coefficient
+//    20    96  int16   prt[3][4][4]    [channel R,G,B][basis B0..B3][SH Y00,Y1-1,Y10,Y11],
+//                                      snorm16 x R. Bounced irradiance at a virtual surface
+//                                      with normal B_b = dot(L_sh[c], T[c][b]) (sun and sky)
+//   116     8  uint16  sky_vis[4]      unorm16: cosine-weighted sky visibility about B0..B3
+//   124     8  int16   sky_vis_sh[4]   snorm16 x 4: SH of the 0/1 sky-visibility function
+//                                      (|c0| <= sqrt(4 pi) = 3.545, so the range 4 suffices)
+//   132     4  float32 lprt_range      dequantisation range of this probe's LPRT row; 0 = none
+//   136     2  uint16  backface_frac   unorm16: fraction of bake rays that hit back faces
+//   138     2  uint16  height_cm       height above the surface below the probe, centimetres
+//                                      (0 .. 655.35 m), for the distant-occlusion tile
+//   140     4  float32 mean_hit_m      mean distance to the first hit of the bake rays that hit
+//   144     8  uint8   reserved[8]     zero; rejected when non-zero (room for version 2)
+//   152
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+#include <glm/glm.hpp>
+
+#include "drtv/formats/quantize.h"
+#include "drtv/formats/sh.h"
+
+namespace drtv {
+
+enum ProbeFlag : uint16_t {
+  kProbeRelocated = 1u << 0,     // placement moved it out of geometry
+  kProbeVegetation = 1u << 1,    // placed on a vegetation bounding box
+  kProbeInterior = 1u << 2,      // the designated probe of an interior volume
+  kProbeManual = 1u << 3,        // added by hand rather than by placement rays
+};
+inline constexpr uint16_t kProbeKnownFlags = 0x000f;
+
+// Snorm range of sky_vis_sh (see the table above).
+inline constexpr float kSkyVisShRange = 4.f;
+
+struct ProbeRecord {
+  float position[3];
+  uint16_t flags;
+  uint16_t interior;
+  float prt_range;
+  int16_t prt[3][4][4];
+  uint16_t sky_vis[4];
+  int16_t sky_vis_sh[4];
+  float lprt_range;
+  uint16_t backface_frac;
+  uint16_t height_cm;
+  float mean_hit_m;
+  uint8_t reserved[8];
+};
+static_assert(sizeof(ProbeRecord) == 152, "probe record is 152 bytes (talk slide 22)");
+static_assert(offsetof(ProbeRecord, prt) == 20 && offsetof(ProbeRecord, sky_vis) == 116 &&
+                  offsetof(ProbeRecord, lprt_range) == 132 && offsetof(ProbeRecord, reserved) == 144,
+              "byte layout as drawn above");
+
+// The unpacked, float form of a probe: what the baker produces and the runtime reads.
+struct ProbeData {
+  glm::vec3 position{0.f};                       // sector-relative, as in the record
+  uint16_t flags = 0;
+  uint16_t interior = 0;
+  std::array<std::array<sh::Sh4, 4>, 3> prt{};   // [channel][basis] transfer vectors
+  glm::vec4 sky_vis{0.f};                        // [basis], in [0,1]
+  sh::Sh4 sky_vis_sh{0.f};
+  float backface_frac = 0.f;                     // [0,1]
+  float height_m = 0.f;                          // [0, 655.35]
+  float mean_hit_m = 0.f;
+};
+
+// Packs `p`, choosing prt_range as the largest |coefficient| (or 1 when all are 0). Values are
+// clamped to their documented ranges; NaN becomes 0 (a bug upstream; packing stays total).
+// lprt_range is set to 0: the LPRT block's packer fills it.
+ProbeRecord packProbe(const ProbeData& p);
+
+// Unpacks a record. Precondition: the record was validated (validateProbe) or packed here.
+ProbeData unpackProbe(const ProbeRecord& r);
+
+// Checks a record read from untrusted bytes: finite position with x, y in [0, 64] and |z| < 1e6,
+// known flags, finite prt_range > 0 (or == 0 with all-zero coefficients), finite lprt_range >= 0,
+// finite mean_hit_m >= 0, zero reserved bytes, and no int16 -32768 (never written). Returns an
+// empty string when valid, else what is wrong (the caller adds file, sector and byte offset).
+std::string validateProbe(const ProbeRecord& r);
+
+}  // namespace drtv

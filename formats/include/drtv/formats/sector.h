@@ -1,0 +1,137 @@
+// drtv/formats/sector.h — one 64 m x 64 m sector: its probes, nearest-probe index grid, the
+// ground heights its distant-occlusion tile needs, and optionally its LPRT block.
+//
+//  [1] Gilabert & Stefanov, "Deferred Radiance Transfer Volumes", GDC 2012, slides 17, 22-24, 58.
+//  [2] Kristensen, Akenine-Moeller, Jensen, "Precomputed Local Radiance Transfer for Real-Time
+//      Lighting Design", SIGGRAPH 2005 (LPRT).
+//
+// Encoded sector (version 1; all integers and floats little-endian; offsets in bytes):
+//
+//    0   4  char    magic "DRTS"
+//    4   2  uint16  version (1)
+//    6   2  uint16  header size (64)
+//    8   4  int32   ix              sector key: the sector covers x in [64 ix, 64 ix + 64)
+//   12   4  int32   iy                                         and y in [64 iy, 64 iy + 64)
+//   16   2  uint16  probe count     0..255
+//   18   2  uint16  LPRT sources    0..128; 0 = no LPRT block at all
+//   20   4  uint32  flags           kSectorHasGround | kSectorLprtOnBases; others rejected
+//   24   4  float32 grid z min      world height of the index grid's bottom face, metres
+//   28   4  float32 grid cell height metres, > 0 (horizontal cells are 64/16 = 4 m)
+//   32   4  float32 ground z min    range of the ground-height map, metres
+//   36   4  float32 ground z max
+//   40  24  uint8   reserved        zero
+//   64        probes      probe count x 152 bytes (probe.h)
+//   ..  4096  index grid  uint8 cells[z][y][x], 16^3, the index of the nearest probe; 255 = none
+//   .. (128)  ground      uint16 unorm [y][x], 8x8: ground height at each 8 m cell centre, as
+//                         z min + q/65535 (z max - z min); present iff kSectorHasGround
+//   ..        LPRT, present iff LPRT sources > 0:
+//               sources  S x 4 bytes: int8 dx, int8 dy (sector offset of the source probe's
+//                        sector, in [-8, 8]), uint8 probe index, uint8 zero
+//               coeffs   probe count x S x 3 x 4 int16, [probe][source][channel][k], snorm16 x
+//                        that probe's lprt_range. With kSectorLprtOnBases, k indexes the four
+//                        transfer bases: the bounced irradiance at a surface facing B_k from a
+//                        unit white point light at the source (the runtime does one multiply per
+//                        source and basis). Without it, k is the SH4 of the incoming radiance.
+//   No trailing bytes.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "drtv/formats/error.h"
+#include "drtv/formats/probe.h"
+
+namespace drtv {
+
+inline constexpr double kSectorSizeM = 64.0;
+inline constexpr int kMaxProbesPerSector = 255;
+inline constexpr int kMaxLprtSources = 128;
+inline constexpr int kGridDim = 16;                    // cells per axis
+inline constexpr int kGridCells = kGridDim * kGridDim * kGridDim;
+inline constexpr double kGridCellSizeM = kSectorSizeM / kGridDim;  // 4 m horizontally
+inline constexpr uint8_t kNoProbe = 255;
+inline constexpr int kGroundDim = 8;                   // 8 m cells
+inline constexpr uint16_t kSectorVersion = 1;
+inline constexpr size_t kSectorHeaderBytes = 64;
+
+enum SectorFlag : uint32_t {
+  kSectorHasGround = 1u << 0,
+  kSectorLprtOnBases = 1u << 1,
+};
+
+struct SectorKey {
+  int32_t ix = 0, iy = 0;
+  friend bool operator==(const SectorKey&, const SectorKey&) = default;
+  friend auto operator<=>(const SectorKey&, const SectorKey&) = default;
+};
+// "(3,-1)"
+std::string toString(SectorKey key);
+// The sector containing world position (x, y): floor(x / 64), floor(y / 64).
+SectorKey sectorAt(double x, double y);
+
+// Per-sector 16x16x16 nearest-probe grid [1, slide 17]. Cell (x, y, z) covers sector-relative
+// [4x, 4x+4) x [4y, 4y+4) and world height [z_min_m + z h, z_min_m + (z+1) h), h = cell_height_m.
+struct IndexGrid {
+  float z_min_m = 0.f;
+  float cell_height_m = 1.f;
+  std::array<uint8_t, kGridCells> cells;  // [z][y][x]
+  IndexGrid() { cells.fill(kNoProbe); }
+  static constexpr int cellIndex(int x, int y, int z) { return (z * kGridDim + y) * kGridDim + x; }
+  uint8_t at(int x, int y, int z) const { return cells[cellIndex(x, y, z)]; }
+};
+
+struct LprtSource {
+  int8_t dx = 0, dy = 0;  // sector of the source probe, relative to this sector
+  uint8_t probe = 0;      // its index in that sector
+};
+
+// Local radiance transfer for up to 128 source probes [2]; see the byte table above.
+struct LprtBlock {
+  // Each probe's snorm16 range is its ProbeRecord::lprt_range (no copy here: memory budget).
+  std::vector<LprtSource> sources;      // S <= 128
+  std::vector<int16_t> coeffs;          // probe count x S x 3 x 4
+  bool on_bases = true;                 // k indexes transfer bases (true) or SH4 (false)
+
+  size_t index(size_t probe, size_t source, int channel, int k) const {
+    return ((probe * sources.size() + source) * 3 + channel) * 4 + k;
+  }
+};
+
+// A sector in memory: the decoded form of the bytes above. Value type.
+struct Sector {
+  SectorKey key;
+  std::vector<ProbeRecord> probes;        // <= 255
+  IndexGrid grid;
+  bool has_ground = false;
+  float ground_z_min_m = 0.f, ground_z_max_m = 0.f;
+  std::array<uint16_t, kGroundDim * kGroundDim> ground{};  // [y][x] unorm in the range above
+  LprtBlock lprt;                         // empty sources = no LPRT
+
+  bool hasLprt() const { return !lprt.sources.empty(); }
+  // Bytes this sector occupies in memory: the struct plus the capacity of its vectors.
+  size_t memoryBytes() const;
+  // Ground height at 8 m cell (x, y), world metres.
+  float groundHeight(int x, int y) const;
+};
+
+// Size of the encoded form of a sector with `probes` probes and `sources` LPRT sources.
+size_t encodedSectorBytes(size_t probes, size_t sources, bool has_ground);
+// The largest encoded sector (255 probes, 128 sources, ground map): a bound for readers.
+size_t maxEncodedSectorBytes();
+
+// Encodes `sector`. Preconditions (bugs if broken, checked): probes <= 255, sources <= 128,
+// coeffs sized to match, lprt_range 0 on every probe when there is no LPRT, grid indices < probe count or 255. Thread-safe.
+std::vector<uint8_t> encodeSector(const Sector& sector);
+
+// Decodes untrusted bytes. `where` names the source for messages (e.g. "island.drtv: sector
+// (3,-1)"); every error reads "<where>: byte <offset>: <what>". Never aborts, never allocates
+// more than the byte count allows. Thread-safe.
+Result<Sector> decodeSector(std::span<const uint8_t> bytes, const std::string& where);
+
+// Reads only the version field (after checking the magic).
+Result<uint16_t> peekSectorVersion(std::span<const uint8_t> bytes, const std::string& where);
+
+}  // namespace drtv

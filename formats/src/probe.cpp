@@ -1,0 +1,75 @@
+#include "drtv/formats/probe.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <string>
+
+namespace drtv {
+namespace {
+float finiteOrZero(float v) { return std::isfinite(v) ? v : 0.f; }
+}  // namespace
+
+ProbeRecord packProbe(const ProbeData& p) {
+  ProbeRecord r;
+  std::memset(&r, 0, sizeof r);
+  for (int i = 0; i < 3; ++i) r.position[i] = finiteOrZero(p.position[i]);
+  r.flags = p.flags & kProbeKnownFlags;
+  r.interior = p.interior;
+  float range = 0.f;
+  for (const auto& channel : p.prt)
+    for (const auto& t : channel)
+      for (int k = 0; k < 4; ++k) range = std::max(range, std::fabs(finiteOrZero(t[k])));
+  r.prt_range = range > 0.f ? range : 1.f;
+  for (int c = 0; c < 3; ++c)
+    for (int b = 0; b < 4; ++b)
+      for (int k = 0; k < 4; ++k) r.prt[c][b][k] = quantizeSnorm16(finiteOrZero(p.prt[c][b][k]), r.prt_range);
+  for (int b = 0; b < 4; ++b) r.sky_vis[b] = quantizeUnorm16(p.sky_vis[b]);
+  for (int k = 0; k < 4; ++k) r.sky_vis_sh[k] = quantizeSnorm16(p.sky_vis_sh[k], kSkyVisShRange);
+  r.lprt_range = 0.f;
+  r.backface_frac = quantizeUnorm16(p.backface_frac);
+  const float cm = std::clamp(finiteOrZero(p.height_m) * 100.f, 0.f, 65535.f);
+  r.height_cm = static_cast<uint16_t>(std::lround(cm));
+  r.mean_hit_m = std::max(0.f, finiteOrZero(p.mean_hit_m));
+  return r;
+}
+
+ProbeData unpackProbe(const ProbeRecord& r) {
+  ProbeData p;
+  p.position = glm::vec3(r.position[0], r.position[1], r.position[2]);
+  p.flags = r.flags;
+  p.interior = r.interior;
+  for (int c = 0; c < 3; ++c)
+    for (int b = 0; b < 4; ++b)
+      for (int k = 0; k < 4; ++k) p.prt[c][b][k] = dequantizeSnorm16(r.prt[c][b][k], r.prt_range);
+  for (int b = 0; b < 4; ++b) p.sky_vis[b] = dequantizeUnorm16(r.sky_vis[b]);
+  for (int k = 0; k < 4; ++k) p.sky_vis_sh[k] = dequantizeSnorm16(r.sky_vis_sh[k], kSkyVisShRange);
+  p.backface_frac = dequantizeUnorm16(r.backface_frac);
+  p.height_m = r.height_cm / 100.f;
+  p.mean_hit_m = r.mean_hit_m;
+  return p;
+}
+
+std::string validateProbe(const ProbeRecord& r) {
+  for (int i = 0; i < 3; ++i)
+    if (!std::isfinite(r.position[i])) return "position is not finite";
+  if (r.position[0] < 0.f || r.position[0] > 64.f || r.position[1] < 0.f || r.position[1] > 64.f)
+    return "position (" + std::to_string(r.position[0]) + ", " + std::to_string(r.position[1]) +
+           ") outside the sector's [0, 64] m square";
+  if (std::fabs(r.position[2]) >= 1e6f) return "height " + std::to_string(r.position[2]) + " m is absurd";
+  if (r.flags & ~kProbeKnownFlags) return "unknown flag bits " + std::to_string(r.flags & ~kProbeKnownFlags);
+  if (!std::isfinite(r.prt_range) || r.prt_range <= 0.f) return "prt_range " + std::to_string(r.prt_range) + " is not a finite positive number";
+  if (!std::isfinite(r.lprt_range) || r.lprt_range < 0.f) return "lprt_range " + std::to_string(r.lprt_range) + " is not finite and >= 0";
+  if (!std::isfinite(r.mean_hit_m) || r.mean_hit_m < 0.f) return "mean_hit_m is not finite and >= 0";
+  for (int c = 0; c < 3; ++c)
+    for (int b = 0; b < 4; ++b)
+      for (int k = 0; k < 4; ++k)
+        if (r.prt[c][b][k] == -32768) return "prt coefficient -32768 is never written";
+  for (int k = 0; k < 4; ++k)
+    if (r.sky_vis_sh[k] == -32768) return "sky_vis_sh coefficient -32768 is never written";
+  for (uint8_t b : r.reserved)
+    if (b != 0) return "reserved bytes are not zero";
+  return {};
+}
+
+}  // namespace drtv

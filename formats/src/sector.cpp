@@ -1,0 +1,244 @@
+#include "drtv/formats/sector.h"
+
+#include <cmath>
+#include <cstring>
+
+#include "bytes.h"
+
+namespace drtv {
+namespace {
+
+using detail::ByteReader;
+using detail::ByteWriter;
+
+constexpr char kSectorMagic[4] = {'D', 'R', 'T', 'S'};
+constexpr uint32_t kKnownSectorFlags = kSectorHasGround | kSectorLprtOnBases;
+constexpr size_t kProbeBytes = sizeof(ProbeRecord);
+constexpr size_t kGroundBytes = kGroundDim * kGroundDim * 2;
+constexpr size_t kLprtSourceBytes = 4;
+
+void writeProbe(ByteWriter& w, const ProbeRecord& r) {
+  const size_t start = w.size();
+  for (float v : r.position) w.put(v);
+  w.put(r.flags);
+  w.put(r.interior);
+  w.put(r.prt_range);
+  for (const auto& c : r.prt)
+    for (const auto& b : c)
+      for (int16_t v : b) w.put(v);
+  for (uint16_t v : r.sky_vis) w.put(v);
+  for (int16_t v : r.sky_vis_sh) w.put(v);
+  w.put(r.lprt_range);
+  w.put(r.backface_frac);
+  w.put(r.height_cm);
+  w.put(r.mean_hit_m);
+  w.bytes(r.reserved, sizeof r.reserved);
+  DRTV_CHECK_EQ(w.size() - start, kProbeBytes);
+}
+
+void readProbe(ByteReader& rd, ProbeRecord& r) {
+  for (float& v : r.position) rd.get(v);
+  rd.get(r.flags);
+  rd.get(r.interior);
+  rd.get(r.prt_range);
+  for (auto& c : r.prt)
+    for (auto& b : c)
+      for (int16_t& v : b) rd.get(v);
+  for (uint16_t& v : r.sky_vis) rd.get(v);
+  for (int16_t& v : r.sky_vis_sh) rd.get(v);
+  rd.get(r.lprt_range);
+  rd.get(r.backface_frac);
+  rd.get(r.height_cm);
+  rd.get(r.mean_hit_m);
+  rd.bytes(r.reserved, sizeof r.reserved);
+}
+
+std::unexpected<Error> failAt(const std::string& where, size_t offset, const std::string& what) {
+  return fail(where + ": byte " + std::to_string(offset) + ": " + what);
+}
+
+}  // namespace
+
+std::string toString(SectorKey key) { return "(" + std::to_string(key.ix) + "," + std::to_string(key.iy) + ")"; }
+
+SectorKey sectorAt(double x, double y) {
+  return {static_cast<int32_t>(std::floor(x / kSectorSizeM)), static_cast<int32_t>(std::floor(y / kSectorSizeM))};
+}
+
+size_t Sector::memoryBytes() const {
+  return sizeof(Sector) + probes.capacity() * sizeof(ProbeRecord) + lprt.sources.capacity() * sizeof(LprtSource) +
+         lprt.coeffs.capacity() * sizeof(int16_t);
+}
+
+float Sector::groundHeight(int x, int y) const {
+  const uint16_t q = ground[y * kGroundDim + x];
+  return ground_z_min_m + dequantizeUnorm16(q) * (ground_z_max_m - ground_z_min_m);
+}
+
+size_t encodedSectorBytes(size_t probes, size_t sources, bool has_ground) {
+  size_t n = kSectorHeaderBytes + probes * kProbeBytes + kGridCells;
+  if (has_ground) n += kGroundBytes;
+  if (sources > 0) n += sources * kLprtSourceBytes + probes * sources * 3 * 4 * sizeof(int16_t);
+  return n;
+}
+
+size_t maxEncodedSectorBytes() { return encodedSectorBytes(kMaxProbesPerSector, kMaxLprtSources, true); }
+
+std::vector<uint8_t> encodeSector(const Sector& s) {
+  const size_t n_probes = s.probes.size();
+  const size_t n_sources = s.lprt.sources.size();
+  DRTV_CHECK_LE(n_probes, size_t(kMaxProbesPerSector));
+  DRTV_CHECK_LE(n_sources, size_t(kMaxLprtSources));
+  if (n_sources > 0) {
+    DRTV_CHECK_EQ(s.lprt.coeffs.size(), n_probes * n_sources * 12);
+  }
+  for (uint8_t c : s.grid.cells) DRTV_CHECK(c == kNoProbe || c < n_probes);
+
+  std::vector<uint8_t> out;
+  out.reserve(encodedSectorBytes(n_probes, n_sources, s.has_ground));
+  ByteWriter w(out);
+  w.bytes(kSectorMagic, 4);
+  w.put<uint16_t>(kSectorVersion);
+  w.put<uint16_t>(kSectorHeaderBytes);
+  w.put<int32_t>(s.key.ix);
+  w.put<int32_t>(s.key.iy);
+  w.put<uint16_t>(static_cast<uint16_t>(n_probes));
+  w.put<uint16_t>(static_cast<uint16_t>(n_sources));
+  uint32_t flags = 0;
+  if (s.has_ground) flags |= kSectorHasGround;
+  if (n_sources > 0 && s.lprt.on_bases) flags |= kSectorLprtOnBases;
+  w.put<uint32_t>(flags);
+  w.put<float>(s.grid.z_min_m);
+  w.put<float>(s.grid.cell_height_m);
+  w.put<float>(s.ground_z_min_m);
+  w.put<float>(s.ground_z_max_m);
+  w.zeros(kSectorHeaderBytes - w.size());
+  for (const ProbeRecord& r : s.probes) {
+    DRTV_CHECK(n_sources > 0 || r.lprt_range == 0.f);
+    writeProbe(w, r);
+  }
+  w.bytes(s.grid.cells.data(), kGridCells);
+  if (s.has_ground)
+    for (uint16_t q : s.ground) w.put(q);
+  if (n_sources > 0) {
+    for (const LprtSource& src : s.lprt.sources) {
+      w.put(src.dx);
+      w.put(src.dy);
+      w.put(src.probe);
+      w.put<uint8_t>(0);
+    }
+    for (int16_t v : s.lprt.coeffs) w.put(v);
+  }
+  DRTV_CHECK_EQ(out.size(), encodedSectorBytes(n_probes, n_sources, s.has_ground));
+  return out;
+}
+
+Result<uint16_t> peekSectorVersion(std::span<const uint8_t> bytes, const std::string& where) {
+  ByteReader rd(bytes);
+  char magic[4];
+  if (!rd.bytes(magic, 4)) return failAt(where, 0, "truncated: " + std::to_string(bytes.size()) + " bytes, no sector header");
+  if (std::memcmp(magic, kSectorMagic, 4) != 0) return failAt(where, 0, "bad magic: not a drtv sector");
+  uint16_t version;
+  if (!rd.get(version)) return failAt(where, 4, "truncated before the version");
+  return version;
+}
+
+Result<Sector> decodeSector(std::span<const uint8_t> bytes, const std::string& where) {
+  auto version = peekSectorVersion(bytes, where);
+  if (!version) return std::unexpected(version.error());
+  if (*version != kSectorVersion)
+    return failAt(where, 4, "version " + std::to_string(*version) + " unsupported (this build reads " +
+                                std::to_string(kSectorVersion) + ")");
+  if (bytes.size() < kSectorHeaderBytes)
+    return failAt(where, bytes.size(), "truncated header: " + std::to_string(bytes.size()) + " of " +
+                                           std::to_string(kSectorHeaderBytes) + " bytes");
+  ByteReader rd(bytes);
+  rd.skip(6);
+  uint16_t header_bytes, n_probes, n_sources;
+  uint32_t flags;
+  Sector s;
+  rd.get(header_bytes);
+  if (header_bytes != kSectorHeaderBytes)
+    return failAt(where, 6, "header size " + std::to_string(header_bytes) + ", expected " + std::to_string(kSectorHeaderBytes));
+  rd.get(s.key.ix);
+  rd.get(s.key.iy);
+  rd.get(n_probes);
+  rd.get(n_sources);
+  rd.get(flags);
+  rd.get(s.grid.z_min_m);
+  rd.get(s.grid.cell_height_m);
+  rd.get(s.ground_z_min_m);
+  rd.get(s.ground_z_max_m);
+  if (n_probes > kMaxProbesPerSector)
+    return failAt(where, 16, "probe count " + std::to_string(n_probes) + " exceeds " + std::to_string(kMaxProbesPerSector));
+  if (n_sources > kMaxLprtSources)
+    return failAt(where, 18, "LPRT source count " + std::to_string(n_sources) + " exceeds " + std::to_string(kMaxLprtSources));
+  if (flags & ~kKnownSectorFlags) return failAt(where, 20, "unknown flag bits " + std::to_string(flags & ~kKnownSectorFlags));
+  if (n_sources == 0 && (flags & kSectorLprtOnBases)) return failAt(where, 20, "LPRT flag set without an LPRT block");
+  if (!std::isfinite(s.grid.z_min_m) || std::fabs(s.grid.z_min_m) > 1e6f) return failAt(where, 24, "grid z min is not a sane height");
+  if (!std::isfinite(s.grid.cell_height_m) || !(s.grid.cell_height_m > 0.f) || s.grid.cell_height_m > 1e5f)
+    return failAt(where, 28, "grid cell height is not a finite positive length");
+  s.has_ground = flags & kSectorHasGround;
+  if (s.has_ground && !(std::isfinite(s.ground_z_min_m) && std::isfinite(s.ground_z_max_m) &&
+                        s.ground_z_min_m <= s.ground_z_max_m && std::fabs(s.ground_z_min_m) <= 1e6f &&
+                        std::fabs(s.ground_z_max_m) <= 1e6f))
+    return failAt(where, 32, "ground height range is not finite and ordered");
+  for (size_t i = 40; i < kSectorHeaderBytes; ++i)
+    if (bytes[i] != 0) return failAt(where, i, "reserved header byte is not zero");
+
+  // The counts are now bounded, so the expected size is too: compare before any allocation.
+  const size_t expected = encodedSectorBytes(n_probes, n_sources, s.has_ground);
+  if (bytes.size() < expected)
+    return failAt(where, bytes.size(), "truncated: " + std::to_string(bytes.size()) + " bytes, the header promises " +
+                                           std::to_string(expected));
+  if (bytes.size() > expected)
+    return failAt(where, expected, std::to_string(bytes.size() - expected) + " trailing bytes");
+
+  rd.skip(kSectorHeaderBytes - rd.offset());
+  s.probes.resize(n_probes);
+  for (size_t i = 0; i < n_probes; ++i) {
+    const size_t at = rd.offset();
+    readProbe(rd, s.probes[i]);
+    const std::string what = validateProbe(s.probes[i]);
+    if (!what.empty()) return failAt(where, at, "probe " + std::to_string(i) + ": " + what);
+    if (n_sources == 0 && s.probes[i].lprt_range != 0.f)
+      return failAt(where, at + 132, "probe " + std::to_string(i) + ": lprt_range set without an LPRT block");
+  }
+  const size_t grid_at = rd.offset();
+  rd.bytes(s.grid.cells.data(), kGridCells);
+  for (int i = 0; i < kGridCells; ++i)
+    if (s.grid.cells[i] != kNoProbe && s.grid.cells[i] >= n_probes)
+      return failAt(where, grid_at + i, "index grid cell names probe " + std::to_string(s.grid.cells[i]) + " of " +
+                                            std::to_string(n_probes));
+  if (s.has_ground)
+    for (uint16_t& q : s.ground) rd.get(q);
+  if (n_sources > 0) {
+    s.lprt.on_bases = flags & kSectorLprtOnBases;
+    s.lprt.sources.resize(n_sources);
+    for (size_t j = 0; j < n_sources; ++j) {
+      const size_t at = rd.offset();
+      LprtSource& src = s.lprt.sources[j];
+      uint8_t zero;
+      rd.get(src.dx);
+      rd.get(src.dy);
+      rd.get(src.probe);
+      rd.get(zero);
+      if (src.dx < -8 || src.dx > 8 || src.dy < -8 || src.dy > 8)
+        return failAt(where, at, "LPRT source " + std::to_string(j) + ": sector offset outside [-8, 8]");
+      if (src.probe == kNoProbe) return failAt(where, at + 2, "LPRT source " + std::to_string(j) + ": probe index 255");
+      if (zero != 0) return failAt(where, at + 3, "LPRT source " + std::to_string(j) + ": reserved byte is not zero");
+    }
+    s.lprt.coeffs.resize(size_t(n_probes) * n_sources * 12);
+    const size_t coeff_at = rd.offset();
+    for (size_t i = 0; i < s.lprt.coeffs.size(); ++i) {
+      rd.get(s.lprt.coeffs[i]);
+      if (s.lprt.coeffs[i] == -32768)
+        return failAt(where, coeff_at + 2 * i, "LPRT coefficient -32768 is never written");
+    }
+  }
+  DRTV_CHECK(rd.ok());
+  DRTV_CHECK_EQ(rd.offset(), bytes.size());
+  return s;
+}
+
+}  // namespace drtv

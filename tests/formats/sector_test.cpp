@@ -1,0 +1,153 @@
+// Sector encoding: round trip, memory budget, golden bytes, and untrusted-input safety.
+#include <atomic>
+#include <cstdlib>
+#include <cstring>
+#include <new>
+
+#include <gtest/gtest.h>
+#include <xxhash.h>
+
+#include "drtv/formats/sector.h"
+#include "test_sectors.h"
+
+// The replacement operator new pairs with free() below; GCC cannot see that.
+#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
+// Counts heap bytes allocated while g_counting is set: the memory test measures real allocations.
+static std::atomic<bool> g_counting{false};
+static std::atomic<size_t> g_counted_bytes{0};
+void* operator new(size_t n) {
+  if (g_counting.load(std::memory_order_relaxed)) g_counted_bytes += n;
+  if (void* p = std::malloc(n ? n : 1)) return p;
+  throw std::bad_alloc();
+}
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete(void* p, size_t) noexcept { std::free(p); }
+
+namespace drtv {
+namespace {
+
+TEST(Sector, RoundTripsBitForBit) {
+  for (bool lprt : {false, true}) {
+    const Sector s = testing::makeSector({3, -1}, 70, lprt ? 128 : 0, 11);
+    const std::vector<uint8_t> bytes = encodeSector(s);
+    EXPECT_EQ(bytes.size(), encodedSectorBytes(70, lprt ? 128 : 0, true));
+    auto d = decodeSector(bytes, "mem");
+    ASSERT_TRUE(d.has_value()) << d.error().message;
+    EXPECT_EQ(encodeSector(*d), bytes);
+    EXPECT_EQ(d->key, s.key);
+    EXPECT_EQ(d->grid.cells, s.grid.cells);
+    EXPECT_EQ(d->hasLprt(), lprt);
+  }
+}
+
+TEST(Sector, SeventyProbesWithoutLprtTakeUnder15KBInMemory) {
+  // The talk: "a little under 15KB" per sector with its grid (slide 22). Measured from the heap
+  // allocations that decoding makes, plus the Sector object itself.
+  const std::vector<uint8_t> bytes = encodeSector(testing::makeSector({0, 0}, 70, 0, 1));
+  g_counted_bytes = 0;
+  g_counting = true;
+  auto s = decodeSector(bytes, "mem");
+  g_counting = false;
+  ASSERT_TRUE(s.has_value());
+  const size_t heap = g_counted_bytes.load();
+  EXPECT_EQ(heap + sizeof(Sector), s->memoryBytes());
+  EXPECT_LT(s->memoryBytes(), 15000u);
+  EXPECT_FALSE(s->hasLprt());
+}
+
+TEST(Sector, LprtFor128SourcesCostsTheTalksFigurePerProbe) {
+  // 128 sources x 4 x 3 channels x 2 bytes = 3 KiB per probe (~210 KB for ~70 probes), plus a
+  // 4-byte entry per source. A sector without local lights carries no LPRT bytes at all.
+  const Sector with = testing::makeSector({0, 0}, 70, 128, 1);
+  const Sector without = testing::makeSector({0, 0}, 70, 0, 1);
+  const size_t extra = encodeSector(with).size() - encodeSector(without).size();
+  EXPECT_EQ(extra, 70u * 128 * 4 * 3 * 2 + 128 * 4);
+  EXPECT_EQ(with.memoryBytes() - without.memoryBytes(), 70u * 128 * 4 * 3 * 2 + 128 * sizeof(LprtSource));
+}
+
+TEST(Sector, GoldenBytesPinVersion1) {
+  // If this fails, the format changed: bump kSectorVersion and keep a reader for version 1.
+  const std::vector<uint8_t> bytes = encodeSector(testing::makeGoldenSector());
+  ASSERT_EQ(bytes.size(), 64u + 2 * 152 + 4096 + 128 + 2 * 4 + 2 * 2 * 12 * 2);
+  const uint8_t header[64] = {'D', 'R', 'T', 'S', 1, 0, 64, 0,   3,   0, 0, 0, 0xff, 0xff, 0xff, 0xff,
+                              2,   0,   2,   0,   3, 0, 0,  0,   0,   0, 0x48, 0x42, 0, 0, 0x80, 0x3f,
+                              0,   0,   0x40, 0x42, 0, 0, 0x80, 0x42};
+  EXPECT_EQ(0, std::memcmp(bytes.data(), header, 64));
+  EXPECT_EQ(XXH3_64bits(bytes.data(), bytes.size()), testing::kGoldenSectorHash)
+      << std::hex << XXH3_64bits(bytes.data(), bytes.size());
+}
+
+TEST(SectorReader, RejectsEveryTruncatedPrefix) {
+  const std::vector<uint8_t> bytes = encodeSector(testing::makeSector({1, 2}, 20, 16, 3));
+  for (size_t n = 0; n < bytes.size(); ++n) {
+    auto d = decodeSector(std::span(bytes.data(), n), "s.sec");
+    ASSERT_FALSE(d.has_value()) << n;
+    EXPECT_EQ(d.error().message.rfind("s.sec: byte ", 0), 0u) << d.error().message;
+  }
+}
+
+TEST(SectorReader, RejectsTrailingBytes) {
+  std::vector<uint8_t> bytes = encodeSector(testing::makeSector({1, 2}, 5, 0, 3));
+  bytes.push_back(0);
+  auto d = decodeSector(bytes, "s.sec");
+  ASSERT_FALSE(d.has_value());
+  EXPECT_NE(d.error().message.find("trailing"), std::string::npos) << d.error().message;
+}
+
+TEST(SectorReader, SurvivesEveryFlippedByte) {
+  // A flip either yields a sector that re-encodes to exactly the flipped bytes (the flip landed
+  // in a value with no invalid encodings) or an error naming the file; never a crash.
+  const std::vector<uint8_t> bytes = encodeSector(testing::makeSector({1, 2}, 12, 8, 4));
+  size_t rejected = 0;
+  for (size_t i = 0; i < bytes.size(); ++i) {
+    std::vector<uint8_t> flipped = bytes;
+    flipped[i] ^= 0x5a;
+    auto d = decodeSector(flipped, "s.sec");
+    if (d) {
+      EXPECT_EQ(encodeSector(*d), flipped) << "byte " << i;
+    } else {
+      ++rejected;
+      EXPECT_EQ(d.error().message.rfind("s.sec: byte ", 0), 0u);
+    }
+  }
+  EXPECT_GT(rejected, 64u);  // at least the whole header's worth is checked
+}
+
+TEST(SectorReader, RejectsBadMagicVersionAndAbsurdCounts) {
+  const std::vector<uint8_t> good = encodeSector(testing::makeSector({0, 0}, 3, 0, 5));
+  auto expectError = [&](size_t at, uint8_t v, const char* says) {
+    std::vector<uint8_t> b = good;
+    b[at] = v;
+    auto d = decodeSector(b, "w/s_0_0.sec");
+    ASSERT_FALSE(d.has_value());
+    EXPECT_NE(d.error().message.find(says), std::string::npos) << d.error().message;
+  };
+  expectError(0, 'X', "bad magic");
+  expectError(4, 7, "version 7 unsupported");
+  expectError(16, 0xff, "");         // 255 probes: the size no longer matches
+  expectError(17, 0xff, "exceeds");  // 65,280 probes: rejected before any allocation
+  expectError(19, 0xff, "exceeds");  // LPRT sources
+  expectError(20, 0x80, "unknown flag");
+  auto v = peekSectorVersion(good, "x");
+  ASSERT_TRUE(v.has_value());
+  EXPECT_EQ(*v, kSectorVersion);
+}
+
+TEST(SectorReader, RejectsGridIndicesPastTheProbeCount) {
+  Sector s = testing::makeSector({0, 0}, 3, 0, 5);
+  std::vector<uint8_t> b = encodeSector(s);
+  b[64 + 3 * 152 + 100] = 3;  // probe 3 of 3
+  auto d = decodeSector(b, "s");
+  ASSERT_FALSE(d.has_value());
+  EXPECT_NE(d.error().message.find("byte " + std::to_string(64 + 3 * 152 + 100)), std::string::npos);
+}
+
+TEST(SectorKey, SectorAtFloorsNegativeCoordinates) {
+  EXPECT_EQ(sectorAt(0.0, 0.0), (SectorKey{0, 0}));
+  EXPECT_EQ(sectorAt(-0.5, 63.9), (SectorKey{-1, 0}));
+  EXPECT_EQ(sectorAt(128.0, -64.0), (SectorKey{2, -1}));
+  EXPECT_EQ(toString(SectorKey{3, -1}), "(3,-1)");
+}
+
+}  // namespace
+}  // namespace drtv

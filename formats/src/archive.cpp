@@ -85,6 +85,94 @@ Result<Header> parseHeader(std::span<const uint8_t> bytes, uint64_t actual_file_
   return h;
 }
 
+void writeName(ByteWriter& w, const std::string& name) {
+  DRTV_CHECK_LE(name.size(), size_t(UINT16_MAX));
+  w.put<uint16_t>(static_cast<uint16_t>(name.size()));
+  w.bytes(name.data(), name.size());
+}
+void writeVec(ByteWriter& w, const glm::dvec3& v) { for (int i = 0; i < 3; ++i) w.put<double>(v[i]); }
+void writeVec(ByteWriter& w, const glm::vec3& v) { for (int i = 0; i < 3; ++i) w.put<float>(v[i]); }
+
+void writeLighting(ByteWriter& w, const Manifest& m) {
+  w.put<double>(m.sky.latitude_rad);
+  w.put<double>(m.sky.declination_rad);
+  w.put<double>(m.sky.north_rad);
+  w.put<float>(m.sky.ground_radiance_scale);
+  for (const Gradient* g : {&m.sky.sun_irradiance, &m.sky.sky_zenith, &m.sky.sky_horizon}) {
+    w.put<uint32_t>(static_cast<uint32_t>(g->keys.size()));
+    for (const ColorKey& k : g->keys) {
+      w.put<float>(k.hour);
+      writeVec(w, k.value);
+    }
+  }
+  w.put<uint32_t>(static_cast<uint32_t>(m.lights.size()));
+  for (const PointLight& l : m.lights) {
+    writeName(w, l.name);
+    writeVec(w, l.position);
+    writeVec(w, l.intensity);
+    w.put<float>(l.radius_m);
+  }
+  w.put<uint32_t>(static_cast<uint32_t>(m.interiors.size()));
+  for (const InteriorVolume& v : m.interiors) {
+    writeName(w, v.name);
+    writeVec(w, v.min);
+    writeVec(w, v.max);
+    writeVec(w, v.probe_position);
+    w.put<float>(v.blend_distance_m);
+  }
+}
+
+// Reads a count and checks that `min_item_bytes` per item fit in what is left.
+bool readCount(ByteReader& rd, uint32_t& n, size_t min_item_bytes) {
+  return rd.get(n) && n <= rd.remaining() / min_item_bytes;
+}
+bool readName(ByteReader& rd, std::string& name) {
+  uint16_t len = 0;
+  if (!rd.get(len) || len > rd.remaining()) return false;
+  name.resize(len);
+  return rd.bytes(name.data(), len);
+}
+bool readVec(ByteReader& rd, glm::dvec3& v) { return rd.get(v.x) && rd.get(v.y) && rd.get(v.z); }
+bool readVec(ByteReader& rd, glm::vec3& v) { return rd.get(v.x) && rd.get(v.y) && rd.get(v.z); }
+
+// Returns "" or what went wrong (the caller adds the offset).
+std::string readLighting(ByteReader& rd, Manifest& m) {
+  rd.get(m.sky.latitude_rad);
+  rd.get(m.sky.declination_rad);
+  rd.get(m.sky.north_rad);
+  rd.get(m.sky.ground_radiance_scale);
+  for (Gradient* g : {&m.sky.sun_irradiance, &m.sky.sky_zenith, &m.sky.sky_horizon}) {
+    uint32_t n = 0;
+    if (!readCount(rd, n, 16)) return "a gradient's key count exceeds the bytes left";
+    g->keys.resize(n);
+    for (ColorKey& k : g->keys) {
+      rd.get(k.hour);
+      readVec(rd, k.value);
+    }
+  }
+  uint32_t n_lights = 0;
+  if (!readCount(rd, n_lights, 2 + 24 + 12 + 4)) return "the light count exceeds the bytes left";
+  m.lights.resize(n_lights);
+  for (PointLight& l : m.lights) {
+    if (!readName(rd, l.name)) return "truncated in a light's name";
+    readVec(rd, l.position);
+    readVec(rd, l.intensity);
+    rd.get(l.radius_m);
+  }
+  uint32_t n_interiors = 0;
+  if (!readCount(rd, n_interiors, 2 + 72 + 4)) return "the interior count exceeds the bytes left";
+  m.interiors.resize(n_interiors);
+  for (InteriorVolume& v : m.interiors) {
+    if (!readName(rd, v.name)) return "truncated in an interior's name";
+    readVec(rd, v.min);
+    readVec(rd, v.max);
+    readVec(rd, v.probe_position);
+    rd.get(v.blend_distance_m);
+  }
+  if (!rd.ok()) return "truncated in the lighting";
+  return validateLighting(m.sky, m.lights, m.interiors);
+}
+
 std::vector<uint8_t> encodeManifest(const Manifest& m) {
   std::vector<uint8_t> out;
   ByteWriter w(out);
@@ -100,6 +188,7 @@ std::vector<uint8_t> encodeManifest(const Manifest& m) {
     w.put<uint32_t>(static_cast<uint32_t>(v.size()));
     w.bytes(v.data(), v.size());
   }
+  writeLighting(w, m);
   w.put<uint32_t>(static_cast<uint32_t>(m.sectors.size()));
   for (const SectorEntry& e : m.sectors) {
     w.put(e.key.ix);
@@ -155,6 +244,8 @@ Result<Manifest> parseManifest(std::span<const uint8_t> bytes, uint64_t base, ui
     rd.bytes(v.data(), vlen);
     m.settings.emplace_back(std::move(k), std::move(v));
   }
+  const uint64_t lighting_at = at();
+  if (std::string what = readLighting(rd, m); !what.empty()) return failAt(where, lighting_at, "manifest lighting: " + what);
   uint32_t n_sectors = 0;
   const uint64_t count_at = at();
   if (!rd.get(n_sectors)) return truncated("the sector count");
@@ -420,6 +511,8 @@ Result<void> ArchiveWriter::finish(const Manifest& info) {
   DRTV_CHECK(!s.finished);
   Manifest m = info;
   m.version = kArchiveVersion;
+  if (std::string what = validateLighting(m.sky, m.lights, m.interiors); !what.empty())
+    return fail(s.path.string() + ": lighting: " + what);
   m.sectors = s.entries;
   std::sort(m.sectors.begin(), m.sectors.end(), [](const SectorEntry& a, const SectorEntry& b) { return a.key < b.key; });
   const std::vector<uint8_t> manifest = encodeManifest(m);

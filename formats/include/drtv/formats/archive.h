@@ -18,6 +18,14 @@
 //             u32 effects                 drtv::Effect mask baked into this archive
 //             u32 settings count          then per setting: u16 key length, key, u32 value
 //                                         length, value (UTF-8; bake settings for reports)
+//             lighting (lighting.h), so that relighting needs no world file:
+//               f64 latitude, declination, north (radians); f32 ground radiance scale;
+//               3 gradients (sun irradiance, sky zenith, sky horizon), each u32 key count then
+//               per key f32 hour, f32 r, g, b;
+//               u32 light count, per light: u16 name length, name, f64 position[3],
+//               f32 intensity[3], f32 radius;
+//               u32 interior count, per interior: u16 name length, name, f64 min[3], max[3],
+//               probe[3], f32 blend distance
 //             u32 sector count            then per sector, 40 bytes, sorted by (ix, iy), unique:
 //               i32 ix, i32 iy, u64 payload offset, u32 compressed size, u32 raw size,
 //               u64 XXH3-64 of the compressed payload, u16 probes, u16 LPRT sources, u32 zero
@@ -35,6 +43,7 @@
 
 #include "drtv/formats/effects.h"
 #include "drtv/formats/error.h"
+#include "drtv/formats/lighting.h"
 #include "drtv/formats/sector.h"
 
 namespace drtv {
@@ -59,6 +68,9 @@ struct Manifest {
   double sector_size_m = kSectorSizeM;
   uint32_t effects = 0;                         // drtv::Effect mask baked
   std::vector<std::pair<std::string, std::string>> settings;  // bake settings, in order
+  Sky sky = Sky::tropicalDefault();             // the world's sun path and sky gradients
+  std::vector<PointLight> lights;               // dynamic point lights (LPRT sources' users)
+  std::vector<InteriorVolume> interiors;        // artist interior volumes
   std::vector<SectorEntry> sectors;             // sorted by key, unique
 
   // The entry for `key`, or nullptr. O(log n).

@@ -1,0 +1,130 @@
+// drtv info <world.json | file.gltf | file.glb | archive> [--json]
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+
+#include <nlohmann/json.hpp>
+
+#include "commands.h"
+#include "drtv/formats/archive.h"
+#include "drtv/worlds/load.h"
+#include "drtv/worlds/summary.h"
+
+namespace drtv::app {
+namespace {
+
+struct InfoOptions {
+  std::string path;
+  bool json = false;
+};
+
+nlohmann::json vec3Json(const glm::dvec3& v) { return {v.x, v.y, v.z}; }
+
+Result<void> archiveInfo(const InfoOptions& o) {
+  auto reader = ArchiveReader::open(o.path);
+  if (!reader) return std::unexpected(reader.error());
+  const Manifest& m = reader->manifest();
+  size_t probes = 0, min_probes = SIZE_MAX, max_probes = 0, raw = 0, compressed = 0, lprt_sectors = 0;
+  for (const SectorEntry& e : m.sectors) {
+    probes += e.probes;
+    min_probes = std::min<size_t>(min_probes, e.probes);
+    max_probes = std::max<size_t>(max_probes, e.probes);
+    raw += e.raw_bytes;
+    compressed += e.compressed_bytes;
+    lprt_sectors += e.lprt_sources > 0;
+  }
+  const size_t n = m.sectors.size();
+  if (n == 0) min_probes = 0;
+  const double mean = n ? double(probes) / double(n) : 0.0;
+  if (o.json) {
+    nlohmann::json j;
+    j["kind"] = "archive";
+    j["path"] = o.path;
+    j["version"] = m.version;
+    j["bounds_min"] = vec3Json(m.bounds_min);
+    j["bounds_max"] = vec3Json(m.bounds_max);
+    j["sector_size_m"] = m.sector_size_m;
+    j["effects"] = effectsToString(m.effects);
+    j["sectors"] = n;
+    j["sectors_with_lprt"] = lprt_sectors;
+    j["probes"] = {{"total", probes}, {"min", min_probes}, {"mean", mean}, {"max", max_probes}};
+    j["bytes"] = {{"raw", raw}, {"compressed", compressed},
+                  {"raw_per_sector", n ? double(raw) / n : 0.0}, {"compressed_per_sector", n ? double(compressed) / n : 0.0}};
+    j["lights"] = m.lights.size();
+    j["interiors"] = m.interiors.size();
+    nlohmann::json settings = nlohmann::json::object();
+    for (const auto& [k, v] : m.settings) settings[k] = v;
+    j["settings"] = settings;
+    nlohmann::json per = nlohmann::json::array();
+    for (const SectorEntry& e : m.sectors)
+      per.push_back({{"ix", e.key.ix}, {"iy", e.key.iy}, {"probes", e.probes}, {"lprt_sources", e.lprt_sources},
+                     {"raw_bytes", e.raw_bytes}, {"compressed_bytes", e.compressed_bytes}});
+    j["per_sector"] = per;
+    std::puts(j.dump(2).c_str());
+    return {};
+  }
+  std::printf("archive: %s (version %u)\n", o.path.c_str(), m.version);
+  std::printf("bounds: [%.1f, %.1f, %.1f] .. [%.1f, %.1f, %.1f] m\n", m.bounds_min.x, m.bounds_min.y, m.bounds_min.z,
+              m.bounds_max.x, m.bounds_max.y, m.bounds_max.z);
+  std::printf("effects: %s\n", effectsToString(m.effects).c_str());
+  std::printf("sectors: %zu of %.0f m (%zu with LPRT)\n", n, m.sector_size_m, lprt_sectors);
+  std::printf("probes: %zu (per sector min %zu, mean %.1f, max %zu)\n", probes, min_probes, mean, max_probes);
+  std::printf("bytes: %zu raw, %zu compressed (per sector %.0f raw, %.0f compressed)\n", raw, compressed,
+              n ? double(raw) / n : 0.0, n ? double(compressed) / n : 0.0);
+  std::printf("lights: %zu, interiors: %zu\n", m.lights.size(), m.interiors.size());
+  for (const auto& [k, v] : m.settings) std::printf("setting %s: %s\n", k.c_str(), v.c_str());
+  std::printf("%-12s %7s %6s %10s %12s\n", "sector", "probes", "lprt", "raw B", "compressed B");
+  for (const SectorEntry& e : m.sectors)
+    std::printf("%-12s %7u %6u %10u %12u\n", toString(e.key).c_str(), e.probes, e.lprt_sources, e.raw_bytes, e.compressed_bytes);
+  return {};
+}
+
+Result<void> worldInfo(const InfoOptions& o) {
+  auto world = worlds::loadWorld(o.path);
+  if (!world) return std::unexpected(world.error());
+  const worlds::WorldSummary s = worlds::summarize(*world);
+  if (o.json) {
+    nlohmann::json j;
+    j["kind"] = "world";
+    j["path"] = o.path;
+    j["name"] = s.name;
+    j["meshes"] = s.meshes;
+    j["instances"] = s.instances;
+    nlohmann::json by_class;
+    for (size_t c = 0; c < 4; ++c) by_class[worlds::instanceClassName(static_cast<worlds::InstanceClass>(c))] = s.instances_by_class[c];
+    j["instances_by_class"] = by_class;
+    j["triangles"] = s.triangles;
+    if (!s.bounds.empty()) {
+      j["bounds_min"] = vec3Json(s.bounds.min);
+      j["bounds_max"] = vec3Json(s.bounds.max);
+    }
+    j["sectors"] = {{"count", s.sectors}, {"x", {s.sector_min_x, s.sector_max_x}}, {"y", {s.sector_min_y, s.sector_max_y}}};
+    j["effects"] = effectsToString(s.effects);
+    j["effects_explicit"] = s.effects_explicit;
+    j["lights"] = s.lights;
+    j["interiors"] = s.interiors;
+    j["notes"] = world->notes;
+    std::puts(j.dump(2).c_str());
+    return {};
+  }
+  std::fputs(worlds::toString(s).c_str(), stdout);
+  for (const std::string& note : world->notes) std::printf("note: %s\n", note.c_str());
+  return {};
+}
+
+}  // namespace
+
+Command registerInfo(CLI::App& app) {
+  auto o = std::make_shared<InfoOptions>();
+  CLI::App* sub = app.add_subcommand("info", "Describe a world (.json, .gltf, .glb) or a baked archive");
+  sub->add_option("path", o->path, "World file or archive")->required();
+  sub->add_flag("--json", o->json, "Print JSON instead of text");
+  return {sub, [o]() -> Result<void> {
+            if (!std::filesystem::exists(o->path)) return fail(o->path + ": no such file");
+            if (peekArchiveVersion(o->path)) return archiveInfo(*o);
+            return worldInfo(*o);
+          }};
+}
+
+}  // namespace drtv::app

@@ -1,0 +1,32 @@
+// The drtv program's subcommands. Each lives in its own cmd_<name>.cpp and registers itself on
+// the CLI11 app; main.cpp lists the registrations, parses, and maps errors to exit codes:
+//   0 success; 1 a failure ("drtv: error: <file>: <what>" on stderr); 2 a usage error.
+#pragma once
+
+#include <functional>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+#include "drtv/formats/error.h"
+
+namespace drtv::app {
+
+// What a subcommand runs once its options are parsed: an Error becomes exit code 1.
+using Action = std::function<Result<void>()>;
+
+// Adds a subcommand to `app` and returns the action to run when it is chosen. The options it
+// binds must outlive the parse: keep them in static or heap storage owned by the registration.
+struct Command {
+  CLI::App* sub = nullptr;
+  Action run;
+};
+
+Command registerInfo(CLI::App& app);
+Command registerBake(CLI::App& app);
+Command registerQuery(CLI::App& app);
+
+// True when stderr is a terminal and CI is not set: long work may draw progress there.
+bool showProgress();
+
+}  // namespace drtv::app

@@ -1,0 +1,52 @@
+// drtv — bake, inspect, query and fly through deferred radiance transfer volumes.
+// Thin by design (STYLE.md): parse options, call a library, map the result to an exit code.
+#include <cstdio>
+#include <cstdlib>
+#include <unistd.h>
+#include <vector>
+
+#include "commands.h"
+
+namespace drtv::app {
+bool showProgress() { return ::isatty(STDERR_FILENO) && std::getenv("CI") == nullptr; }
+}  // namespace drtv::app
+
+int main(int argc, char** argv) {
+  CLI::App app{"drtv: bakes, streams and relights probe-based global illumination for large worlds\n"
+               "(after \"Deferred Radiance Transfer Volumes\", Far Cry 3, GDC 2012)."};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", "drtv 0.1.0");
+  std::vector<drtv::app::Command> commands;
+  commands.push_back(drtv::app::registerInfo(app));
+  // One line per subcommand below.
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    std::fputs(app.help().c_str(), stdout);
+    return 0;
+  } catch (const CLI::CallForAllHelp& e) {
+    std::fputs(app.help("", CLI::AppFormatMode::All).c_str(), stdout);
+    return 0;
+  } catch (const CLI::CallForVersion& e) {
+    std::puts("drtv 0.1.0");
+    return 0;
+  } catch (const CLI::ParseError& e) {
+    // A subcommand's --help arrives here too when it is a CallForHelp thrown from the sub.
+    if (e.get_exit_code() == 0) {
+      std::fputs(app.help().c_str(), stdout);
+      return 0;
+    }
+    std::fprintf(stderr, "drtv: usage error: %s\nRun 'drtv --help' for the subcommands.\n", e.what());
+    return 2;
+  }
+  for (const auto& c : commands) {
+    if (!c.sub->parsed()) continue;
+    if (auto r = c.run(); !r) {
+      std::fprintf(stderr, "drtv: error: %s\n", r.error().message.c_str());
+      return 1;
+    }
+    return 0;
+  }
+  return 2;
+}

@@ -1,0 +1,80 @@
+// drtv/formats/lighting.h — the world's lighting description: sun path and sky gradients over the
+// 24 h day, dynamic point lights and interior volumes. The baker reads it from the World, the
+// archive manifest stores it, and the runtime evaluates it, so relighting needs no world file.
+//
+//  [1] Michalsky, "The Astronomical Almanac's algorithm for approximate solar position", Solar
+//      Energy 40(3), 1988 — the hour-angle / declination / latitude model.
+//  [2] Gilabert & Stefanov, "Deferred Radiance Transfer Volumes", GDC 2012, slide 25 (artist
+//      gradients of sun and sky colour driven by the time of day), slides 11-12 (dynamic lights),
+//      slide 55 (interiors).
+//
+// Conventions: Z up, metres, linear RGB. Hours are real numbers taken modulo 24.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+namespace drtv {
+
+// A key of a piecewise-linear gradient over the day.
+struct ColorKey {
+  float hour = 0;        // [0, 24)
+  glm::vec3 value{0.f};  // linear RGB, >= 0
+};
+
+// A piecewise-linear gradient over the 24 h day; it wraps at midnight.
+struct Gradient {
+  std::vector<ColorKey> keys;  // sorted by hour, at least one
+  // Value at `hour` (any real; taken modulo 24; NaN reads as 0 h), linear between keys.
+  // Precondition: at least one key (a bug otherwise). Thread-safe.
+  glm::vec3 at(double hour) const;
+};
+
+// Sun and sky over the day [1, 2].
+struct Sky {
+  // Sun path: hour angle h = (hour - 12) * 15 deg; elevation asin(sin(lat) sin(dec) +
+  // cos(lat) cos(dec) cos(h)). North is +Y and east +X, both rotated by `north_rad` about Z.
+  double latitude_rad = 0.3;      // ~17 deg N, a tropical island
+  double declination_rad = 0.2;   // ~11.5 deg: a late-spring day
+  double north_rad = 0.0;         // rotation of north away from +Y, counter-clockwise about Z
+  Gradient sun_irradiance;        // irradiance at normal incidence (linear RGB)
+  Gradient sky_zenith;            // sky radiance straight up (per sr)
+  Gradient sky_horizon;           // sky radiance at the horizon (per sr)
+  float ground_radiance_scale = 0.0f;  // radiance below the horizon, as a fraction of the horizon's
+
+  // Unit vector towards the sun at `hour` (Z up). Below-horizon directions are returned as they
+  // are (z < 0): callers decide what a set sun means.
+  glm::dvec3 sunDirection(double hour) const;
+  // Sky radiance in unit direction `dir` at `hour`: the horizon colour at z = 0 blended to the
+  // zenith colour as sqrt(z) for z >= 0; below the horizon ground_radiance_scale * horizon.
+  glm::vec3 skyRadiance(const glm::dvec3& dir, double hour) const;
+  // The default tropical day used when a world says nothing about its sky.
+  static Sky tropicalDefault();
+};
+
+// A dynamic point light (talk slides 11-12; LPRT). World metres.
+struct PointLight {
+  std::string name;
+  glm::dvec3 position{0.0};
+  glm::vec3 intensity{1.f};  // radiant intensity, linear RGB per sr (>= 0)
+  float radius_m = 10.f;     // range of influence, > 0
+};
+
+// An artist volume whose inside takes ambient from one designated probe (talk slide 55).
+struct InteriorVolume {
+  std::string name;
+  glm::dvec3 min{0.0}, max{0.0};      // world-space axis-aligned box, min < max
+  glm::dvec3 probe_position{0.0};     // the designated probe, inside the box
+  float blend_distance_m = 1.f;       // soft transition width at the box faces, >= 0
+};
+
+// What is wrong with a lighting description, or "" when it is sound: gradients non-empty with
+// sorted hours in [0, 24) and finite non-negative values; finite angles; lights with finite
+// positions, non-negative intensity and positive radius; interiors with min < max, the probe
+// inside and a non-negative blend distance. Names the offending item ("sky.sun_irradiance[2]").
+std::string validateLighting(const Sky& sky, const std::vector<PointLight>& lights,
+                             const std::vector<InteriorVolume>& interiors);
+
+}  // namespace drtv

@@ -1,0 +1,118 @@
+// lighting.cpp — see lighting.h for the references.
+#include "drtv/formats/lighting.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "drtv/formats/error.h"
+
+namespace drtv {
+
+glm::vec3 Gradient::at(double hour) const {
+  DRTV_CHECK(!keys.empty());
+  double h = std::fmod(hour, 24.0);
+  if (h < 0) h += 24.0;
+  if (!(h >= 0 && h < 24.0)) h = 0;  // NaN or fmod rounding up to 24
+  // The last key at or before h, wrapping to the previous day's last key.
+  size_t next = 0;
+  while (next < keys.size() && keys[next].hour <= h) ++next;
+  const ColorKey& a = next == 0 ? keys.back() : keys[next - 1];
+  const ColorKey& b = next == keys.size() ? keys.front() : keys[next];
+  double ha = a.hour, hb = b.hour;
+  if (next == 0) ha -= 24.0;             // before the first key: a is yesterday's last
+  if (next == keys.size()) hb += 24.0;   // after the last key: b is tomorrow's first
+  const double span = hb - ha;
+  if (!(span > 0)) return a.value;       // a single key (span 24 h collapses to 0 only if equal)
+  const auto t = static_cast<float>((h - ha) / span);
+  return a.value + (b.value - a.value) * t;
+}
+
+glm::dvec3 Sky::sunDirection(double hour) const {
+  const double hour_angle = (hour - 12.0) * (std::numbers::pi / 12.0);  // 15 deg per hour [1]
+  const double sl = std::sin(latitude_rad), cl = std::cos(latitude_rad);
+  const double sd = std::sin(declination_rad), cd = std::cos(declination_rad);
+  // Local east-north-up components of the unit vector to the sun: morning (h < 0) is east.
+  const double east = -cd * std::sin(hour_angle);
+  const double north = cl * sd - sl * cd * std::cos(hour_angle);
+  const double up = sl * sd + cl * cd * std::cos(hour_angle);
+  // North is +Y rotated by north_rad counter-clockwise about Z; east is north turned -90 deg.
+  const glm::dvec3 north_axis(-std::sin(north_rad), std::cos(north_rad), 0.0);
+  const glm::dvec3 east_axis(std::cos(north_rad), std::sin(north_rad), 0.0);
+  return glm::normalize(east * east_axis + north * north_axis + glm::dvec3(0, 0, up));
+}
+
+glm::vec3 Sky::skyRadiance(const glm::dvec3& dir, double hour) const {
+  const glm::vec3 horizon = sky_horizon.at(hour);
+  if (dir.z < 0) return ground_radiance_scale * horizon;
+  const auto t = static_cast<float>(std::sqrt(std::min(dir.z, 1.0)));
+  return horizon + (sky_zenith.at(hour) - horizon) * t;
+}
+
+Sky Sky::tropicalDefault() {
+  Sky s;
+  // Sun irradiance at normal incidence: white-yellow at noon, orange near the horizon, off at
+  // night. Sunrise at this latitude/declination is about 5:45 and sunset about 18:15.
+  const glm::vec3 night(0.f), dusk(0.9f, 0.35f, 0.1f), low(2.2f, 1.7f, 1.1f), high(2.9f, 2.75f, 2.4f),
+      noon(3.0f, 2.9f, 2.6f);
+  s.sun_irradiance.keys = {{0.f, night},  {5.5f, night}, {6.f, dusk},   {7.f, low},  {9.f, high},
+                           {12.f, noon},  {15.f, high},  {17.f, low},   {18.f, dusk}, {18.5f, night}};
+  // Zenith: half of a saturated sky blue by day, ~0.01 dark blue by night.
+  const glm::vec3 zen_night(0.005f, 0.007f, 0.015f), zen_day = glm::vec3(0.25f, 0.45f, 0.9f) * 0.5f,
+      zen_dawn(0.06f, 0.08f, 0.15f), zen_dusk(0.08f, 0.07f, 0.14f);
+  s.sky_zenith.keys = {{0.f, zen_night}, {5.f, zen_night}, {6.f, zen_dawn}, {8.f, zen_day},
+                       {16.f, zen_day},  {18.f, zen_dusk}, {19.f, zen_night}};
+  // Horizon: lighter and greyer than the zenith by day, orange at dawn and dusk.
+  const glm::vec3 hor_night(0.008f, 0.01f, 0.02f), hor_day(0.35f, 0.42f, 0.55f), hor_dawn(0.5f, 0.25f, 0.1f),
+      hor_dusk(0.55f, 0.28f, 0.1f);
+  s.sky_horizon.keys = {{0.f, hor_night}, {5.f, hor_night}, {6.f, hor_dawn}, {8.f, hor_day},
+                        {16.f, hor_day},  {18.f, hor_dusk}, {19.f, hor_night}};
+  return s;
+}
+
+namespace {
+std::string checkGradient(const Gradient& g, const std::string& name) {
+  if (g.keys.empty()) return name + ": needs at least one key";
+  for (size_t i = 0; i < g.keys.size(); ++i) {
+    const ColorKey& k = g.keys[i];
+    const std::string at = name + "[" + std::to_string(i) + "]";
+    if (!(k.hour >= 0.f && k.hour < 24.f)) return at + ": hour must be in [0, 24)";
+    if (i > 0 && !(g.keys[i - 1].hour < k.hour)) return at + ": hours must increase";
+    for (int c = 0; c < 3; ++c)
+      if (!std::isfinite(k.value[c]) || k.value[c] < 0.f) return at + ": colour must be finite and >= 0";
+  }
+  return {};
+}
+bool finite3(const glm::dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+}  // namespace
+
+std::string validateLighting(const Sky& sky, const std::vector<PointLight>& lights,
+                             const std::vector<InteriorVolume>& interiors) {
+  if (!std::isfinite(sky.latitude_rad) || !std::isfinite(sky.declination_rad) || !std::isfinite(sky.north_rad))
+    return "sky: angles must be finite";
+  if (!std::isfinite(sky.ground_radiance_scale) || sky.ground_radiance_scale < 0.f)
+    return "sky.ground_radiance_scale: must be finite and >= 0";
+  for (auto [g, name] : {std::pair{&sky.sun_irradiance, "sky.sun_irradiance"}, std::pair{&sky.sky_zenith, "sky.sky_zenith"},
+                         std::pair{&sky.sky_horizon, "sky.sky_horizon"}})
+    if (std::string e = checkGradient(*g, name); !e.empty()) return e;
+  for (size_t i = 0; i < lights.size(); ++i) {
+    const PointLight& l = lights[i];
+    const std::string at = "lights[" + std::to_string(i) + "]";
+    if (!finite3(l.position)) return at + ".position: must be finite";
+    for (int c = 0; c < 3; ++c)
+      if (!std::isfinite(l.intensity[c]) || l.intensity[c] < 0.f) return at + ".intensity: must be finite and >= 0";
+    if (!std::isfinite(l.radius_m) || !(l.radius_m > 0.f)) return at + ".radius_m: must be finite and > 0";
+  }
+  for (size_t i = 0; i < interiors.size(); ++i) {
+    const InteriorVolume& v = interiors[i];
+    const std::string at = "interiors[" + std::to_string(i) + "]";
+    if (!finite3(v.min) || !finite3(v.max) || !finite3(v.probe_position)) return at + ": must be finite";
+    if (!(v.min.x < v.max.x && v.min.y < v.max.y && v.min.z < v.max.z)) return at + ": min must be < max";
+    if (glm::any(glm::lessThan(v.probe_position, v.min)) || glm::any(glm::greaterThan(v.probe_position, v.max)))
+      return at + ".probe: must lie inside the box";
+    if (!std::isfinite(v.blend_distance_m) || v.blend_distance_m < 0.f) return at + ".blend_distance_m: must be finite and >= 0";
+  }
+  return {};
+}
+
+}  // namespace drtv

@@ -13,6 +13,7 @@
 #include <glm/glm.hpp>
 
 #include "drtv/formats/effects.h"
+#include "drtv/formats/lighting.h"
 
 namespace drtv::worlds {
 
@@ -44,56 +45,12 @@ struct Instance {
   std::string name;                    // for messages and reports
 };
 
-// A piecewise-linear gradient over the 24 h day, keyed by hour in [0,24); it wraps at midnight.
-struct ColorKey {
-  float hour = 0;        // [0, 24)
-  glm::vec3 value{0.f};  // linear RGB, >= 0
-};
-struct Gradient {
-  std::vector<ColorKey> keys;  // sorted by hour, at least one
-  // Value at `hour` (any real; taken modulo 24), linear between keys, wrapping midnight.
-  glm::vec3 at(double hour) const;
-};
-
-// Sun and sky over the day (talk slide 25: artist gradients driven by the time of day).
-struct Sky {
-  // Sun path: a standard solar-position model. Hour angle h = (hour - 12) * 15 deg; elevation
-  // asin(sin(lat)sin(dec) + cos(lat)cos(dec)cos(h)). Azimuth 0 = +Y (north), 90 deg = +X (east);
-  // `north_rad` rotates the whole path about Z.
-  double latitude_rad = 0.3;      // ~17 deg N, a tropical island
-  double declination_rad = 0.2;   // ~11.5 deg: a late-spring day
-  double north_rad = 0.0;         // rotation of north away from +Y, counter-clockwise about Z
-  Gradient sun_irradiance;        // irradiance at normal incidence (linear RGB, W/m^2-like units)
-  Gradient sky_zenith;            // sky radiance straight up (per sr)
-  Gradient sky_horizon;           // sky radiance at the horizon (per sr); the sky blends between
-                                  // the two with elevation (see sunDirection/skyRadiance)
-  float ground_radiance_scale = 0.0f;  // radiance below the horizon as a fraction of the horizon
-
-  // Unit vector towards the sun at `hour` (Z up). Below-horizon directions are returned as they
-  // are (z < 0): callers decide what a set sun means.
-  glm::dvec3 sunDirection(double hour) const;
-  // Sky radiance seen in unit direction `dir` at `hour`: horizon colour at z = 0 blended to the
-  // zenith colour as sqrt(z) (z >= 0); below the horizon ground_radiance_scale * horizon.
-  glm::vec3 skyRadiance(const glm::dvec3& dir, double hour) const;
-  // The default tropical day used when a world says nothing about its sky.
-  static Sky tropicalDefault();
-};
-
-// A dynamic point light (talk slides 11-12; LPRT). Positions in world metres.
-struct PointLight {
-  std::string name;
-  glm::dvec3 position{0.0};
-  glm::vec3 intensity{1.f};  // radiant intensity, linear RGB per sr (>= 0)
-  float radius_m = 10.f;     // range of influence, > 0
-};
-
-// An artist volume whose inside takes ambient from one designated probe (talk slide 55).
-struct InteriorVolume {
-  std::string name;
-  glm::dvec3 min{0.0}, max{0.0};      // world-space axis-aligned box, min < max
-  glm::dvec3 probe_position{0.0};     // the designated probe, inside the box
-  float blend_distance_m = 1.f;       // soft transition width at the box faces, >= 0
-};
+// The lighting description is shared with the archive and the runtime (formats/lighting.h).
+using drtv::ColorKey;
+using drtv::Gradient;
+using drtv::InteriorVolume;
+using drtv::PointLight;
+using drtv::Sky;
 
 struct Bounds {
   glm::dvec3 min{1e300}, max{-1e300};
@@ -111,6 +68,9 @@ struct World {
   std::vector<InteriorVolume> interiors;
   uint32_t effects = 0;            // drtv::Effect mask in force (see defaultEffects)
   bool effects_explicit = false;   // true when the source named them, false when derived
+  // What the loaders skipped or repaired, one line each, for reports: "skipped: PalmTree.gltf:
+  // mesh 'Leaves' primitive 1: mode 1 (lines)", "dropped: ...: 3 zero-area triangles".
+  std::vector<std::string> notes;
 
   // World-space bounds of all instances (dynamic ones too).
   Bounds bounds() const;

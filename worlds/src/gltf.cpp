@@ -1,0 +1,410 @@
+// gltf.cpp — glTF 2.0 scenes as Worlds (see drtv/worlds/gltf.h).
+//
+// References:
+//  [1] Khronos, glTF 2.0 specification 2.0.1 (2021): 3.5 nodes and transforms, 3.6 accessors
+//      and byteStride, 3.7.2.1 primitive topologies, 3.9.2 base colour.
+//  [2] KHR_draco_mesh_compression extension specification.
+//  [3] IEC 61966-2-1 (sRGB transfer function).
+#include "drtv/worlds/gltf.h"
+
+#include <algorithm>
+#include <cmath>
+#include <exception>
+#include <cstring>
+#include <map>
+#include <string>
+
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/quaternion.hpp>
+#include <glm/gtc/type_ptr.hpp>
+// Must match tinygltf_impl.cpp: the TinyGLTF constructor refers to the image writer otherwise.
+#define TINYGLTF_NO_STB_IMAGE_WRITE
+#include <tiny_gltf.h>
+
+namespace drtv::worlds {
+
+std::vector<uint32_t> gltfStripToList(const std::vector<uint32_t>& strip) {
+  std::vector<uint32_t> out;
+  for (size_t i = 0; i + 2 < strip.size(); ++i) {
+    const size_t odd = i % 2;
+    out.insert(out.end(), {strip[i], strip[i + 1 + odd], strip[i + 2 - odd]});
+  }
+  return out;
+}
+
+std::vector<uint32_t> gltfFanToList(const std::vector<uint32_t>& fan) {
+  std::vector<uint32_t> out;
+  for (size_t i = 0; i + 2 < fan.size(); ++i) out.insert(out.end(), {fan[i + 1], fan[i + 2], fan[0]});
+  return out;
+}
+
+namespace {
+
+// Y-up -> Z-up: (x, y, z) -> (x, -z, y), a +90 deg rotation about X.
+const glm::dmat4 kYupToZup(glm::dvec4(1, 0, 0, 0), glm::dvec4(0, 0, 1, 0), glm::dvec4(0, -1, 0, 0), glm::dvec4(0, 0, 0, 1));
+
+glm::vec3 yUpToZup(glm::vec3 p) { return {p.x, -p.z, p.y}; }
+
+float srgbToLinear(float c) {  // [3]
+  return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
+}
+
+// Loader state for one file.
+struct Loader {
+  const tinygltf::Model& model;
+  std::string file;  // file name for messages
+  InstanceClass cls;
+  World& world;
+  GltfStats& stats;
+  std::map<std::pair<int, int>, int> primitive_mesh;  // (mesh, primitive) -> drtv mesh or -1
+  std::map<int, size_t> mesh_triangles_read;          // drtv mesh -> triangles before dropping
+  std::map<int, glm::vec3> material_albedo;
+  size_t visits = 0;
+
+  void note(const std::string& what) { world.notes.push_back(what); }
+
+  // Checked view of an accessor's elements: returns false (with `why`) when anything is out of
+  // range. `element_size` is the byte size of one element.
+  bool accessorSpan(int accessor_index, size_t element_size, const unsigned char*& first, size_t& stride,
+                    size_t& count, std::string& why) const {
+    if (accessor_index < 0 || size_t(accessor_index) >= model.accessors.size()) {
+      why = "accessor " + std::to_string(accessor_index) + " does not exist";
+      return false;
+    }
+    const tinygltf::Accessor& acc = model.accessors[size_t(accessor_index)];
+    if (acc.sparse.isSparse) {
+      why = "accessor " + std::to_string(accessor_index) + " is sparse (unsupported)";
+      return false;
+    }
+    if (acc.bufferView < 0 || size_t(acc.bufferView) >= model.bufferViews.size()) {
+      why = "accessor " + std::to_string(accessor_index) + ": bufferView " + std::to_string(acc.bufferView) + " does not exist";
+      return false;
+    }
+    const tinygltf::BufferView& view = model.bufferViews[size_t(acc.bufferView)];
+    if (view.buffer < 0 || size_t(view.buffer) >= model.buffers.size()) {
+      why = "bufferView " + std::to_string(acc.bufferView) + ": buffer " + std::to_string(view.buffer) + " does not exist";
+      return false;
+    }
+    const tinygltf::Buffer& buffer = model.buffers[size_t(view.buffer)];
+    count = acc.count;
+    stride = view.byteStride ? view.byteStride : element_size;
+    if (stride < element_size) {
+      why = "accessor " + std::to_string(accessor_index) + ": byteStride " + std::to_string(stride) + " < element size " + std::to_string(element_size);
+      return false;
+    }
+    const size_t view_end = view.byteOffset + view.byteLength;
+    const size_t start = view.byteOffset + acc.byteOffset;
+    // Overflow-safe: count <= 2^31 and stride <= 255 in valid files; reject anything larger.
+    if (count > (size_t(1) << 31) || stride > 4096 || view_end < view.byteOffset || view_end > buffer.data.size()) {
+      why = "accessor " + std::to_string(accessor_index) + ": bufferView " + std::to_string(acc.bufferView) + " exceeds its buffer";
+      return false;
+    }
+    if (count > 0 && start + stride * (count - 1) + element_size > view_end) {
+      why = "accessor " + std::to_string(accessor_index) + ": " + std::to_string(count) + " elements exceed bufferView " + std::to_string(acc.bufferView);
+      return false;
+    }
+    first = buffer.data.data() + start;
+    return true;
+  }
+
+  glm::vec3 albedoOf(int material_index) {
+    if (material_index < 0 || size_t(material_index) >= model.materials.size()) return glm::vec3(1.f);  // spec default
+    if (auto it = material_albedo.find(material_index); it != material_albedo.end()) return it->second;
+    const tinygltf::Material& mat = model.materials[size_t(material_index)];
+    const auto& f = mat.pbrMetallicRoughness.baseColorFactor;
+    glm::vec3 albedo(1.f);
+    if (f.size() >= 3) albedo = glm::vec3(float(f[0]), float(f[1]), float(f[2]));
+    const int tex = mat.pbrMetallicRoughness.baseColorTexture.index;
+    if (tex >= 0 && size_t(tex) < model.textures.size()) {
+      const int src = model.textures[size_t(tex)].source;
+      if (src >= 0 && size_t(src) < model.images.size()) {
+        const tinygltf::Image& img = model.images[size_t(src)];
+        const size_t texels = img.width > 0 && img.height > 0 ? size_t(img.width) * size_t(img.height) : 0;
+        const size_t bytes_per_channel = img.bits == 16 ? 2 : img.bits == 8 ? 1 : 0;
+        if (texels && img.component >= 1 && bytes_per_channel &&
+            img.image.size() >= texels * size_t(img.component) * bytes_per_channel) {
+          float lut[256];
+          for (int i = 0; i < 256; ++i) lut[i] = srgbToLinear(i / 255.f);
+          glm::dvec3 sum(0.0);
+          for (size_t t = 0; t < texels; ++t) {
+            for (int c = 0; c < 3; ++c) {
+              const int ch = std::min(c, img.component >= 3 ? 2 : 0);  // grey images repeat channel 0
+              const size_t at = (t * size_t(img.component) + size_t(ch)) * bytes_per_channel;
+              sum[c] += bytes_per_channel == 1 ? lut[img.image[at]]
+                                               : srgbToLinear((img.image[at] | (img.image[at + 1] << 8)) / 65535.f);
+            }
+          }
+          albedo *= glm::vec3(sum / double(texels));
+        } else {
+          note("ignored: " + file + ": image " + std::to_string(src) + " not decoded; albedo from baseColorFactor only");
+        }
+      }
+    }
+    for (int c = 0; c < 3; ++c) {
+      if (!std::isfinite(albedo[c])) albedo[c] = 0.5f;
+      albedo[c] = std::clamp(albedo[c], 0.f, 1.f);
+    }
+    material_albedo[material_index] = albedo;
+    return albedo;
+  }
+
+  // Builds the drtv mesh for one primitive, or returns -1 (with a note) when skipped.
+  int primitiveMesh(int mesh_index, int prim_index) {
+    const auto key = std::make_pair(mesh_index, prim_index);
+    if (auto it = primitive_mesh.find(key); it != primitive_mesh.end()) return it->second;
+    const int result = buildPrimitive(mesh_index, prim_index);
+    primitive_mesh[key] = result;
+    return result;
+  }
+
+  int buildPrimitive(int mesh_index, int prim_index) {
+    const tinygltf::Mesh& gm = model.meshes[size_t(mesh_index)];
+    const tinygltf::Primitive& prim = gm.primitives[size_t(prim_index)];
+    const std::string what = file + ": mesh '" + (gm.name.empty() ? std::to_string(mesh_index) : gm.name) +
+                             "' primitive " + std::to_string(prim_index);
+    auto skip = [&](const std::string& why) {
+      note("skipped: " + what + ": " + why);
+      ++stats.primitives_skipped;
+      return -1;
+    };
+    if (prim.mode != TINYGLTF_MODE_TRIANGLES && prim.mode != TINYGLTF_MODE_TRIANGLE_STRIP &&
+        prim.mode != TINYGLTF_MODE_TRIANGLE_FAN) {
+      static const char* kModeNames[] = {"points", "lines", "line loop", "line strip"};
+      return skip("mode " + std::to_string(prim.mode) + " (" +
+                  (prim.mode >= 0 && prim.mode <= 3 ? kModeNames[prim.mode] : "unknown") + ") is not triangles");
+    }
+    const auto pos_it = prim.attributes.find("POSITION");
+    if (pos_it == prim.attributes.end()) return skip("no POSITION attribute");
+    const int pos_acc = pos_it->second;
+    if (pos_acc < 0 || size_t(pos_acc) >= model.accessors.size()) return skip("POSITION accessor does not exist");
+    const tinygltf::Accessor& pa = model.accessors[size_t(pos_acc)];
+    if (pa.type != TINYGLTF_TYPE_VEC3 || pa.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT)
+      return skip("POSITION is not VEC3 of FLOAT");
+    const unsigned char* pos_data = nullptr;
+    size_t pos_stride = 0, vertex_count = 0;
+    std::string why;
+    if (!accessorSpan(pos_acc, 12, pos_data, pos_stride, vertex_count, why)) return skip("POSITION " + why);
+    std::vector<glm::vec3> positions(vertex_count);
+    for (size_t v = 0; v < vertex_count; ++v) {
+      glm::vec3 p;
+      std::memcpy(&p, pos_data + v * pos_stride, 12);
+      positions[v] = yUpToZup(p);
+    }
+
+    std::vector<uint32_t> indices;
+    if (prim.indices >= 0) {
+      if (size_t(prim.indices) >= model.accessors.size()) return skip("indices accessor does not exist");
+      const tinygltf::Accessor& ia = model.accessors[size_t(prim.indices)];
+      size_t size = 0;
+      switch (ia.componentType) {
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: size = 1; break;
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: size = 2; break;
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: size = 4; break;
+        default: return skip("indices component type " + std::to_string(ia.componentType) + " is not u8/u16/u32");
+      }
+      if (ia.type != TINYGLTF_TYPE_SCALAR) return skip("indices are not SCALAR");
+      const unsigned char* idx_data = nullptr;
+      size_t idx_stride = 0, idx_count = 0;
+      if (!accessorSpan(prim.indices, size, idx_data, idx_stride, idx_count, why)) return skip("indices " + why);
+      indices.resize(idx_count);
+      for (size_t i = 0; i < idx_count; ++i) {
+        const unsigned char* at = idx_data + i * idx_stride;
+        uint32_t value = 0;
+        if (size == 1) value = at[0];
+        else if (size == 2) { uint16_t v; std::memcpy(&v, at, 2); value = v; }
+        else std::memcpy(&value, at, 4);
+        if (value >= vertex_count)
+          return skip("index " + std::to_string(value) + " at " + std::to_string(i) + " out of range (" +
+                      std::to_string(vertex_count) + " vertices)");
+        indices[i] = value;
+      }
+    } else {
+      indices.resize(vertex_count);
+      for (size_t v = 0; v < vertex_count; ++v) indices[v] = uint32_t(v);
+    }
+    if (prim.mode == TINYGLTF_MODE_TRIANGLE_STRIP) indices = gltfStripToList(indices);
+    else if (prim.mode == TINYGLTF_MODE_TRIANGLE_FAN) indices = gltfFanToList(indices);
+    if (indices.size() % 3 != 0) {
+      note("ignored: " + what + ": " + std::to_string(indices.size() % 3) + " trailing indices");
+      indices.resize(indices.size() - indices.size() % 3);
+    }
+
+    // Keep only finite, non-degenerate triangles; then keep only the vertices they use.
+    Mesh mesh;
+    mesh.name = what;
+    mesh.albedo = albedoOf(prim.material);
+    std::vector<uint32_t> remap(vertex_count, UINT32_MAX);
+    size_t nonfinite = 0, degenerate = 0;
+    const size_t tri_count = indices.size() / 3;
+    stats.triangles_read += tri_count;
+    for (size_t t = 0; t < tri_count; ++t) {
+      const uint32_t* tri = &indices[3 * t];
+      const glm::vec3 a = positions[tri[0]], b = positions[tri[1]], c = positions[tri[2]];
+      if (!std::isfinite(a.x + a.y + a.z + b.x + b.y + b.z + c.x + c.y + c.z)) { ++nonfinite; continue; }
+      const glm::vec3 n = glm::cross(b - a, c - a);
+      const float area2 = glm::dot(n, n);
+      if (!(area2 > 0.f) || !std::isfinite(area2)) { ++degenerate; continue; }
+      for (int k = 0; k < 3; ++k) {
+        uint32_t& r = remap[tri[k]];
+        if (r == UINT32_MAX) {
+          r = uint32_t(mesh.positions.size());
+          mesh.positions.push_back(positions[tri[k]]);
+        }
+        mesh.indices.push_back(r);
+      }
+    }
+    stats.dropped_nonfinite += nonfinite;
+    stats.dropped_degenerate += degenerate;
+    if (nonfinite) note("dropped: " + what + ": " + std::to_string(nonfinite) + " triangles with NaN/Inf positions");
+    if (degenerate) note("dropped: " + what + ": " + std::to_string(degenerate) + " zero-area triangles");
+    if (mesh.indices.empty()) return skip("no triangles left");
+    ++stats.primitives_loaded;
+    world.meshes.push_back(std::move(mesh));
+    mesh_triangles_read[int(world.meshes.size() - 1)] = tri_count;
+    return int(world.meshes.size() - 1);
+  }
+
+  // Local matrix of a node (column-major, glTF space), or false when it is not finite.
+  static bool localMatrix(const tinygltf::Node& node, glm::dmat4& m) {
+    if (node.matrix.size() == 16) {
+      m = glm::make_mat4(node.matrix.data());
+    } else {
+      glm::dmat4 t(1.0), r(1.0), s(1.0);
+      if (node.translation.size() == 3) t = glm::translate(glm::dmat4(1.0), glm::make_vec3(node.translation.data()));
+      if (node.rotation.size() == 4) {
+        const glm::dquat q(node.rotation[3], node.rotation[0], node.rotation[1], node.rotation[2]);  // w, x, y, z
+        const double len = glm::length(q);
+        r = glm::mat4_cast(len > 0 ? q / len : glm::dquat(1, 0, 0, 0));
+      }
+      if (node.scale.size() == 3) s = glm::scale(glm::dmat4(1.0), glm::make_vec3(node.scale.data()));
+      m = t * r * s;
+    }
+    for (int c = 0; c < 4; ++c)
+      for (int k = 0; k < 4; ++k)
+        if (!std::isfinite(m[c][k])) return false;
+    return true;
+  }
+
+  void visit(int node_index, const glm::dmat4& parent, std::vector<bool>& on_path) {
+    if (node_index < 0 || size_t(node_index) >= model.nodes.size()) {
+      note("skipped: " + file + ": node " + std::to_string(node_index) + " does not exist");
+      return;
+    }
+    if (on_path[size_t(node_index)]) {
+      ++stats.cycles_skipped;
+      note("skipped: " + file + ": node " + std::to_string(node_index) + " is its own ancestor (cycle)");
+      return;
+    }
+    // glTF nodes form a forest, so each is visited once; a file that shares children between
+    // parents could blow up exponentially: stop at a generous bound.
+    if (++visits > 4 * model.nodes.size() + 1024) {
+      if (visits == 4 * model.nodes.size() + 1025) note("skipped: " + file + ": node graph is not a forest; traversal stopped");
+      return;
+    }
+    const tinygltf::Node& node = model.nodes[size_t(node_index)];
+    glm::dmat4 local;
+    if (!localMatrix(node, local)) {
+      note("skipped: " + file + ": node " + std::to_string(node_index) + " has a non-finite transform");
+      return;
+    }
+    const glm::dmat4 m = parent * local;
+    if (node.mesh >= 0) {
+      if (size_t(node.mesh) >= model.meshes.size()) {
+        note("skipped: " + file + ": node " + std::to_string(node_index) + ": mesh " + std::to_string(node.mesh) + " does not exist");
+      } else {
+        const glm::dmat4 to_world = kYupToZup * m * glm::transpose(kYupToZup);  // C M C^-1, C orthonormal
+        const auto& prims = model.meshes[size_t(node.mesh)].primitives;
+        for (size_t p = 0; p < prims.size(); ++p) {
+          const int mesh = primitiveMesh(node.mesh, int(p));
+          if (mesh < 0) continue;
+          Instance inst;
+          inst.mesh = uint32_t(mesh);
+          stats.instanced_triangles_read += mesh_triangles_read[mesh];
+          stats.instanced_triangles_kept += world.meshes[size_t(mesh)].triangleCount();
+          inst.transform = to_world;
+          inst.cls = cls;
+          inst.name = file + ": node " + (node.name.empty() ? std::to_string(node_index) : "'" + node.name + "'");
+          world.instances.push_back(std::move(inst));
+        }
+      }
+    }
+    on_path[size_t(node_index)] = true;
+    for (int child : node.children) visit(child, m, on_path);
+    on_path[size_t(node_index)] = false;
+  }
+
+  void run() {
+    std::vector<int> roots;
+    int scene = model.defaultScene;
+    if (scene < 0 && !model.scenes.empty()) scene = 0;
+    if (scene >= 0 && size_t(scene) < model.scenes.size()) {
+      roots = model.scenes[size_t(scene)].nodes;
+    } else {
+      std::vector<bool> is_child(model.nodes.size(), false);
+      for (const auto& n : model.nodes)
+        for (int c : n.children)
+          if (c >= 0 && size_t(c) < is_child.size()) is_child[size_t(c)] = true;
+      for (size_t i = 0; i < model.nodes.size(); ++i)
+        if (!is_child[i]) roots.push_back(int(i));
+      note("note: " + file + ": no scene; loaded " + std::to_string(roots.size()) + " root nodes");
+    }
+    std::vector<bool> on_path(model.nodes.size(), false);
+    for (int r : roots) visit(r, glm::dmat4(1.0), on_path);
+  }
+};
+
+// Decodes images with tinygltf's stb_image loader but never fails the file over a texture:
+// the texture only refines the albedo.
+bool lenientImageLoader(tinygltf::Image* image, const int image_idx, std::string* err, std::string* warn, int req_w,
+                        int req_h, const unsigned char* bytes, int size, void* user) {
+  std::string local_err;
+  if (tinygltf::LoadImageData(image, image_idx, &local_err, warn, req_w, req_h, bytes, size, user)) return true;
+  if (warn) *warn += "image " + std::to_string(image_idx) + " not decoded: " + local_err + "\n";
+  image->image.clear();
+  return true;
+}
+
+std::string oneLine(std::string s) {
+  while (!s.empty() && (s.back() == '\n' || s.back() == ' ')) s.pop_back();
+  std::replace(s.begin(), s.end(), '\n', ';');
+  return s;
+}
+
+}  // namespace
+
+Result<World> loadGltf(const std::filesystem::path& path, InstanceClass cls, GltfStats* stats_out) {
+  const std::string file = path.string();
+  std::string ext = path.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  if (ext != ".gltf" && ext != ".glb") return fail(file + ": not a .gltf or .glb file");
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) return fail(file + ": no such file");
+
+  tinygltf::Model model;
+  tinygltf::TinyGLTF loader;
+  loader.SetImageLoader(lenientImageLoader, nullptr);
+  std::string err, warn;
+  bool ok = false;
+  try {
+    ok = ext == ".glb" ? loader.LoadBinaryFromFile(&model, &err, &warn, file)
+                       : loader.LoadASCIIFromFile(&model, &err, &warn, file);
+  } catch (const std::exception& e) {  // tinygltf's JSON parser may throw on malformed input
+    return fail(file + ": glTF parse error: " + e.what());
+  }
+  if (!ok) return fail(file + ": glTF error: " + oneLine(err.empty() ? std::string("tinygltf failed without a message") : err));
+
+  World world;
+  world.name = path.filename().string();
+  GltfStats stats;
+  if (!warn.empty()) world.notes.push_back("warning: " + file + ": " + oneLine(warn));
+  for (const std::string& e : model.extensionsRequired)
+    if (e != "KHR_draco_mesh_compression" && e != "KHR_materials_pbrSpecularGlossiness" && e != "KHR_texture_transform")
+      world.notes.push_back("warning: " + file + ": required extension " + e + " is not supported; loaded without it");
+  Loader l{model, file, cls, world, stats, {}, {}, {}, 0};
+  l.run();
+  world.effects = defaultEffects(world);
+  if (stats_out) *stats_out = stats;
+  return world;
+}
+
+}  // namespace drtv::worlds

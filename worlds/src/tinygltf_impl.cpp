@@ -1,0 +1,36 @@
+// tinygltf_impl.cpp — the one translation unit that compiles tinygltf and stb_image.
+//
+// Debian's libtinygltf is built without Draco, so drtv compiles its own copy with
+// TINYGLTF_ENABLE_DRACO (tinygltf 2.7 decodes KHR_draco_mesh_compression at parse time into new
+// buffers and repoints the primitive's accessors at them). stb_image is compiled static
+// (STB_IMAGE_STATIC) so that its symbols cannot clash with another library's copy; the
+// heightmap loader reaches it through decodeImage16() below.
+#define TINYGLTF_IMPLEMENTATION
+#define TINYGLTF_ENABLE_DRACO
+#define TINYGLTF_NO_STB_IMAGE_WRITE
+#define STB_IMAGE_IMPLEMENTATION
+#define STB_IMAGE_STATIC
+#include <tiny_gltf.h>  // includes <stb_image.h> with its implementation
+
+#include "terrain.h"
+
+namespace drtv::worlds {
+
+bool decodeImage16(const unsigned char* bytes, size_t size, int& width, int& height, int& channels,
+                   std::vector<uint16_t>& pixels, std::string& error) {
+  if (size > size_t(INT32_MAX)) {
+    error = "file too large";
+    return false;
+  }
+  stbi_us* data = stbi_load_16_from_memory(bytes, int(size), &width, &height, &channels, 0);
+  if (!data) {
+    const char* reason = stbi_failure_reason();
+    error = reason ? reason : "unknown stb_image failure";
+    return false;
+  }
+  pixels.assign(data, data + size_t(width) * height * channels);
+  stbi_image_free(data);
+  return true;
+}
+
+}  // namespace drtv::worlds

@@ -1,5 +1,7 @@
 #include "drtv/formats/sector.h"
 
+#include <algorithm>
+#include <climits>
 #include <cmath>
 #include <cstring>
 
@@ -62,7 +64,13 @@ std::unexpected<Error> failAt(const std::string& where, size_t offset, const std
 std::string toString(SectorKey key) { return "(" + std::to_string(key.ix) + "," + std::to_string(key.iy) + ")"; }
 
 SectorKey sectorAt(double x, double y) {
-  return {static_cast<int32_t>(std::floor(x / kSectorSizeM)), static_cast<int32_t>(std::floor(y / kSectorSizeM))};
+  // Clamped so that the cast is defined for any input (NaN reads as 0).
+  auto key = [](double v) {
+    const double k = std::floor(v / kSectorSizeM);
+    if (!(k == k)) return int32_t{0};
+    return static_cast<int32_t>(std::clamp(k, double(INT32_MIN), double(INT32_MAX)));
+  };
+  return {key(x), key(y)};
 }
 
 size_t Sector::memoryBytes() const {

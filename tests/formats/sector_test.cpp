@@ -1,5 +1,7 @@
 // Sector encoding: round trip, memory budget, golden bytes, and untrusted-input safety.
 #include <atomic>
+#include <climits>
+#include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <new>
@@ -147,6 +149,8 @@ TEST(SectorKey, SectorAtFloorsNegativeCoordinates) {
   EXPECT_EQ(sectorAt(-0.5, 63.9), (SectorKey{-1, 0}));
   EXPECT_EQ(sectorAt(128.0, -64.0), (SectorKey{2, -1}));
   EXPECT_EQ(toString(SectorKey{3, -1}), "(3,-1)");
+  EXPECT_EQ(sectorAt(1e300, -1e300), (SectorKey{INT32_MAX, INT32_MIN}));
+  EXPECT_EQ(sectorAt(NAN, 0.0), (SectorKey{0, 0}));
 }
 
 }  // namespace

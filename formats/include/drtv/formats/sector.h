@@ -69,7 +69,8 @@ struct SectorKey {
 };
 // "(3,-1)"
 std::string toString(SectorKey key);
-// The sector containing world position (x, y): floor(x / 64), floor(y / 64).
+// The sector containing world position (x, y): floor(x / 64), floor(y / 64), clamped to the
+// int32 range (NaN gives 0): total for any input.
 SectorKey sectorAt(double x, double y);
 
 // Per-sector 16x16x16 nearest-probe grid [1, slide 17]. Cell (x, y, z) covers sector-relative

@@ -1,0 +1,179 @@
+// drtv/runtime/probe_cache.h — the resident probes, laid out for relighting, and their relit
+// colours, laid out for the volume fill.
+//
+// References
+//  [1] Gilabert & Stefanov, "Deferred Radiance Transfer Volumes", GDC 2012, slides 26-32
+//      (relighting code, dynamic lights distributed onto probes), slide 17 (index grid), slide 54
+//      (the closest probe for transparencies).
+//  [2] Kristensen, Akenine-Moeller, Jensen, "Precomputed Local Radiance Transfer for Real-Time
+//      Lighting Design", SIGGRAPH 2005 (LPRT: lights snapped to baked source positions).
+//  [3] DESIGN.md, "What a probe holds and how it is relit" (the formula implemented here).
+//
+// Relighting (per resident probe, basis b, channel c; DESIGN.md [3]):
+//   colour[c][b] = dot(SkySH[c] + SunSH[c], T[c][b])                 sky and sun bounce
+//                + dot(cosineLobe(B_b), SkySH[c]) * v[b]              direct sky, masked
+//                + sum_j light[j][c] * LPRT[j][c][b]                  local lights (if baked)
+//   then clamped to [0, kMaxColour] (never earlier; NaN from inf - inf becomes 0).
+//
+// Layout: each resident sector occupies a slot. A slot holds its probes' inputs as
+// structure-of-arrays planes (one float per probe, the probe count rounded up to 16 apart, so a
+// slot is one contiguous block): 48 transfer planes T[c][b][k] and 4
+// sky-visibility planes v[b], dequantised once when the sector is added; relighting streams
+// these planes (the loop over probes vectorises) and writes 12 colour planes colour[c][b].
+// Packing then converts each probe once to three RGBA8 texels (one per colour channel, RGBA =
+// the four basis intensities) for the volume fill to gather by index.
+//
+// Local lights [2]: a light's intensity is distributed onto the LPRT source probes nearest to it
+// within its radius: the `sources_per_light` nearest source probes (default 4) with weights
+// w = (1 - (d/R)^2)^2, normalised to sum to 1 so that the light's energy is kept. The weight is
+// finite and largest (1) at d = 0, so a light exactly on a probe is fine; a light with no source
+// probe within its radius contributes nothing (no baked bounce exists for it there).
+//
+// Thread-safety: not thread-safe; one writer. Const member functions may run concurrently with
+// each other.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "drtv/formats/error.h"
+#include "drtv/formats/lighting.h"
+#include "drtv/formats/sector.h"
+#include "drtv/formats/sh.h"
+
+namespace drtv::runtime {
+
+inline constexpr int kMaxResidentSectors = 51;  // DESIGN.md: at most 51 resident sectors
+inline constexpr int kSlotProbes = 256;         // plane length per slot: >= 255 probes, 64-byte multiple
+inline constexpr int kTransferPlanes = 48;      // T[c][b][k]
+inline constexpr int kInputPlanes = kTransferPlanes + 4;  // + v[b]
+inline constexpr int kColourPlanes = 12;        // colour[c][b]
+// Relit colours are clamped to this, so that no finite input gives Inf downstream (an HDR scale
+// times 255 times three channels stays far inside float range).
+inline constexpr float kMaxColour = 1e30f;
+
+// Which terms of the relighting formula to evaluate (all for rendering; one at a time for
+// diagnostics such as `drtv query`).
+enum Component : uint32_t {
+  kComponentSunBounce = 1u << 0,
+  kComponentSkyBounce = 1u << 1,
+  kComponentDirectSky = 1u << 2,
+  kComponentLocalLights = 1u << 3,
+};
+inline constexpr uint32_t kAllComponents = 0xf;
+
+// A probe's relit colours: irradiance (linear RGB) at a virtual surface facing each basis B0..B3.
+using BasisColours = std::array<glm::vec3, 4>;
+
+// The lighting one relight uses.
+struct RelightInput {
+  sh::Sh4Rgb sky_sh{};                    // sky radiance SH (lighting_sh.h)
+  sh::Sh4Rgb sun_sh{};                    // sun radiance SH, windowed
+  std::span<const PointLight> lights;     // validated (validateLighting)
+  uint32_t components = kAllComponents;
+};
+
+// A resident probe: its slot and its index in that sector.
+struct ProbeRef {
+  int slot = -1;
+  int index = -1;
+  bool valid() const { return slot >= 0 && index >= 0; }
+  friend bool operator==(const ProbeRef&, const ProbeRef&) = default;
+};
+
+struct ProbeCacheOptions {
+  int max_sectors = kMaxResidentSectors;  // slots; memory is reserved for all of them up front
+  int sources_per_light = 4;              // LPRT source probes that share one light (>= 1)
+};
+
+// One light's share on one source probe (the output of distributeLights).
+struct LightShare {
+  ProbeRef probe;
+  glm::vec3 colour{0.f};  // intensity (per sr, linear RGB) assigned to this source
+};
+
+class ProbeCache {
+ public:
+  explicit ProbeCache(ProbeCacheOptions options = {});
+  ~ProbeCache();
+  ProbeCache(ProbeCache&&) noexcept;
+  ProbeCache& operator=(ProbeCache&&) noexcept;
+
+  // Copies `sector` into a free slot (dequantising its probes once). Its colours are black until
+  // it is relit. Errors: the key is already resident; all slots are used; a grid cell names a
+  // probe that does not exist; an LPRT block whose size does not match.
+  Result<void> addSector(const Sector& sector);
+  // Frees the sector's slot; false if it was not resident.
+  bool removeSector(SectorKey key);
+  // The slot holding `key`, or -1. O(slots).
+  int slotOf(SectorKey key) const;
+  int maxSectors() const;
+  int sectorCount() const;
+  int probeCount() const;
+  std::vector<SectorKey> keys() const;
+
+  // Relights every resident probe (and redistributes the lights over all source probes).
+  void relightAll(const RelightInput& in);
+  // Relights only `key`'s probes (precondition: resident); lights are redistributed over all
+  // resident source probes, but other sectors keep their colours until the next relightAll.
+  void relightSector(SectorKey key, const RelightInput& in);
+
+  // The shares of `lights` on resident LPRT source probes (see the header comment).
+  std::vector<LightShare> distributeLights(std::span<const PointLight> lights) const;
+
+  // Largest relit colour component of one slot / of all slots (0 when nothing is resident).
+  float maxColour(int slot) const;
+  float maxColour() const;
+
+  // Converts relit colours to RGBA8 texels with `hdr_scale` (> 0): byte = round(255 min(1,
+  // colour / hdr_scale)). The fallback colours (what a volume texel with no probe holds) are
+  // packed too.
+  void pack(float hdr_scale);
+  void packSlot(int slot);  // with the scale of the last pack()
+  float packedScale() const;
+  void setFallback(const BasisColours& colours);
+  const BasisColours& fallback() const;
+  const std::array<uint32_t, 3>& packedFallback() const;
+
+  // ---- Read access (for the volume fill, queries and tests) ----
+  struct SlotView {
+    SectorKey key;
+    int probe_count = 0;
+    glm::dvec2 origin_m{0.0};             // world x, y of the sector's min corner
+    float grid_z_min_m = 0.f, grid_cell_height_m = 1.f;
+    const uint8_t* nearest = nullptr;     // 16^3 [z][y][x]: the grid with 255 resolved to the
+                                          // nearest probe of the sector (all 255 if no probes)
+    const float* colour = nullptr;        // 12 planes: colour[(c * 4 + b) * colour_stride + probe]
+    int colour_stride = 0;                // floats between planes (probe count rounded up to 16)
+    const uint32_t* packed = nullptr;     // [probe][channel]: RGBA8 = bases 0..3
+  };
+  // Precondition: 0 <= slot < maxSectors() and the slot is used (bugs otherwise).
+  SlotView slot(int slot) const;
+  bool slotUsed(int slot) const;
+
+  BasisColours colours(ProbeRef p) const;
+  glm::dvec3 worldPosition(ProbeRef p) const;
+  uint16_t flags(ProbeRef p) const;
+  uint16_t interior(ProbeRef p) const;
+  float heightAboveGround(ProbeRef p) const;
+  glm::vec4 skyVisibility(ProbeRef p) const;
+
+  // The probe the index grid names for world position `pos` (cell z clamped into the grid; 255
+  // resolved to the sector's nearest probe) — the talk's closest probe for transparencies.
+  // Invalid ProbeRef when the sector is not resident, has no probes, or `pos` is not finite.
+  ProbeRef probeAt(const glm::dvec3& pos) const;
+  // The resident probe nearest to `pos` by Euclidean distance (brute force; for tools and
+  // interiors). Invalid when nothing is resident.
+  ProbeRef nearestProbe(const glm::dvec3& pos) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace drtv::runtime

@@ -1,0 +1,137 @@
+// drtv/runtime/runtime.h — the engine-facing object: lighting in, resident sectors in, camera in,
+// published volumes and ambient(position, normal) out.
+//
+// References
+//  [1] Gilabert & Stefanov, "Deferred Radiance Transfer Volumes", GDC 2012: slides 25-32
+//      (relighting when the lighting changes), 33-36 (volumes), 40-44 (ambient), 54 (closest probe
+//      for transparencies), 55-56 (interior volumes), 57-58 (distant ambient), 60 (blur).
+//
+// What is recomputed when (DESIGN.md "relight only what changed"):
+//  - setTime/setLights/setLighting evaluate the sun and sky; update() relights every resident
+//    probe only when the lighting moved more than `relight_threshold` since the last relight
+//    (lightingChange, lighting_sh.h), or the lights or the sky description changed. A relight
+//    repacks all probes with a new HDR scale (max colour x `hdr_headroom`) and refills the volumes.
+//  - addSector relights that sector alone with the lighting last applied and refills its
+//    footprint; only if its colours exceed the HDR scale is everything repacked and refilled.
+//  - update(camera) scrolls the volumes: only slabs that entered are computed.
+//
+// Ambient at a point (ambient()):
+//   volume  = sampleVolume at the point (the talk's shader), weight = Volume::coverage with
+//             `edge_fade_texels` (1 inside, fading to 0 at the volume's edge);
+//   distant = distantAmbient (sky irradiance x top-down occlusion, occlusion.h);
+//   a       = mix(distant, volume, weight);
+//   interior: inside an artist InteriorVolume with a resolved designated probe, the probe's own
+//             colours weighted by the shading weights; blended in over blend_distance_m from the
+//             box faces inward: result = mix(a, interior, saturate(depth / blend_distance_m)).
+//
+// Thread-safety: one writer thread calls the non-const members. ambient(), nearestProbe() and the
+// other const members must not run concurrently with the writer, except volume().read(), which
+// any thread may use at any time (publish.h).
+#pragma once
+
+#include <optional>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "drtv/formats/effects.h"
+#include "drtv/formats/error.h"
+#include "drtv/formats/lighting.h"
+#include "drtv/formats/sector.h"
+#include "drtv/runtime/lighting_sh.h"
+#include "drtv/runtime/occlusion.h"
+#include "drtv/runtime/probe_cache.h"
+#include "drtv/runtime/publish.h"
+#include "drtv/runtime/volume.h"
+
+namespace drtv::runtime {
+
+// The relighting components a world's effect mask asks for (effects.h -> probe_cache.h).
+uint32_t componentsFromEffects(uint32_t effects);
+
+struct RuntimeOptions {
+  VolumeOptions volume;                       // size, texel size, fill mode, blur
+  ProbeCacheOptions cache;                    // resident slots, sources per light
+  float sun_band1_window = kHanningBand1;     // lighting_sh.h: why Hanning
+  uint32_t components = kAllComponents;       // relighting terms evaluated
+  uint32_t effects = kAllEffects;             // interiors and distant occlusion are honoured here
+  // Relight when lightingChange exceeds this: 1/512 is half an 8-bit step of the brightest light,
+  // below what the RGBA8 volume can show.
+  float relight_threshold = 1.f / 512.f;
+  // HDR scale = max relit colour x this, so that a sector streaming in rarely exceeds it (which
+  // would force a full repack and refill); costs log2(1.25) = 0.3 bit of the 8.
+  float hdr_headroom = 1.25f;
+  // The talk's OffsetLength [1, slide 40]: the sample moves this far along the normal so that a
+  // surface reads the texel in front of it rather than the one behind; half a 2 m texel.
+  float normal_offset_m = 1.f;
+  // Volume lookups fade to distant ambient over this many texels before the volume's edge.
+  float edge_fade_texels = 2.f;
+};
+
+// Which path produced the ambient at a point, with its parts.
+struct AmbientSample {
+  glm::vec3 irradiance{0.f};      // the final ambient irradiance, linear RGB
+  float volume_weight = 0.f;      // coverage of the volume (0 = distant ambient only)
+  float interior_weight = 0.f;    // 0 outside every interior
+  int interior = -1;              // index into the interiors, or -1
+  glm::vec3 volume{0.f};          // the volume lookup (meaningful when volume_weight > 0)
+  glm::vec3 distant{0.f};         // the distant ambient
+  glm::vec3 interior_ambient{0.f};
+};
+
+class Runtime {
+ public:
+  explicit Runtime(RuntimeOptions options = {});
+
+  // Sets the sun path, sky gradients, dynamic lights and interior volumes. Errors (nothing
+  // changes): validateLighting's message, e.g. "sky.sky_zenith[1]: colour must be finite and >= 0".
+  Result<void> setLighting(const Sky& sky, std::vector<PointLight> lights, std::vector<InteriorVolume> interiors);
+  // Sets the time of day in hours (any finite real, modulo 24). Error if not finite.
+  Result<void> setTime(double hour);
+  Result<void> setLights(std::vector<PointLight> lights);
+
+  // Makes `sector` resident: relit with the lighting last applied, its occlusion tile built, its
+  // footprint refilled at the next update(). Errors as ProbeCache::addSector.
+  Result<void> addSector(const Sector& sector);
+  bool removeSector(SectorKey key);
+
+  // Relights if needed, moves the volumes to `camera` (world metres) and publishes.
+  void update(const glm::dvec3& camera);
+
+  // Ambient irradiance at world `position` for surface `normal` (normalised here; a zero or
+  // non-finite normal reads as +Z). Finite for finite input. See the header for the blend.
+  AmbientSample ambient(const glm::dvec3& position, const glm::vec3& normal) const;
+  // The colours of the probe the index grid names at `position` (transparencies, slide 54).
+  std::optional<BasisColours> nearestProbeColours(const glm::dvec3& position) const;
+
+  const RuntimeOptions& options() const { return options_; }
+  const SkyLighting& lighting() const { return current_; }
+  const ProbeCache& cache() const { return cache_; }
+  const PublishedVolume& volume() const { return volume_; }
+  const OcclusionMap& occlusion() const { return occlusion_; }
+  const std::vector<InteriorVolume>& interiors() const { return interiors_; }
+  // The designated probe of interior k, if one is resident.
+  ProbeRef interiorProbe(size_t k) const { return k < interior_probes_.size() ? interior_probes_[k] : ProbeRef{}; }
+  // Full relights done so far (for tests of "relight only what changed").
+  uint64_t relightCount() const { return relights_; }
+
+ private:
+  RelightInput relightInput() const;
+  void rescale();
+  void resolveInteriors();
+
+  RuntimeOptions options_;
+  Sky sky_ = Sky::tropicalDefault();
+  std::vector<PointLight> lights_;
+  std::vector<InteriorVolume> interiors_;
+  std::vector<ProbeRef> interior_probes_;
+  double hour_ = 12.0;
+  SkyLighting current_, applied_;
+  bool relit_once_ = false, lights_changed_ = false;
+  ProbeCache cache_;
+  PublishedVolume volume_;
+  OcclusionMap occlusion_;
+  uint64_t relights_ = 0;
+};
+
+}  // namespace drtv::runtime

@@ -1,0 +1,140 @@
+// drtv/runtime/volume.h — the three camera-following volume textures and the ambient lookup.
+//
+// References
+//  [1] Gilabert & Stefanov, "Deferred Radiance Transfer Volumes", GDC 2012, slides 33-36 (three
+//      RGBA8 96x96x16 volumes following the camera, slab updates with wrap offsets, the frac trick
+//      with clamp addressing and duplicated boundaries), slides 40-44 (the ambient shader),
+//      slide 60 (the PC path's blur).
+//  [2] Kaplanyan & Dachsbacher, "Cascaded Light Propagation Volumes", I3D 2010 (camera-snapped
+//      volumes, seed 003).
+//
+// Texture layout. Three textures, one per colour channel (R, G, B); each texel is RGBA8 holding
+// that channel's intensity for the bases B0..B3 (byte 0 = B0 ... byte 3 = B3, i.e. a uint32 with
+// B0 in the low byte), times the volume's HDR scale / 255. Texel (x, y, z) of a texture is element
+// x + size.x (y + size.y z) of its span. (The talk's slide code unswizzles textures that hold one
+// basis colour each; its prose, and this project, hold one colour channel each: the same twelve
+// numbers, and ambient becomes three dot products.)
+//
+// Toroidal addressing. The period N = size - 1 per axis: world texel g (centre at (g + 0.5) *
+// texel_size) is stored at N-periodic index s = g mod N, independent of the camera, so a camera
+// move rewrites only the slabs that entered. Physical texel N duplicates texel 0 on each axis, so
+// that hardware trilinear filtering with clamp addressing is right across the wrap seam when the
+// shader offsets the frac by half a texel (see VolumeShaderConstants). The volume covers world
+// texels [origin, origin + N) with origin = floor(camera / texel_size) - N / 2.
+//
+// Defaults: 96x96x16 textures (the talk's size; 147,456 texels each) and 2 m x 2 m x 4 m texels:
+//  - 2 m horizontally is half the index grid's 4 m cells, so every cell and sector boundary is a
+//    texel boundary (no texel straddles two probes' cells) and 95 texels cover +-95 m, about one
+//    and a half sectors around the camera;
+//  - 4 m vertically spans +-30 m: terrain relief within the horizontal range (a 17 deg slope over
+//    95 m) stays inside; 2 m layers would leave it at +-15 m and hand more to distant ambient.
+//
+// Thread-safety: a Volume is a plain value; const members may run concurrently with each other,
+// never with a non-const member. PublishedVolume (publish.h) double-buffers it for readers.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "drtv/runtime/probe_cache.h"
+
+namespace drtv::runtime {
+
+enum class FillMode {
+  kNearest,  // each texel takes the probe its index-grid cell names (the talk)
+  kSmooth,   // each texel blends the probes of the 8 index-grid cells around it (trilinear weights)
+};
+
+struct VolumeOptions {
+  glm::ivec3 size{96, 96, 16};             // texels per axis of each texture, >= 3; the toroidal
+                                           // period is one less (the duplicated boundary)
+  glm::vec3 texel_size_m{2.f, 2.f, 4.f};   // world metres per texel, > 0 (see the header)
+  FillMode fill = FillMode::kNearest;
+  bool blur = false;                       // 3x3x3 [1 2 1] blur of the texels (talk slide 60)
+};
+
+// What the shader needs (the talk's names, slide 40, plus the remap for the duplicated boundary):
+//   ws       = (posWS - SnappedCamera) + normalWS * OffsetLength
+//   volumeUV = frac(ws * UVScale + 0.5 + VolumeWrapOffset) * UVRemapScale + UVRemapBias
+//   fetch_c  = tex3D(VolumeTexture_c, volumeUV) * HdrScale      (trilinear, clamp addressing)
+struct VolumeShaderConstants {
+  glm::dvec3 snapped_camera{0.0};   // world metres, the centre of the covered box
+  glm::vec3 uv_scale{0.f};          // 1 / (period * texel size)
+  glm::vec3 wrap_offset{0.f};       // frac((origin - 0.5) / period)
+  glm::vec3 uv_remap_scale{0.f};    // period / size
+  glm::vec3 uv_remap_bias{0.f};     // 0.5 / size
+  float hdr_scale = 1.f;            // a texel byte v means v / 255 * hdr_scale
+};
+
+// The origin (world texel index of the first covered texel) that centres a volume with `options`
+// on `camera` (world metres; clamped to +-1e8 m, non-finite reads as 0).
+glm::ivec3 volumeOriginFor(const VolumeOptions& options, const glm::dvec3& camera);
+
+class Volume {
+ public:
+  // Precondition: size >= 3 per axis, texel sizes finite and > 0 (bugs otherwise).
+  explicit Volume(const VolumeOptions& options = {});
+
+  const VolumeOptions& options() const { return options_; }
+  glm::ivec3 size() const { return options_.size; }
+  glm::ivec3 period() const { return options_.size - 1; }
+  glm::ivec3 originFor(const glm::dvec3& camera) const { return volumeOriginFor(options_, camera); }
+  bool built() const { return built_; }
+  glm::ivec3 origin() const { return origin_; }
+
+  // Fills every texel for `origin` from `cache` (its packed texels and scale).
+  void rebuild(const glm::ivec3& origin, const ProbeCache& cache);
+  // Moves to `origin`, filling only the texels that entered (and, with blur, re-blurring their
+  // neighbours and the new faces). Rebuilds when not built, when a jump reaches a period, or
+  // when the cache was packed with another scale. Afterwards the texels equal rebuild()'s bit
+  // for bit.
+  void scrollTo(const glm::ivec3& origin, const ProbeCache& cache);
+  // Refills the texels inside sector `key`'s footprint (after it streamed in, was relit or left).
+  void refillSector(SectorKey key, const ProbeCache& cache);
+
+  // RGBA8 texels of channel c (0 = R, 1 = G, 2 = B), layout as in the header.
+  std::span<const uint32_t> texture(int channel) const { return texels_[channel]; }
+  uint32_t physicalTexel(int channel, const glm::ivec3& p) const;
+  // The texel world texel `g` maps to (precondition: g inside the covered range).
+  uint32_t worldTexel(int channel, const glm::ivec3& g) const;
+  float hdrScale() const { return scale_; }
+  VolumeShaderConstants shaderConstants() const;
+  // Texels computed so far (a counter for tests: a one-texel scroll computes one slab).
+  uint64_t texelsFilled() const { return filled_; }
+
+  // Where the volume's lookups are valid, in world texel units of the sample point p / texel
+  // size - origin: [0.5, N - 0.5] per axis (beyond, the filter would mix the far side).
+  // coverage() is 1 inside, fading linearly to 0 over `fade_texels` before that edge.
+  float coverage(const glm::dvec3& position, float fade_texels) const;
+
+ private:
+  void fillBox(const glm::ivec3& g0, const glm::ivec3& g1, const ProbeCache& cache);
+  void fillBoxSmooth(const glm::ivec3& g0, const glm::ivec3& g1, const ProbeCache& cache);
+  void blurBox(glm::ivec3 g0, glm::ivec3 g1);
+  void writeRangeBox(const glm::ivec3& g0, const glm::ivec3& g1, const ProbeCache& cache);
+  size_t physicalIndex(const glm::ivec3& s) const { return size_t(s.x) + size_t(options_.size.x) * (size_t(s.y) + size_t(options_.size.y) * s.z); }
+
+  VolumeOptions options_;
+  bool built_ = false;
+  glm::ivec3 origin_{0};
+  float scale_ = 1.f;
+  uint64_t filled_ = 0;
+  std::array<std::vector<uint32_t>, 3> texels_;  // what the shader reads
+  std::array<std::vector<uint32_t>, 3> source_;  // unblurred texels (only with blur)
+};
+
+// The talk's ambient shader on the CPU [1, slides 40-44]: the volume sampled at the normal-offset
+// position with trilinear filtering and the frac wrap, the basis weights with the down-basis wrap
+// (sh::shadingWeights), ambient = sum_b w_b colour_b. Irradiance, linear RGB. `normal` is unit.
+// Only meaningful where coverage() > 0. Thread-safe (const).
+glm::vec3 sampleVolume(const Volume& volume, const glm::dvec3& position, const glm::vec3& normal, float normal_offset_m);
+
+// The four basis colours the hardware would fetch at `position` (no normal offset): what
+// sampleVolume weighs. Exposed for tests and the query tool.
+BasisColours fetchVolume(const Volume& volume, const glm::dvec3& position);
+
+}  // namespace drtv::runtime

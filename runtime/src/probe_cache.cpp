@@ -1,0 +1,567 @@
+// probe_cache.cpp — see probe_cache.h for the references [1-3] and the layout.
+#include "drtv/runtime/probe_cache.h"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <new>
+
+#include "pack.h"
+
+namespace drtv::runtime {
+namespace {
+
+// Positions beyond this are treated as outside every sector: floor(x / 64) must fit in int32.
+constexpr double kMaxWorldM = 1e11;
+
+// 64-byte aligned float storage, so that the relight loops start on cache lines.
+struct AlignedFloats {
+  float* data = nullptr;
+  size_t size = 0;
+  AlignedFloats() = default;
+  explicit AlignedFloats(size_t n) : data(static_cast<float*>(::operator new[](n * sizeof(float), std::align_val_t(64)))), size(n) {
+    std::memset(data, 0, n * sizeof(float));
+  }
+  AlignedFloats(AlignedFloats&& o) noexcept : data(o.data), size(o.size) { o.data = nullptr; o.size = 0; }
+  AlignedFloats& operator=(AlignedFloats&& o) noexcept {
+    std::swap(data, o.data);
+    std::swap(size, o.size);
+    return *this;
+  }
+  ~AlignedFloats() {
+    if (data) ::operator delete[](data, std::align_val_t(64));
+  }
+};
+
+struct Slot {
+  bool used = false;
+  SectorKey key{};
+  int count = 0;
+  glm::dvec2 origin{0.0};
+  float z_min = 0.f, cell_h = 1.f;
+  std::array<uint8_t, kGridCells> nearest{};
+  std::vector<glm::vec3> position;  // sector-relative x, y; world z
+  std::vector<uint16_t> flags, interior;
+  std::vector<float> height;
+  std::vector<glm::vec4> sky_vis;
+  glm::vec3 lo{0.f}, hi{0.f};       // bounding box of `position`
+  // LPRT [2]
+  std::vector<LprtSource> sources;
+  std::vector<int16_t> lprt;        // [source][channel * 4 + k][probe], planes of the slot stride
+  std::vector<float> lprt_scale;    // lprt_range / 32767 per probe, padded to the stride with 0
+  bool on_bases = true;
+  std::vector<int32_t> source_ids;  // global probe id (slot * kSlotProbes + index) or -1
+  float max_colour = 0.f;
+};
+
+// The hot loops are compiled for AVX-512 and AVX2 as well as the baseline, and picked at load
+// time (GCC function multi-versioning): the relight streams 52 planes and is SIMD-bound.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__SANITIZE_ADDRESS__) && \
+    !defined(__SANITIZE_THREAD__)
+#define DRTV_HOT_CLONES __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
+#else
+#define DRTV_HOT_CLONES
+#endif
+
+// Ringing is clamped at the end of a probe's sum, and only there (DESIGN.md): negative and NaN
+// (inf - inf) become 0, and colours stop at kMaxColour. Clamped colours are >= 0, so their bit
+// patterns order like the floats: the running maximum is an integer max, which vectorises.
+// (Written as two selects so that GCC turns them into vector max/min: see relightPlanes.)
+inline float clampColour(float x) {
+  const float y = x > 0.f ? x : 0.f;
+  return y < kMaxColour ? y : kMaxColour;
+}
+
+// colour[c][b][i] = dot(L[c], T[c][b][i]) + direct[c][b] v[b][i] for i < n, clamped if `clamp`.
+// Returns the bit pattern of the largest clamped value (0 if not clamping).
+DRTV_HOT_CLONES int32_t relightPlanes(const float* in, float* out, int n, int stride, const float (&lc)[3][4],
+                                      const float (&direct)[3][4], bool clamp) {
+  int32_t lane_max[16] = {};  // one running maximum per lane: no horizontal reduction per block
+  for (int c = 0; c < 3; ++c)
+    for (int b = 0; b < 4; ++b) {
+      const float* __restrict t0 = in + ((c * 4 + b) * 4 + 0) * stride;
+      const float* __restrict t1 = t0 + stride;
+      const float* __restrict t2 = t1 + stride;
+      const float* __restrict t3 = t2 + stride;
+      const float* __restrict v = in + (kTransferPlanes + b) * stride;
+      float* __restrict o = out + (c * 4 + b) * stride;
+      const float l0 = lc[c][0], l1 = lc[c][1], l2 = lc[c][2], l3 = lc[c][3], d = direct[c][b];
+      // n is a multiple of 16 (the padding lanes hold zero inputs): no scalar epilogue.
+      if (clamp) {
+        for (int i0 = 0; i0 < n; i0 += 16)
+          for (int j = 0; j < 16; ++j) {
+            const int i = i0 + j;
+            const float y = clampColour(l0 * t0[i] + l1 * t1[i] + l2 * t2[i] + l3 * t3[i] + d * v[i]);
+            o[i] = y;
+            lane_max[j] = std::max(lane_max[j], std::bit_cast<int32_t>(y));
+          }
+      } else {
+        for (int i0 = 0; i0 < n; i0 += 16)
+          for (int i = i0; i < i0 + 16; ++i) o[i] = l0 * t0[i] + l1 * t1[i] + l2 * t2[i] + l3 * t3[i] + d * v[i];
+      }
+    }
+  return *std::max_element(lane_max, lane_max + 16);
+}
+
+DRTV_HOT_CLONES int32_t clampPlanes(float* out, int n, int stride) {
+  int32_t lane_max[16] = {};
+  for (int p = 0; p < kColourPlanes; ++p) {
+    float* __restrict o = out + p * stride;
+    for (int i0 = 0; i0 < n; i0 += 16)
+      for (int j = 0; j < 16; ++j) {
+        const float y = clampColour(o[i0 + j]);
+        o[i0 + j] = y;
+        lane_max[j] = std::max(lane_max[j], std::bit_cast<int32_t>(y));
+      }
+  }
+  return *std::max_element(lane_max, lane_max + 16);
+}
+
+// acc[k][i] += colour_k * scale[i] * q[k][i] for the 12 (channel, k) planes of one source.
+DRTV_HOT_CLONES void accumulateSource(float* acc, const int16_t* q, const float* scale, int n, int stride,
+                                      const float (&colour)[12]) {
+  for (int k = 0; k < 12; ++k) {
+    float* __restrict a = acc + k * stride;
+    const int16_t* __restrict qk = q + k * stride;
+    const float* __restrict sc = scale;
+    const float w = colour[k];
+    for (int i0 = 0; i0 < n; i0 += 16)
+      for (int i = i0; i < i0 + 16; ++i) a[i] += w * (sc[i] * float(qk[i]));
+  }
+}
+
+}  // namespace
+
+struct ProbeCache::Impl {
+  ProbeCacheOptions opt;
+  std::vector<Slot> slots;
+  AlignedFloats in;              // [slot][kInputPlanes][kSlotProbes]
+  AlignedFloats out;             // [slot][kColourPlanes][kSlotProbes]
+  std::vector<uint32_t> packed;  // [slot][kSlotProbes][3]
+  std::vector<uint8_t> is_source;
+  std::vector<glm::vec3> light_colour;  // [global probe id]
+  std::vector<int> touched;             // ids with non-zero light_colour
+  float scale = 1.f;
+  BasisColours fallback{};
+  std::array<uint32_t, 3> packed_fallback{};
+
+  // A slot's planes are packed at a stride of its probe count rounded up to 16 floats (one
+  // 64-byte line), so relighting a slot streams one contiguous block.
+  int stride(int s) const { return std::max(16, (slots[s].count + 15) & ~15); }
+  float* inPlane(int s, int p) { return in.data + size_t(s) * kInputPlanes * kSlotProbes + size_t(p) * stride(s); }
+  float* outPlane(int s, int p) { return out.data + size_t(s) * kColourPlanes * kSlotProbes + size_t(p) * stride(s); }
+  const float* outPlane(int s, int p) const {
+    return out.data + size_t(s) * kColourPlanes * kSlotProbes + size_t(p) * stride(s);
+  }
+
+  int slotOf(SectorKey key) const {
+    for (size_t s = 0; s < slots.size(); ++s)
+      if (slots[s].used && slots[s].key == key) return int(s);
+    return -1;
+  }
+
+  void resolveSources() {
+    std::fill(is_source.begin(), is_source.end(), 0);
+    for (Slot& sl : slots) {
+      if (!sl.used) continue;
+      sl.source_ids.assign(sl.sources.size(), -1);
+      for (size_t j = 0; j < sl.sources.size(); ++j) {
+        const LprtSource& src = sl.sources[j];
+        const int s2 = slotOf({sl.key.ix + src.dx, sl.key.iy + src.dy});
+        if (s2 < 0 || src.probe >= slots[s2].count) continue;
+        const int id = s2 * kSlotProbes + src.probe;
+        sl.source_ids[j] = id;
+        is_source[id] = 1;
+      }
+    }
+  }
+
+  std::vector<LightShare> distribute(std::span<const PointLight> lights) const;
+  void setLights(std::span<const PointLight> lights);
+  void relightSlot(int s, const RelightInput& in);
+};
+
+ProbeCache::ProbeCache(ProbeCacheOptions options) : impl_(std::make_unique<Impl>()) {
+  DRTV_CHECK(options.max_sectors >= 1 && options.sources_per_light >= 1);
+  Impl& m = *impl_;
+  m.opt = options;
+  const size_t n = size_t(options.max_sectors);
+  m.slots.resize(n);
+  m.in = AlignedFloats(n * kInputPlanes * kSlotProbes);
+  m.out = AlignedFloats(n * kColourPlanes * kSlotProbes);
+  m.packed.assign(n * kSlotProbes * 3, 0);
+  m.is_source.assign(n * kSlotProbes, 0);
+  m.light_colour.assign(n * kSlotProbes, glm::vec3(0.f));
+}
+ProbeCache::~ProbeCache() = default;
+ProbeCache::ProbeCache(ProbeCache&&) noexcept = default;
+ProbeCache& ProbeCache::operator=(ProbeCache&&) noexcept = default;
+
+Result<void> ProbeCache::addSector(const Sector& sector) {
+  Impl& m = *impl_;
+  const std::string where = "sector " + toString(sector.key);
+  if (m.slotOf(sector.key) >= 0) return fail(where + ": already resident");
+  const int n = int(sector.probes.size());
+  if (n > kMaxProbesPerSector) return fail(where + ": " + std::to_string(n) + " probes (max 255)");
+  for (int i = 0; i < kGridCells; ++i)
+    if (sector.grid.cells[i] != kNoProbe && sector.grid.cells[i] >= n)
+      return fail(where + ": index grid cell " + std::to_string(i) + " names probe " + std::to_string(sector.grid.cells[i]) +
+                  " of " + std::to_string(n));
+  if (!(std::isfinite(sector.grid.z_min_m) && std::isfinite(sector.grid.cell_height_m) && sector.grid.cell_height_m > 0.f))
+    return fail(where + ": index grid z range is not finite and positive");
+  const size_t sources = sector.lprt.sources.size();
+  if (sources > size_t(kMaxLprtSources) || sector.lprt.coeffs.size() != size_t(n) * sources * 12)
+    return fail(where + ": LPRT block size does not match its probes and sources");
+  for (int i = 0; i < n; ++i)
+    if (std::string e = validateProbe(sector.probes[i]); !e.empty()) return fail(where + ": probe " + std::to_string(i) + ": " + e);
+  int s = -1;
+  for (size_t k = 0; k < m.slots.size(); ++k)
+    if (!m.slots[k].used) {
+      s = int(k);
+      break;
+    }
+  if (s < 0) return fail(where + ": all " + std::to_string(m.slots.size()) + " resident sector slots are used");
+
+  Slot& sl = m.slots[s];
+  sl = Slot{};
+  sl.used = true;
+  sl.key = sector.key;
+  sl.count = n;
+  sl.origin = glm::dvec2(sector.key.ix * kSectorSizeM, sector.key.iy * kSectorSizeM);
+  sl.z_min = sector.grid.z_min_m;
+  sl.cell_h = sector.grid.cell_height_m;
+  sl.position.resize(n);
+  sl.flags.resize(n);
+  sl.interior.resize(n);
+  sl.height.resize(n);
+  sl.sky_vis.resize(n);
+  sl.lo = glm::vec3(std::numeric_limits<float>::max());
+  sl.hi = glm::vec3(std::numeric_limits<float>::lowest());
+  std::fill_n(m.inPlane(s, 0), size_t(kInputPlanes) * kSlotProbes, 0.f);
+  std::fill_n(m.outPlane(s, 0), size_t(kColourPlanes) * kSlotProbes, 0.f);
+  std::fill_n(m.packed.begin() + size_t(s) * kSlotProbes * 3, kSlotProbes * 3, 0u);
+  for (int i = 0; i < n; ++i) {
+    const ProbeData d = unpackProbe(sector.probes[i]);
+    sl.position[i] = d.position;
+    sl.flags[i] = d.flags;
+    sl.interior[i] = d.interior;
+    sl.height[i] = d.height_m;
+    sl.sky_vis[i] = d.sky_vis;
+    sl.lo = glm::min(sl.lo, d.position);
+    sl.hi = glm::max(sl.hi, d.position);
+    for (int c = 0; c < 3; ++c)
+      for (int b = 0; b < 4; ++b)
+        for (int k = 0; k < 4; ++k) m.inPlane(s, (c * 4 + b) * 4 + k)[i] = d.prt[c][b][k];
+    for (int b = 0; b < 4; ++b) m.inPlane(s, kTransferPlanes + b)[i] = d.sky_vis[b];
+  }
+  // Cells that name no probe take the sector's probe nearest to the cell centre, so that the
+  // fill never branches (sector.h allows 255 anywhere).
+  for (int z = 0; z < kGridDim; ++z)
+    for (int y = 0; y < kGridDim; ++y)
+      for (int x = 0; x < kGridDim; ++x) {
+        const int cell = IndexGrid::cellIndex(x, y, z);
+        uint8_t p = sector.grid.cells[cell];
+        if (p == kNoProbe && n > 0) {
+          const glm::vec3 c(float((x + 0.5) * kGridCellSizeM), float((y + 0.5) * kGridCellSizeM),
+                            sl.z_min + (z + 0.5f) * sl.cell_h);
+          float best = std::numeric_limits<float>::max();
+          for (int i = 0; i < n; ++i) {
+            const glm::vec3 d = sl.position[i] - c;
+            const float d2 = glm::dot(d, d);
+            if (d2 < best) best = d2, p = uint8_t(i);
+          }
+        }
+        sl.nearest[cell] = p;
+      }
+  if (sources > 0) {
+    // Transposed once to planes per source, so that a lit source is 12 streams over the probes.
+    const int stride = m.stride(s);
+    sl.sources = sector.lprt.sources;
+    sl.on_bases = sector.lprt.on_bases;
+    sl.lprt.assign(sources * 12 * size_t(stride), 0);
+    for (int i = 0; i < n; ++i)
+      for (size_t j = 0; j < sources; ++j)
+        for (int k = 0; k < 12; ++k) sl.lprt[(j * 12 + k) * stride + i] = sector.lprt.coeffs[(size_t(i) * sources + j) * 12 + k];
+    sl.lprt_scale.assign(stride, 0.f);
+    for (int i = 0; i < n; ++i) sl.lprt_scale[i] = sector.probes[i].lprt_range / kSnorm16Max;
+  }
+  m.resolveSources();
+  return {};
+}
+
+bool ProbeCache::removeSector(SectorKey key) {
+  Impl& m = *impl_;
+  const int s = m.slotOf(key);
+  if (s < 0) return false;
+  m.slots[s] = Slot{};
+  // Light shares on the removed probes are stale: clear them (the next relight recomputes).
+  for (int id : m.touched) m.light_colour[id] = glm::vec3(0.f);
+  m.touched.clear();
+  m.resolveSources();
+  return true;
+}
+
+int ProbeCache::slotOf(SectorKey key) const { return impl_->slotOf(key); }
+int ProbeCache::maxSectors() const { return int(impl_->slots.size()); }
+int ProbeCache::sectorCount() const {
+  return int(std::count_if(impl_->slots.begin(), impl_->slots.end(), [](const Slot& s) { return s.used; }));
+}
+int ProbeCache::probeCount() const {
+  int n = 0;
+  for (const Slot& s : impl_->slots) n += s.used ? s.count : 0;
+  return n;
+}
+std::vector<SectorKey> ProbeCache::keys() const {
+  std::vector<SectorKey> k;
+  for (const Slot& s : impl_->slots)
+    if (s.used) k.push_back(s.key);
+  return k;
+}
+
+std::vector<LightShare> ProbeCache::Impl::distribute(std::span<const PointLight> lights) const {
+  std::vector<LightShare> shares;
+  const int k_max = opt.sources_per_light;
+  struct Candidate {
+    double d2;
+    ProbeRef p;
+  };
+  std::vector<Candidate> best;
+  for (const PointLight& light : lights) {
+    const double r = light.radius_m, r2 = r * r;
+    best.clear();
+    for (size_t s = 0; s < slots.size(); ++s) {
+      const Slot& sl = slots[s];
+      if (!sl.used || sl.count == 0) continue;
+      // Skip sectors whose probes' bounding box is out of reach.
+      const glm::dvec3 lo(sl.origin.x + sl.lo.x, sl.origin.y + sl.lo.y, sl.lo.z);
+      const glm::dvec3 hi(sl.origin.x + sl.hi.x, sl.origin.y + sl.hi.y, sl.hi.z);
+      const glm::dvec3 gap = glm::max(glm::dvec3(0.0), glm::max(lo - light.position, light.position - hi));
+      if (glm::dot(gap, gap) >= r2) continue;
+      for (int i = 0; i < sl.count; ++i) {
+        if (!is_source[s * kSlotProbes + i]) continue;
+        const glm::dvec3 w(sl.origin.x + sl.position[i].x, sl.origin.y + sl.position[i].y, sl.position[i].z);
+        const glm::dvec3 d = w - light.position;
+        const double d2 = glm::dot(d, d);
+        if (!(d2 < r2)) continue;
+        // Keep the k_max nearest, sorted; ties keep the earlier (slot, index): deterministic.
+        if (int(best.size()) == k_max && d2 >= best.back().d2) continue;
+        if (int(best.size()) == k_max) best.pop_back();
+        auto at = std::upper_bound(best.begin(), best.end(), d2, [](double v, const Candidate& c) { return v < c.d2; });
+        best.insert(at, Candidate{d2, ProbeRef{int(s), i}});
+      }
+    }
+    double sum = 0.0;
+    std::array<double, 64> w{};
+    for (size_t i = 0; i < best.size() && i < w.size(); ++i) {
+      const double t = 1.0 - best[i].d2 / r2;
+      w[i] = t * t;
+      sum += w[i];
+    }
+    if (!(sum > 0.0)) continue;
+    for (size_t i = 0; i < best.size() && i < w.size(); ++i)
+      shares.push_back({best[i].p, light.intensity * float(w[i] / sum)});
+  }
+  return shares;
+}
+
+std::vector<LightShare> ProbeCache::distributeLights(std::span<const PointLight> lights) const {
+  return impl_->distribute(lights);
+}
+
+void ProbeCache::Impl::setLights(std::span<const PointLight> lights) {
+  for (int id : touched) light_colour[id] = glm::vec3(0.f);
+  touched.clear();
+  for (const LightShare& sh : distribute(lights)) {
+    const int id = sh.probe.slot * kSlotProbes + sh.probe.index;
+    if (light_colour[id] == glm::vec3(0.f)) touched.push_back(id);
+    light_colour[id] += sh.colour;
+  }
+}
+
+void ProbeCache::Impl::relightSlot(int s, const RelightInput& li) {
+  Slot& sl = slots[s];
+  const int n = sl.count;
+  // Per-relight constants: the bounce lighting L = sky + sun, and the direct-sky colour of each
+  // basis before masking, dot(cosineLobe(B_b), SkySH).
+  float lc[3][4], direct[3][4];
+  for (int c = 0; c < 3; ++c) {
+    const sh::Sh4 bounce = (li.components & kComponentSkyBounce ? li.sky_sh[c] : sh::Sh4(0.f)) +
+                           (li.components & kComponentSunBounce ? li.sun_sh[c] : sh::Sh4(0.f));
+    for (int k = 0; k < 4; ++k) lc[c][k] = bounce[k];
+    for (int b = 0; b < 4; ++b)
+      direct[c][b] = li.components & kComponentDirectSky ? glm::dot(sh::cosineLobe(sh::kBasis[b]), li.sky_sh[c]) : 0.f;
+  }
+  // Local lights: only sources that received light cost anything.
+  struct Active {
+    size_t j;
+    glm::vec3 colour;
+  };
+  std::vector<Active> active;
+  if ((li.components & kComponentLocalLights) && !touched.empty())
+    for (size_t j = 0; j < sl.sources.size(); ++j) {
+      const int id = sl.source_ids[j];
+      if (id >= 0 && light_colour[id] != glm::vec3(0.f)) active.push_back({j, light_colour[id]});
+    }
+  const bool lprt = !active.empty();
+  const int stride = this->stride(s);
+  const int n16 = (n + 15) & ~15;
+  // Without local lights the clamp happens in the same pass; with them, after the LPRT sums.
+  int32_t max_bits = relightPlanes(inPlane(s, 0), outPlane(s, 0), n16, stride, lc, direct, !lprt);
+  if (lprt) {
+    // On bases the sums land in the colour planes directly; in SH they are summed apart and then
+    // turned into basis irradiance with the clamped-cosine lobes.
+    thread_local std::vector<float> scratch;
+    float* acc = outPlane(s, 0);
+    if (!sl.on_bases) {
+      scratch.assign(size_t(12) * stride, 0.f);
+      acc = scratch.data();
+    }
+    for (const Active& a : active) {
+      float colour[12];
+      for (int c = 0; c < 3; ++c)
+        for (int k = 0; k < 4; ++k) colour[c * 4 + k] = a.colour[c];
+      accumulateSource(acc, sl.lprt.data() + a.j * 12 * stride, sl.lprt_scale.data(), n16, stride, colour);
+    }
+    if (!sl.on_bases)
+      for (int c = 0; c < 3; ++c)
+        for (int b = 0; b < 4; ++b) {
+          const sh::Sh4 lobe = sh::cosineLobe(sh::kBasis[b]);
+          float* o = outPlane(s, c * 4 + b);
+          for (int i = 0; i < n; ++i) {
+            const float* q = acc + c * 4 * stride + i;
+            o[i] += lobe[0] * q[0] + lobe[1] * q[stride] + lobe[2] * q[2 * stride] + lobe[3] * q[3 * stride];
+          }
+        }
+  }
+  if (lprt) max_bits = clampPlanes(outPlane(s, 0), n16, stride);
+  const float mx = std::bit_cast<float>(max_bits);
+  sl.max_colour = mx;
+}
+
+void ProbeCache::relightAll(const RelightInput& in) {
+  Impl& m = *impl_;
+  m.setLights(in.components & kComponentLocalLights ? in.lights : std::span<const PointLight>{});
+  for (size_t s = 0; s < m.slots.size(); ++s)
+    if (m.slots[s].used) m.relightSlot(int(s), in);
+}
+
+void ProbeCache::relightSector(SectorKey key, const RelightInput& in) {
+  Impl& m = *impl_;
+  const int s = m.slotOf(key);
+  DRTV_CHECK(s >= 0);
+  m.setLights(in.components & kComponentLocalLights ? in.lights : std::span<const PointLight>{});
+  m.relightSlot(s, in);
+}
+
+float ProbeCache::maxColour(int slot) const {
+  DRTV_CHECK(slot >= 0 && slot < int(impl_->slots.size()));
+  return impl_->slots[slot].used ? impl_->slots[slot].max_colour : 0.f;
+}
+float ProbeCache::maxColour() const {
+  float mx = 0.f;
+  for (const Slot& s : impl_->slots)
+    if (s.used) mx = std::max(mx, s.max_colour);
+  return mx;
+}
+
+void ProbeCache::packSlot(int s) {
+  Impl& m = *impl_;
+  const Slot& sl = m.slots[s];
+  const float inv = 1.f / m.scale;
+  uint32_t* out = m.packed.data() + size_t(s) * kSlotProbes * 3;
+  for (int i = 0; i < sl.count; ++i)
+    for (int c = 0; c < 3; ++c)
+      out[i * 3 + c] = detail::packTexel(m.outPlane(s, c * 4 + 0)[i], m.outPlane(s, c * 4 + 1)[i], m.outPlane(s, c * 4 + 2)[i],
+                                 m.outPlane(s, c * 4 + 3)[i], inv);
+}
+
+void ProbeCache::pack(float hdr_scale) {
+  DRTV_CHECK(hdr_scale > 0.f && std::isfinite(hdr_scale));
+  Impl& m = *impl_;
+  m.scale = hdr_scale;
+  const float inv = 1.f / hdr_scale;
+  for (int c = 0; c < 3; ++c)
+    m.packed_fallback[c] = detail::packTexel(m.fallback[0][c], m.fallback[1][c], m.fallback[2][c], m.fallback[3][c], inv);
+  for (size_t s = 0; s < m.slots.size(); ++s)
+    if (m.slots[s].used) packSlot(int(s));
+}
+
+float ProbeCache::packedScale() const { return impl_->scale; }
+void ProbeCache::setFallback(const BasisColours& colours) {
+  for (int b = 0; b < 4; ++b)
+    for (int c = 0; c < 3; ++c) {
+      const float x = colours[b][c];
+      impl_->fallback[b][c] = x > 0.f ? std::min(x, kMaxColour) : 0.f;
+    }
+}
+const BasisColours& ProbeCache::fallback() const { return impl_->fallback; }
+const std::array<uint32_t, 3>& ProbeCache::packedFallback() const { return impl_->packed_fallback; }
+
+bool ProbeCache::slotUsed(int s) const { return s >= 0 && s < int(impl_->slots.size()) && impl_->slots[s].used; }
+
+ProbeCache::SlotView ProbeCache::slot(int s) const {
+  DRTV_CHECK(slotUsed(s));
+  const Slot& sl = impl_->slots[s];
+  SlotView v;
+  v.key = sl.key;
+  v.probe_count = sl.count;
+  v.origin_m = sl.origin;
+  v.grid_z_min_m = sl.z_min;
+  v.grid_cell_height_m = sl.cell_h;
+  v.nearest = sl.nearest.data();
+  v.colour = impl_->outPlane(s, 0);
+  v.colour_stride = impl_->stride(s);
+  v.packed = impl_->packed.data() + size_t(s) * kSlotProbes * 3;
+  return v;
+}
+
+BasisColours ProbeCache::colours(ProbeRef p) const {
+  DRTV_CHECK(slotUsed(p.slot) && p.index >= 0 && p.index < impl_->slots[p.slot].count);
+  BasisColours out;
+  for (int b = 0; b < 4; ++b)
+    for (int c = 0; c < 3; ++c) out[b][c] = impl_->outPlane(p.slot, c * 4 + b)[p.index];
+  return out;
+}
+
+glm::dvec3 ProbeCache::worldPosition(ProbeRef p) const {
+  DRTV_CHECK(slotUsed(p.slot) && p.index >= 0 && p.index < impl_->slots[p.slot].count);
+  const Slot& sl = impl_->slots[p.slot];
+  const glm::vec3& q = sl.position[p.index];
+  return {sl.origin.x + q.x, sl.origin.y + q.y, q.z};
+}
+uint16_t ProbeCache::flags(ProbeRef p) const { return impl_->slots.at(p.slot).flags.at(p.index); }
+uint16_t ProbeCache::interior(ProbeRef p) const { return impl_->slots.at(p.slot).interior.at(p.index); }
+float ProbeCache::heightAboveGround(ProbeRef p) const { return impl_->slots.at(p.slot).height.at(p.index); }
+glm::vec4 ProbeCache::skyVisibility(ProbeRef p) const { return impl_->slots.at(p.slot).sky_vis.at(p.index); }
+
+ProbeRef ProbeCache::probeAt(const glm::dvec3& pos) const {
+  if (!(std::fabs(pos.x) < kMaxWorldM && std::fabs(pos.y) < kMaxWorldM && std::isfinite(pos.z))) return {};
+  const int s = slotOf(sectorAt(pos.x, pos.y));
+  if (s < 0) return {};
+  const Slot& sl = impl_->slots[s];
+  if (sl.count == 0) return {};
+  auto cell = [](double v) { return int(std::clamp(std::floor(v), 0.0, double(kGridDim - 1))); };
+  const int x = cell((pos.x - sl.origin.x) / kGridCellSizeM);
+  const int y = cell((pos.y - sl.origin.y) / kGridCellSizeM);
+  const int z = cell((pos.z - sl.z_min) / sl.cell_h);
+  return {s, sl.nearest[IndexGrid::cellIndex(x, y, z)]};
+}
+
+ProbeRef ProbeCache::nearestProbe(const glm::dvec3& pos) const {
+  ProbeRef best;
+  double best_d2 = std::numeric_limits<double>::infinity();
+  for (size_t s = 0; s < impl_->slots.size(); ++s) {
+    const Slot& sl = impl_->slots[s];
+    if (!sl.used) continue;
+    for (int i = 0; i < sl.count; ++i) {
+      const glm::dvec3 d = worldPosition({int(s), i}) - pos;
+      const double d2 = glm::dot(d, d);
+      if (d2 < best_d2) best_d2 = d2, best = {int(s), i};
+    }
+  }
+  return best;
+}
+
+}  // namespace drtv::runtime

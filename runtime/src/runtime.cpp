@@ -1,0 +1,181 @@
+// runtime.cpp — see runtime.h for the reference [1] and what is recomputed when.
+#include "drtv/runtime/runtime.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace drtv::runtime {
+namespace {
+// The HDR scale never drops below this, so that an all-black world packs without dividing by 0.
+constexpr float kMinHdrScale = 1e-6f;
+
+glm::vec3 sanitizeNormal(const glm::vec3& n) {
+  const glm::dvec3 d(n);
+  const double len = std::sqrt(glm::dot(d, d));
+  if (!(len > 1e-30) || !std::isfinite(len)) {
+    // A huge finite normal overflows the squared length: rescale by the largest component first.
+    const double m = std::max({std::fabs(d.x), std::fabs(d.y), std::fabs(d.z)});
+    if (!(m > 0.0) || !std::isfinite(m)) return {0.f, 0.f, 1.f};
+    return glm::vec3(glm::normalize(d / m));
+  }
+  return glm::vec3(d / len);
+}
+}  // namespace
+
+uint32_t componentsFromEffects(uint32_t effects) {
+  uint32_t c = 0;
+  if (effects & kEffectSunBounce) c |= kComponentSunBounce;
+  if (effects & kEffectSkyBounce) c |= kComponentSkyBounce;
+  if (effects & kEffectDirectSky) c |= kComponentDirectSky;
+  if (effects & kEffectLocalLights) c |= kComponentLocalLights;
+  return c;
+}
+
+Runtime::Runtime(RuntimeOptions options)
+    : options_(options), cache_(options.cache), volume_(options.volume) {
+  current_ = applied_ = evaluateSky(sky_, hour_, options_.sun_band1_window);
+}
+
+Result<void> Runtime::setLighting(const Sky& sky, std::vector<PointLight> lights, std::vector<InteriorVolume> interiors) {
+  if (std::string e = validateLighting(sky, lights, interiors); !e.empty()) return fail("lighting: " + e);
+  sky_ = sky;
+  lights_ = std::move(lights);
+  interiors_ = std::move(interiors);
+  lights_changed_ = true;  // also forces a relight for a changed sun path or ground scale
+  current_ = evaluateSky(sky_, hour_, options_.sun_band1_window);
+  resolveInteriors();
+  return {};
+}
+
+Result<void> Runtime::setTime(double hour) {
+  if (!std::isfinite(hour)) return fail("time of day: " + std::to_string(hour) + " h is not a finite number");
+  hour_ = hour;
+  current_ = evaluateSky(sky_, hour_, options_.sun_band1_window);
+  return {};
+}
+
+Result<void> Runtime::setLights(std::vector<PointLight> lights) {
+  if (std::string e = validateLighting(sky_, lights, {}); !e.empty()) return fail("lighting: " + e);
+  lights_ = std::move(lights);
+  lights_changed_ = true;
+  return {};
+}
+
+RelightInput Runtime::relightInput() const { return {applied_.sky_sh, applied_.sun_sh, lights_, options_.components}; }
+
+void Runtime::rescale() {
+  BasisColours fallback{};
+  if (options_.components & kComponentDirectSky)
+    for (int b = 0; b < 4; ++b)
+      for (int c = 0; c < 3; ++c)
+        fallback[b][c] = std::max(0.f, glm::dot(sh::cosineLobe(sh::kBasis[b]), applied_.sky_sh[c]));
+  cache_.setFallback(fallback);
+  float mx = cache_.maxColour();
+  for (const glm::vec3& f : cache_.fallback()) mx = std::max({mx, f.r, f.g, f.b});
+  cache_.pack(std::max(kMinHdrScale, std::min(mx * options_.hdr_headroom, kMaxColour)));
+  volume_.invalidateAll();
+}
+
+Result<void> Runtime::addSector(const Sector& sector) {
+  if (auto r = cache_.addSector(sector); !r) return r;
+  if (options_.effects & kEffectDistantOcclusion) occlusion_.add(makeOcclusionTile(sector));
+  resolveInteriors();
+  if (!relit_once_) return {};  // the first update() relights everything
+  cache_.relightSector(sector.key, relightInput());
+  const int slot = cache_.slotOf(sector.key);
+  if (cache_.maxColour(slot) > cache_.packedScale()) {
+    rescale();
+  } else {
+    cache_.packSlot(slot);
+    volume_.invalidateSector(sector.key);
+  }
+  return {};
+}
+
+bool Runtime::removeSector(SectorKey key) {
+  if (!cache_.removeSector(key)) return false;
+  occlusion_.remove(key);
+  resolveInteriors();
+  volume_.invalidateSector(key);
+  return true;
+}
+
+void Runtime::resolveInteriors() {
+  interior_probes_.assign(interiors_.size(), ProbeRef{});
+  for (size_t k = 0; k < interiors_.size(); ++k) {
+    const InteriorVolume& v = interiors_[k];
+    double best = std::numeric_limits<double>::infinity();
+    // The designated probe is flagged kProbeInterior and belongs to interior k (probe.h).
+    for (int s = 0; s < cache_.maxSectors(); ++s) {
+      if (!cache_.slotUsed(s)) continue;
+      for (int i = 0; i < cache_.slot(s).probe_count; ++i) {
+        const ProbeRef p{s, i};
+        if (!(cache_.flags(p) & kProbeInterior) || cache_.interior(p) != k + 1) continue;
+        const glm::dvec3 d = cache_.worldPosition(p) - v.probe_position;
+        if (glm::dot(d, d) < best) best = glm::dot(d, d), interior_probes_[k] = p;
+      }
+    }
+    if (interior_probes_[k].valid()) continue;
+    // Without a flagged probe: the resident probe nearest the artist's position, if in the box.
+    const ProbeRef p = cache_.nearestProbe(v.probe_position);
+    if (!p.valid()) continue;
+    const glm::dvec3 w = cache_.worldPosition(p);
+    if (glm::all(glm::greaterThanEqual(w, v.min)) && glm::all(glm::lessThanEqual(w, v.max))) interior_probes_[k] = p;
+  }
+}
+
+void Runtime::update(const glm::dvec3& camera) {
+  if (!relit_once_ || lights_changed_ || lightingChange(applied_, current_) > options_.relight_threshold) {
+    applied_ = current_;
+    cache_.relightAll(relightInput());
+    rescale();
+    relit_once_ = true;
+    lights_changed_ = false;
+    ++relights_;
+  }
+  volume_.update(volumeOriginFor(options_.volume, camera), cache_);
+}
+
+AmbientSample Runtime::ambient(const glm::dvec3& position, const glm::vec3& normal) const {
+  const glm::vec3 n = sanitizeNormal(normal);
+  AmbientSample s;
+  static const OcclusionMap kOpenSky;
+  const sh::Sh4Rgb sky = options_.components & kComponentDirectSky ? applied_.sky_sh : sh::Sh4Rgb{};
+  s.distant = distantAmbient(options_.effects & kEffectDistantOcclusion ? occlusion_ : kOpenSky, sky, position, n);
+  {
+    const PublishedVolume::ReadView view = volume_.read();
+    const glm::dvec3 sample = position + glm::dvec3(n) * double(options_.normal_offset_m);
+    s.volume_weight = view->coverage(sample, options_.edge_fade_texels);
+    if (s.volume_weight > 0.f) s.volume = sampleVolume(view.volume(), position, n, options_.normal_offset_m);
+  }
+  s.irradiance = s.distant + (s.volume - s.distant) * s.volume_weight;
+  if (options_.effects & kEffectInteriors) {
+    for (size_t k = 0; k < interiors_.size(); ++k) {
+      if (!interior_probes_[k].valid()) continue;
+      const InteriorVolume& v = interiors_[k];
+      const glm::dvec3 lo = position - v.min, hi = v.max - position;
+      const double depth = std::min({lo.x, lo.y, lo.z, hi.x, hi.y, hi.z});
+      if (!(depth >= 0.0)) continue;
+      const float t = v.blend_distance_m > 0.f ? float(std::min(1.0, depth / v.blend_distance_m)) : 1.f;
+      if (t <= s.interior_weight && s.interior >= 0) continue;
+      s.interior = int(k);
+      s.interior_weight = t;
+    }
+    if (s.interior >= 0) {
+      const BasisColours c = cache_.colours(interior_probes_[s.interior]);
+      const glm::vec4 w = sh::shadingWeights(n);
+      s.interior_ambient = w.x * c[0] + w.y * c[1] + w.z * c[2] + w.w * c[3];
+      s.irradiance += (s.interior_ambient - s.irradiance) * s.interior_weight;
+    }
+  }
+  return s;
+}
+
+std::optional<BasisColours> Runtime::nearestProbeColours(const glm::dvec3& position) const {
+  const ProbeRef p = cache_.probeAt(position);
+  if (!p.valid()) return std::nullopt;
+  return cache_.colours(p);
+}
+
+}  // namespace drtv::runtime

@@ -1,0 +1,431 @@
+// volume.cpp — see volume.h for the references [1-2], the layout and the defaults.
+#include "drtv/runtime/volume.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "drtv/formats/error.h"
+#include "pack.h"
+
+namespace drtv::runtime {
+namespace {
+
+// Cameras are clamped to +-1e8 m so that world texel indices fit in int32 for texels >= 0.05 m.
+constexpr double kMaxCameraM = 1e8;
+
+inline int floorMod(int a, int n) {
+  const int r = a % n;
+  return r < 0 ? r + n : r;
+}
+inline int floorDiv(int a, int n) { return (a - floorMod(a, n)) / n; }
+inline int cellOf(double v) { return int(std::clamp(std::floor(v), 0.0, double(kGridDim - 1))); }
+
+// Sector slots of a rectangle of sector keys, looked up once per fill.
+struct SlotTable {
+  int ix0 = 0, iy0 = 0, w = 0, h = 0;
+  std::vector<ProbeCache::SlotView> views;
+  std::vector<uint8_t> present;
+  SlotTable(const ProbeCache& cache, int ix0_, int ix1, int iy0_, int iy1) : ix0(ix0_), iy0(iy0_), w(ix1 - ix0_ + 1), h(iy1 - iy0_ + 1) {
+    views.resize(size_t(w) * h);
+    present.assign(size_t(w) * h, 0);
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        const int s = cache.slotOf({ix0 + x, iy0 + y});
+        if (s < 0) continue;
+        views[size_t(y) * w + x] = cache.slot(s);
+        present[size_t(y) * w + x] = views[size_t(y) * w + x].probe_count > 0;
+      }
+  }
+  const ProbeCache::SlotView* at(int ix, int iy) const {
+    const size_t i = size_t(iy - iy0) * w + (ix - ix0);
+    return present[i] ? &views[i] : nullptr;
+  }
+};
+
+// 4 bytes <-> 4 16-bit lanes of a uint64 (the blur sums up to 64 * 255 per lane: no carries).
+inline uint64_t expand(uint32_t v) {
+  return uint64_t(v & 0xff) | uint64_t(v & 0xff00) << 8 | uint64_t(v & 0xff0000) << 16 | uint64_t(v & 0xff000000) << 24;
+}
+inline uint32_t compress(uint64_t v) {
+  return uint32_t(v & 0xff) | uint32_t((v >> 8) & 0xff00) | uint32_t((v >> 16) & 0xff0000) | uint32_t((v >> 24) & 0xff000000);
+}
+
+}  // namespace
+
+Volume::Volume(const VolumeOptions& options) : options_(options) {
+  DRTV_CHECK(options.size.x >= 3 && options.size.y >= 3 && options.size.z >= 3);
+  for (int a = 0; a < 3; ++a) DRTV_CHECK(std::isfinite(options.texel_size_m[a]) && options.texel_size_m[a] > 0.f);
+  const size_t n = size_t(options.size.x) * options.size.y * options.size.z;
+  for (auto& t : texels_) t.assign(n, 0);
+  if (options.blur)
+    for (auto& t : source_) t.assign(n, 0);
+}
+
+glm::ivec3 volumeOriginFor(const VolumeOptions& options, const glm::dvec3& camera) {
+  glm::ivec3 o;
+  for (int a = 0; a < 3; ++a) {
+    const double c = std::isfinite(camera[a]) ? std::clamp(camera[a], -kMaxCameraM, kMaxCameraM) : 0.0;
+    o[a] = int(std::floor(c / options.texel_size_m[a])) - (options.size[a] - 1) / 2;
+  }
+  return o;
+}
+
+uint32_t Volume::physicalTexel(int channel, const glm::ivec3& p) const { return texels_.at(channel).at(physicalIndex(p)); }
+
+uint32_t Volume::worldTexel(int channel, const glm::ivec3& g) const {
+  const glm::ivec3 n = period();
+  for (int a = 0; a < 3; ++a) DRTV_CHECK(g[a] >= origin_[a] && g[a] < origin_[a] + n[a]);
+  return texels_[channel][physicalIndex({floorMod(g.x, n.x), floorMod(g.y, n.y), floorMod(g.z, n.z)})];
+}
+
+void Volume::fillBox(const glm::ivec3& g0, const glm::ivec3& g1, const ProbeCache& cache) {
+  const glm::ivec3 n = period();
+  const glm::ivec3 d = g1 - g0;
+  if (d.x <= 0 || d.y <= 0 || d.z <= 0) return;
+  auto& dst = options_.blur ? source_ : texels_;
+  struct Axis {
+    int sector, cell, s;
+  };
+  // Per column and row: the sector, the index-grid cell and the storage index of each texel.
+  auto axis = [&](int a, int count) {
+    std::vector<Axis> v(count);
+    for (int i = 0; i < count; ++i) {
+      const int g = g0[a] + i;
+      const double c = (g + 0.5) * double(options_.texel_size_m[a]);
+      const int sec = int(std::floor(c / kSectorSizeM));
+      v[i] = {sec, cellOf((c - sec * kSectorSizeM) / kGridCellSizeM), floorMod(g, n[a])};
+    }
+    return v;
+  };
+  const std::vector<Axis> xs = axis(0, d.x), ys = axis(1, d.y);
+  const SlotTable table(cache, xs.front().sector, xs.back().sector, ys.front().sector, ys.back().sector);
+  const std::array<uint32_t, 3> fb = cache.packedFallback();
+  const bool has_x0 = std::any_of(xs.begin(), xs.end(), [](const Axis& a) { return a.s == 0; });
+  // Each sector's grid row base per layer, computed once per box (a thin slab has many rows of
+  // one texel: per-row float work would dominate).
+  const int table_size = table.w * table.h;
+  std::vector<int> cz(size_t(d.z) * table_size, 0);
+  for (int z = 0; z < d.z; ++z) {
+    const double zc = (g0.z + z + 0.5) * double(options_.texel_size_m.z);
+    for (int t = 0; t < table_size; ++t)
+      if (table.present[t])
+        cz[size_t(z) * table_size + t] = cellOf((zc - table.views[t].grid_z_min_m) / table.views[t].grid_cell_height_m);
+  }
+  for (int z = g0.z; z < g1.z; ++z) {
+    const int sz = floorMod(z, n.z);
+    const int* cz_row = cz.data() + size_t(z - g0.z) * table_size;
+    for (const Axis& ya : ys) {
+      uint32_t* row[3];
+      for (int c = 0; c < 3; ++c) row[c] = dst[c].data() + physicalIndex({0, ya.s, sz});
+      for (int i = 0; i < d.x;) {
+        const int sec = xs[i].sector;
+        int j = i;
+        while (j < d.x && xs[j].sector == sec) ++j;
+        const int t = (ya.sector - table.iy0) * table.w + (sec - table.ix0);
+        if (!table.present[t]) {
+          for (int k = i; k < j; ++k)
+            for (int c = 0; c < 3; ++c) row[c][xs[k].s] = fb[c];
+        } else {
+          const ProbeCache::SlotView& v = table.views[t];
+          const uint8_t* cells = v.nearest + (cz_row[t] * kGridDim + ya.cell) * kGridDim;
+          const uint32_t* packed = v.packed;
+          uint32_t* __restrict r0 = row[0];
+          uint32_t* __restrict r1 = row[1];
+          uint32_t* __restrict r2 = row[2];
+          for (int k = i; k < j; ++k) {
+            const uint32_t* tx = packed + 3 * cells[xs[k].cell];
+            const int sx = xs[k].s;
+            r0[sx] = tx[0];
+            r1[sx] = tx[1];
+            r2[sx] = tx[2];
+          }
+        }
+        i = j;
+      }
+      // The duplicated boundary: physical index n mirrors storage index 0 on each axis.
+      for (int c = 0; c < 3; ++c) {
+        if (has_x0) row[c][n.x] = row[c][0];
+        auto mirror = [&](uint32_t* to) {
+          for (const Axis& xa : xs) to[xa.s] = row[c][xa.s];
+          if (has_x0) to[n.x] = row[c][n.x];
+        };
+        if (ya.s == 0) mirror(dst[c].data() + physicalIndex({0, n.y, sz}));
+        if (sz == 0) mirror(dst[c].data() + physicalIndex({0, ya.s, n.z}));
+        if (ya.s == 0 && sz == 0) mirror(dst[c].data() + physicalIndex({0, n.y, n.z}));
+      }
+    }
+  }
+  filled_ += uint64_t(d.x) * d.y * d.z;
+}
+
+void Volume::fillBoxSmooth(const glm::ivec3& g0, const glm::ivec3& g1, const ProbeCache& cache) {
+  const glm::ivec3 n = period();
+  const glm::ivec3 d = g1 - g0;
+  if (d.x <= 0 || d.y <= 0 || d.z <= 0) return;
+  auto& dst = options_.blur ? source_ : texels_;
+  // Trilinear weights over index-grid cell centres; the two cells of an axis may lie in two
+  // sectors (cells are global: sector = floor(cell / 16)).
+  struct Axis {
+    int sector[2], cell[2];
+    float f;
+    int s;
+  };
+  auto axis = [&](int a, int count) {
+    std::vector<Axis> v(count);
+    for (int i = 0; i < count; ++i) {
+      const int g = g0[a] + i;
+      const double u = (g + 0.5) * double(options_.texel_size_m[a]) / kGridCellSizeM - 0.5;
+      const double c0 = std::floor(u);
+      v[i].f = float(u - c0);
+      for (int k = 0; k < 2; ++k) {
+        const int c = int(c0) + k;
+        v[i].sector[k] = floorDiv(c, kGridDim);
+        v[i].cell[k] = c - v[i].sector[k] * kGridDim;
+      }
+      v[i].s = floorMod(g, n[a]);
+    }
+    return v;
+  };
+  const std::vector<Axis> xs = axis(0, d.x), ys = axis(1, d.y);
+  const SlotTable table(cache, xs.front().sector[0], xs.back().sector[1], ys.front().sector[0], ys.back().sector[1]);
+  const BasisColours& fb = cache.fallback();
+  const float inv = 1.f / cache.packedScale();
+  for (int z = g0.z; z < g1.z; ++z) {
+    const int sz = floorMod(z, n.z);
+    const double zc = (z + 0.5) * double(options_.texel_size_m.z);
+    for (const Axis& ya : ys)
+      for (const Axis& xa : xs) {
+        float acc[12] = {};
+        for (int ky = 0; ky < 2; ++ky)
+          for (int kx = 0; kx < 2; ++kx) {
+            const float wxy = (kx ? xa.f : 1.f - xa.f) * (ky ? ya.f : 1.f - ya.f);
+            if (wxy == 0.f) continue;
+            const ProbeCache::SlotView* v = table.at(xa.sector[kx], ya.sector[ky]);
+            if (!v) {
+              for (int c = 0; c < 3; ++c)
+                for (int b = 0; b < 4; ++b) acc[c * 4 + b] += wxy * fb[b][c];
+              continue;
+            }
+            const double w = (zc - v->grid_z_min_m) / v->grid_cell_height_m - 0.5;
+            const double z0 = std::floor(std::clamp(w, -1.0, double(kGridDim)));
+            const float fz = float(std::clamp(w - z0, 0.0, 1.0));
+            for (int kz = 0; kz < 2; ++kz) {
+              const float wt = wxy * (kz ? fz : 1.f - fz);
+              if (wt == 0.f) continue;
+              const int cz = std::clamp(int(z0) + kz, 0, kGridDim - 1);
+              const int probe = v->nearest[IndexGrid::cellIndex(xa.cell[kx], ya.cell[ky], cz)];
+              for (int k = 0; k < kColourPlanes; ++k) acc[k] += wt * v->colour[k * v->colour_stride + probe];
+            }
+          }
+        for (int c = 0; c < 3; ++c) {
+          const uint32_t t = detail::packTexel(acc[c * 4 + 0], acc[c * 4 + 1], acc[c * 4 + 2], acc[c * 4 + 3], inv);
+          for (int dz = 0; dz < (sz == 0 ? 2 : 1); ++dz)
+            for (int dy = 0; dy < (ya.s == 0 ? 2 : 1); ++dy)
+              for (int dx = 0; dx < (xa.s == 0 ? 2 : 1); ++dx)
+                dst[c][physicalIndex({dx ? n.x : xa.s, dy ? n.y : ya.s, dz ? n.z : sz})] = t;
+        }
+      }
+  }
+  filled_ += uint64_t(d.x) * d.y * d.z;
+}
+
+void Volume::blurBox(glm::ivec3 g0, glm::ivec3 g1) {
+  const glm::ivec3 n = period();
+  g0 = glm::max(g0, origin_);
+  g1 = glm::min(g1, origin_ + n);
+  const glm::ivec3 b = g1 - g0;
+  if (b.x <= 0 || b.y <= 0 || b.z <= 0) return;
+  // The apron: one texel around the box, inside the covered range. Clamping a neighbour index
+  // into the apron is the same as clamping it into the range (see volume.h: edges repeat).
+  const glm::ivec3 a0 = glm::max(g0 - 1, origin_), a1 = glm::min(g1 + 1, origin_ + n);
+  const glm::ivec3 a = a1 - a0;
+  std::vector<uint64_t> src(size_t(a.x) * a.y * a.z), bx(size_t(b.x) * a.y * a.z), by(size_t(b.x) * b.y * a.z);
+  for (int c = 0; c < 3; ++c) {
+    for (int z = 0; z < a.z; ++z)
+      for (int y = 0; y < a.y; ++y)
+        for (int x = 0; x < a.x; ++x)
+          src[(size_t(z) * a.y + y) * a.x + x] = expand(source_[c][physicalIndex(
+              {floorMod(a0.x + x, n.x), floorMod(a0.y + y, n.y), floorMod(a0.z + z, n.z)})]);
+    for (int z = 0; z < a.z; ++z)
+      for (int y = 0; y < a.y; ++y)
+        for (int x = 0; x < b.x; ++x) {
+          const int gx = g0.x + x - a0.x;
+          const uint64_t* r = &src[(size_t(z) * a.y + y) * a.x];
+          bx[(size_t(z) * a.y + y) * b.x + x] = r[std::max(gx - 1, 0)] + 2 * r[gx] + r[std::min(gx + 1, a.x - 1)];
+        }
+    for (int z = 0; z < a.z; ++z)
+      for (int y = 0; y < b.y; ++y) {
+        const int gy = g0.y + y - a0.y;
+        const uint64_t* r0 = &bx[(size_t(z) * a.y + std::max(gy - 1, 0)) * b.x];
+        const uint64_t* r1 = &bx[(size_t(z) * a.y + gy) * b.x];
+        const uint64_t* r2 = &bx[(size_t(z) * a.y + std::min(gy + 1, a.y - 1)) * b.x];
+        for (int x = 0; x < b.x; ++x) by[(size_t(z) * b.y + y) * b.x + x] = r0[x] + 2 * r1[x] + r2[x];
+      }
+    for (int z = 0; z < b.z; ++z) {
+      const int gz = g0.z + z - a0.z;
+      for (int y = 0; y < b.y; ++y) {
+        const uint64_t* r0 = &by[(size_t(std::max(gz - 1, 0)) * b.y + y) * b.x];
+        const uint64_t* r1 = &by[(size_t(gz) * b.y + y) * b.x];
+        const uint64_t* r2 = &by[(size_t(std::min(gz + 1, a.z - 1)) * b.y + y) * b.x];
+        const int sz = floorMod(g0.z + z, n.z), sy = floorMod(g0.y + y, n.y);
+        for (int x = 0; x < b.x; ++x) {
+          // Weights sum to 64: round half up, then each lane fits in 8 bits again.
+          const uint64_t sum = r0[x] + 2 * r1[x] + r2[x] + 0x0020002000200020ull;
+          const uint32_t t = compress((sum >> 6) & 0x00ff00ff00ff00ffull);
+          const int sx = floorMod(g0.x + x, n.x);
+          for (int dz = 0; dz < (sz == 0 ? 2 : 1); ++dz)
+            for (int dy = 0; dy < (sy == 0 ? 2 : 1); ++dy)
+              for (int dx = 0; dx < (sx == 0 ? 2 : 1); ++dx)
+                texels_[c][physicalIndex({dx ? n.x : sx, dy ? n.y : sy, dz ? n.z : sz})] = t;
+        }
+      }
+    }
+  }
+}
+
+void Volume::writeRangeBox(const glm::ivec3& g0, const glm::ivec3& g1, const ProbeCache& cache) {
+  if (options_.fill == FillMode::kSmooth)
+    fillBoxSmooth(g0, g1, cache);
+  else
+    fillBox(g0, g1, cache);
+}
+
+void Volume::rebuild(const glm::ivec3& origin, const ProbeCache& cache) {
+  origin_ = origin;
+  scale_ = cache.packedScale();
+  writeRangeBox(origin, origin + period(), cache);
+  if (options_.blur) blurBox(origin, origin + period());
+  built_ = true;
+}
+
+void Volume::scrollTo(const glm::ivec3& origin, const ProbeCache& cache) {
+  const glm::ivec3 n = period();
+  const glm::ivec3 d = origin - origin_;
+  if (!built_ || scale_ != cache.packedScale() || std::abs(d.x) >= n.x || std::abs(d.y) >= n.y || std::abs(d.z) >= n.z)
+    return rebuild(origin, cache);
+  if (d == glm::ivec3(0)) return;
+  const glm::ivec3 o1 = origin_, o2 = origin;
+  origin_ = origin;
+  // Texels in the new range but not the old: for the first axis a on which a texel is outside
+  // the old range, it lies in the entered slab of a; on earlier axes it is in both ranges, on
+  // later axes anywhere in the new range. Each entered texel is filled exactly once.
+  std::vector<std::pair<glm::ivec3, glm::ivec3>> boxes;
+  for (int a = 0; a < 3; ++a) {
+    if (d[a] == 0) continue;
+    glm::ivec3 lo = o2, hi = o2 + n;
+    for (int e = 0; e < a; ++e) lo[e] = std::max(o1[e], o2[e]), hi[e] = std::min(o1[e], o2[e]) + n[e];
+    if (d[a] > 0)
+      lo[a] = o1[a] + n[a], hi[a] = o2[a] + n[a];
+    else
+      lo[a] = o2[a], hi[a] = o1[a];
+    boxes.push_back({lo, hi});
+  }
+  for (const auto& [lo, hi] : boxes) writeRangeBox(lo, hi, cache);
+  if (!options_.blur) return;
+  // Blurred texels that changed: those within one texel of an entered one, and the new faces
+  // whose outer neighbour left (they now repeat themselves at the edge).
+  for (const auto& [lo, hi] : boxes) blurBox(lo - 1, hi + 1);
+  for (int a = 0; a < 3; ++a) {
+    if (d[a] == 0) continue;
+    glm::ivec3 lo = o2, hi = o2 + n;
+    lo[a] = d[a] > 0 ? o2[a] : o2[a] + n[a] - 1;
+    hi[a] = lo[a] + 1;
+    blurBox(lo, hi);
+  }
+}
+
+void Volume::refillSector(SectorKey key, const ProbeCache& cache) {
+  if (!built_) return;
+  const glm::ivec3 n = period();
+  glm::ivec3 lo = origin_, hi = origin_ + n;
+  // The smooth fill reaches one index cell (4 m) into the neighbours: widen by that much.
+  const double margin = options_.fill == FillMode::kSmooth ? kGridCellSizeM : 0.0;
+  const double x0 = key.ix * kSectorSizeM - margin, x1 = (key.ix + 1) * kSectorSizeM + margin;
+  const double y0 = key.iy * kSectorSizeM - margin, y1 = (key.iy + 1) * kSectorSizeM + margin;
+  auto clampIdx = [](double v) { return int(std::clamp(v, -2e9, 2e9)); };
+  lo.x = std::max(lo.x, clampIdx(std::floor(x0 / options_.texel_size_m.x)) - 1);
+  hi.x = std::min(hi.x, clampIdx(std::floor(x1 / options_.texel_size_m.x)) + 2);
+  lo.y = std::max(lo.y, clampIdx(std::floor(y0 / options_.texel_size_m.y)) - 1);
+  hi.y = std::min(hi.y, clampIdx(std::floor(y1 / options_.texel_size_m.y)) + 2);
+  if (lo.x >= hi.x || lo.y >= hi.y) return;
+  if (scale_ != cache.packedScale()) return rebuild(origin_, cache);
+  writeRangeBox(lo, hi, cache);
+  if (options_.blur) blurBox(lo - 1, hi + 1);
+}
+
+VolumeShaderConstants Volume::shaderConstants() const {
+  VolumeShaderConstants k;
+  const glm::dvec3 n(period()), p(size()), ts(options_.texel_size_m), o(origin_);
+  k.snapped_camera = (o + 0.5 * n) * ts;
+  k.uv_scale = glm::vec3(1.0 / (n * ts));
+  const glm::dvec3 w = (o - 0.5) / n;
+  k.wrap_offset = glm::vec3(w - glm::floor(w));
+  k.uv_remap_scale = glm::vec3(n / p);
+  k.uv_remap_bias = glm::vec3(0.5 / p);
+  k.hdr_scale = scale_;
+  return k;
+}
+
+float Volume::coverage(const glm::dvec3& position, float fade_texels) const {
+  if (!built_) return 0.f;
+  float w = 1.f;
+  for (int a = 0; a < 3; ++a) {
+    const double t = position[a] / options_.texel_size_m[a] - origin_[a];
+    const double dist = std::min(t - 0.5, period()[a] - 0.5 - t);
+    if (!(dist >= 0.0)) return 0.f;  // also NaN
+    if (fade_texels > 0.f) w = std::min(w, float(std::min(1.0, dist / fade_texels)));
+  }
+  return w;
+}
+
+namespace {
+// tex3D with trilinear filtering and clamp addressing, normalised bytes (0..1).
+glm::vec4 tex3D(const Volume& v, int channel, const glm::vec3& uv) {
+  const glm::ivec3 p = v.size();
+  int i0[3], i1[3];
+  float t[3];
+  for (int a = 0; a < 3; ++a) {
+    const float x = uv[a] * float(p[a]) - 0.5f;
+    const float f = std::floor(x);
+    t[a] = x - f;
+    const int i = int(std::clamp(f, -1.f, float(p[a])));
+    i0[a] = std::clamp(i, 0, p[a] - 1);
+    i1[a] = std::clamp(i + 1, 0, p[a] - 1);
+  }
+  auto fetch = [&](int x, int y, int z) {
+    const uint32_t q = v.physicalTexel(channel, {x, y, z});
+    return glm::vec4(float(q & 0xff), float(q >> 8 & 0xff), float(q >> 16 & 0xff), float(q >> 24)) * (1.f / 255.f);
+  };
+  const glm::vec4 c00 = glm::mix(fetch(i0[0], i0[1], i0[2]), fetch(i1[0], i0[1], i0[2]), t[0]);
+  const glm::vec4 c10 = glm::mix(fetch(i0[0], i1[1], i0[2]), fetch(i1[0], i1[1], i0[2]), t[0]);
+  const glm::vec4 c01 = glm::mix(fetch(i0[0], i0[1], i1[2]), fetch(i1[0], i0[1], i1[2]), t[0]);
+  const glm::vec4 c11 = glm::mix(fetch(i0[0], i1[1], i1[2]), fetch(i1[0], i1[1], i1[2]), t[0]);
+  return glm::mix(glm::mix(c00, c10, t[1]), glm::mix(c01, c11, t[1]), t[2]);
+}
+
+// The shader from `ws` (position relative to SnappedCamera, offset applied) to the three fetches.
+std::array<glm::vec4, 3> fetchAt(const Volume& v, const VolumeShaderConstants& k, const glm::vec3& ws) {
+  const glm::vec3 uv = glm::fract(ws * k.uv_scale + 0.5f + k.wrap_offset) * k.uv_remap_scale + k.uv_remap_bias;  // A3
+  return {tex3D(v, 0, uv) * k.hdr_scale, tex3D(v, 1, uv) * k.hdr_scale, tex3D(v, 2, uv) * k.hdr_scale};       // A4
+}
+}  // namespace
+
+glm::vec3 sampleVolume(const Volume& volume, const glm::dvec3& position, const glm::vec3& normal, float normal_offset_m) {
+  const VolumeShaderConstants k = volume.shaderConstants();
+  // The numbered lines correspond one to one with runtime/shaders/ambient.{glsl,hlsl}.
+  const glm::vec3 sampling_offset = normal * normal_offset_m;                      // A1
+  const glm::vec3 ws = glm::vec3(position - k.snapped_camera) + sampling_offset;   // A2
+  const std::array<glm::vec4, 3> f = fetchAt(volume, k, ws);                       // A3, A4
+  const glm::vec4 w = sh::shadingWeights(normal);                                  // A5-A7
+  return {glm::dot(w, f[0]), glm::dot(w, f[1]), glm::dot(w, f[2])};                // A8, A9
+}
+
+BasisColours fetchVolume(const Volume& volume, const glm::dvec3& position) {
+  const VolumeShaderConstants k = volume.shaderConstants();
+  const std::array<glm::vec4, 3> f = fetchAt(volume, k, glm::vec3(position - k.snapped_camera));
+  BasisColours out;
+  for (int b = 0; b < 4; ++b) out[b] = {f[0][b], f[1][b], f[2][b]};
+  return out;
+}
+
+}  // namespace drtv::runtime

@@ -1,0 +1,184 @@
+// Relighting against the probe-by-probe reference of DESIGN.md, and the light kernel.
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "drtv/runtime/lighting_sh.h"
+#include "drtv/runtime/probe_cache.h"
+#include "test_world.h"
+
+namespace drtv::runtime {
+namespace {
+
+// Float SoA sums of ~10 terms against a double reference: a few float ulps of the largest term.
+constexpr float kRelightRelTol = 2e-5f;
+// LPRT adds up to 128 x 12 products of 16-bit values in float.
+constexpr float kLprtRelTol = 1e-4f;
+
+RelightInput lightingAt(double hour, std::span<const PointLight> lights = {}) {
+  const SkyLighting s = evaluateSky(Sky::tropicalDefault(), hour);
+  return {s.sky_sh, s.sun_sh, lights, kAllComponents};
+}
+
+std::map<std::pair<SectorKey, int>, glm::dvec3> sharesByKey(const ProbeCache& cache, const std::vector<LightShare>& shares) {
+  std::map<std::pair<SectorKey, int>, glm::dvec3> m;
+  for (const LightShare& s : shares) m[{cache.slot(s.probe.slot).key, s.probe.index}] += glm::dvec3(s.colour);
+  return m;
+}
+
+void expectColoursNear(const BasisColours& got, const BasisColours& want, float rel_tol, const std::string& what) {
+  float scale = 1e-6f;
+  for (const glm::vec3& c : want) scale = std::max({scale, c.r, c.g, c.b});
+  for (int b = 0; b < 4; ++b)
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(got[b][c], want[b][c], rel_tol * scale) << what << " basis " << b << " channel " << c;
+}
+
+TEST(Relight, MatchesTheReferenceFormulaForEveryProbeAndComponent) {
+  ProbeCache cache;
+  std::vector<Sector> sectors;
+  for (int y = 0; y < 2; ++y)
+    for (int x = 0; x < 3; ++x) {
+      sectors.push_back(testing::makeSector({x - 1, y}, {.probes = 40 + 10 * x}, 1));
+      ASSERT_TRUE(cache.addSector(sectors.back()));
+    }
+  for (uint32_t components : {kAllComponents, uint32_t(kComponentSunBounce), uint32_t(kComponentSkyBounce), uint32_t(kComponentDirectSky)}) {
+    for (double hour : {7.0, 12.0, 18.2, 1.0}) {
+      RelightInput in = lightingAt(hour);
+      in.components = components;
+      cache.relightAll(in);
+      for (const Sector& s : sectors)
+        for (int i = 0; i < int(s.probes.size()); ++i)
+          expectColoursNear(cache.colours({cache.slotOf(s.key), i}), testing::referenceRelight(s, i, in.sky_sh, in.sun_sh, {}, components),
+                            kRelightRelTol, "probe " + std::to_string(i));
+    }
+  }
+}
+
+TEST(Relight, LocalLightsMatchTheReferenceOnBasesAndInSh) {
+  for (bool on_bases : {true, false}) {
+    ProbeCache cache;
+    std::vector<Sector> sectors;
+    for (int y = -1; y <= 1; ++y)
+      for (int x = -1; x <= 1; ++x) {
+        sectors.push_back(testing::makeSector({x, y}, {.probes = 30, .sources = 24, .lprt_on_bases = on_bases}, 2));
+        ASSERT_TRUE(cache.addSector(sectors.back()));
+      }
+    const std::vector<PointLight> lights = {
+        {"a", {10.0, 20.0, 12.0}, {3.f, 2.f, 1.f}, 15.f},
+        {"b", {-30.0, -5.0, 10.0}, {0.f, 5.f, 0.f}, 40.f},
+        {"far", {1e4, 0.0, 0.0}, {9.f, 9.f, 9.f}, 5.f}};
+    RelightInput in = lightingAt(21.0, lights);
+    cache.relightAll(in);
+    const auto shares = sharesByKey(cache, cache.distributeLights(lights));
+    EXPECT_FALSE(shares.empty());
+    for (const Sector& s : sectors)
+      for (int i = 0; i < int(s.probes.size()); ++i)
+        expectColoursNear(cache.colours({cache.slotOf(s.key), i}), testing::referenceRelight(s, i, in.sky_sh, in.sun_sh, shares),
+                          kLprtRelTol, "probe " + std::to_string(i));
+  }
+}
+
+TEST(LightKernel, KeepsEachLightsEnergyOnTheNearestSourceProbesWithinItsRadius) {
+  ProbeCache cache({.max_sectors = 51, .sources_per_light = 4});
+  for (int y = -1; y <= 1; ++y)
+    for (int x = -1; x <= 1; ++x) ASSERT_TRUE(cache.addSector(testing::makeSector({x, y}, {.probes = 30, .sources = 30}, 5)));
+  const PointLight light{"l", {5.0, 5.0, 12.0}, {2.f, 4.f, 8.f}, 30.f};
+  const std::vector<LightShare> shares = cache.distributeLights(std::span(&light, 1));
+  ASSERT_EQ(shares.size(), 4u);
+  glm::dvec3 sum(0.0);
+  double farthest = 0.0;
+  for (const LightShare& s : shares) {
+    sum += glm::dvec3(s.colour);
+    farthest = std::max(farthest, glm::distance(cache.worldPosition(s.probe), light.position));
+  }
+  EXPECT_NEAR(sum.x, 2.0, 1e-5);
+  EXPECT_NEAR(sum.z, 8.0, 1e-5);
+  EXPECT_LT(farthest, light.radius_m);
+}
+
+TEST(LightKernel, ALightExactlyOnAProbeIsFinite) {
+  ProbeCache cache;
+  ASSERT_TRUE(cache.addSector(testing::makeSector({0, 0}, {.probes = 20, .sources = 20}, 6)));
+  // Source j names probe (7 j) mod 20 of sector (j%3-1, (j/3)%3-1): j = 4 is this sector's probe 8.
+  const PointLight light{"on", cache.worldPosition({0, 8}), {1.f, 1.f, 1.f}, 0.5f};
+  const auto shares = cache.distributeLights(std::span(&light, 1));
+  ASSERT_EQ(shares.size(), 1u);
+  EXPECT_EQ(shares[0].probe, (ProbeRef{0, 8}));
+  EXPECT_EQ(shares[0].colour, glm::vec3(1.f));
+  cache.relightAll(lightingAt(22.0, std::span(&light, 1)));
+  for (int i = 0; i < 20; ++i)
+    for (const glm::vec3& c : cache.colours({0, i})) EXPECT_TRUE(std::isfinite(c.r + c.g + c.b));
+}
+
+TEST(Relight, OneSectorAloneEqualsItsPartOfAFullRelight) {
+  ProbeCache a, b;
+  for (int x = 0; x < 3; ++x) {
+    ASSERT_TRUE(a.addSector(testing::makeSector({x, 0}, {}, 9)));
+    ASSERT_TRUE(b.addSector(testing::makeSector({x, 0}, {}, 9)));
+  }
+  const RelightInput in = lightingAt(15.0);
+  a.relightAll(in);
+  b.relightSector({1, 0}, in);
+  for (int i = 0; i < 70; ++i) EXPECT_EQ(a.colours({a.slotOf({1, 0}), i}), b.colours({b.slotOf({1, 0}), i}));
+  EXPECT_EQ(b.colours({b.slotOf({0, 0}), 0})[0], glm::vec3(0.f));  // not relit
+}
+
+TEST(Relight, HugeFiniteLightsGiveFiniteColours) {
+  ProbeCache cache;
+  ASSERT_TRUE(cache.addSector(testing::makeSector({0, 0}, {.probes = 20, .sources = 20}, 6)));
+  const PointLight light{"sun-in-a-box", {30.0, 30.0, 12.0}, glm::vec3(3e38f), 100.f};
+  RelightInput in = lightingAt(12.0, std::span(&light, 1));
+  in.sky_sh[0] = sh::Sh4(3e38f);
+  cache.relightAll(in);
+  for (int i = 0; i < 20; ++i)
+    for (const glm::vec3& c : cache.colours({0, i}))
+      for (int k = 0; k < 3; ++k) EXPECT_TRUE(std::isfinite(c[k]) && c[k] >= 0.f && c[k] <= kMaxColour);
+}
+
+TEST(ProbeCache, RejectsDuplicatesFullSlotsAndBadGrids) {
+  ProbeCache cache({.max_sectors = 2});
+  ASSERT_TRUE(cache.addSector(testing::makeSector({0, 0}, {}, 1)));
+  auto dup = cache.addSector(testing::makeSector({0, 0}, {}, 1));
+  ASSERT_FALSE(dup);
+  EXPECT_NE(dup.error().message.find("already resident"), std::string::npos);
+  Sector bad = testing::makeSector({1, 0}, {.probes = 5}, 1);
+  bad.grid.cells[100] = 9;
+  auto r = cache.addSector(bad);
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().message.find("names probe 9 of 5"), std::string::npos) << r.error().message;
+  ASSERT_TRUE(cache.addSector(testing::makeSector({1, 0}, {}, 1)));
+  auto full = cache.addSector(testing::makeSector({2, 0}, {}, 1));
+  ASSERT_FALSE(full);
+  EXPECT_NE(full.error().message.find("slots are used"), std::string::npos);
+  EXPECT_TRUE(cache.removeSector({0, 0}));
+  EXPECT_TRUE(cache.addSector(testing::makeSector({2, 0}, {}, 1)));
+  EXPECT_EQ(cache.sectorCount(), 2);
+}
+
+TEST(ProbeCache, ProbeAtFollowsTheIndexGridAndResolvesEmptyCellsToTheNearestProbe) {
+  ProbeCache cache;
+  const Sector s = testing::makeSector({2, -3}, {.no_probe_fraction = 0.3f}, 4);
+  ASSERT_TRUE(cache.addSector(s));
+  for (int z = 0; z < kGridDim; z += 3)
+    for (int y = 0; y < kGridDim; y += 2)
+      for (int x = 0; x < kGridDim; x += 2) {
+        const glm::dvec3 p(2 * 64.0 + x * 4 + 2, -3 * 64.0 + y * 4 + 2, z * 2 + 1);
+        const ProbeRef r = cache.probeAt(p);
+        ASSERT_TRUE(r.valid());
+        const uint8_t cell = s.grid.at(x, y, z);
+        if (cell != kNoProbe) {
+          EXPECT_EQ(r.index, cell);
+        } else {
+          const glm::dvec3 d = cache.worldPosition(r) - p;
+          for (int i = 0; i < 70; ++i) {
+            const glm::dvec3 e = cache.worldPosition({r.slot, i}) - p;
+            EXPECT_LE(glm::dot(d, d), glm::dot(e, e) + 1e-3);
+          }
+        }
+      }
+  EXPECT_FALSE(cache.probeAt({1e300, 0, 0}).valid());
+  EXPECT_FALSE(cache.probeAt({0, 0, 0}).valid());  // sector (0,0) is not resident
+}
+
+}  // namespace
+}  // namespace drtv::runtime

@@ -1,0 +1,191 @@
+// The engine-facing Runtime: relight only what changed, interiors, distant ambient, queries,
+// input validation, and finite output for any finite input.
+#include <cmath>
+#include <limits>
+
+#include <gtest/gtest.h>
+
+#include "drtv/runtime/runtime.h"
+#include "test_world.h"
+
+namespace drtv::runtime {
+namespace {
+
+// Ambient goes through 8-bit texels: one step of the HDR scale, times the sum of |weights| (<= 2).
+float quantStep(const Runtime& rt) { return 2.f * rt.volume().read()->hdrScale() / 255.f; }
+
+// 5 x 5 sectors around the origin, 10:00, camera near the origin. (Runtime does not move: it
+// owns the published volumes that readers lock.)
+void populate(Runtime& rt) {
+  for (int y = -2; y <= 2; ++y)
+    for (int x = -2; x <= 2; ++x) EXPECT_TRUE(rt.addSector(testing::makeSector({x, y}, {}, 1)));
+  EXPECT_TRUE(rt.setTime(10.0));
+  rt.update({10.0, 10.0, 12.0});
+}
+
+TEST(Runtime, RelightsOnlyWhenTheLightingMovesPastTheThreshold) {
+  Runtime rt;
+  populate(rt);
+  EXPECT_EQ(rt.relightCount(), 1u);
+  ASSERT_TRUE(rt.setTime(10.0 + 1.0 / 3600.0));
+  rt.update({10.0, 10.0, 12.0});
+  EXPECT_EQ(rt.relightCount(), 1u);
+  ASSERT_TRUE(rt.setTime(11.0));
+  rt.update({10.0, 10.0, 12.0});
+  EXPECT_EQ(rt.relightCount(), 2u);
+  ASSERT_TRUE(rt.setLights({{"lamp", {0.0, 0.0, 12.0}, glm::vec3(1.f), 5.f}}));
+  rt.update({10.0, 10.0, 12.0});
+  EXPECT_EQ(rt.relightCount(), 3u);
+}
+
+TEST(Runtime, ASectorStreamingInIsRelitAloneAndAppearsInTheVolume) {
+  RuntimeOptions o;
+  Runtime rt(o);
+  for (int x = -2; x <= 2; ++x) ASSERT_TRUE(rt.addSector(testing::makeSector({x, 0}, {}, 1)));
+  ASSERT_TRUE(rt.setTime(9.0));
+  rt.update({0.0, 70.0, 12.0});
+  const glm::dvec3 p(20.0, 80.0, 12.0);  // in sector (0,1), not yet resident: open sky fallback
+  const ProbeCache& cache = rt.cache();
+  EXPECT_FALSE(rt.nearestProbeColours(p).has_value());
+  ASSERT_TRUE(rt.addSector(testing::makeSector({0, 1}, {}, 1)));
+  rt.update({0.0, 70.0, 12.0});
+  EXPECT_EQ(rt.relightCount(), 1u);  // no full relight
+  const auto colours = rt.nearestProbeColours(p);
+  ASSERT_TRUE(colours.has_value());
+  // The volume texel there now holds that probe's colours (nearest mode, quantised).
+  const auto view = rt.volume().read();
+  const BasisColours fetched = fetchVolume(view.volume(), (glm::floor(p / 2.0) + 0.5) * 2.0);
+  for (int b = 0; b < 4; ++b)
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(fetched[b][c], (*colours)[b][c], view->hdrScale() / 255.f);
+  EXPECT_EQ(cache.sectorCount(), 6);
+}
+
+TEST(Runtime, AmbientInsideTheVolumeIsTheVolumeLookup) {
+  Runtime rt;
+  populate(rt);
+  const glm::dvec3 p(12.0, 3.0, 12.0);
+  const glm::vec3 n = glm::normalize(glm::vec3(0.3f, 0.2f, 1.f));
+  const AmbientSample s = rt.ambient(p, n);
+  EXPECT_EQ(s.volume_weight, 1.f);
+  EXPECT_EQ(s.interior, -1);
+  const auto view = rt.volume().read();
+  EXPECT_EQ(s.irradiance, sampleVolume(view.volume(), p, n, rt.options().normal_offset_m));
+  EXPECT_GT(s.irradiance.b, 0.f);
+}
+
+TEST(Runtime, FarFromTheCameraAmbientIsTheOccludedSky) {
+  Runtime rt;
+  populate(rt);
+  const glm::dvec3 far(150.0, 150.0, 11.0);  // resident sector (2,2), outside the +-95 m volume
+  const AmbientSample s = rt.ambient(far, {0, 0, 1});
+  EXPECT_EQ(s.volume_weight, 0.f);
+  EXPECT_EQ(s.irradiance, s.distant);
+  const float occ = rt.occlusion().occlusion(far);
+  EXPECT_GT(occ, 0.f);
+  EXPECT_LT(occ, 1.f);
+  const sh::Sh4 lobe = sh::cosineLobe({0, 0, 1});
+  EXPECT_NEAR(s.distant.b, occ * glm::dot(lobe, rt.lighting().sky_sh[2]), 1e-6f);
+  // High above the probes the sky is open.
+  EXPECT_EQ(rt.occlusion().occlusion({150.0, 150.0, 500.0}), 1.f);
+  // Outside every resident sector, too.
+  EXPECT_EQ(rt.occlusion().occlusion({1e5, 0.0, 0.0}), 1.f);
+}
+
+TEST(OcclusionTile, ComesFromTheProbesSkyVisibilityAndTheGroundMap) {
+  const Sector s = testing::makeSector({0, 0}, {}, 3);
+  const OcclusionTile t = makeOcclusionTile(s);
+  for (int y = 0; y < kOcclusionTileDim; ++y)
+    for (int x = 0; x < kOcclusionTileDim; ++x) {
+      const int i = y * kOcclusionTileDim + x;
+      EXPECT_FLOAT_EQ(t.ground_m[i], s.groundHeight(x, y));
+      EXPECT_GE(t.top_m[i], t.ground_m[i] + kMinOccluderHeightM);
+      // The synthetic lattice puts probe k in texel (k % 8, (k / 8) % 8): the mean of those.
+      float sum = 0.f;
+      int count = 0;
+      for (int k = 0; k < int(s.probes.size()); ++k) {
+        if (k % 8 != x || (k / 8) % 8 != y) continue;
+        const ProbeData p = unpackProbe(s.probes[k]);
+        sum += (p.sky_vis[0] + p.sky_vis[1] + p.sky_vis[2]) / 3.f;
+        ++count;
+      }
+      ASSERT_GT(count, 0);
+      EXPECT_NEAR(t.sky_visibility[i], sum / float(count), 1e-6f);
+    }
+  Sector empty;
+  empty.key = {4, 4};
+  const OcclusionTile e = makeOcclusionTile(empty);
+  for (float v : e.sky_visibility) EXPECT_EQ(v, 1.f);
+}
+
+TEST(Runtime, InteriorsTakeTheirDesignatedProbeBlendedOverTheSoftDistance) {
+  Sector s = testing::makeSector({0, 0}, {}, 1);
+  ProbeData d = unpackProbe(s.probes[9]);
+  d.flags |= kProbeInterior;
+  d.interior = 1;
+  for (auto& c : d.prt)
+    for (auto& b : c) b = sh::Sh4(0.f);
+  d.sky_vis = glm::vec4(0.f);  // a dark room
+  s.probes[9] = packProbe(d);
+  Runtime rt;
+  const glm::dvec3 probe_world = glm::dvec3(d.position);
+  InteriorVolume room{"room", probe_world - glm::dvec3(3.0, 3.0, 1.0), probe_world + glm::dvec3(3.0, 3.0, 2.0), probe_world, 1.f};
+  ASSERT_TRUE(rt.setLighting(Sky::tropicalDefault(), {}, {room}));
+  ASSERT_TRUE(rt.addSector(s));
+  ASSERT_TRUE(rt.setTime(12.0));
+  rt.update(probe_world);
+  EXPECT_EQ(rt.interiorProbe(0), (ProbeRef{0, 9}));
+  const AmbientSample centre = rt.ambient(probe_world, {0, 0, 1});
+  EXPECT_EQ(centre.interior, 0);
+  EXPECT_EQ(centre.interior_weight, 1.f);
+  EXPECT_EQ(centre.irradiance, glm::vec3(0.f));  // the dark room's probe, not the bright outdoors
+  const AmbientSample edge = rt.ambient(probe_world + glm::dvec3(2.5, 0.0, 0.0), {0, 0, 1});  // 0.5 m from a face
+  EXPECT_NEAR(edge.interior_weight, 0.5f, 1e-5f);
+  EXPECT_NEAR(edge.irradiance.b, 0.5f * (edge.volume_weight * edge.volume.b + (1 - edge.volume_weight) * edge.distant.b), 1e-5f);
+  const AmbientSample outside = rt.ambient(probe_world + glm::dvec3(3.5, 0.0, 0.0), {0, 0, 1});
+  EXPECT_EQ(outside.interior, -1);
+}
+
+TEST(Runtime, RejectsNanAndNegativeLightingWithAClearError) {
+  Runtime rt;
+  Sky sky = Sky::tropicalDefault();
+  sky.sky_zenith.keys[1].value.g = std::nanf("");
+  auto r = rt.setLighting(sky, {}, {});
+  ASSERT_FALSE(r);
+  EXPECT_EQ(r.error().message, "lighting: sky.sky_zenith[1]: colour must be finite and >= 0");
+  auto l = rt.setLights({{"neg", {0.0, 0.0, 0.0}, {1.f, -1.f, 0.f}, 3.f}});
+  ASSERT_FALSE(l);
+  EXPECT_EQ(l.error().message, "lighting: lights[0].intensity: must be finite and >= 0");
+  auto t = rt.setTime(std::numeric_limits<double>::infinity());
+  ASSERT_FALSE(t);
+  EXPECT_NE(t.error().message.find("not a finite number"), std::string::npos);
+}
+
+TEST(Runtime, AmbientIsFiniteForExtremeFiniteInputs) {
+  Runtime rt;
+  populate(rt);
+  const double big = std::numeric_limits<double>::max();
+  for (const glm::dvec3& p : {glm::dvec3(0.0), glm::dvec3(big, -big, big), glm::dvec3(1e12, 1e12, -1e12), glm::dvec3(64.0, 64.0, 1e6)})
+    for (const glm::vec3& n : {glm::vec3(0.f), glm::vec3(3e38f, -3e38f, 3e38f), glm::vec3(1e-30f, 0.f, 0.f), glm::vec3(0, 0, -1)}) {
+      const AmbientSample s = rt.ambient(p, n);
+      for (int c = 0; c < 3; ++c) EXPECT_TRUE(std::isfinite(s.irradiance[c]) && s.irradiance[c] >= 0.f);
+    }
+  rt.update({big, -big, big});  // the camera clamps
+  EXPECT_TRUE(std::isfinite(rt.ambient({0.0, 0.0, 0.0}, {0, 0, 1}).irradiance.r));
+}
+
+TEST(Runtime, AmbientVariesSmoothlyAcrossTheVolumeEdge) {
+  Runtime rt;
+  populate(rt);
+  // Walk outwards along +x through the fade band: no jump larger than the local texel steps.
+  glm::vec3 last = rt.ambient({60.0, 10.0, 12.0}, {0, 0, 1}).irradiance;
+  float worst = 0.f;
+  for (double x = 60.0; x < 120.0; x += 0.25) {
+    const glm::vec3 a = rt.ambient({x, 10.0, 12.0}, {0, 0, 1}).irradiance;
+    worst = std::max(worst, glm::length(a - last));
+    last = a;
+  }
+  EXPECT_LT(worst, 0.25f * glm::length(last) + 10 * quantStep(rt));
+}
+
+}  // namespace
+}  // namespace drtv::runtime

@@ -1,0 +1,252 @@
+// The volume: fill against a slow reference, the toroidal scroll against a from-scratch build
+// (bit for bit), and the shader's frac-and-remap lookup against world-space trilinear filtering.
+#include <cmath>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "drtv/runtime/lighting_sh.h"
+#include "drtv/runtime/volume.h"
+#include "test_world.h"
+
+namespace drtv::runtime {
+namespace {
+
+// A 5 x 5 block of relit, packed sectors around the origin, with one hole (sector (1,1) absent)
+// so that fallback texels occur.
+ProbeCache makeWorld(uint32_t seed = 1) {
+  ProbeCache cache;
+  for (int y = -2; y <= 2; ++y)
+    for (int x = -2; x <= 2; ++x)
+      if (!(x == 1 && y == 1)) EXPECT_TRUE(cache.addSector(testing::makeSector({x, y}, {.no_probe_fraction = 0.2f}, seed)));
+  const SkyLighting s = evaluateSky(Sky::tropicalDefault(), 10.0);
+  cache.relightAll({s.sky_sh, s.sun_sh, {}, kAllComponents});
+  cache.setFallback({glm::vec3(0.1f, 0.2f, 0.3f), glm::vec3(0.1f, 0.2f, 0.3f), glm::vec3(0.1f, 0.2f, 0.3f), glm::vec3(0.05f)});
+  cache.pack(cache.maxColour() * 1.25f);
+  return cache;
+}
+
+uint32_t referencePack(const glm::vec4& v, float scale) {
+  uint32_t t = 0;
+  for (int b = 0; b < 4; ++b) {
+    const double x = std::clamp(double(v[b]) / scale, 0.0, 1.0);
+    t |= uint32_t(std::floor(x * 255.0 + 0.5)) << (8 * b);
+  }
+  return t;
+}
+
+// The texel of world texel g in nearest mode, straight from the definitions.
+uint32_t referenceNearestTexel(const ProbeCache& cache, const VolumeOptions& o, const glm::ivec3& g, int channel) {
+  const glm::dvec3 c = (glm::dvec3(g) + 0.5) * glm::dvec3(o.texel_size_m);
+  const ProbeRef p = cache.probeAt(c);
+  BasisColours colours = p.valid() ? cache.colours(p) : cache.fallback();
+  return referencePack({colours[0][channel], colours[1][channel], colours[2][channel], colours[3][channel]}, cache.packedScale());
+}
+
+bool sameTexels(const Volume& a, const Volume& b) {
+  for (int c = 0; c < 3; ++c)
+    if (!std::equal(a.texture(c).begin(), a.texture(c).end(), b.texture(c).begin())) return false;
+  return true;
+}
+
+TEST(VolumeFill, NearestModeMatchesTheReferenceForEveryTexel) {
+  const ProbeCache cache = makeWorld();
+  const VolumeOptions o;
+  Volume v(o);
+  v.rebuild(v.originFor({17.0, -23.0, 12.0}), cache);
+  const glm::ivec3 n = v.period();
+  int mismatches = 0;
+  for (int z = 0; z < n.z; ++z)
+    for (int y = 0; y < n.y; ++y)
+      for (int x = 0; x < n.x; ++x) {
+        const glm::ivec3 g = v.origin() + glm::ivec3(x, y, z);
+        for (int c = 0; c < 3; ++c) mismatches += v.worldTexel(c, g) != referenceNearestTexel(cache, o, g, c);
+      }
+  EXPECT_EQ(mismatches, 0);
+  EXPECT_EQ(v.texture(0).size(), 147456u);  // the talk's 96x96x16
+}
+
+TEST(VolumeFill, DuplicatedBoundaryTexelsMirrorTheFirstLayerOnEveryAxis) {
+  const ProbeCache cache = makeWorld();
+  Volume v;
+  v.rebuild(v.originFor({0.0, 0.0, 10.0}), cache);
+  v.scrollTo(v.origin() + glm::ivec3(7, -3, 2), cache);
+  const glm::ivec3 p = v.size(), n = v.period();
+  for (int c = 0; c < 3; ++c)
+    for (int z = 0; z < p.z; ++z)
+      for (int y = 0; y < p.y; ++y)
+        for (int x = 0; x < p.x; ++x)
+          ASSERT_EQ(v.physicalTexel(c, {x, y, z}), v.physicalTexel(c, {x % n.x, y % n.y, z % n.z})) << x << " " << y << " " << z;
+}
+
+struct ScrollCase {
+  VolumeOptions options;
+  const char* name;
+};
+
+class VolumeScroll : public ::testing::TestWithParam<ScrollCase> {};
+
+TEST_P(VolumeScroll, AnySequenceOfMovesEqualsAFromScratchBuildBitForBit) {
+  const ProbeCache cache = makeWorld(3);
+  const VolumeOptions o = GetParam().options;
+  Volume scrolled(o), fresh(o);
+  std::mt19937 rng(11);
+  std::uniform_int_distribution<int> small(-3, 3), pick(0, 9), axis(0, 2);
+  glm::ivec3 origin = scrolled.originFor({5.0, 7.0, 11.0});
+  scrolled.rebuild(origin, cache);
+  const glm::ivec3 n = scrolled.period();
+  for (int step = 0; step < 60; ++step) {
+    glm::ivec3 d(0);
+    switch (pick(rng)) {
+      case 0: d[axis(rng)] = n[0] + 5; break;                              // teleport
+      case 1: d = glm::ivec3(small(rng), small(rng), small(rng)) * 7; break;  // many texels, all axes
+      case 2: d[axis(rng)] = n[axis(rng)] - 1; break;                      // just under a period
+      case 3: d[axis(rng)] = -1; break;
+      default: d = glm::ivec3(small(rng), small(rng), small(rng)); break;  // several axes at once
+    }
+    origin += d;
+    // Keep the walk over the synthetic world (and the hole) most of the time.
+    origin = glm::clamp(origin, glm::ivec3(-90, -90, -6), glm::ivec3(40, 40, 8));
+    scrolled.scrollTo(origin, cache);
+    fresh.rebuild(origin, cache);
+    ASSERT_TRUE(sameTexels(scrolled, fresh)) << GetParam().name << " after step " << step << " by (" << d.x << "," << d.y << ","
+                                             << d.z << ")";
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Modes, VolumeScroll,
+    ::testing::Values(ScrollCase{VolumeOptions{}, "nearest 96x96x16"},
+                      ScrollCase{VolumeOptions{.size = {13, 9, 5}, .texel_size_m = {3.f, 2.5f, 1.f}}, "nearest small odd"},
+                      ScrollCase{VolumeOptions{.fill = FillMode::kSmooth}, "smooth"},
+                      ScrollCase{VolumeOptions{.blur = true}, "nearest blurred"},
+                      ScrollCase{VolumeOptions{.size = {11, 12, 6}, .fill = FillMode::kSmooth, .blur = true}, "smooth blurred small"}),
+    [](const auto& info) {
+      std::string s = info.param.name;
+      for (char& ch : s)
+        if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
+      return s;
+    });
+
+TEST(VolumeScrollCost, OneTexelMoveComputesOneSlab) {
+  const ProbeCache cache = makeWorld();
+  Volume v;
+  v.rebuild(v.originFor({0.0, 0.0, 10.0}), cache);
+  const uint64_t before = v.texelsFilled();
+  v.scrollTo(v.origin() + glm::ivec3(1, 0, 0), cache);
+  EXPECT_EQ(v.texelsFilled() - before, uint64_t(v.period().y) * v.period().z);
+  const uint64_t before2 = v.texelsFilled();
+  v.scrollTo(v.origin() + glm::ivec3(0, -1, 1), cache);
+  const glm::ivec3 n = v.period();
+  EXPECT_EQ(v.texelsFilled() - before2, uint64_t(n.x) * n.z + uint64_t(n.x) * (n.y - 1));
+}
+
+TEST(VolumeFill, SmoothModeIsSmootherThanNearest) {
+  // Sum of squared differences between horizontally adjacent texels. Linear interpolation has
+  // the same total variation as nearest sampling but spreads each jump d over two 2 m texels:
+  // 2 (d/2)^2 = d^2 / 2 instead of d^2, so the smooth fill must come out well below.
+  const ProbeCache cache = makeWorld();
+  auto roughness = [&](FillMode mode) {
+    Volume v({.fill = mode});
+    v.rebuild(v.originFor({0.0, 0.0, 12.0}), cache);
+    double sum = 0.0;
+    const glm::ivec3 n = v.period();
+    for (int z = 0; z < n.z; ++z)
+      for (int y = 0; y < n.y; ++y)
+        for (int x = 0; x + 1 < n.x; ++x) {
+          const uint32_t a = v.worldTexel(1, v.origin() + glm::ivec3(x, y, z)), b = v.worldTexel(1, v.origin() + glm::ivec3(x + 1, y, z));
+          for (int k = 0; k < 4; ++k) {
+            const double d = int(a >> (8 * k) & 0xff) - int(b >> (8 * k) & 0xff);
+            sum += d * d;
+          }
+        }
+    return sum;
+  };
+  EXPECT_LT(roughness(FillMode::kSmooth), 0.8 * roughness(FillMode::kNearest));
+}
+
+// World-space trilinear filtering between texel centres: what the frac/remap/clamp path must equal.
+BasisColours referenceFetch(const Volume& v, const glm::dvec3& p) {
+  const glm::dvec3 a = p / glm::dvec3(v.options().texel_size_m) - 0.5;
+  const glm::dvec3 f = a - glm::floor(a);
+  const glm::ivec3 g0(glm::floor(a));
+  BasisColours out{};
+  for (int c = 0; c < 3; ++c)
+    for (int corner = 0; corner < 8; ++corner) {
+      const glm::ivec3 k(corner & 1, corner >> 1 & 1, corner >> 2);
+      const double w = (k.x ? f.x : 1 - f.x) * (k.y ? f.y : 1 - f.y) * (k.z ? f.z : 1 - f.z);
+      const uint32_t t = v.worldTexel(c, g0 + k);
+      for (int b = 0; b < 4; ++b) out[b][c] += float(w * double(t >> (8 * b) & 0xff) / 255.0 * v.hdrScale());
+    }
+  return out;
+}
+
+// The shader computes uv in float from a camera-relative position: ~1e-6 of the 190 m extent,
+// i.e. ~1e-4 of a texel, moves the filter weights by that much of one byte step.
+constexpr float kFetchRelTol = 2e-4f;
+
+TEST(SampleVolume, FracWrapAndRemapEqualWorldSpaceTrilinearFilteringAcrossTheSeams) {
+  const ProbeCache cache = makeWorld();
+  for (const VolumeOptions& o : {VolumeOptions{}, VolumeOptions{.size = {13, 9, 5}, .texel_size_m = {3.f, 2.5f, 1.f}}}) {
+    Volume v(o);
+    v.rebuild(v.originFor({33.0, -41.0, 12.0}), cache);
+    v.scrollTo(v.origin() + glm::ivec3(5, 3, 1), cache);  // seams now inside the range
+    std::mt19937 rng(2);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    const glm::dvec3 ts(o.texel_size_m), n(v.period()), org(v.origin());
+    for (int i = 0; i < 3000; ++i) {
+      const glm::dvec3 t(0.5 + u(rng) * (n.x - 1.0), 0.5 + u(rng) * (n.y - 1.0), 0.5 + u(rng) * (n.z - 1.0));
+      const glm::dvec3 p = (org + t) * ts;
+      const BasisColours got = fetchVolume(v, p), want = referenceFetch(v, p);
+      for (int b = 0; b < 4; ++b)
+        for (int c = 0; c < 3; ++c) ASSERT_NEAR(got[b][c], want[b][c], kFetchRelTol * v.hdrScale()) << "sample " << i;
+    }
+  }
+}
+
+TEST(SampleVolume, AmbientIsTheShadingWeightsTimesTheFetchedBasisColours) {
+  const ProbeCache cache = makeWorld();
+  Volume v;
+  v.rebuild(v.originFor({0.0, 0.0, 12.0}), cache);
+  const glm::dvec3 p(3.3, -7.1, 12.2);
+  for (const glm::vec3& n : {glm::vec3(0, 0, 1), glm::vec3(0, 0, -1), glm::normalize(glm::vec3(1, -2, 0.5f))}) {
+    const float offset = 1.f;
+    const BasisColours f = fetchVolume(v, p + glm::dvec3(n) * double(offset));
+    const glm::vec4 w = sh::shadingWeights(n);
+    const glm::vec3 want = w.x * f[0] + w.y * f[1] + w.z * f[2] + w.w * f[3];
+    const glm::vec3 got = sampleVolume(v, p, n, offset);
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(got[c], want[c], kFetchRelTol * v.hdrScale());
+  }
+}
+
+TEST(VolumeCoverage, IsOneInsideAndFadesToZeroHalfATexelFromTheEdge) {
+  const ProbeCache cache = makeWorld();
+  Volume v;
+  v.rebuild({0, 0, 0}, cache);
+  const glm::dvec3 ts(v.options().texel_size_m);
+  EXPECT_EQ(v.coverage(glm::dvec3(47.5, 47.5, 7.5) * ts, 2.f), 1.f);
+  EXPECT_EQ(v.coverage(glm::dvec3(0.5, 47.5, 7.5) * ts, 2.f), 0.f);
+  EXPECT_NEAR(v.coverage(glm::dvec3(1.5, 47.5, 7.5) * ts, 2.f), 0.5f, 1e-6f);
+  EXPECT_EQ(v.coverage(glm::dvec3(-1.0, 47.5, 7.5) * ts, 2.f), 0.f);
+  EXPECT_EQ(v.coverage(glm::dvec3(1e300, 0, 0), 2.f), 0.f);
+  EXPECT_EQ(v.coverage(glm::dvec3(std::nan(""), 0, 0), 2.f), 0.f);
+}
+
+TEST(VolumeShaderConstants, PutTexelCentresOnTexelCentres) {
+  const ProbeCache cache = makeWorld();
+  Volume v;
+  v.rebuild({-50, 13, -3}, cache);
+  const VolumeShaderConstants k = v.shaderConstants();
+  const glm::dvec3 ts(v.options().texel_size_m);
+  for (const glm::ivec3& g : {glm::ivec3(-50, 13, -3), glm::ivec3(-4, 60, 5), glm::ivec3(44, 107, 11)}) {
+    const glm::vec3 ws = glm::vec3((glm::dvec3(g) + 0.5) * ts - k.snapped_camera);
+    const glm::vec3 uv = glm::fract(ws * k.uv_scale + 0.5f + k.wrap_offset) * k.uv_remap_scale + k.uv_remap_bias;
+    const glm::vec3 texel = uv * glm::vec3(v.size()) - 0.5f;
+    const glm::ivec3 n = v.period();
+    const glm::vec3 want(float(((g.x % n.x) + n.x) % n.x), float(((g.y % n.y) + n.y) % n.y), float(((g.z % n.z) + n.z) % n.z));
+    for (int a = 0; a < 3; ++a) EXPECT_NEAR(texel[a], want[a], 1e-3f);
+  }
+}
+
+}  // namespace
+}  // namespace drtv::runtime

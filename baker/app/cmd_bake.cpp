@@ -1,0 +1,143 @@
+// drtv bake <world.json> -o <archive> [--threads N] [--quality draft|default|high]
+//           [--sectors x0:x1,y0:y1] [--shard k/N] [--merge] [--fresh] [--keep-sectors] [--seed S]
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include "commands.h"
+#include "drtv/baker/bake.h"
+#include "drtv/worlds/load.h"
+
+namespace drtv::app {
+namespace {
+
+struct BakeCliOptions {
+  std::string world;
+  std::string output;
+  int threads = 0;
+  std::string quality = "default";
+  std::string sectors;
+  std::string shard;
+  bool merge = false;
+  bool fresh = false;
+  bool keep_sectors = false;
+  uint64_t seed = 1;
+};
+
+Result<int> parseInt(const std::string& s, const std::string& flag) {
+  try {
+    size_t used = 0;
+    const int v = std::stoi(s, &used);
+    if (used != s.size()) throw std::invalid_argument(s);
+    return v;
+  } catch (const std::exception&) {
+    return fail(flag + " '" + s + "': not an integer");
+  }
+}
+
+// "x0:x1,y0:y1", inclusive sector keys.
+Result<baker::SectorRange> parseSectors(const std::string& s) {
+  const std::string flag = "--sectors";
+  const size_t comma = s.find(',');
+  if (comma == std::string::npos) return fail(flag + " '" + s + "': expected x0:x1,y0:y1");
+  auto pair = [&](const std::string& part) -> Result<std::pair<int, int>> {
+    const size_t colon = part.find(':', 1);  // skip a leading minus sign
+    if (colon == std::string::npos) return fail(flag + " '" + s + "': expected x0:x1,y0:y1");
+    auto a = parseInt(part.substr(0, colon), flag);
+    auto b = parseInt(part.substr(colon + 1), flag);
+    if (!a) return std::unexpected(a.error());
+    if (!b) return std::unexpected(b.error());
+    if (*b < *a) return fail(flag + " '" + s + "': range " + part + " is empty");
+    return std::pair{*a, *b};
+  };
+  auto x = pair(s.substr(0, comma));
+  if (!x) return std::unexpected(x.error());
+  auto y = pair(s.substr(comma + 1));
+  if (!y) return std::unexpected(y.error());
+  return baker::SectorRange{x->first, x->second, y->first, y->second};
+}
+
+void drawProgress(size_t done, size_t total) {
+  constexpr int kWidth = 40;
+  const int filled = total ? int(double(done) / double(total) * kWidth) : kWidth;
+  std::fprintf(stderr, "\rbake [%.*s%.*s] %zu/%zu sectors", filled, "########################################", kWidth - filled,
+               "                                        ", done, total);
+  if (done == total) std::fputc('\n', stderr);
+  std::fflush(stderr);
+}
+
+Result<void> runBake(const BakeCliOptions& o) {
+  baker::BakeOptions options;
+  const auto quality = baker::parseQuality(o.quality);
+  if (!quality) return fail("--quality '" + o.quality + "': expected draft, default or high");
+  options.quality = *quality;
+  options.threads = o.threads;
+  options.seed = o.seed;
+  options.fresh = o.fresh;
+  options.keep_sector_files = o.keep_sectors;
+  options.merge_only = o.merge;
+  if (!o.sectors.empty()) {
+    auto r = parseSectors(o.sectors);
+    if (!r) return std::unexpected(r.error());
+    options.sectors = *r;
+  }
+  if (!o.shard.empty()) {
+    const size_t slash = o.shard.find('/');
+    if (slash == std::string::npos) return fail("--shard '" + o.shard + "': expected k/N");
+    auto k = parseInt(o.shard.substr(0, slash), "--shard");
+    auto n = parseInt(o.shard.substr(slash + 1), "--shard");
+    if (!k) return std::unexpected(k.error());
+    if (!n) return std::unexpected(n.error());
+    options.shard_index = *k;
+    options.shard_count = *n;
+    if (o.merge) return fail("--merge packs what all shards baked; it takes no --shard");
+  }
+  if (showProgress()) options.progress = drawProgress;
+
+  auto world = worlds::loadWorld(o.world);
+  if (!world) return std::unexpected(world.error());
+  const std::filesystem::path archive(o.output);
+  auto report = baker::bake(*world, o.world, archive, options);
+  if (!report) return std::unexpected(report.error());
+
+  std::filesystem::path dir = archive.parent_path();
+  std::string stem = "bake-report";
+  if (!report->shard.empty()) stem += ".shard-" + std::to_string(options.shard_index) + "-of-" + std::to_string(options.shard_count);
+  if (auto w = baker::writeReports(*report, dir / (stem + ".json"), dir / (stem + ".md")); !w) return w;
+
+  size_t probes = 0, sectors = 0;
+  uint64_t rays = 0;
+  for (const auto& s : report->sectors) {
+    probes += s.probes;
+    sectors += s.probes > 0;
+    rays += s.rays();
+  }
+  if (report->packed)
+    std::printf("baked %s: %zu sectors, %zu probes, %.1f M rays in %.2f s -> %s\n", o.world.c_str(), sectors, probes,
+                double(rays) / 1e6, report->wall_s, o.output.c_str());
+  else
+    std::printf("baked shard %s of %s: %zu sectors so far, %zu probes (sector files in %s; run --merge when all shards are done)\n",
+                report->shard.c_str(), o.world.c_str(), sectors, probes, baker::sectorDirectory(archive).string().c_str());
+  return {};
+}
+
+}  // namespace
+
+Command registerBake(CLI::App& app) {
+  auto o = std::make_shared<BakeCliOptions>();
+  CLI::App* sub = app.add_subcommand("bake", "Bake a world into a sectorised archive (probes, index grids, PRT, LPRT)");
+  sub->add_option("world", o->world, "World file (.json, .gltf, .glb)")->required();
+  sub->add_option("-o,--output", o->output, "Archive to write; bake-report.json/.md go next to it")->required();
+  sub->add_option("--threads", o->threads, "Worker threads (0 = all cores)");
+  sub->add_option("--quality", o->quality, "draft | default | high")->check(CLI::IsMember({"draft", "default", "high"}));
+  sub->add_option("--sectors", o->sectors, "Only sectors x0:x1,y0:y1 (inclusive sector keys)");
+  sub->add_option("--shard", o->shard, "Bake shard k of N (sectors i with i % N == k); pack later with --merge");
+  sub->add_flag("--merge", o->merge, "Pack the sector files all shards wrote into the archive");
+  sub->add_flag("--fresh", o->fresh, "Discard sector files left by a different bake");
+  sub->add_flag("--keep-sectors", o->keep_sectors, "Keep <archive>.sectors/ after packing");
+  sub->add_option("--seed", o->seed, "Seed of every random number (default 1)");
+  return {sub, [o]() { return runBake(*o); }};
+}
+
+}  // namespace drtv::app

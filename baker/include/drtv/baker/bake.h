@@ -1,0 +1,139 @@
+// drtv/baker/bake.h — World -> sectorised archive: the `drtv bake` library entry point.
+//
+//  [1] Gilabert & Stefanov, "Deferred Radiance Transfer Volumes", GDC 2012, slides 15-24.
+//
+// Pipeline per sector (each sector is baked alone from the geometry within a halo around it, so
+// sectors can be baked in any order, by any process, and resumed):
+//   gather (world_geometry.h) -> Embree scene (ray_scene.h) -> placement (placement.h) ->
+//   LPRT sources (neighbours' placement) -> transfer (transfer.h) -> index grid (index_grid.h) ->
+//   ground map -> encoded sector written atomically to "<archive>.sectors/s_<ix>_<iy>.sec".
+// Then the sector files are packed, in key order, into the archive with a Manifest holding the
+// bounds, the effects baked, the bake settings, the sky, the lights and the interiors.
+//
+// Halo: 64 m (one sector) of geometry around the sector occludes and bounces; rays leaving it
+// reach the sky. With LPRT it is 80 m so that the neighbours' placement (their probes are the
+// LPRT sources) sees all the geometry it depends on (placement looks 16 m around, placement.h).
+//
+// Determinism: the archive depends only on the world, the quality and the seed — not on the
+// thread count, the shard split or whether the bake was resumed (tests say so).
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "drtv/baker/index_grid.h"
+#include "drtv/baker/placement.h"
+#include "drtv/baker/transfer.h"
+#include "drtv/baker/world_geometry.h"
+#include "drtv/formats/archive.h"
+#include "drtv/formats/error.h"
+#include "drtv/formats/sector.h"
+#include "drtv/worlds/world.h"
+
+namespace drtv::baker {
+
+enum class Quality { kDraft, kDefault, kHigh };
+// "draft", "default", "high".
+const char* qualityName(Quality q);
+std::optional<Quality> parseQuality(std::string_view name);
+
+// Everything that shapes the baked bytes. Presets (docs/baker.md has their measured cost):
+//   draft:   32 rays/basis, 12 surfel rays, 3 m cells, 2 bounces, 4 grid candidates
+//   default: 128 rays/basis, 24 surfel rays, 2 m cells, 2 bounces, 8 grid candidates
+//   high:    512 rays/basis, 64 surfel rays, 1 m cells, 3 bounces, 16 grid candidates
+struct BakeSettings {
+  Quality quality = Quality::kDefault;
+  PlacementSettings placement;
+  TransferSettings transfer;
+  IndexGridSettings grid;
+  double halo_m = 64.0;        // geometry gathered around a sector without LPRT (metres)
+  double lprt_halo_m = 80.0;   // with LPRT (see above)
+  int zstd_level = 3;          // archive compression (zstd's default; ratio ~2 at every level)
+
+  static BakeSettings forQuality(Quality q, uint64_t seed = 1);
+  // (key, value) pairs stored in the manifest and used in the resume fingerprint.
+  std::vector<std::pair<std::string, std::string>> describe() const;
+};
+
+// Which effects a bake of `world` produces: the world's mask minus what it has no content for
+// (local lights without point lights, interiors without volumes). `skipped` receives one line per
+// effect not baked, with the reason.
+uint32_t effectsToBake(const worlds::World& world, std::vector<std::string>* skipped);
+
+// Per-sector figures for the report. Ray counts are exact; times are wall seconds of the stage
+// within the sector's task (inner stages run on all threads).
+struct SectorStats {
+  SectorKey key;
+  size_t probes = 0;
+  size_t triangles = 0;                 // gathered, halo included
+  size_t lprt_sources = 0;
+  size_t bytes = 0;                     // encoded sector
+  size_t bytes_without_lprt = 0;        // the same sector without its LPRT block
+  PlacementStats placement;
+  TransferStats transfer;
+  IndexGridStats grid;
+  uint64_t other_rays = 0;              // ground map, LPRT neighbour placement
+  double gather_s = 0, build_s = 0, placement_s = 0, transfer_s = 0, grid_s = 0, total_s = 0;
+  bool resumed = false;                 // read back from a sector file of an earlier run
+  uint64_t rays() const {
+    return placement.rays + transfer.probe_rays + transfer.surfel_rays + transfer.lprt_rays + grid.rays + other_rays;
+  }
+};
+
+struct BakeOptions {
+  Quality quality = Quality::kDefault;
+  uint64_t seed = 1;                     // keys every random number
+  int threads = 0;                       // worker threads; 0 = all hardware threads
+  std::optional<SectorRange> sectors;    // bake only these sector keys (inclusive)
+  int shard_index = 0, shard_count = 1;  // bake sectors i with i % count == index; no archive
+                                         // unless count == 1 (then merge with merge_only)
+  bool merge_only = false;               // bake nothing: pack the sector files shards wrote
+  bool fresh = false;                    // discard sector files of a different bake
+  bool keep_sector_files = false;        // keep "<archive>.sectors/" after packing
+  std::optional<BakeSettings> settings;  // overrides the quality preset (tests)
+  // Called after each sector with (done, total), from one thread at a time. May be empty.
+  std::function<void(size_t, size_t)> progress;
+};
+
+struct BakeReport {
+  std::string world;                     // name or file
+  std::filesystem::path archive;
+  BakeSettings settings;
+  int threads = 0;
+  std::string shard;                     // "k/N", or "" for a whole bake
+  uint32_t effects_asked = 0, effects_baked = 0;
+  std::vector<std::string> effects_skipped;  // "local_lights: the world has no point lights"
+  std::vector<std::string> notes;        // geometry skips and repairs
+  std::vector<SectorStats> sectors;      // every sector baked or resumed, in key order
+  size_t sectors_empty = 0;              // sectors with no probe (not written to the archive)
+  size_t triangles = 0;                  // contributing triangles in the world
+  double geometry_s = 0, bake_s = 0, pack_s = 0, wall_s = 0;
+  bool packed = false;                   // the archive was written (false for a shard)
+};
+
+// Bakes one sector in memory (no files). `effects` from effectsToBake. Thread-safe; uses TBB.
+Result<Sector> bakeSector(const WorldGeometry& geometry, const worlds::World& world, SectorKey key,
+                          const BakeSettings& settings, uint32_t effects, SectorStats& stats);
+
+// The whole bake (see the top of this file). `world_name` prefixes error messages. Writes the
+// archive at `archive` (unless a shard), "<archive>.sectors/" while it runs, and nothing else:
+// reports are written by writeReports. Errors: bad geometry (world_geometry.h), unwritable
+// files, a sector directory from a different bake (unless fresh), missing sectors on merge.
+Result<BakeReport> bake(const worlds::World& world, const std::string& world_name, const std::filesystem::path& archive,
+                        const BakeOptions& options);
+
+// Writes the report for people (Markdown) and programs (JSON): probes per sector (min/mean/max),
+// invalid probes, bytes per sector with and without LPRT, rays and rays/s, time per stage,
+// effects baked and skipped.
+Result<void> writeReports(const BakeReport& report, const std::filesystem::path& json_path,
+                          const std::filesystem::path& markdown_path);
+
+// "<archive>.sectors" — where sector files live while a bake runs.
+std::filesystem::path sectorDirectory(const std::filesystem::path& archive);
+
+}  // namespace drtv::baker

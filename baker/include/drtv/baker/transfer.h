@@ -1,0 +1,97 @@
+// drtv/baker/transfer.h — the transfer bake of one sector's probes: PRT for sun and sky bounce,
+// sky visibility, and optionally LPRT, all through one surface-transfer cache.
+//
+//  [1] Gilabert & Stefanov, "Deferred Radiance Transfer Volumes", GDC 2012, slides 18-24.
+//  [2] Sloan, Kautz, Snyder, "Precomputed Radiance Transfer for Real-Time Rendering in Dynamic,
+//      Low-Frequency Lighting Environments", SIGGRAPH 2002 (transfer vectors, interreflections
+//      by iterating a gather over surface samples, sec. 5).
+//  [3] Kristensen, Akenine-Moeller, Jensen, "Precomputed Local Radiance Transfer for Real-Time
+//      Lighting Design", SIGGRAPH 2005 (LPRT: point lights at fixed source positions).
+//  [4] Pharr, Jakob, Humphreys, pbrt-v4, sec. 2.2 (Monte Carlo estimators), 2.4.2 (balance
+//      heuristic / mixture sampling).
+//  [5] Ward, Rubinstein, Clear, "A Ray Tracing Solution for Diffuse Interreflection",
+//      SIGGRAPH 1988 (caching diffuse transfer at surface points and reusing it).
+//
+// What is computed, for probe position p, basis normal B_b (sh.h) and channel c (DESIGN.md):
+//   T[c][b] = integral over the hemisphere about B_b of (rho_c(x)/pi) T_x(w) cos dw
+// where x is the first hit along w and T_x is the SH4 transfer vector of surface point x:
+//   T_x = integral of Y(w') V(x,w') max(0, n_x.w') dw'          (direct: sky seen from x)
+//       + integral of (rho(y)/pi) T_y max(0, n_x.w') dw'        (bounces: y first hit from x)
+// so that bounced irradiance at a surface facing B_b is dot(L_sh[c], T[c][b]) for any distant
+// lighting L_sh (sun + sky) [2]. With cosine-weighted rays about B_b (pdf cos/pi [4]):
+//   T[c][b] ~= (1/N) sum over front-face hits of rho_c(x_i) T_{x_i}[c].
+// Sky visibility v[b] = the fraction of those rays that escape. sky_vis_sh = the SH projection of
+// the 0/1 visibility over the sphere, estimated from all 4N rays with the mixture pdf of the four
+// cosine lobes (the balance heuristic [4]). Back-face hits (a ray entering geometry) carry no
+// light and count in backface_frac.
+//
+// The surface-transfer cache [5]: T_x is computed once per surface cell — a `surfel_cell_m` cube
+// and one of six normal directions (the dominant axis of the front normal) — at one hit that
+// landed in it (for level 1 the probe hit nearest the mean of the cell's probe hits, deeper the
+// first hit; both in probe, basis, sample order, so the choice does not depend on threads), and
+// reused by every probe ray and surfel ray that lands in the same cell. Level 1
+// surfels are the probes' hits, level k+1 the hits of level k's rays, up to `bounces` levels;
+// each casts `surfel_rays` cosine-weighted rays. Then `bounces - 1` Jacobi sweeps of
+// T_s = D_s + (1/M) sum rho T_child give every level-1 surfel `bounces` bounces [2]; rays from the
+// last level that land in a cell not yet cached end the path there (truncation, a small
+// darkening reported in docs/baker.md).
+//
+// LPRT [3] (only when sources are given): a unit white point light (radiant intensity 1 per sr)
+// at each source position; for each level-1 surfel x, its direct irradiance
+// E_j(x) = V(x, s_j) max(0, n_x.l) / max(d^2, kLprtMinDistance2) is traced once (rtcOccluded1M,
+// one batch per surfel); then per probe, basis and source, one diffuse bounce:
+//   LPRT[p][j][c][k] = (1/N) sum over basis-k rays' front hits of rho_c(x_i) E_j(x_i)
+// i.e. the bounced irradiance on a surface facing B_k (sector.h's kSectorLprtOnBases layout).
+// The light's direct contribution is the runtime's business and is not included.
+//
+// Determinism: ray directions are R2 points [pbrt sec. 8.2] (CosineSampler) with a shift keyed by (seed, sector,
+// probe, basis) or (seed, sector, surfel index); all sums run in a fixed order.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "drtv/baker/ray_scene.h"
+#include "drtv/baker/world_geometry.h"
+#include "drtv/formats/probe.h"
+
+namespace drtv::baker {
+
+// LPRT's 1/d^2 is clamped at 1 m: a light closer than that to a surface would otherwise blow a
+// single cache cell up into a firefly that the 2 m cells cannot resolve anyway.
+inline constexpr float kLprtMinDistance2 = 1.f;
+
+struct TransferSettings {
+  int probe_rays_per_basis = 256;  // N: cosine-weighted rays per basis direction and probe
+  int surfel_rays = 32;            // M: rays per cached surface cell
+  float surfel_cell_m = 2.f;       // edge of a surface cache cell, metres
+  int bounces = 2;                 // diffuse bounces in T (>= 1)
+  bool prt = true;                 // bake T (sun or sky bounce asked for); else T = 0
+  bool sky_visibility = true;      // bake v and sky_vis_sh (direct sky asked for); else 0
+  uint64_t seed = 1;
+};
+
+struct TransferStats {
+  uint64_t probe_rays = 0;    // probes' basis rays and height rays
+  uint64_t surfel_rays = 0;   // rays of the surface cache
+  uint64_t lprt_rays = 0;     // LPRT shadow rays
+  size_t surfels = 0;         // cache cells traced
+  size_t probe_hits_cached = 0;  // probe rays that reused a cell another ray had created
+  double probe_seconds = 0, surfel_seconds = 0, lprt_seconds = 0;  // thread-time of each stage
+};
+
+// Bakes `probes` (positions in `geometry`'s local frame, which is sector-relative) against
+// `scene`, built over `geometry`. Returns one ProbeData per probe with position, prt, sky_vis,
+// sky_vis_sh, backface_frac, height_m and mean_hit_m filled (flags and interior left 0).
+// When `lprt_sources` is non-empty, `lprt` receives probes.size() x sources x 3 x 4 floats in
+// LprtBlock order ([probe][source][channel][basis]). Uses TBB inside; the result does not depend
+// on the number of threads. Thread-safe (reads only its arguments).
+std::vector<ProbeData> bakeTransfer(const RayScene& scene, const SectorGeometry& geometry,
+                                    std::span<const glm::vec3> probes, const TransferSettings& settings,
+                                    TransferStats& stats, std::span<const glm::vec3> lprt_sources = {},
+                                    std::vector<float>* lprt = nullptr);
+
+}  // namespace drtv::baker

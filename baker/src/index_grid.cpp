@@ -1,0 +1,100 @@
+// The nearest-visible-probe index grid (see index_grid.h).
+#include "drtv/baker/index_grid.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <vector>
+
+namespace drtv::baker {
+namespace {
+// The visibility segment stops this short of the probe: a probe is lifted above a surface and
+// never sits within 5 cm of one.
+constexpr float kProbeClearanceM = 0.05f;
+constexpr float kBelowM = 2.f, kAboveM = 4.f;
+}  // namespace
+
+void chooseGridExtent(std::span<const glm::vec3> probes, float ground_min_z, IndexGrid& grid) {
+  float lo = std::isfinite(ground_min_z) ? ground_min_z : INFINITY, hi = -INFINITY;
+  for (const glm::vec3& p : probes) {
+    lo = std::min(lo, p.z);
+    hi = std::max(hi, p.z);
+  }
+  if (!std::isfinite(lo)) lo = 0.f;
+  if (!std::isfinite(hi)) hi = lo;
+  lo -= kBelowM;
+  hi += kAboveM;
+  grid.z_min_m = std::floor(lo);
+  grid.cell_height_m = std::max(kMinCellHeightM, (hi - grid.z_min_m) / float(kGridDim));
+}
+
+void fillIndexGrid(const RayScene& scene, std::span<const glm::vec3> probes, const IndexGridSettings& settings,
+                   IndexGrid& grid, IndexGridStats& stats) {
+  DRTV_CHECK_LE(probes.size(), size_t(kMaxProbesPerSector));
+  grid.cells.fill(kNoProbe);
+  if (probes.empty()) return;
+  const size_t k = std::min(probes.size(), size_t(std::max(1, settings.visibility_candidates)));
+  std::atomic<uint64_t> rays{0};
+  std::atomic<size_t> nearest{0}, farther{0}, inside{0}, unseen{0};
+  tbb::parallel_for(tbb::blocked_range<int>(0, kGridDim), [&](const tbb::blocked_range<int>& zr) {
+    std::vector<std::pair<float, uint32_t>> order(k);
+    uint64_t n_rays = 0;
+    size_t n_nearest = 0, n_farther = 0, n_inside = 0, n_unseen = 0;
+    for (int z = zr.begin(); z < zr.end(); ++z)
+      for (int y = 0; y < kGridDim; ++y)
+        for (int x = 0; x < kGridDim; ++x) {
+          const glm::vec3 c(float((x + 0.5) * kGridCellSizeM), float((y + 0.5) * kGridCellSizeM),
+                            grid.z_min_m + (float(z) + 0.5f) * grid.cell_height_m);
+          // The k nearest, by insertion (k <= 16 of <= 255): ties broken by index, deterministic.
+          size_t n = 0;
+          for (size_t i = 0; i < probes.size(); ++i) {
+            const glm::vec3 d = probes[i] - c;
+            const std::pair<float, uint32_t> e{glm::dot(d, d), uint32_t(i)};
+            if (n == k && !(e < order[k - 1])) continue;
+            size_t j = n < k ? n++ : k - 1;
+            for (; j > 0 && e < order[j - 1]; --j) order[j] = order[j - 1];
+            order[j] = e;
+          }
+          uint32_t chosen = order[0].second;
+          bool found = false;
+          for (size_t j = 0; j < k && !found; ++j) {
+            const glm::vec3 to = probes[order[j].second] - c;
+            const float dist = std::sqrt(order[j].first);
+            if (dist <= kProbeClearanceM) {
+              chosen = order[j].second;
+              found = true;
+              j == 0 ? ++n_nearest : ++n_farther;
+              break;
+            }
+            const Ray ray{c, 0.f, to / dist, dist - kProbeClearanceM};
+            const Hit h = scene.intersect(ray);
+            ++n_rays;
+            if (!h.hit()) {
+              chosen = order[j].second;
+              found = true;
+              j == 0 ? ++n_nearest : ++n_farther;
+            } else if (j == 0 && !scene.frontFace(ray, h.prim)) {
+              found = true;  // centre inside geometry: keep the nearest
+              ++n_inside;
+            }
+          }
+          if (!found) ++n_unseen;
+          grid.cells[IndexGrid::cellIndex(x, y, z)] = uint8_t(chosen);
+        }
+    rays += n_rays;
+    nearest += n_nearest;
+    farther += n_farther;
+    inside += n_inside;
+    unseen += n_unseen;
+  });
+  stats.rays += rays;
+  stats.cells_nearest += nearest;
+  stats.cells_farther += farther;
+  stats.cells_inside += inside;
+  stats.cells_unseen += unseen;
+}
+
+}  // namespace drtv::baker

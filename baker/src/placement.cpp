@@ -1,0 +1,190 @@
+// Probe placement (see placement.h for the rule and its references).
+#include "drtv/baker/placement.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "drtv/baker/sampling.h"
+#include "drtv/formats/probe.h"
+#include "drtv/formats/sector.h"
+
+namespace drtv::baker {
+namespace {
+
+// Hits along one vertical ray, at most this many (a column through a 60-floor tower).
+constexpr int kMaxHitsPerColumn = 128;
+// Step past a hit before looking for the next one along the same ray: 0.1 mm, far below modelled
+// thickness and far above float round-off at sector coordinates.
+constexpr float kHitStepM = 1e-4f;
+// Start vertical rays this far above the highest geometry.
+constexpr float kRayTopMarginM = 10.f;
+// Relocation offsets tried in order (metres): up first (most inside cases are a probe lifted
+// into a slab or a terrain hit under a rock), then sideways.
+constexpr glm::vec3 kRelocationOffsets[] = {{0, 0, 0.5f}, {0, 0, 1.f}, {0, 0, 2.f}, {0, 0, 4.f},
+                                            {1, 0, 0},    {-1, 0, 0},  {0, 1, 0},   {0, -1, 0},
+                                            {2, 0, 0},    {-2, 0, 0},  {0, 2, 0},   {0, -2, 0}};
+
+enum Priority : int { kDesignated = 0, kCovered = 1, kTop = 2, kVegetation = 3 };
+
+struct Candidate {
+  glm::vec3 position;
+  int priority;
+  uint32_t order;
+  uint16_t flags = 0;
+  uint16_t interior = 0;
+};
+
+bool isStatic(uint8_t cls) {
+  return cls == uint8_t(worlds::InstanceClass::kTerrain) || cls == uint8_t(worlds::InstanceClass::kStatic);
+}
+
+// True when `p` is inside geometry (step 4 of placement.h).
+bool inside(const RayScene& scene, const glm::vec3& p, const PlacementSettings& s, uint64_t key, PlacementStats& stats) {
+  const int n = s.inside_test_rays;
+  std::vector<Ray> rays(static_cast<size_t>(n));
+  std::vector<Hit> hits(static_cast<size_t>(n));
+  const glm::vec2 shift(unitFloat(hashKey(key, 1)), unitFloat(hashKey(key, 2)));
+  for (int i = 0; i < n; ++i) rays[i] = Ray{p, 0.f, uniformSphere(r2Point(uint32_t(i), shift)), float(s.inside_test_range_m)};
+  scene.intersect(rays, hits);
+  stats.rays += uint64_t(n);
+  int hit = 0, back = 0;
+  for (int i = 0; i < n; ++i) {
+    if (!hits[i].hit()) continue;
+    ++hit;
+    back += !scene.frontFace(rays[i], hits[i].prim);
+  }
+  return hit > 0 && double(back) > kInsideBackfaceFraction * double(hit);
+}
+
+std::vector<Candidate> greedy(const std::vector<Candidate>& sorted, double min_h, double min_v) {
+  std::vector<Candidate> accepted;
+  const double min_h2 = min_h * min_h;
+  for (const Candidate& c : sorted) {
+    bool ok = true;
+    if (c.priority != kDesignated)
+      for (const Candidate& a : accepted) {
+        const double dx = c.position.x - a.position.x, dy = c.position.y - a.position.y, dz = c.position.z - a.position.z;
+        if (dx * dx + dy * dy < min_h2 && std::abs(dz) < min_v) {
+          ok = false;
+          break;
+        }
+      }
+    if (ok) accepted.push_back(c);
+  }
+  return accepted;
+}
+
+}  // namespace
+
+std::vector<PlacedProbe> placeProbes(const RayScene& scene, const SectorGeometry& geometry, glm::ivec2 offset,
+                                     std::span<const LocalInterior> interiors, const PlacementSettings& s,
+                                     PlacementStats& stats) {
+  const glm::vec2 base(float(offset.x * kSectorSizeM), float(offset.y * kSectorSizeM));
+  const int32_t key_x = geometry.key.ix + offset.x, key_y = geometry.key.iy + offset.y;
+  const uint64_t sector_key = hashKey(s.seed, uint64_t(uint32_t(key_x)), uint64_t(uint32_t(key_y)), 0x706c6163ull);
+  const float top = geometry.z_max + kRayTopMarginM;
+  const float ray_len = geometry.z_max - geometry.z_min + 2.f * kRayTopMarginM;
+  std::vector<Candidate> cands;
+  uint32_t order = 0;
+
+  // 1. Static pass.
+  const int columns = std::max(1, int(std::lround(kSectorSizeM / s.column_spacing_m)));
+  const float step = float(kSectorSizeM / columns);
+  for (int cy = 0; cy < columns; ++cy)
+    for (int cx = 0; cx < columns; ++cx) {
+      const glm::vec3 origin(base.x + (cx + 0.5f) * step, base.y + (cy + 0.5f) * step, top);
+      float t = 0.f, z_above = INFINITY;
+      for (int k = 0; k < kMaxHitsPerColumn; ++k) {
+        const Hit h = scene.intersect(Ray{origin, t, glm::vec3(0, 0, -1), ray_len});
+        ++stats.rays;
+        if (!h.hit()) break;
+        t = h.t + kHitStepM;
+        if (!isStatic(geometry.cls[h.prim])) continue;
+        const float z = origin.z - h.t;
+        if (scene.normal(h.prim).z > 0.f) {  // front face of a downward ray
+          const float lift = std::min(float(s.lift_m), 0.5f * (z_above - z));
+          cands.push_back({glm::vec3(origin.x, origin.y, z + lift), std::isinf(z_above) ? kTop : kCovered, order++});
+          ++stats.static_candidates;
+        }
+        z_above = z;
+      }
+    }
+
+  // 2. Vegetation pass: the top of every vegetation box under the ray.
+  const int veg_columns = std::max(1, int(std::lround(kSectorSizeM / s.vegetation_spacing_m)));
+  const float veg_step = float(kSectorSizeM / veg_columns);
+  for (int cy = 0; cy < veg_columns; ++cy)
+    for (int cx = 0; cx < veg_columns; ++cx) {
+      const float x = base.x + (cx + 0.5f) * veg_step, y = base.y + (cy + 0.5f) * veg_step;
+      for (const Box& b : geometry.vegetation_boxes) {
+        if (x < b.min.x || x > b.max.x || y < b.min.y || y > b.max.y) continue;
+        cands.push_back({glm::vec3(x, y, b.max.z + float(s.lift_m)), kVegetation, order++, kProbeVegetation});
+        ++stats.vegetation_candidates;
+      }
+    }
+
+  // 4. Inside test (before the distance test, so that a relocated probe competes fairly).
+  std::vector<Candidate> kept;
+  kept.reserve(cands.size());
+  for (Candidate& c : cands) {
+    const uint64_t key = hashKey(sector_key, c.order);
+    if (!inside(scene, c.position, s, key, stats)) {
+      kept.push_back(c);
+      continue;
+    }
+    bool moved = false;
+    for (size_t o = 0; o < std::size(kRelocationOffsets) && !moved; ++o) {
+      const glm::vec3 p = c.position + kRelocationOffsets[o];
+      if (p.x < base.x || p.y < base.y || p.x >= base.x + float(kSectorSizeM) || p.y >= base.y + float(kSectorSizeM)) continue;
+      if (!inside(scene, p, s, hashKey(key, o + 1), stats)) {
+        c.position = p;
+        c.flags |= kProbeRelocated;
+        kept.push_back(c);
+        moved = true;
+      }
+    }
+    if (moved)
+      ++stats.relocated;
+    else
+      ++stats.dropped_inside;
+  }
+
+  // 3. Interiors' designated probes, kept unconditionally.
+  for (const LocalInterior& in : interiors) {
+    const glm::vec3 p = in.probe_position;
+    if (p.x < base.x || p.y < base.y || p.x >= base.x + float(kSectorSizeM) || p.y >= base.y + float(kSectorSizeM)) continue;
+    kept.push_back({p, kDesignated, order++, kProbeInterior, in.index});
+    ++stats.interior_probes;
+  }
+
+  // 5 and 6. Minimum distance, then the cap.
+  std::stable_sort(kept.begin(), kept.end(), [](const Candidate& a, const Candidate& b) {
+    return a.priority != b.priority ? a.priority < b.priority : a.order < b.order;
+  });
+  double min_h = s.min_horizontal_m;
+  std::vector<Candidate> accepted = greedy(kept, min_h, s.min_vertical_m);
+  stats.rejected_distance += kept.size() - accepted.size();
+  const size_t first_pass = accepted.size();
+  while (accepted.size() > size_t(kMaxProbesPerSector) && min_h < kSectorSizeM) {
+    min_h *= 1.25;
+    accepted = greedy(kept, min_h, s.min_vertical_m);
+  }
+  if (accepted.size() > size_t(kMaxProbesPerSector)) accepted.resize(kMaxProbesPerSector);
+  stats.thinned_cap += first_pass - accepted.size();
+
+  std::vector<PlacedProbe> out;
+  out.reserve(accepted.size());
+  for (const Candidate& c : accepted) {
+    PlacedProbe p{c.position, c.flags, c.interior};
+    if (p.interior == 0)
+      for (const LocalInterior& in : interiors)
+        if (glm::all(glm::greaterThanEqual(p.position, in.box.min)) && glm::all(glm::lessThan(p.position, in.box.max))) {
+          p.interior = in.index;
+          break;
+        }
+    out.push_back(p);
+  }
+  return out;
+}
+
+}  // namespace drtv::baker

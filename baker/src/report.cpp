@@ -1,0 +1,237 @@
+// bake-report.json and bake-report.md (see bake.h, writeReports).
+#include <algorithm>
+#include <map>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+
+#include "stats_json.h"
+
+namespace drtv::baker {
+namespace {
+
+template <class T>
+T get(const nlohmann::json& j, const char* key) {
+  if (!j.is_object() || !j.contains(key)) return T{};
+  const auto& v = j.at(key);
+  if constexpr (std::is_same_v<T, bool>) {
+    return v.is_boolean() ? v.get<bool>() : false;
+  } else {
+    return v.is_number() ? v.get<T>() : T{};
+  }
+}
+
+std::string fixed(double v, int digits = 1) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*f", digits, v);
+  return buf;
+}
+
+struct MinMeanMax {
+  double min = 0, mean = 0, max = 0;
+  size_t n = 0;
+  void add(double v) {
+    min = n ? std::min(min, v) : v;
+    max = n ? std::max(max, v) : v;
+    mean = (mean * double(n) + v) / double(n + 1);
+    ++n;
+  }
+  nlohmann::json json() const { return {{"min", min}, {"mean", mean}, {"max", max}, {"count", n}}; }
+};
+
+}  // namespace
+
+nlohmann::json toJson(const SectorStats& s) {
+  return {
+      {"ix", s.key.ix}, {"iy", s.key.iy}, {"probes", s.probes}, {"triangles", s.triangles},
+      {"lprt_sources", s.lprt_sources}, {"bytes", s.bytes}, {"bytes_without_lprt", s.bytes_without_lprt},
+      {"static_candidates", s.placement.static_candidates}, {"vegetation_candidates", s.placement.vegetation_candidates},
+      {"interior_probes", s.placement.interior_probes}, {"relocated", s.placement.relocated},
+      {"dropped_inside", s.placement.dropped_inside}, {"rejected_distance", s.placement.rejected_distance},
+      {"thinned_cap", s.placement.thinned_cap}, {"placement_rays", s.placement.rays},
+      {"probe_rays", s.transfer.probe_rays}, {"surfel_rays", s.transfer.surfel_rays}, {"lprt_rays", s.transfer.lprt_rays},
+      {"surfels", s.transfer.surfels}, {"probe_hits_cached", s.transfer.probe_hits_cached},
+      {"probe_s", s.transfer.probe_seconds}, {"surfel_s", s.transfer.surfel_seconds}, {"lprt_s", s.transfer.lprt_seconds},
+      {"grid_rays", s.grid.rays}, {"cells_nearest", s.grid.cells_nearest}, {"cells_farther", s.grid.cells_farther},
+      {"cells_inside", s.grid.cells_inside}, {"cells_unseen", s.grid.cells_unseen}, {"other_rays", s.other_rays},
+      {"gather_s", s.gather_s}, {"build_s", s.build_s}, {"placement_s", s.placement_s}, {"transfer_s", s.transfer_s},
+      {"grid_s", s.grid_s}, {"total_s", s.total_s},
+  };
+}
+
+SectorStats sectorStatsFromJson(const nlohmann::json& j) {
+  SectorStats s;
+  s.key = {get<int32_t>(j, "ix"), get<int32_t>(j, "iy")};
+  s.probes = get<size_t>(j, "probes");
+  s.triangles = get<size_t>(j, "triangles");
+  s.lprt_sources = get<size_t>(j, "lprt_sources");
+  s.bytes = get<size_t>(j, "bytes");
+  s.bytes_without_lprt = get<size_t>(j, "bytes_without_lprt");
+  s.placement.static_candidates = get<size_t>(j, "static_candidates");
+  s.placement.vegetation_candidates = get<size_t>(j, "vegetation_candidates");
+  s.placement.interior_probes = get<size_t>(j, "interior_probes");
+  s.placement.relocated = get<size_t>(j, "relocated");
+  s.placement.dropped_inside = get<size_t>(j, "dropped_inside");
+  s.placement.rejected_distance = get<size_t>(j, "rejected_distance");
+  s.placement.thinned_cap = get<size_t>(j, "thinned_cap");
+  s.placement.rays = get<uint64_t>(j, "placement_rays");
+  s.transfer.probe_rays = get<uint64_t>(j, "probe_rays");
+  s.transfer.surfel_rays = get<uint64_t>(j, "surfel_rays");
+  s.transfer.lprt_rays = get<uint64_t>(j, "lprt_rays");
+  s.transfer.surfels = get<size_t>(j, "surfels");
+  s.transfer.probe_hits_cached = get<size_t>(j, "probe_hits_cached");
+  s.transfer.probe_seconds = get<double>(j, "probe_s");
+  s.transfer.surfel_seconds = get<double>(j, "surfel_s");
+  s.transfer.lprt_seconds = get<double>(j, "lprt_s");
+  s.grid.rays = get<uint64_t>(j, "grid_rays");
+  s.grid.cells_nearest = get<size_t>(j, "cells_nearest");
+  s.grid.cells_farther = get<size_t>(j, "cells_farther");
+  s.grid.cells_inside = get<size_t>(j, "cells_inside");
+  s.grid.cells_unseen = get<size_t>(j, "cells_unseen");
+  s.other_rays = get<uint64_t>(j, "other_rays");
+  s.gather_s = get<double>(j, "gather_s");
+  s.build_s = get<double>(j, "build_s");
+  s.placement_s = get<double>(j, "placement_s");
+  s.transfer_s = get<double>(j, "transfer_s");
+  s.grid_s = get<double>(j, "grid_s");
+  s.total_s = get<double>(j, "total_s");
+  return s;
+}
+
+Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json_path,
+                          const std::filesystem::path& markdown_path) {
+  MinMeanMax probes, bytes, bytes_no_lprt, triangles;
+  size_t total_probes = 0, relocated = 0, dropped = 0, rejected = 0, thinned = 0, veg = 0, interior = 0, resumed = 0;
+  size_t cells_near = 0, cells_far = 0, cells_inside = 0, cells_unseen = 0, surfels = 0, cached = 0;
+  uint64_t rays = 0, r_place = 0, r_probe = 0, r_surfel = 0, r_lprt = 0, r_grid = 0, r_other = 0;
+  double t_gather = 0, t_build = 0, t_place = 0, t_probe = 0, t_surfel = 0, t_lprt = 0, t_grid = 0, t_total = 0;
+  std::map<size_t, size_t> histogram;  // probes per sector, bucketed by 10
+  for (const SectorStats& s : r.sectors) {
+    resumed += s.resumed;
+    relocated += s.placement.relocated;
+    dropped += s.placement.dropped_inside;
+    rejected += s.placement.rejected_distance;
+    thinned += s.placement.thinned_cap;
+    veg += s.placement.vegetation_candidates;
+    interior += s.placement.interior_probes;
+    cells_near += s.grid.cells_nearest;
+    cells_far += s.grid.cells_farther;
+    cells_inside += s.grid.cells_inside;
+    cells_unseen += s.grid.cells_unseen;
+    surfels += s.transfer.surfels;
+    cached += s.transfer.probe_hits_cached;
+    rays += s.rays();
+    r_place += s.placement.rays;
+    r_probe += s.transfer.probe_rays;
+    r_surfel += s.transfer.surfel_rays;
+    r_lprt += s.transfer.lprt_rays;
+    r_grid += s.grid.rays;
+    r_other += s.other_rays;
+    t_gather += s.gather_s;
+    t_build += s.build_s;
+    t_place += s.placement_s;
+    t_probe += s.transfer.probe_seconds;
+    t_surfel += s.transfer.surfel_seconds;
+    t_lprt += s.transfer.lprt_seconds;
+    t_grid += s.grid_s;
+    t_total += s.total_s;
+    if (s.probes == 0) continue;
+    total_probes += s.probes;
+    probes.add(double(s.probes));
+    bytes.add(double(s.bytes));
+    bytes_no_lprt.add(double(s.bytes_without_lprt));
+    triangles.add(double(s.triangles));
+    ++histogram[s.probes / 10 * 10];
+  }
+  const double rays_per_s = r.bake_s > 0 ? double(rays) / r.bake_s : 0.0;
+
+  nlohmann::json j;
+  j["world"] = r.world;
+  j["archive"] = r.archive.string();
+  j["packed"] = r.packed;
+  j["shard"] = r.shard;
+  j["threads"] = r.threads;
+  nlohmann::json settings = nlohmann::json::object();
+  for (const auto& [k, v] : r.settings.describe()) settings[k] = v;
+  j["settings"] = settings;
+  j["effects"] = {{"asked", effectsToString(r.effects_asked)}, {"baked", effectsToString(r.effects_baked)}, {"skipped", r.effects_skipped}};
+  j["notes"] = r.notes;
+  j["triangles"] = r.triangles;
+  j["sectors"] = {{"baked_or_resumed", r.sectors.size()}, {"resumed", resumed}, {"empty_skipped", r.sectors_empty},
+                  {"with_probes", probes.n}};
+  j["probes"] = {{"total", total_probes}, {"per_sector", probes.json()}, {"relocated", relocated},
+                 {"invalid_dropped", dropped}, {"rejected_min_distance", rejected}, {"thinned_cap", thinned},
+                 {"vegetation_candidates", veg}, {"interior_designated", interior}};
+  nlohmann::json hist = nlohmann::json::object();
+  for (const auto& [b, n] : histogram) hist[std::to_string(b) + "-" + std::to_string(b + 9)] = n;
+  j["probes"]["histogram"] = hist;
+  j["bytes_per_sector"] = {{"with_lprt", bytes.json()}, {"without_lprt", bytes_no_lprt.json()}};
+  j["triangles_per_sector"] = triangles.json();
+  j["index_grid"] = {{"cells_nearest_visible", cells_near}, {"cells_farther_visible", cells_far},
+                     {"cells_inside_geometry", cells_inside}, {"cells_none_visible", cells_unseen}};
+  j["surface_cache"] = {{"surfels", surfels}, {"probe_hits_reusing_a_cell", cached}};
+  j["rays"] = {{"total", rays}, {"placement", r_place}, {"probe", r_probe}, {"surfel", r_surfel}, {"lprt", r_lprt},
+               {"grid", r_grid}, {"other", r_other}, {"per_second_wall", rays_per_s}};
+  j["seconds"] = {{"wall", r.wall_s}, {"geometry", r.geometry_s}, {"bake", r.bake_s}, {"pack", r.pack_s},
+                  {"sum_over_sectors",
+                   {{"gather", t_gather}, {"scene_build", t_build}, {"placement", t_place}, {"probe_rays", t_probe},
+                    {"surface_cache", t_surfel}, {"lprt", t_lprt}, {"index_grid", t_grid}, {"total", t_total}}}};
+  nlohmann::json per = nlohmann::json::array();
+  for (const SectorStats& s : r.sectors) per.push_back(toJson(s));
+  j["per_sector"] = per;
+  {
+    std::ofstream f(json_path, std::ios::trunc);
+    if (!f) return fail(json_path.string() + ": cannot open for writing");
+    f << j.dump(2) << "\n";
+    if (!f) return fail(json_path.string() + ": write failed");
+  }
+
+  std::ostringstream md;
+  md << "# Bake report\n\n";
+  md << "- world: `" << r.world << "`\n- archive: `" << r.archive.string() << "`" << (r.packed ? "" : " (not packed: shard)") << "\n";
+  if (!r.shard.empty()) md << "- shard: " << r.shard << "\n";
+  md << "- quality: " << qualityName(r.settings.quality) << ", threads: " << r.threads << "\n";
+  md << "- effects baked: " << effectsToString(r.effects_baked) << "\n";
+  for (const std::string& s : r.effects_skipped) md << "- skipped: " << s << "\n";
+  for (const std::string& n : r.notes) md << "- geometry " << n << "\n";
+  md << "\n## Probes\n\n| | value |\n|---|---|\n";
+  md << "| sectors with probes | " << probes.n << " (" << r.sectors_empty << " empty, not stored; " << resumed << " resumed) |\n";
+  md << "| probes | " << total_probes << " |\n";
+  md << "| per sector min / mean / max | " << fixed(probes.min, 0) << " / " << fixed(probes.mean) << " / " << fixed(probes.max, 0) << " |\n";
+  md << "| relocated out of geometry | " << relocated << " |\n";
+  md << "| invalid (inside geometry, dropped) | " << dropped << " |\n";
+  md << "| rejected by minimum distance | " << rejected << " |\n";
+  md << "| thinned to the 255 cap | " << thinned << " |\n";
+  md << "| interior designated | " << interior << " |\n";
+  md << "\nProbes per sector:\n\n| probes | sectors |\n|---|---|\n";
+  for (const auto& [b, n] : histogram) md << "| " << b << "-" << b + 9 << " | " << n << " |\n";
+  md << "\n## Bytes per sector (encoded, before zstd)\n\n| | min | mean | max |\n|---|---|---|---|\n";
+  md << "| with LPRT | " << fixed(bytes.min, 0) << " | " << fixed(bytes.mean, 0) << " | " << fixed(bytes.max, 0) << " |\n";
+  md << "| without LPRT | " << fixed(bytes_no_lprt.min, 0) << " | " << fixed(bytes_no_lprt.mean, 0) << " | " << fixed(bytes_no_lprt.max, 0) << " |\n";
+  md << "\n## Index grid\n\n" << cells_near << " cells took the nearest probe, " << cells_far
+     << " a farther one because nearer ones were hidden, " << cells_inside << " lie inside geometry (nearest), "
+     << cells_unseen << " saw no candidate (nearest).\n";
+  md << "\n## Rays\n\n| stage | rays |\n|---|---|\n";
+  md << "| placement | " << r_place << " |\n| probe basis rays | " << r_probe << " |\n| surface cache | " << r_surfel
+     << " (" << surfels << " cells) |\n| LPRT shadow rays | " << r_lprt << " |\n| index grid visibility | " << r_grid
+     << " |\n| ground map, LPRT sources | " << r_other << " |\n| **total** | **" << rays << "** |\n";
+  md << "\n" << fixed(rays_per_s / 1e6, 2) << " M rays/s over the bake's wall time.\n";
+  md << "\n## Time (seconds)\n\n| stage | seconds |\n|---|---|\n";
+  md << "| wall | " << fixed(r.wall_s, 2) << " |\n| world geometry | " << fixed(r.geometry_s, 2) << " |\n| sectors (wall) | "
+     << fixed(r.bake_s, 2) << " |\n| pack | " << fixed(r.pack_s, 2) << " |\n";
+  md << "\nSummed over sectors (each a wall time within its sector's task):\n\n| stage | seconds |\n|---|---|\n";
+  md << "| gather | " << fixed(t_gather, 2) << " |\n| scene build | " << fixed(t_build, 2) << " |\n| placement | " << fixed(t_place, 2)
+     << " |\n| probe rays | " << fixed(t_probe, 2) << " |\n| surface cache + bounces | " << fixed(t_surfel, 2) << " |\n| LPRT | "
+     << fixed(t_lprt, 2) << " |\n| index grid | " << fixed(t_grid, 2) << " |\n";
+  md << "\n## Settings\n\n| key | value |\n|---|---|\n";
+  for (const auto& [k, v] : r.settings.describe()) md << "| " << k << " | " << v << " |\n";
+  {
+    std::ofstream f(markdown_path, std::ios::trunc);
+    if (!f) return fail(markdown_path.string() + ": cannot open for writing");
+    f << md.str();
+    if (!f) return fail(markdown_path.string() + ": write failed");
+  }
+  return {};
+}
+
+}  // namespace drtv::baker

@@ -1,0 +1,266 @@
+// The whole bake: archive contents, budgets, determinism, resumption, shards, bad input.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <limits>
+
+#include "drtv/baker/bake.h"
+#include "drtv/formats/archive.h"
+#include "test_worlds.h"
+
+namespace drtv::baker {
+namespace {
+namespace fs = std::filesystem;
+
+// A scratch directory per test, removed at the end.
+struct TempDir {
+  fs::path path;
+  TempDir() {
+    path = fs::temp_directory_path() / ("drtv_baker_test_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+    fs::remove_all(path);
+    fs::create_directories(path);
+  }
+  ~TempDir() { fs::remove_all(path); }
+};
+
+std::vector<char> readBytes(const fs::path& p) {
+  std::ifstream f(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
+}
+
+BakeOptions draft(int threads = 0) {
+  BakeOptions o;
+  o.quality = Quality::kDraft;
+  o.threads = threads;
+  return o;
+}
+
+worlds::World litWorld() {
+  worlds::World w = test::smallWorld();
+  w.lights.push_back({"lamp", {10.0, 10.0, 2.0}, glm::vec3(5.f), 12.f});
+  w.effects |= kEffectLocalLights;
+  return w;
+}
+
+TEST(Bake, ProbeRecordIs152Bytes) { EXPECT_EQ(sizeof(ProbeRecord), 152u); }
+
+TEST(Bake, OneAndTwoThreadsWriteByteIdenticalArchives) {
+  TempDir dir;
+  const worlds::World w = test::smallWorld();
+  auto one = bake(w, "small", dir.path / "one.drtv", draft(1));
+  ASSERT_TRUE(one) << one.error().message;
+  auto two = bake(w, "small", dir.path / "two.drtv", draft(2));
+  ASSERT_TRUE(two) << two.error().message;
+  EXPECT_TRUE(one->packed && two->packed);
+  const auto a = readBytes(dir.path / "one.drtv"), b = readBytes(dir.path / "two.drtv");
+  ASSERT_FALSE(a.empty());
+  EXPECT_TRUE(a == b) << "1 and 2 threads must give identical bytes";
+  EXPECT_FALSE(fs::exists(sectorDirectory(dir.path / "one.drtv"))) << "sector files are removed after packing";
+}
+
+TEST(Bake, ArchiveHoldsEverySectorWithItsManifest) {
+  TempDir dir;
+  worlds::World w = test::smallWorld();
+  w.interiors.push_back({"house", {15.4, 16.4, 0.0}, {24.6, 23.6, 3.0}, {20.0, 20.0, 1.5}, 0.5f});
+  w.effects |= kEffectInteriors;
+  auto r = bake(w, "small", dir.path / "a.drtv", draft());
+  ASSERT_TRUE(r) << r.error().message;
+  auto reader = ArchiveReader::open(dir.path / "a.drtv");
+  ASSERT_TRUE(reader) << reader.error().message;
+  const Manifest& m = reader->manifest();
+  EXPECT_EQ(m.sectors.size(), 4u);
+  EXPECT_EQ(m.bounds_min.x, -64.0);
+  EXPECT_EQ(m.bounds_max.y, 64.0);
+  EXPECT_TRUE(m.effects & kEffectInteriors);
+  EXPECT_FALSE(m.effects & kEffectLocalLights);
+  EXPECT_EQ(m.setting("quality"), "draft");
+  EXPECT_EQ(m.interiors.size(), 1u);
+  EXPECT_EQ(m.sky.latitude_rad, w.sky.latitude_rad);
+  bool designated = false;
+  for (const SectorEntry& e : m.sectors) {
+    auto s = reader->readSector(e.key);
+    ASSERT_TRUE(s) << s.error().message;
+    EXPECT_GT(s->probes.size(), 40u);
+    EXPECT_TRUE(s->has_ground);
+    for (uint8_t c : s->grid.cells) EXPECT_LT(c, s->probes.size());
+    for (const ProbeRecord& p : s->probes) designated |= (p.flags & kProbeInterior) && p.interior == 1;
+  }
+  EXPECT_TRUE(designated);
+}
+
+// Talk slide 22: "a little bit less than 15KB" per sector of about 70 probes, in bytes (1 KB =
+// 1000 B here, the stricter reading): 64 header + 70 x 152 probes + 4096 grid + 128 ground.
+TEST(Bake, SectorOfAbout70ProbesWithoutLprtIsUnder15KB) {
+  EXPECT_LT(encodedSectorBytes(70, 0, true), 15000u);
+  TempDir dir;
+  auto r = bake(test::smallWorld(), "small", dir.path / "a.drtv", draft());
+  ASSERT_TRUE(r);
+  for (const SectorStats& s : r->sectors) {
+    EXPECT_EQ(s.bytes, s.bytes_without_lprt);
+    if (s.probes <= 70) {
+      EXPECT_LT(s.bytes, 15000u) << toString(s.key) << " with " << s.probes << " probes";
+    }
+  }
+}
+
+// Talk slide 22: LPRT adds "210KB" per sector: 70 probes x 128 sources x 4 x 3 x 2 B = 215,040 B
+// = 210 KiB exactly, plus the 512 B source table (KiB = 1024 B here).
+TEST(Bake, LprtAddsAtMost210KiBPerSectorOfAbout70Probes) {
+  TempDir dir;
+  auto r = bake(litWorld(), "lit", dir.path / "a.drtv", draft());
+  ASSERT_TRUE(r) << r.error().message;
+  for (const SectorStats& s : r->sectors) {
+    EXPECT_LE(s.lprt_sources, 128u);
+    EXPECT_GT(s.lprt_sources, 0u);
+    EXPECT_EQ(s.bytes - s.bytes_without_lprt, s.probes * s.lprt_sources * 24 + s.lprt_sources * 4);
+    if (s.probes <= 70) {
+      EXPECT_LE(s.bytes - s.bytes_without_lprt, 210u * 1024u + 512u);
+    }
+  }
+  auto reader = ArchiveReader::open(dir.path / "a.drtv");
+  ASSERT_TRUE(reader);
+  EXPECT_TRUE(reader->manifest().effects & kEffectLocalLights);
+  auto s = reader->readSector(reader->manifest().sectors[0].key);
+  ASSERT_TRUE(s);
+  EXPECT_TRUE(s->hasLprt());
+  EXPECT_TRUE(s->lprt.on_bases);
+  float biggest = 0.f;
+  for (int16_t q : s->lprt.coeffs) biggest = std::max(biggest, float(std::abs(q)));
+  EXPECT_GT(biggest, 0.f) << "the lamp's sources bounce light";
+}
+
+TEST(Bake, NoLprtBlockAtAllWithoutLocalLights) {
+  TempDir dir;
+  worlds::World w = test::smallWorld();
+  w.effects |= kEffectLocalLights;  // asked for, but there is no light
+  auto r = bake(w, "small", dir.path / "a.drtv", draft());
+  ASSERT_TRUE(r);
+  bool reported = false;
+  for (const auto& s : r->effects_skipped) reported |= s.starts_with("local_lights");
+  EXPECT_TRUE(reported);
+  auto reader = ArchiveReader::open(dir.path / "a.drtv");
+  ASSERT_TRUE(reader);
+  EXPECT_FALSE(reader->manifest().effects & kEffectLocalLights);
+  for (const SectorEntry& e : reader->manifest().sectors) {
+    EXPECT_EQ(e.lprt_sources, 0u);
+    auto s = reader->readSector(e.key);
+    ASSERT_TRUE(s);
+    EXPECT_FALSE(s->hasLprt());
+    EXPECT_EQ(s->lprt.coeffs.size(), 0u);
+    for (const ProbeRecord& p : s->probes) EXPECT_EQ(p.lprt_range, 0.f);
+  }
+}
+
+TEST(Bake, DynamicInstancesDoNotChangeTheArchive) {
+  TempDir dir;
+  worlds::World with = test::smallWorld(), without = test::smallWorld();
+  without.instances.pop_back();  // the dynamic crate
+  ASSERT_TRUE(bake(with, "small", dir.path / "a.drtv", draft()));
+  ASSERT_TRUE(bake(without, "small", dir.path / "b.drtv", draft()));
+  EXPECT_TRUE(readBytes(dir.path / "a.drtv") == readBytes(dir.path / "b.drtv"));
+}
+
+TEST(Bake, AnInterruptedBakeResumesAndGivesTheSameArchive) {
+  TempDir dir;
+  const worlds::World w = test::smallWorld();
+  ASSERT_TRUE(bake(w, "small", dir.path / "fresh.drtv", draft()));
+  // "Interrupted": only one sector done, its files kept.
+  BakeOptions part = draft();
+  part.sectors = SectorRange{-1, -1, -1, -1};
+  part.keep_sector_files = true;
+  part.shard_count = 2;  // a shard never packs
+  part.shard_index = 0;
+  auto first = bake(w, "small", dir.path / "resumed.drtv", part);
+  ASSERT_TRUE(first) << first.error().message;
+  EXPECT_FALSE(first->packed);
+  auto rest = bake(w, "small", dir.path / "resumed.drtv", draft());
+  ASSERT_TRUE(rest) << rest.error().message;
+  size_t resumed = 0;
+  for (const auto& s : rest->sectors) resumed += s.resumed;
+  EXPECT_EQ(resumed, 1u);
+  EXPECT_TRUE(readBytes(dir.path / "fresh.drtv") == readBytes(dir.path / "resumed.drtv"));
+}
+
+TEST(Bake, ShardsMergeIntoTheSameArchiveAsOneBake) {
+  TempDir dir;
+  const worlds::World w = test::smallWorld();
+  ASSERT_TRUE(bake(w, "small", dir.path / "one.drtv", draft()));
+  for (int k = 0; k < 3; ++k) {
+    BakeOptions o = draft();
+    o.shard_index = k;
+    o.shard_count = 3;
+    auto r = bake(w, "small", dir.path / "sharded.drtv", o);
+    ASSERT_TRUE(r) << r.error().message;
+    EXPECT_FALSE(r->packed);
+  }
+  BakeOptions merge = draft();
+  merge.merge_only = true;
+  auto m = bake(w, "small", dir.path / "sharded.drtv", merge);
+  ASSERT_TRUE(m) << m.error().message;
+  EXPECT_TRUE(m->packed);
+  EXPECT_TRUE(readBytes(dir.path / "one.drtv") == readBytes(dir.path / "sharded.drtv"));
+}
+
+TEST(Bake, MergeWithMissingShardsIsAnError) {
+  TempDir dir;
+  BakeOptions o = draft();
+  o.shard_count = 2;
+  ASSERT_TRUE(bake(test::smallWorld(), "small", dir.path / "a.drtv", o));
+  BakeOptions merge = draft();
+  merge.merge_only = true;
+  auto m = bake(test::smallWorld(), "small", dir.path / "a.drtv", merge);
+  ASSERT_FALSE(m);
+  EXPECT_NE(m.error().message.find("not baked yet"), std::string::npos) << m.error().message;
+}
+
+TEST(Bake, SectorFilesOfADifferentBakeAreRefusedUnlessFresh) {
+  TempDir dir;
+  BakeOptions o = draft();
+  o.shard_count = 2;
+  ASSERT_TRUE(bake(test::smallWorld(), "small", dir.path / "a.drtv", o));
+  BakeOptions other = o;
+  other.quality = Quality::kDefault;
+  auto r = bake(test::smallWorld(), "small", dir.path / "a.drtv", other);
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().message.find("different bake"), std::string::npos);
+  other.fresh = true;
+  EXPECT_TRUE(bake(test::smallWorld(), "small", dir.path / "a.drtv", other));
+}
+
+TEST(Bake, BadGeometryIsSkippedAndNamedInTheReport) {
+  TempDir dir;
+  worlds::World w = test::smallWorld();
+  w.meshes[0].positions.push_back({0, 0, 0});
+  w.meshes[0].positions.push_back({std::numeric_limits<float>::quiet_NaN(), 0, 0});
+  w.meshes[0].indices.insert(w.meshes[0].indices.end(), {0, 4, 5});
+  auto r = bake(w, "bad", dir.path / "a.drtv", draft());
+  ASSERT_TRUE(r) << r.error().message;
+  ASSERT_FALSE(r->notes.empty());
+  EXPECT_NE(r->notes[0].find("'ground'"), std::string::npos);
+  ASSERT_TRUE(writeReports(*r, dir.path / "r.json", dir.path / "r.md"));
+  const auto md = readBytes(dir.path / "r.md");
+  EXPECT_NE(std::string(md.begin(), md.end()).find("non-finite"), std::string::npos);
+}
+
+TEST(Bake, EmptyWorldIsAClearError) {
+  TempDir dir;
+  worlds::World w;
+  auto r = bake(w, "empty.json", dir.path / "a.drtv", draft());
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().message.find("empty.json: nothing to bake"), std::string::npos);
+}
+
+TEST(Bake, ReportsSayWhatWasBakedAndSkipped) {
+  TempDir dir;
+  auto r = bake(test::smallWorld(), "small", dir.path / "a.drtv", draft());
+  ASSERT_TRUE(r);
+  ASSERT_TRUE(writeReports(*r, dir.path / "bake-report.json", dir.path / "bake-report.md"));
+  const auto json = readBytes(dir.path / "bake-report.json");
+  const std::string text(json.begin(), json.end());
+  for (const char* key : {"\"per_sector\"", "\"invalid_dropped\"", "\"without_lprt\"", "\"per_second_wall\"", "\"skipped\"", "\"index_grid\""})
+    EXPECT_NE(text.find(key), std::string::npos) << key;
+}
+
+}  // namespace
+}  // namespace drtv::baker

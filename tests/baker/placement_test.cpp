@@ -1,0 +1,114 @@
+// Probe placement (talk slides 15-17): every static hit, vegetation boxes, inside test, cap.
+#include <gtest/gtest.h>
+
+#include "drtv/baker/placement.h"
+#include "drtv/formats/probe.h"
+#include "test_worlds.h"
+
+namespace drtv::baker {
+namespace {
+
+// Probe heights are computed in float at sector coordinates: 1 mm is generous.
+constexpr float kHeightTolerance = 1e-3f;
+
+struct Placed {
+  std::vector<PlacedProbe> probes;
+  PlacementStats stats;
+};
+
+Placed place(const worlds::World& w, SectorKey key, PlacementSettings settings = {}, std::vector<LocalInterior> interiors = {}) {
+  auto g = WorldGeometry::build(w, "test");
+  EXPECT_TRUE(g) << g.error().message;
+  const SectorGeometry s = g->gather(key, 64.0);
+  auto scene = RayScene::build(s.vertices);
+  EXPECT_TRUE(scene);
+  Placed p;
+  p.probes = placeProbes(*scene, s, {0, 0}, interiors, settings, p.stats);
+  return p;
+}
+
+TEST(Placement, FlatGroundGetsAnEvenGridOfProbesLiftedAboveIt) {
+  const Placed p = place(test::planeWorld(200.0, glm::vec3(0.5f)), {0, 0});
+  EXPECT_EQ(p.probes.size(), 64u) << "4 m columns, 8 m minimum distance: every other column";
+  EXPECT_EQ(p.stats.static_candidates, 256u);
+  for (const PlacedProbe& q : p.probes) {
+    EXPECT_NEAR(q.position.z, 1.5f, kHeightTolerance);
+    EXPECT_GE(q.position.x, 0.f);
+    EXPECT_LT(q.position.x, 64.f);
+    EXPECT_GE(q.position.y, 0.f);
+    EXPECT_LT(q.position.y, 64.f);
+  }
+}
+
+TEST(Placement, EveryStaticHitAlongTheRayGetsAProbeNotOnlyTheFirst) {
+  worlds::World w = test::planeWorld(200.0, glm::vec3(0.5f));
+  test::add(w, test::box({10, 10, 5}, {40, 40, 5.5f}, glm::vec3(0.5f), "deck"), worlds::InstanceClass::kStatic);
+  const Placed p = place(w, {0, 0});
+  size_t on_deck = 0, under_deck = 0;
+  for (const PlacedProbe& q : p.probes) {
+    if (q.position.x < 10 || q.position.x > 40 || q.position.y < 10 || q.position.y > 40) continue;
+    if (std::abs(q.position.z - 7.f) < kHeightTolerance) ++on_deck;
+    if (std::abs(q.position.z - 1.5f) < kHeightTolerance) ++under_deck;
+  }
+  EXPECT_GT(on_deck, 10u);
+  EXPECT_GT(under_deck, 10u) << "the ground under the deck keeps its own probes (3 m vertical separation)";
+}
+
+TEST(Placement, ProbesInsideGeometryAreRelocatedOrDroppedNeverKept) {
+  worlds::World w = test::planeWorld(200.0, glm::vec3(0.5f));
+  // A half-buried block: the ground's hits inside it would put probes inside the block.
+  const glm::vec3 lo(8, 8, -1), hi(30, 30, 4);
+  test::add(w, test::box(lo, hi, glm::vec3(0.4f), "block"), worlds::InstanceClass::kStatic);
+  const Placed p = place(w, {0, 0});
+  EXPECT_GT(p.stats.relocated + p.stats.dropped_inside, 0u);
+  for (const PlacedProbe& q : p.probes) {
+    const bool inside = glm::all(glm::greaterThan(q.position, lo)) && glm::all(glm::lessThan(q.position, hi));
+    EXPECT_FALSE(inside) << q.position.x << " " << q.position.y << " " << q.position.z;
+  }
+}
+
+TEST(Placement, VegetationGetsProbesOnTopOfItsBoundingBox) {
+  worlds::World w = test::planeWorld(200.0, glm::vec3(0.5f));
+  test::add(w, test::box({22, 22, 0}, {46, 46, 6}, glm::vec3(0.1f, 0.4f, 0.1f), "canopy"), worlds::InstanceClass::kVegetation);
+  const Placed p = place(w, {0, 0});
+  EXPECT_EQ(p.stats.vegetation_candidates, 9u) << "8 m columns at 4, 12, ..; 28, 36 and 44 lie under the box: 3 x 3";
+  size_t veg = 0;
+  for (const PlacedProbe& q : p.probes)
+    if (q.flags & kProbeVegetation) {
+      ++veg;
+      EXPECT_NEAR(q.position.z, 7.5f, kHeightTolerance);
+    }
+  EXPECT_GT(veg, 0u);
+}
+
+TEST(Placement, NeverMoreThan255ProbesAndTheThinningIsCounted) {
+  worlds::World w = test::planeWorld(200.0, glm::vec3(0.5f));
+  for (int k = 1; k <= 6; ++k)
+    test::add(w, test::box({0, 0, 4.f * k}, {64, 64, 4.f * k + 0.2f}, glm::vec3(0.5f), "floor " + std::to_string(k)),
+              worlds::InstanceClass::kStatic);
+  PlacementSettings s;
+  s.min_horizontal_m = 1.0;  // every column: 7 x 256 candidates
+  const Placed p = place(w, {0, 0}, s);
+  EXPECT_LE(p.probes.size(), 255u);
+  EXPECT_GT(p.stats.thinned_cap, 0u);
+}
+
+TEST(Placement, DesignatedInteriorProbesAreAlwaysKept) {
+  const worlds::World w = test::planeWorld(200.0, glm::vec3(0.5f));
+  LocalInterior in;
+  in.box = {{30, 30, 0}, {34, 34, 3}};
+  in.probe_position = {32.f, 32.f, 1.f};  // 2.8 m from a grid probe: the distance test alone would drop it
+  in.index = 1;
+  const Placed p = place(w, {0, 0}, {}, {in});
+  size_t designated = 0;
+  for (const PlacedProbe& q : p.probes)
+    if (q.flags & kProbeInterior) {
+      ++designated;
+      EXPECT_EQ(q.interior, 1);
+      EXPECT_EQ(q.position, in.probe_position);
+    }
+  EXPECT_EQ(designated, 1u);
+}
+
+}  // namespace
+}  // namespace drtv::baker

@@ -1,0 +1,102 @@
+// WorldGeometry: bad input is an error or a named skip, never a crash; dynamic never contributes.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "drtv/baker/world_geometry.h"
+#include "test_worlds.h"
+
+namespace drtv::baker {
+namespace {
+
+bool anyNoteContains(const std::vector<std::string>& notes, const std::string& what) {
+  for (const auto& n : notes)
+    if (n.find(what) != std::string::npos) return true;
+  return false;
+}
+
+TEST(WorldGeometry, GathersStaticTerrainAndVegetationButNeverDynamic) {
+  const worlds::World w = test::smallWorld();
+  auto g = WorldGeometry::build(w, "small");
+  ASSERT_TRUE(g) << g.error().message;
+  EXPECT_EQ(g->sectors().count(), 4u) << "a 128 m ground centred on the origin covers 2 x 2 sectors";
+  size_t dynamic = 0, vegetation = 0, total = 0;
+  for (int32_t y = -1; y <= 0; ++y)
+    for (int32_t x = -1; x <= 0; ++x) {
+      const SectorGeometry s = g->gather({x, y}, 64.0);
+      for (uint8_t c : s.cls) {
+        dynamic += c == uint8_t(worlds::InstanceClass::kDynamic);
+        vegetation += c == uint8_t(worlds::InstanceClass::kVegetation);
+      }
+      total += s.triangleCount();
+    }
+  EXPECT_EQ(dynamic, 0u);
+  EXPECT_GT(vegetation, 0u);
+  EXPECT_GT(total, 0u);
+}
+
+TEST(WorldGeometry, GatherIsInTheSectorsLocalFrame) {
+  worlds::World w = test::planeWorld(200.0, glm::vec3(0.5f));
+  auto g = WorldGeometry::build(w, "plane");
+  ASSERT_TRUE(g);
+  const SectorGeometry s = g->gather({1, -2}, 10.0);
+  ASSERT_EQ(s.triangleCount(), 2u);
+  // The ground's corner (-200, -200) is at local (-200 - 64, -200 + 128).
+  EXPECT_FLOAT_EQ(s.vertices[0].x, -264.f);
+  EXPECT_FLOAT_EQ(s.vertices[0].y, -72.f);
+}
+
+TEST(WorldGeometry, SkipsNonFiniteAndDegenerateTrianglesWithANote) {
+  worlds::World w = test::planeWorld(64.0, glm::vec3(0.5f));
+  worlds::Mesh bad = test::box({0, 0, 0}, {1, 1, 1}, glm::vec3(0.5f), "broken box");
+  bad.positions[0].x = std::numeric_limits<float>::quiet_NaN();
+  bad.positions[7] = bad.positions[6];  // collapses the triangles using both
+  test::add(w, bad, worlds::InstanceClass::kStatic);
+  auto g = WorldGeometry::build(w, "w.json");
+  ASSERT_TRUE(g) << g.error().message;
+  EXPECT_TRUE(anyNoteContains(g->notes(), "'broken box'") && anyNoteContains(g->notes(), "non-finite"));
+  EXPECT_TRUE(anyNoteContains(g->notes(), "degenerate"));
+  EXPECT_LT(g->triangleCount(), 2u + 12u);
+}
+
+TEST(WorldGeometry, EmptyWorldIsAnErrorNamingTheFile) {
+  worlds::World w;
+  test::add(w, test::box({0, 0, 0}, {1, 1, 1}, glm::vec3(1.f)), worlds::InstanceClass::kDynamic);
+  auto g = WorldGeometry::build(w, "empty.json");
+  ASSERT_FALSE(g);
+  EXPECT_NE(g.error().message.find("empty.json: nothing to bake"), std::string::npos) << g.error().message;
+}
+
+TEST(WorldGeometry, OutOfRangeIndicesAreAnErrorNamingTheMesh) {
+  worlds::World w = test::planeWorld(64.0, glm::vec3(0.5f));
+  w.meshes[0].indices[2] = 99;
+  auto g = WorldGeometry::build(w, "w.json");
+  ASSERT_FALSE(g);
+  EXPECT_NE(g.error().message.find("mesh 'ground'"), std::string::npos) << g.error().message;
+  w = test::planeWorld(64.0, glm::vec3(0.5f));
+  w.instances[0].mesh = 5;
+  EXPECT_FALSE(WorldGeometry::build(w, "w.json"));
+}
+
+TEST(WorldGeometry, AbsurdSizesAreAnError) {
+  worlds::World w = test::planeWorld(1e6, glm::vec3(0.5f));
+  auto g = WorldGeometry::build(w, "huge.json");
+  ASSERT_FALSE(g);
+  EXPECT_NE(g.error().message.find("huge.json: geometry spans"), std::string::npos) << g.error().message;
+}
+
+TEST(WorldGeometry, SingularOrNonFiniteTransformsAreSkippedWithANote) {
+  worlds::World w = test::planeWorld(64.0, glm::vec3(0.5f));
+  test::add(w, test::box({0, 0, 0}, {1, 1, 1}, glm::vec3(0.5f), "flat"), worlds::InstanceClass::kStatic, glm::dmat4(0.0));
+  glm::dmat4 nan(1.0);
+  nan[3][0] = std::numeric_limits<double>::infinity();
+  test::add(w, test::box({0, 0, 0}, {1, 1, 1}, glm::vec3(0.5f), "far"), worlds::InstanceClass::kStatic, nan);
+  auto g = WorldGeometry::build(w, "w.json");
+  ASSERT_TRUE(g);
+  EXPECT_EQ(g->triangleCount(), 2u);
+  EXPECT_EQ(g->notes().size(), 2u);
+}
+
+}  // namespace
+}  // namespace drtv::baker

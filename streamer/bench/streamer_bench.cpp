@@ -1,0 +1,191 @@
+// Streamer benchmarks: the stream-in of one sector against zstd decoding it alone (goal: <= 3x),
+// and the frame-thread cost of Streamer::update at 100 m/s.
+//
+// Stream-in = what an I/O thread does per sector: pread of the payload, size and XXH3 check, zstd
+// decode, decode + validate (formats/sector.h), the occlusion tile. Measured with the archive in
+// the page cache (a warm disk), so the comparison is of CPU work.
+#include <filesystem>
+#include <random>
+
+#include <benchmark/benchmark.h>
+#include <unistd.h>
+#include <zstd.h>
+
+#include "drtv/formats/archive.h"
+#include "drtv/streamer/streamer.h"
+
+namespace drtv::streamer {
+namespace {
+
+Sector makeSector(SectorKey key, int probes, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(0.f, 1.f);
+  Sector s;
+  s.key = key;
+  for (int i = 0; i < probes; ++i) {
+    ProbeData p;
+    p.position = {64.f * u(rng), 64.f * u(rng), 10.f + 30.f * u(rng)};
+    for (auto& c : p.prt)
+      for (auto& b : c)
+        for (int k = 0; k < 4; ++k) b[k] = u(rng) - 0.3f;
+    for (int b = 0; b < 3; ++b) p.sky_vis[b] = u(rng);
+    p.height_m = 2.f * u(rng);
+    s.probes.push_back(packProbe(p));
+  }
+  s.grid.z_min_m = 5.f;
+  s.grid.cell_height_m = 3.f;
+  // A nearest-probe grid is made of runs (compresses 4-7x, DESIGN.md), not noise.
+  for (int i = 0; i < kGridCells; ++i) s.grid.cells[i] = uint8_t((i / 37) % probes);
+  s.has_ground = true;
+  s.ground_z_max_m = 20.f;
+  for (int i = 0; i < 64; ++i) s.ground[i] = uint16_t(i * 1000);
+  return s;
+}
+
+// One 16 x 16 world, written once per process.
+struct World {
+  std::filesystem::path path;
+  Manifest manifest;
+  World() {
+    path = std::filesystem::temp_directory_path() / ("drtv_streamer_bench_" + std::to_string(::getpid()) + ".drtv");
+    auto w = ArchiveWriter::create(path);
+    uint32_t seed = 1;
+    for (int ix = 0; ix < 16; ++ix)
+      for (int iy = 0; iy < 16; ++iy, ++seed) (void)w->addSector(makeSector({ix, iy}, 66 + int(seed % 9), seed));
+    Manifest m;
+    m.bounds_max = {1024, 1024, 60};
+    (void)w->finish(m);
+    manifest = ArchiveReader::open(path)->manifest();
+  }
+  ~World() { std::filesystem::remove(path); }
+};
+World& world() {
+  static World w;
+  return w;
+}
+
+void BM_ZstdDecodeOneSector(benchmark::State& state) {
+  const World& w = world();
+  auto reader = ArchiveReader::open(w.path);
+  const SectorEntry& e = w.manifest.sectors[100];
+  const auto frame = *reader->readCompressed(e.key);
+  ZSTD_DCtx* dctx = ZSTD_createDCtx();  // reused, as the I/O threads' thread_local one is
+  std::vector<uint8_t> out(e.raw_bytes);
+  for (auto _ : state) {
+    const size_t n = ZSTD_decompressDCtx(dctx, out.data(), out.size(), frame.data(), frame.size());
+    benchmark::DoNotOptimize(n);
+    benchmark::DoNotOptimize(out.data());
+  }
+  ZSTD_freeDCtx(dctx);
+  state.SetItemsProcessed(state.iterations());
+  state.SetBytesProcessed(int64_t(state.iterations()) * e.raw_bytes);
+  state.counters["raw_bytes"] = e.raw_bytes;
+  state.counters["compressed_bytes"] = e.compressed_bytes;
+}
+BENCHMARK(BM_ZstdDecodeOneSector);
+
+// The streamer's whole per-sector load, through a Streamer in deterministic mode: each iteration
+// requests one sector far from the previous one (so it is never resident) and reads it inline.
+void BM_StreamInOneSector(benchmark::State& state) {
+  const World& w = world();
+  auto file = FileSectorSource::open(w.path);
+  std::shared_ptr<SectorSource> source(std::move(*file));
+  StreamerOptions o;
+  o.io_mode = IoMode::kDeterministic;
+  o.residency.max_sectors = 1;
+  o.residency.volume_texel_m = 0.01;  // footprint ~1 m: exactly the camera's sector is wanted
+  o.simulated_latency_s = 0.0;
+  o.max_in_flight = 1;
+  Streamer s(w.manifest, source, o);
+  struct Sink : SectorSink {
+    void onSectorLoaded(const Sector&, const OcclusionTile&) override {}
+    void onSectorEvicted(SectorKey) override {}
+  } sink;
+  double t = 0, io_ms = 0;
+  int i = 0;
+  for (auto _ : state) {
+    const SectorKey k = w.manifest.sectors[size_t(i++ * 37 % 256)].key;
+    const FrameStats st = s.update({{k.ix * 64.0 + 32, k.iy * 64.0 + 32, 0}, {0, 0, 0}}, t, sink);
+    io_ms += st.inline_io_ms;
+    t += 1.0;
+  }
+  state.SetItemsProcessed(state.iterations());
+  state.counters["inline_io_us_per_sector"] = io_ms * 1000.0 / double(state.iterations());
+}
+BENCHMARK(BM_StreamInOneSector);
+
+// The I/O thread's work alone, without the streamer's frame bookkeeping: read + check + decode +
+// validate + tile, exactly what Streamer::load runs.
+void BM_LoadPipelineOneSector(benchmark::State& state) {
+  const World& w = world();
+  auto file = FileSectorSource::open(w.path);
+  int i = 0;
+  for (auto _ : state) {
+    const SectorEntry& e = w.manifest.sectors[size_t(i++ * 37 % 256)];
+    auto bytes = (*file)->read(e);
+    auto raw = zstdDecompress(*bytes, e.raw_bytes, "bench");
+    auto sector = decodeSector(*raw, "bench");
+    auto owned = std::make_unique<Sector>(std::move(*sector));
+    OcclusionTile tile = buildOcclusionTile(*owned);
+    benchmark::DoNotOptimize(tile);
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_LoadPipelineOneSector);
+
+// The parts of the pipeline, to see where a stream-in's time goes.
+void BM_DecodeAndValidateOneSector(benchmark::State& state) {
+  const World& w = world();
+  auto reader = ArchiveReader::open(w.path);
+  const auto raw = *reader->readSectorBytes(w.manifest.sectors[100].key);
+  for (auto _ : state) {
+    auto sector = decodeSector(raw, "bench");
+    benchmark::DoNotOptimize(sector);
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_DecodeAndValidateOneSector);
+
+void BM_OcclusionTileOneSector(benchmark::State& state) {
+  const World& w = world();
+  auto reader = ArchiveReader::open(w.path);
+  const Sector sector = *reader->readSector(w.manifest.sectors[100].key);
+  for (auto _ : state) {
+    OcclusionTile t = buildOcclusionTile(sector);
+    benchmark::DoNotOptimize(t);
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_OcclusionTileOneSector);
+
+// Frame-thread cost of update() for a camera flying at 100 m/s across the world (deterministic
+// I/O excluded: reported separately as inline_io_ms).
+void BM_UpdateAt100MetresPerSecond(benchmark::State& state) {
+  const World& w = world();
+  auto file = FileSectorSource::open(w.path);
+  std::shared_ptr<SectorSource> source(std::move(*file));
+  StreamerOptions o;
+  o.io_mode = IoMode::kDeterministic;
+  Streamer s(w.manifest, source, o);
+  struct Sink : SectorSink {
+    void onSectorLoaded(const Sector&, const OcclusionTile&) override {}
+    void onSectorEvicted(SectorKey) override {}
+  } sink;
+  double t = 0, update_ms = 0;
+  int64_t frames = 0;
+  for (auto _ : state) {
+    const double x = 40 + std::fmod(t * 100.0, 940.0);
+    const FrameStats st = s.update({{x, 500, 0}, {100, 0, 0}}, t, sink);
+    update_ms += st.update_ms;
+    t += 1.0 / 60.0;
+    ++frames;
+  }
+  state.SetItemsProcessed(frames);
+  state.counters["update_us"] = update_ms * 1000.0 / double(frames);
+}
+BENCHMARK(BM_UpdateAt100MetresPerSecond);
+
+}  // namespace
+}  // namespace drtv::streamer
+
+BENCHMARK_MAIN();

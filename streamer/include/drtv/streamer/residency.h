@@ -1,0 +1,96 @@
+// drtv/streamer/residency.h — which sectors should be in memory for a camera: the volume's
+// footprint first, then the nearest sectors along the direction of travel.
+//
+//  [1] Gilabert & Stefanov, "Deferred Radiance Transfer Volumes", GDC 2012, slide 24: "a maximum
+//      of 51 sectors around the player loaded in memory at any one time".
+//  [2] ibid., slides 34-36: the 96x96x16 volume follows the camera and scrolls toroidally; its
+//      texels are filled from the probes of the sectors it covers.
+//
+// Ranking (pure, deterministic, no allocation once `out` has capacity):
+//   tier 0  sectors that overlap the volume's footprint around the camera, or around where the
+//           camera will be in `guard_s` seconds: a sector missing here is a visible miss.
+//   tier 1  every other sector within `candidate_radius_m` of the look-ahead segment
+//           [camera, camera + velocity * lookahead_s], nearest first.
+// Inside a tier, sectors are ordered by the horizontal distance from their 64 m square to the
+// look-ahead segment, minus `hysteresis_m` for sectors already held (so that a sector at the edge
+// of the set is not dropped and reloaded every frame), then by key. Only sectors the archive
+// holds are ranked: sea and the world's outside have no sector and are never misses.
+//
+// Conventions: world metres, Z up; only x and y matter here (sectors span all heights).
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "drtv/formats/archive.h"
+#include "drtv/formats/sector.h"
+
+namespace drtv::streamer {
+
+// The talk's residency limit [1].
+inline constexpr int kMaxResidentSectors = 51;
+// The volume: 96 x 96 x 16 texels per colour channel [2].
+inline constexpr int kVolumeTexelsXY = 96;
+inline constexpr int kVolumeTexelsZ = 16;
+
+// What the streamer needs to know about the viewer.
+struct Camera {
+  glm::dvec3 position_m{0.0};    // world metres
+  glm::dvec3 velocity_mps{0.0};  // world metres per second (the look-ahead direction and reach)
+};
+
+struct ResidencyOptions {
+  int max_sectors = kMaxResidentSectors;  // sectors resident or in flight, at most [1]
+  // Horizontal size of one volume texel, metres. 96 texels x 2 m = a 192 m square about the
+  // camera; the runtime's volume may be configured otherwise, then pass its texel size here.
+  double volume_texel_m = 2.0;
+  // The footprint is also held at camera + velocity * guard_s: loads take a few frames and the
+  // footprint must be complete when the camera gets there. 0.5 s at 100 m/s is 50 m, more than
+  // the simulated I/O latency (2 frames) and a thread pool's queueing under a sector-row crossing.
+  double guard_s = 0.5;
+  // Remaining slots go to sectors nearest the segment camera -> camera + velocity * lookahead_s.
+  double lookahead_s = 2.0;
+  // Held sectors rank this much nearer than they are (metres): a quarter sector, enough to stop
+  // a sector at the boundary from flapping as the camera weaves.
+  double hysteresis_m = 16.0;
+  // Sectors farther than this from the look-ahead segment are never candidates, metres. 6
+  // sectors: more than the radius of 51 sectors packed in a disc (~4 sectors).
+  double candidate_radius_m = 384.0;
+};
+
+// The volume's horizontal footprint about a position: [min, max) in world metres.
+struct Footprint {
+  glm::dvec2 min{0.0}, max{0.0};
+};
+Footprint volumeFootprint(const glm::dvec3& position_m, const ResidencyOptions& options);
+// True when sector `key`'s 64 m square overlaps the open footprint (touching edges do not count).
+bool overlaps(SectorKey key, const Footprint& footprint);
+
+// One ranked candidate.
+struct RankedSector {
+  SectorKey key;
+  int tier = 1;                       // 0 = inside (or about to be inside) the volume's footprint
+  double distance_m = 0.0;            // to the look-ahead segment, before hysteresis
+  double score_m = 0.0;               // distance_m, less hysteresis_m when held: the sort key
+  const SectorEntry* entry = nullptr; // in the manifest passed to rankSectors
+};
+
+// Ranks the manifest's sectors for `camera` (see the top of this file) into `out` (cleared
+// first), best first. `held` is sorted: keys already resident or in flight, which get the
+// hysteresis bonus. Thread-safe (pure); allocates only when `out` must grow.
+void rankSectors(const Manifest& manifest, const Camera& camera, const ResidencyOptions& options,
+                 std::span<const SectorKey> held, std::vector<RankedSector>& out);
+
+// Keys of the manifest's sectors that overlap the volume's footprint about `position_m`, sorted,
+// appended to `out` (cleared first). These are the sectors whose absence is a miss.
+void footprintSectors(const Manifest& manifest, const glm::dvec3& position_m, const ResidencyOptions& options,
+                      std::vector<SectorKey>& out);
+
+// Horizontal distance from sector `key`'s square to the segment [a, b] (x and y only), metres;
+// 0 when they touch. Pure.
+double distanceToSegment(SectorKey key, const glm::dvec2& a, const glm::dvec2& b);
+
+}  // namespace drtv::streamer

@@ -1,0 +1,133 @@
+// Ranking of sectors for residency (see residency.h for the rule and its references).
+#include "drtv/streamer/residency.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace drtv::streamer {
+namespace {
+
+struct Rect {
+  glm::dvec2 min, max;
+};
+
+Rect sectorRect(SectorKey key) {
+  const glm::dvec2 lo{double(key.ix) * kSectorSizeM, double(key.iy) * kSectorSizeM};
+  return {lo, lo + glm::dvec2(kSectorSizeM)};
+}
+
+double pointToRect(const glm::dvec2& p, const Rect& r) {
+  const double dx = std::max({r.min.x - p.x, 0.0, p.x - r.max.x});
+  const double dy = std::max({r.min.y - p.y, 0.0, p.y - r.max.y});
+  return std::sqrt(dx * dx + dy * dy);
+}
+
+double pointToSegment(const glm::dvec2& p, const glm::dvec2& a, const glm::dvec2& b) {
+  const glm::dvec2 ab = b - a;
+  const double len2 = glm::dot(ab, ab);
+  const double t = len2 > 0.0 ? std::clamp(glm::dot(p - a, ab) / len2, 0.0, 1.0) : 0.0;
+  return glm::length(p - (a + t * ab));
+}
+
+// Slab test: does the segment [a, b] pass through the closed rectangle?
+bool segmentHitsRect(const glm::dvec2& a, const glm::dvec2& b, const Rect& r) {
+  double t0 = 0.0, t1 = 1.0;
+  for (int axis = 0; axis < 2; ++axis) {
+    const double d = b[axis] - a[axis];
+    if (std::abs(d) < 1e-12) {
+      if (a[axis] < r.min[axis] || a[axis] > r.max[axis]) return false;
+      continue;
+    }
+    double ta = (r.min[axis] - a[axis]) / d, tb = (r.max[axis] - a[axis]) / d;
+    if (ta > tb) std::swap(ta, tb);
+    t0 = std::max(t0, ta);
+    t1 = std::min(t1, tb);
+    if (t0 > t1) return false;
+  }
+  return true;
+}
+
+// The manifest's key range, so that enumeration never walks empty sea.
+struct KeyBox {
+  int32_t x0, y0, x1, y1;  // inclusive
+};
+KeyBox clipToManifest(const Manifest& m, KeyBox box) {
+  if (m.sectors.empty()) return {1, 1, 0, 0};
+  int32_t mx0 = INT32_MAX, my0 = INT32_MAX, mx1 = INT32_MIN, my1 = INT32_MIN;
+  // sectors are sorted by (ix, iy): ix range from the ends, iy needs a scan (cheap: <= 10^4).
+  mx0 = m.sectors.front().key.ix;
+  mx1 = m.sectors.back().key.ix;
+  for (const SectorEntry& e : m.sectors) {
+    my0 = std::min(my0, e.key.iy);
+    my1 = std::max(my1, e.key.iy);
+  }
+  return {std::max(box.x0, mx0), std::max(box.y0, my0), std::min(box.x1, mx1), std::min(box.y1, my1)};
+}
+
+int32_t floorKey(double v_m) { return int32_t(std::floor(v_m / kSectorSizeM)); }
+
+}  // namespace
+
+Footprint volumeFootprint(const glm::dvec3& position_m, const ResidencyOptions& o) {
+  const double half = 0.5 * kVolumeTexelsXY * o.volume_texel_m;
+  const glm::dvec2 c{position_m.x, position_m.y};
+  return {c - glm::dvec2(half), c + glm::dvec2(half)};
+}
+
+bool overlaps(SectorKey key, const Footprint& f) {
+  const Rect r = sectorRect(key);
+  return r.min.x < f.max.x && f.min.x < r.max.x && r.min.y < f.max.y && f.min.y < r.max.y;
+}
+
+double distanceToSegment(SectorKey key, const glm::dvec2& a, const glm::dvec2& b) {
+  const Rect r = sectorRect(key);
+  if (segmentHitsRect(a, b, r)) return 0.0;
+  // Disjoint convex shapes: the distance is attained at a vertex of one of them.
+  double d = std::min(pointToRect(a, r), pointToRect(b, r));
+  const glm::dvec2 corners[4] = {r.min, {r.max.x, r.min.y}, {r.min.x, r.max.y}, r.max};
+  for (const auto& c : corners) d = std::min(d, pointToSegment(c, a, b));
+  return d;
+}
+
+void rankSectors(const Manifest& manifest, const Camera& camera, const ResidencyOptions& o,
+                 std::span<const SectorKey> held, std::vector<RankedSector>& out) {
+  out.clear();
+  const glm::dvec2 a{camera.position_m.x, camera.position_m.y};
+  const glm::dvec2 v{camera.velocity_mps.x, camera.velocity_mps.y};
+  const glm::dvec2 b = a + v * o.lookahead_s;
+  const Footprint now = volumeFootprint(camera.position_m, o);
+  const Footprint soon = volumeFootprint(camera.position_m + camera.velocity_mps * o.guard_s, o);
+  const double r = o.candidate_radius_m;
+  const KeyBox box = clipToManifest(manifest, {floorKey(std::min(a.x, b.x) - r), floorKey(std::min(a.y, b.y) - r),
+                                               floorKey(std::max(a.x, b.x) + r), floorKey(std::max(a.y, b.y) + r)});
+  for (int32_t ix = box.x0; ix <= box.x1; ++ix)
+    for (int32_t iy = box.y0; iy <= box.y1; ++iy) {
+      const SectorKey key{ix, iy};
+      const SectorEntry* e = manifest.find(key);
+      if (!e) continue;
+      const int tier = overlaps(key, now) || overlaps(key, soon) ? 0 : 1;
+      const double d = distanceToSegment(key, a, b);
+      if (tier == 1 && d > r) continue;
+      const bool is_held = std::binary_search(held.begin(), held.end(), key);
+      out.push_back({key, tier, d, d - (is_held ? o.hysteresis_m : 0.0), e});
+    }
+  std::sort(out.begin(), out.end(), [](const RankedSector& x, const RankedSector& y) {
+    if (x.tier != y.tier) return x.tier < y.tier;
+    if (x.score_m != y.score_m) return x.score_m < y.score_m;
+    return x.key < y.key;
+  });
+}
+
+void footprintSectors(const Manifest& manifest, const glm::dvec3& position_m, const ResidencyOptions& o,
+                      std::vector<SectorKey>& out) {
+  out.clear();
+  const Footprint f = volumeFootprint(position_m, o);
+  // Open footprint: a footprint edge on a sector boundary does not reach the next sector.
+  const KeyBox box = clipToManifest(manifest, {floorKey(f.min.x), floorKey(f.min.y), floorKey(std::nextafter(f.max.x, -1e300)),
+                                               floorKey(std::nextafter(f.max.y, -1e300))});
+  for (int32_t ix = box.x0; ix <= box.x1; ++ix)
+    for (int32_t iy = box.y0; iy <= box.y1; ++iy)
+      if (manifest.find({ix, iy}) && overlaps({ix, iy}, f)) out.push_back({ix, iy});
+}
+
+}  // namespace drtv::streamer

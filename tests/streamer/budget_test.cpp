@@ -1,0 +1,111 @@
+// Memory budgets from real allocations (alloc_counter.h), cross-checked with memoryBytes().
+#include <gtest/gtest.h>
+
+#include "alloc_counter.h"
+#include "drtv/streamer/streamer.h"
+#include "test_world.h"
+
+namespace drtv::streamer {
+namespace {
+
+constexpr double kFrameS = 1.0 / 60.0;
+// Heap the streamer's bookkeeping may take after construction besides sectors: the deque map of
+// loads waiting for their simulated latency (one 512-byte block plus its map).
+constexpr int64_t kBookkeepingBytes = 1024;
+// The streamer's fixed heap: slots with their inline tiles, scratch vectors and its copy of the
+// manifest (40 bytes per archive sector): not sector data, so outside the talk's budget, but bounded.
+constexpr int64_t kMaxConstructionBytes = 64 * 1024;
+
+// A sink that allocates nothing, so that every byte counted is the streamer's.
+class NullSink : public SectorSink {
+ public:
+  void onSectorLoaded(const Sector&, const OcclusionTile&) override {}
+  void onSectorEvicted(SectorKey) override {}
+};
+
+struct Measured {
+  int64_t construction_bytes = 0;  // heap the streamer took before any sector (slots, scratch)
+  int64_t peak_sector_bytes = 0;   // max over frames of live heap minus that, at frame ends
+  int64_t settled_bytes = 0;       // live heap minus construction at the end, all loads done
+  size_t reported_bytes = 0;       // residentBytes() at the end
+  int resident = 0;
+};
+
+// Flies across the world in deterministic mode and measures the live heap at every frame end.
+Measured flyAndMeasure(const std::filesystem::path& path, const Manifest& manifest, StreamerOptions o) {
+  o.io_mode = IoMode::kDeterministic;
+  auto file = FileSectorSource::open(path);
+  EXPECT_TRUE(file.has_value());
+  std::shared_ptr<SectorSource> source(std::move(*file));
+  NullSink sink;
+  Measured m;
+  const int64_t before = testing::liveHeapBytes();
+  auto s = std::make_unique<Streamer>(manifest, source, o);
+  m.construction_bytes = testing::liveHeapBytes() - before;
+  const int64_t base = testing::liveHeapBytes();
+  const glm::dvec3 a = manifest.bounds_min + glm::dvec3(20), b = manifest.bounds_max - glm::dvec3(20);
+  const glm::dvec3 v = glm::normalize(glm::dvec3(b.x - a.x, b.y - a.y, 0)) * 100.0;
+  double t = 0;
+  for (glm::dvec3 p = a; glm::dot(b - p, v) > 0; p += v * kFrameS, t += kFrameS) {
+    s->update({p, v}, t, sink);
+    m.peak_sector_bytes = std::max(m.peak_sector_bytes, testing::liveHeapBytes() - base);
+  }
+  const glm::dvec3 centre = 0.5 * (manifest.bounds_min + manifest.bounds_max);
+  for (int i = 0; i < 30; ++i, t += kFrameS) s->update({centre, {0, 0, 0}}, t, sink);
+  m.settled_bytes = testing::liveHeapBytes() - base;
+  m.reported_bytes = s->residentBytes();
+  m.resident = int(s->residentKeys().size());
+  return m;
+}
+
+TEST(StreamerBudget, StaysUnder760KiBWithoutLprtByRealAllocations) {
+  testing::TempDir dir;
+  const Manifest manifest = testing::writeWorld(dir.path() / "w.drtv", {});
+  const Measured m = flyAndMeasure(dir.path() / "w.drtv", manifest, {});
+  RecordProperty("construction_bytes", std::to_string(m.construction_bytes));
+  RecordProperty("peak_sector_bytes", std::to_string(m.peak_sector_bytes));
+  std::printf("without LPRT: construction %lld B, peak %lld B, settled %lld B (%d sectors), budget %zu B\n",
+              (long long)m.construction_bytes, (long long)m.peak_sector_bytes, (long long)m.settled_bytes, m.resident,
+              kBudgetBytesWithoutLprt);
+  EXPECT_EQ(m.resident, kMaxResidentSectors);
+  // Sector data at every frame end, loads in flight included, fits the talk's 760 KB.
+  EXPECT_LE(m.peak_sector_bytes, int64_t(kBudgetBytesWithoutLprt));
+  EXPECT_LE(m.construction_bytes, kMaxConstructionBytes);
+  // The accounting matches the allocations: resident bytes = the sectors' heap; the tiles live in
+  // the slots (construction), so the reported figure is larger by one tile per sector.
+  const int64_t sectors = int64_t(m.reported_bytes) - int64_t(m.resident * sizeof(OcclusionTile));
+  EXPECT_LE(sectors, m.settled_bytes);
+  EXPECT_LE(m.settled_bytes, sectors + kBookkeepingBytes);
+}
+
+TEST(StreamerBudget, StaysUnder11_5MiBWithLprtByRealAllocations) {
+  testing::TempDir dir;
+  testing::WorldSpec spec;
+  spec.sectors_x = spec.sectors_y = 9;  // 81 sectors, enough to evict; ~19 MB of archive
+  spec.lprt_sources = kMaxLprtSources;
+  const Manifest manifest = testing::writeWorld(dir.path() / "w.drtv", spec);
+  const Measured m = flyAndMeasure(dir.path() / "w.drtv", manifest, {});
+  std::printf("with LPRT: construction %lld B, peak %lld B, settled %lld B (%d sectors), budget %zu B\n",
+              (long long)m.construction_bytes, (long long)m.peak_sector_bytes, (long long)m.settled_bytes, m.resident,
+              kBudgetBytesWithLprt);
+  EXPECT_EQ(m.resident, kMaxResidentSectors);
+  EXPECT_LE(m.peak_sector_bytes, int64_t(kBudgetBytesWithLprt));
+  EXPECT_LE(m.construction_bytes, kMaxConstructionBytes);
+  const int64_t sectors = int64_t(m.reported_bytes) - int64_t(m.resident * sizeof(OcclusionTile));
+  EXPECT_LE(sectors, m.settled_bytes);
+  EXPECT_LE(m.settled_bytes, sectors + kBookkeepingBytes);
+}
+
+TEST(StreamerBudget, ASmallerByteBudgetHoldsFewerSectorsAndIsNeverExceeded) {
+  testing::TempDir dir;
+  const Manifest manifest = testing::writeWorld(dir.path() / "w.drtv", {});
+  StreamerOptions o;
+  o.max_bytes = 300 * 1024;  // ~20 sectors
+  const Measured m = flyAndMeasure(dir.path() / "w.drtv", manifest, o);
+  EXPECT_LE(m.peak_sector_bytes, int64_t(o.max_bytes));
+  EXPECT_GE(m.resident, 18);
+  EXPECT_LE(m.resident, 21);
+}
+
+}  // namespace
+}  // namespace drtv::streamer

@@ -1,0 +1,136 @@
+// Flight paths and the fly-through report.
+#include <fstream>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "drtv/streamer/fly.h"
+#include "test_world.h"
+
+namespace drtv::streamer {
+namespace {
+
+// The arc-length table's chord error on these gentle test paths (see flight_path.cpp): 1 cm.
+constexpr double kArcLengthToleranceM = 0.01;
+
+TEST(CatmullRomPath, PassesThroughEveryWaypoint) {
+  const std::vector<glm::dvec3> pts{{0, 0, 10}, {100, 50, 10}, {200, 0, 20}, {300, 80, 10}};
+  auto p = CatmullRomPath::create(pts, false);
+  ASSERT_TRUE(p.has_value());
+  EXPECT_NEAR(glm::length(p->position(0) - pts[0]), 0, 1e-9);
+  EXPECT_NEAR(glm::length(p->position(p->lengthM()) - pts[3]), 0, 1e-9);
+  // Each inner waypoint is on the curve: the nearest sampled point is within the sampling step.
+  for (size_t i = 1; i + 1 < pts.size(); ++i) {
+    double best = 1e9;
+    for (double s = 0; s <= p->lengthM(); s += 0.01) best = std::min(best, glm::length(p->position(s) - pts[i]));
+    EXPECT_LT(best, 0.01);
+  }
+}
+
+TEST(CatmullRomPath, IsParametrisedByArcLength) {
+  auto p = CatmullRomPath::create({{0, 0, 0}, {100, 100, 0}, {250, 50, 0}, {400, 200, 0}}, false);
+  ASSERT_TRUE(p.has_value());
+  const double ds = 1.0;
+  for (double s = 0; s + ds < p->lengthM(); s += 7.3)
+    EXPECT_NEAR(glm::length(p->position(s + ds) - p->position(s)), ds, kArcLengthToleranceM) << s;
+  EXPECT_NEAR(glm::length(p->direction(10.0)), 1.0, 1e-9);
+}
+
+TEST(CatmullRomPath, LoopsWrapAround) {
+  auto p = CatmullRomPath::create({{0, 0, 0}, {100, 0, 0}, {100, 100, 0}, {0, 100, 0}}, true);
+  ASSERT_TRUE(p.has_value());
+  EXPECT_NEAR(glm::length(p->position(p->lengthM() + 5.0) - p->position(5.0)), 0, 1e-6);
+  EXPECT_NEAR(glm::length(p->position(-5.0) - p->position(p->lengthM() - 5.0)), 0, 1e-6);
+}
+
+TEST(CatmullRomPath, RejectsTooFewOrRepeatedWaypoints) {
+  EXPECT_FALSE(CatmullRomPath::create({{0, 0, 0}}, false).has_value());
+  EXPECT_FALSE(CatmullRomPath::create({{0, 0, 0}, {1, 1, 1}}, true).has_value());
+  auto dup = CatmullRomPath::create({{0, 0, 0}, {0, 0, 0}, {5, 5, 5}}, false);
+  ASSERT_FALSE(dup.has_value());
+  EXPECT_NE(dup.error().message.find("waypoint 1"), std::string::npos);
+}
+
+TEST(LoadFlightPath, ReadsWaypointsAndNamesABadOne) {
+  testing::TempDir dir;
+  {
+    std::ofstream(dir.path() / "ok.json") << R"({"loop": true, "waypoints": [[0,0,5],[100,0,5],[50,80,5]]})";
+    std::ofstream(dir.path() / "bad.json") << R"({"waypoints": [[0,0,5],[100,"x",5]]})";
+  }
+  auto ok = loadFlightPath(dir.path() / "ok.json");
+  ASSERT_TRUE(ok.has_value()) << ok.error().message;
+  EXPECT_TRUE(ok->closed());
+  auto bad = loadFlightPath(dir.path() / "bad.json");
+  ASSERT_FALSE(bad.has_value());
+  EXPECT_NE(bad.error().message.find("waypoints[1]"), std::string::npos) << bad.error().message;
+}
+
+TEST(DefaultFlightPath, StaysInsideTheWorldBounds) {
+  Manifest m;
+  m.bounds_min = {-500, 200, 0};
+  m.bounds_max = {1500, 1200, 80};
+  for (bool loop : {false, true}) {
+    const CatmullRomPath p = defaultFlightPath(m, loop);
+    for (double s = 0; s < p.lengthM(); s += 5) {
+      const glm::dvec3 q = p.position(s);
+      EXPECT_GE(q.x, m.bounds_min.x);
+      EXPECT_LE(q.x, m.bounds_max.x);
+      EXPECT_GE(q.y, m.bounds_min.y);
+      EXPECT_LE(q.y, m.bounds_max.y);
+    }
+  }
+}
+
+FlyResult flyOnce(const std::filesystem::path& archive, bool runtime) {
+  StreamerOptions so;
+  so.io_mode = IoMode::kDeterministic;
+  auto s = Streamer::open(archive, so);
+  EXPECT_TRUE(s.has_value());
+  FlyOptions fo;
+  fo.runtime = runtime;
+  fo.frames = 400;
+  auto r = fly(**s, defaultFlightPath((*s)->manifest(), false), fo, archive.string());
+  EXPECT_TRUE(r.has_value()) << r.error().message;
+  return std::move(*r);
+}
+
+TEST(Fly, DeterministicFlightsGiveTheSameFramesAndNoMissesAt100MetresPerSecond) {
+  testing::TempDir dir;
+  testing::writeWorld(dir.path() / "w.drtv", {});
+  const FlyResult a = flyOnce(dir.path() / "w.drtv", true), b = flyOnce(dir.path() / "w.drtv", false);
+  ASSERT_EQ(a.frames.size(), b.frames.size());
+  for (size_t i = 0; i < a.frames.size(); ++i) {
+    const FrameStats &x = a.frames[i].stats, &y = b.frames[i].stats;
+    EXPECT_EQ(std::tie(x.resident, x.in_flight, x.loads, x.evictions, x.misses, x.resident_bytes),
+              std::tie(y.resident, y.in_flight, y.loads, y.evictions, y.misses, y.resident_bytes))
+        << "frame " << i;
+  }
+  const FlySummary s = summarize(a);
+  EXPECT_EQ(s.misses, 0);
+  EXPECT_EQ(s.max_resident, kMaxResidentSectors);
+  EXPECT_LE(s.max_reserved_bytes, kBudgetBytesWithoutLprt);
+  EXPECT_GT(a.volume_bytes, 0u);
+}
+
+TEST(Fly, WritesCsvJsonMarkdownAndPngs) {
+  testing::TempDir dir;
+  testing::writeWorld(dir.path() / "w.drtv", {});
+  const FlyResult r = flyOnce(dir.path() / "w.drtv", true);
+  const auto out = dir.path() / "report";
+  auto ok = writeFlyReport(r, out);
+  ASSERT_TRUE(ok.has_value()) << ok.error().message;
+  for (const char* f : {"frames.csv", "fly-report.json", "fly-report.md", "resident-bytes.png", "frame-time.png"})
+    EXPECT_TRUE(std::filesystem::exists(out / f)) << f;
+  std::ifstream j(out / "fly-report.json");
+  const auto json = nlohmann::json::parse(j);
+  EXPECT_EQ(json["summary"]["frames"], 400);
+  EXPECT_EQ(json["snapshots"].size(), 4u);
+  for (const auto& name : json["snapshots"]) EXPECT_TRUE(std::filesystem::exists(out / name.get<std::string>()));
+  int lines = 0;
+  std::ifstream csv(out / "frames.csv");
+  for (std::string l; std::getline(csv, l);) ++lines;
+  EXPECT_EQ(lines, 401);
+}
+
+}  // namespace
+}  // namespace drtv::streamer

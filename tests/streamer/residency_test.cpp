@@ -1,0 +1,141 @@
+// Residency ranking: footprint first, look-ahead, hysteresis, archive holes.
+#include <algorithm>
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "drtv/streamer/residency.h"
+
+namespace drtv::streamer {
+namespace {
+
+Manifest gridManifest(int nx, int ny, std::vector<SectorKey> holes = {}) {
+  Manifest m;
+  for (int ix = 0; ix < nx; ++ix)
+    for (int iy = 0; iy < ny; ++iy)
+      if (std::find(holes.begin(), holes.end(), SectorKey{ix, iy}) == holes.end()) {
+        SectorEntry e;
+        e.key = {ix, iy};
+        e.probes = 70;
+        m.sectors.push_back(e);
+      }
+  m.bounds_max = {64.0 * nx, 64.0 * ny, 50};
+  return m;
+}
+
+// The slow, obviously correct distance: sample the segment densely and take the nearest point
+// of the square for each sample.
+double bruteDistance(SectorKey key, glm::dvec2 a, glm::dvec2 b) {
+  double best = 1e300;
+  for (int i = 0; i <= 20000; ++i) {
+    const glm::dvec2 p = a + (b - a) * (i / 20000.0);
+    const double x0 = key.ix * 64.0, y0 = key.iy * 64.0;
+    const double dx = std::max({x0 - p.x, 0.0, p.x - (x0 + 64)}), dy = std::max({y0 - p.y, 0.0, p.y - (y0 + 64)});
+    best = std::min(best, std::sqrt(dx * dx + dy * dy));
+  }
+  return best;
+}
+
+// A 300 m segment sampled 20000 times: samples are 1.5 cm apart, so the brute force is within that.
+constexpr double kBruteSamplingToleranceM = 0.02;
+
+TEST(DistanceToSegment, MatchesADenselySampledReference) {
+  const glm::dvec2 segs[][2] = {{{10, 10}, {300, 40}}, {{-50, 200}, {130, -80}}, {{32, 32}, {32, 32}}, {{200, 0}, {200, 300}}};
+  for (auto& s : segs)
+    for (int ix = -2; ix <= 5; ++ix)
+      for (int iy = -2; iy <= 5; ++iy)
+        EXPECT_NEAR(distanceToSegment({ix, iy}, s[0], s[1]), bruteDistance({ix, iy}, s[0], s[1]), kBruteSamplingToleranceM)
+            << ix << "," << iy;
+}
+
+TEST(RankSectors, PutsEverySectorOfTheVolumeFootprintFirst) {
+  const Manifest m = gridManifest(16, 16);
+  ResidencyOptions o;
+  Camera cam{{500, 500, 30}, {100, 0, 0}};
+  std::vector<RankedSector> ranked;
+  rankSectors(m, cam, o, {}, ranked);
+  std::vector<SectorKey> foot;
+  footprintSectors(m, cam.position_m, o, foot);
+  ASSERT_FALSE(foot.empty());
+  for (SectorKey k : foot) {
+    auto it = std::find_if(ranked.begin(), ranked.end(), [&](const RankedSector& r) { return r.key == k; });
+    ASSERT_NE(it, ranked.end());
+    EXPECT_EQ(it->tier, 0);
+    EXPECT_LT(it - ranked.begin(), o.max_sectors);
+  }
+  // Tiers never interleave.
+  EXPECT_TRUE(std::is_sorted(ranked.begin(), ranked.end(), [](auto& a, auto& b) { return a.tier < b.tier; }));
+}
+
+TEST(RankSectors, FootprintOfA192MetreVolumeCoversAtMostFourByFourSectors) {
+  const Manifest m = gridManifest(16, 16);
+  std::vector<SectorKey> foot;
+  footprintSectors(m, {500, 500, 0}, {}, foot);
+  EXPECT_EQ(foot.size(), 16u);  // 404..596 spans sectors 6..9 on each axis
+  footprintSectors(m, {544, 544, 0}, {}, foot);  // 448..640: edges on sector boundaries, 3 x 3
+  EXPECT_EQ(foot.size(), 9u);
+}
+
+TEST(RankSectors, LooksAheadAlongTheVelocity) {
+  const Manifest m = gridManifest(16, 16);
+  ResidencyOptions o;
+  std::vector<RankedSector> ranked;
+  rankSectors(m, {{500, 500, 30}, {100, 0, 0}}, o, {}, ranked);
+  ranked.resize(size_t(o.max_sectors));
+  int ahead = 0, behind = 0;
+  for (auto& r : ranked) {
+    ahead += r.key.ix >= 10;
+    behind += r.key.ix <= 5;
+  }
+  EXPECT_GT(ahead, behind);
+  // Sector (11, 7) lies on the 200 m look-ahead segment (x 500..700, y 500): it is wanted.
+  EXPECT_NE(std::find_if(ranked.begin(), ranked.end(), [](auto& r) { return r.key == SectorKey{11, 7}; }), ranked.end());
+}
+
+TEST(RankSectors, StandingStillRanksADiscAroundTheCamera) {
+  const Manifest m = gridManifest(16, 16);
+  std::vector<RankedSector> ranked;
+  rankSectors(m, {{512, 512, 0}, {0, 0, 0}}, {}, {}, ranked);
+  for (size_t i = 1; i < ranked.size(); ++i) {
+    if (ranked[i].tier == ranked[i - 1].tier) {
+      EXPECT_LE(ranked[i - 1].distance_m, ranked[i].distance_m);
+    }
+  }
+}
+
+TEST(RankSectors, GivesHeldSectorsTheHysteresisBonus) {
+  const Manifest m = gridManifest(16, 16);
+  ResidencyOptions o;
+  const Camera cam{{512, 512, 0}, {0, 0, 0}};
+  std::vector<RankedSector> ranked;
+  rankSectors(m, cam, o, {}, ranked);
+  const RankedSector last = ranked[size_t(o.max_sectors)];  // the first one left out
+  ASSERT_EQ(last.tier, 1);
+  const std::vector<SectorKey> held{last.key};
+  rankSectors(m, cam, o, held, ranked);
+  auto it = std::find_if(ranked.begin(), ranked.end(), [&](auto& r) { return r.key == last.key; });
+  EXPECT_LT(it - ranked.begin(), o.max_sectors);
+  EXPECT_DOUBLE_EQ(it->score_m, it->distance_m - o.hysteresis_m);
+}
+
+TEST(RankSectors, RanksOnlySectorsTheArchiveHolds) {
+  const Manifest m = gridManifest(4, 4, {{1, 1}, {2, 2}});
+  std::vector<RankedSector> ranked;
+  rankSectors(m, {{128, 128, 0}, {0, 0, 0}}, {}, {}, ranked);
+  EXPECT_EQ(ranked.size(), 14u);
+  for (auto& r : ranked) EXPECT_EQ(r.entry, m.find(r.key));
+  rankSectors(m, {{-5000, -5000, 0}, {0, 0, 0}}, {}, {}, ranked);
+  EXPECT_TRUE(ranked.empty());
+}
+
+TEST(RankSectors, IsIdenticalForIdenticalInputs) {
+  const Manifest m = gridManifest(16, 16);
+  std::vector<RankedSector> a, b;
+  rankSectors(m, {{333.3, 777.7, 0}, {-70, 70, 0}}, {}, {}, a);
+  rankSectors(m, {{333.3, 777.7, 0}, {-70, 70, 0}}, {}, {}, b);
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t i = 0; i < a.size(); ++i) EXPECT_EQ(a[i].key, b[i].key);
+}
+
+}  // namespace
+}  // namespace drtv::streamer

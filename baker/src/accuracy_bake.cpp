@@ -1,0 +1,60 @@
+// bakeInMemory: bake.h's per-sector pipeline without files (accuracy.h).
+#include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
+
+#include <chrono>
+#include <optional>
+
+#include "drtv/baker/accuracy.h"
+
+namespace drtv::baker {
+
+Result<InMemoryBake> bakeInMemory(const worlds::World& world, const std::string& where, const BakeSettings& settings,
+                                  std::optional<SectorRange> sectors, int threads) {
+  if (std::string why = validateLighting(world.sky, world.lights, world.interiors); !why.empty())
+    return fail(where + ": " + why);
+  if (threads < 0) return fail("threads " + std::to_string(threads) + ": must be >= 0");
+  std::optional<tbb::global_control> limit;
+  if (threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(threads));
+  auto geometry = WorldGeometry::build(world, where);
+  if (!geometry) return std::unexpected(geometry.error());
+  SectorRange range = geometry->sectors();
+  if (sectors) {
+    range.x0 = std::max(range.x0, sectors->x0);
+    range.x1 = std::min(range.x1, sectors->x1);
+    range.y0 = std::max(range.y0, sectors->y0);
+    range.y1 = std::min(range.y1, sectors->y1);
+  }
+  if (range.empty()) return fail(where + ": the sector selection holds no sector of the world");
+  std::vector<SectorKey> keys;
+  for (int32_t x = range.x0; x <= range.x1; ++x)
+    for (int32_t y = range.y0; y <= range.y1; ++y) keys.push_back({x, y});
+
+  InMemoryBake out;
+  const uint32_t effects = effectsToBake(world, nullptr);
+  const auto t0 = std::chrono::steady_clock::now();
+  std::vector<std::optional<Result<Sector>>> baked(keys.size());
+  out.stats.resize(keys.size());
+  tbb::parallel_for(size_t(0), keys.size(),
+                    [&](size_t i) { baked[i] = bakeSector(*geometry, world, keys[i], settings, effects, out.stats[i]); });
+  out.bake_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  for (size_t i = 0; i < keys.size(); ++i) {
+    if (!*baked[i]) return std::unexpected(baked[i]->error());
+    Sector& s = **baked[i];
+    out.rays += out.stats[i].rays();
+    if (s.probes.empty()) continue;
+    out.probes += s.probes.size();
+    out.bytes += encodedSectorBytes(s.probes.size(), s.lprt.sources.size(), s.has_ground);
+    out.sectors.push_back(std::move(s));
+  }
+  out.manifest.bounds_min = geometry->boundsMin();
+  out.manifest.bounds_max = geometry->boundsMax();
+  out.manifest.effects = effects;
+  out.manifest.settings = settings.describe();
+  out.manifest.sky = world.sky;
+  out.manifest.lights = world.lights;
+  out.manifest.interiors = world.interiors;
+  return out;
+}
+
+}  // namespace drtv::baker

@@ -30,15 +30,6 @@ Result<glm::dvec3> parseVec3(const std::string& text, const std::string& flag) {
   return v;
 }
 
-Result<double> parseTime(const std::string& text) {
-  int h = -1, m = -1;
-  char colon = 0;
-  std::istringstream s(text);
-  if (!(s >> h >> colon >> m) || colon != ':' || !s.eof() || h < 0 || h > 23 || m < 0 || m > 59)
-    return fail("--time '" + text + "': expected HH:MM (00:00 to 23:59)");
-  return h + m / 60.0;
-}
-
 nlohmann::json rgb(const glm::vec3& v) { return {v.r, v.g, v.b}; }
 
 Result<void> runQuery(const QueryOptions& o) {
@@ -46,7 +37,7 @@ Result<void> runQuery(const QueryOptions& o) {
   if (!at) return std::unexpected(at.error());
   auto normal = parseVec3(o.normal, "--normal");
   if (!normal) return std::unexpected(normal.error());
-  auto hour = parseTime(o.time);
+  auto hour = parseTimeOfDay(o.time);
   if (!hour) return std::unexpected(hour.error());
   auto reader = ArchiveReader::open(o.path);
   if (!reader) return std::unexpected(reader.error());

@@ -25,6 +25,15 @@ struct Command {
 Command registerInfo(CLI::App& app);
 Command registerBake(CLI::App& app);
 Command registerQuery(CLI::App& app);
+Command registerBenchBake(CLI::App& app);
+Command registerMap(CLI::App& app);
+Command registerFly(CLI::App& app);
+Command registerRender(CLI::App& app);
+Command registerAccuracy(CLI::App& app);
+Command registerExportVdb(CLI::App& app);
+
+// A time of day "HH:MM" (00:00 to 23:59) as hours; the error names `flag` and the text.
+Result<double> parseTimeOfDay(const std::string& text, const std::string& flag = "--time");
 
 // True when stderr is a terminal and CI is not set: long work may draw progress there.
 bool showProgress();

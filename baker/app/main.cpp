@@ -2,6 +2,7 @@
 // Thin by design (STYLE.md): parse options, call a library, map the result to an exit code.
 #include <cstdio>
 #include <cstdlib>
+#include <sstream>
 #include <unistd.h>
 #include <vector>
 
@@ -9,6 +10,15 @@
 
 namespace drtv::app {
 bool showProgress() { return ::isatty(STDERR_FILENO) && std::getenv("CI") == nullptr; }
+
+Result<double> parseTimeOfDay(const std::string& text, const std::string& flag) {
+  int h = -1, m = -1;
+  char colon = 0;
+  std::istringstream s(text);
+  if (!(s >> h >> colon >> m) || colon != ':' || !s.eof() || h < 0 || h > 23 || m < 0 || m > 59)
+    return fail(flag + " '" + text + "': expected HH:MM (00:00 to 23:59)");
+  return h + m / 60.0;
+}
 }  // namespace drtv::app
 
 int main(int argc, char** argv) {
@@ -18,6 +28,14 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "drtv 0.1.0");
   std::vector<drtv::app::Command> commands;
   commands.push_back(drtv::app::registerInfo(app));
+  commands.push_back(drtv::app::registerBake(app));
+  commands.push_back(drtv::app::registerBenchBake(app));
+  commands.push_back(drtv::app::registerMap(app));
+  commands.push_back(drtv::app::registerQuery(app));
+  commands.push_back(drtv::app::registerFly(app));
+  commands.push_back(drtv::app::registerRender(app));
+  commands.push_back(drtv::app::registerAccuracy(app));
+  commands.push_back(drtv::app::registerExportVdb(app));
   // One line per subcommand below.
 
   try {

@@ -31,7 +31,7 @@ ProbeCache makeCache(int sources, int sources_per_light = 4) {
 
 RelightInput noonInput(std::span<const PointLight> lights = {}) {
   const SkyLighting s = evaluateSky(Sky::tropicalDefault(), 12.0);
-  return {s.sky_sh, s.sun_sh, lights, kAllComponents};
+  return {s.sky_sh, s.sun_sh, s.sky_direct_sh, lights, kAllComponents};
 }
 
 void BM_EvaluateSky(benchmark::State& state) {

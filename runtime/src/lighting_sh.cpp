@@ -53,6 +53,7 @@ SkyLighting evaluateSky(const Sky& sky, double hour, float band1_window) {
   s.sky_horizon = sky.sky_horizon.at(h);
   s.ground_radiance_scale = sky.ground_radiance_scale;
   s.sky_sh = projectSkyGradient(s.sky_zenith, s.sky_horizon, s.ground_radiance_scale);
+  s.sky_direct_sh = projectSkyGradient(s.sky_zenith, s.sky_horizon, 1.f);
   s.sun_sh = projectSun(s.sun_direction, s.sun_irradiance, band1_window);
   return s;
 }
@@ -63,7 +64,8 @@ float lightingChange(const SkyLighting& from, const SkyLighting& to) {
     scale = std::max({scale, std::fabs(from.sky_sh[c][0]), std::fabs(to.sky_sh[c][0]), std::fabs(from.sun_sh[c][0]),
                       std::fabs(to.sun_sh[c][0])});
     for (int k = 0; k < 4; ++k)
-      change = std::max({change, std::fabs(from.sky_sh[c][k] - to.sky_sh[c][k]), std::fabs(from.sun_sh[c][k] - to.sun_sh[c][k])});
+      change = std::max({change, std::fabs(from.sky_sh[c][k] - to.sky_sh[c][k]), std::fabs(from.sun_sh[c][k] - to.sun_sh[c][k]),
+                         std::fabs(from.sky_direct_sh[c][k] - to.sky_direct_sh[c][k])});
   }
   if (!(scale > 0.f)) return change > 0.f ? 1.f : 0.f;
   return change / scale;

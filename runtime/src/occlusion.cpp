@@ -37,7 +37,7 @@ OcclusionTile makeOcclusionTile(const Sector& sector) {
       int inside = 0;
       double w_sum = 0.0, w_vis = 0.0, w_height = 0.0;
       for (const ProbeData& p : probes) {
-        const float vis = std::clamp((p.sky_vis[0] + p.sky_vis[1] + p.sky_vis[2]) / 3.f, 0.f, 1.f);
+        const float vis = std::clamp((p.sky_vis[0] + p.sky_vis[1] + p.sky_vis[2]) / (3.f * kOpenGroundSkyVisibility), 0.f, 1.f);
         const int px = std::clamp(int(p.position.x / float(kOcclusionTexelM)), 0, kOcclusionTileDim - 1);
         const int py = std::clamp(int(p.position.y / float(kOcclusionTexelM)), 0, kOcclusionTileDim - 1);
         if (px == x && py == y) {

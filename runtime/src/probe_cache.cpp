@@ -384,14 +384,15 @@ void ProbeCache::Impl::relightSlot(int s, const RelightInput& li) {
   Slot& sl = slots[s];
   const int n = sl.count;
   // Per-relight constants: the bounce lighting L = sky + sun, and the direct-sky colour of each
-  // basis before masking, dot(cosineLobe(B_b), SkySH).
+  // basis before masking, dot(cosineLobe(B_b), SkySH) with the sky continued through the horizon
+  // (lighting_sh.h, "Direct sky").
   float lc[3][4], direct[3][4];
   for (int c = 0; c < 3; ++c) {
     const sh::Sh4 bounce = (li.components & kComponentSkyBounce ? li.sky_sh[c] : sh::Sh4(0.f)) +
                            (li.components & kComponentSunBounce ? li.sun_sh[c] : sh::Sh4(0.f));
     for (int k = 0; k < 4; ++k) lc[c][k] = bounce[k];
     for (int b = 0; b < 4; ++b)
-      direct[c][b] = li.components & kComponentDirectSky ? glm::dot(sh::cosineLobe(sh::kBasis[b]), li.sky_sh[c]) : 0.f;
+      direct[c][b] = li.components & kComponentDirectSky ? glm::dot(sh::cosineLobe(sh::kBasis[b]), li.sky_direct_sh[c]) : 0.f;
   }
   // Local lights: only sources that received light cost anything.
   struct Active {

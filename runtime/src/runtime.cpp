@@ -62,7 +62,8 @@ Result<void> Runtime::setLights(std::vector<PointLight> lights) {
   return {};
 }
 
-RelightInput Runtime::relightInput() const { return {applied_.sky_sh, applied_.sun_sh, lights_, options_.components}; }
+RelightInput Runtime::relightInput() const { return {applied_.sky_sh, applied_.sun_sh, applied_.sky_direct_sh, lights_, options_.components};
+}
 
 void Runtime::rescale() {
   BasisColours fallback{};

@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "drtv/formats/quantize.h"
+#include "drtv/runtime/occlusion.h"
 
 namespace drtv::streamer {
 namespace {
@@ -53,7 +54,9 @@ OcclusionTile buildOcclusionTile(const Sector& s) {
     const ProbeRecord& p = s.probes[i];
     px[i] = p.position[0];
     py[i] = p.position[1];
-    vis[i] = (dequantizeUnorm16(p.sky_vis[0]) + dequantizeUnorm16(p.sky_vis[1]) + dequantizeUnorm16(p.sky_vis[2])) / 3.f;
+    // Relative to open ground, as runtime/occlusion.h: the distant sky SH has no light below the horizon.
+    vis[i] = std::min(1.f, (dequantizeUnorm16(p.sky_vis[0]) + dequantizeUnorm16(p.sky_vis[1]) + dequantizeUnorm16(p.sky_vis[2])) /
+                               (3.f * runtime::kOpenGroundSkyVisibility));
     if (s.has_ground) {
       const int gx = std::clamp(int(p.position[0] / float(kOcclusionTexelM)), 0, kGroundDim - 1);
       const int gy = std::clamp(int(p.position[1] / float(kOcclusionTexelM)), 0, kGroundDim - 1);

@@ -24,7 +24,7 @@ TEST(PublishedVolume, AConcurrentReaderNeverSeesAHalfUpdatedVolume) {
   PublishedVolume published(o);
   auto relight = [&](int frame) {
     const SkyLighting s = evaluateSky(Sky::tropicalDefault(), 8.0 + (frame % 8));
-    cache.relightAll({s.sky_sh, s.sun_sh, {}, kAllComponents});
+    cache.relightAll({s.sky_sh, s.sun_sh, s.sky_direct_sh, {}, kAllComponents});
     cache.setFallback(cache.colours({0, 0}));
     cache.pack(1.f);  // a fixed scale: texel values follow the lighting
     published.invalidateAll();
@@ -62,7 +62,7 @@ TEST(PublishedVolume, TheBackBufferCatchesUpWithSlabsAndSectorRefills) {
   ProbeCache cache;
   for (int x = -2; x <= 2; ++x) ASSERT_TRUE(cache.addSector(testing::makeSector({x, 0}, {}, 1)));
   const SkyLighting s = evaluateSky(Sky::tropicalDefault(), 10.0);
-  cache.relightAll({s.sky_sh, s.sun_sh, {}, kAllComponents});
+  cache.relightAll({s.sky_sh, s.sun_sh, s.sky_direct_sh, {}, kAllComponents});
   cache.pack(cache.maxColour() * 1.25f);
   const VolumeOptions o;
   PublishedVolume published(o);
@@ -71,7 +71,7 @@ TEST(PublishedVolume, TheBackBufferCatchesUpWithSlabsAndSectorRefills) {
   published.update(origin, cache);
   published.update(origin, cache);  // the second buffer's first build
   ASSERT_TRUE(cache.addSector(testing::makeSector({0, 1}, {}, 1)));
-  cache.relightSector({0, 1}, {s.sky_sh, s.sun_sh, {}, kAllComponents});
+  cache.relightSector({0, 1}, {s.sky_sh, s.sun_sh, s.sky_direct_sh, {}, kAllComponents});
   cache.packSlot(cache.slotOf({0, 1}));
   published.invalidateSector({0, 1});
   for (int frame = 0; frame < 6; ++frame) {

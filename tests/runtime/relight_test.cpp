@@ -17,7 +17,7 @@ constexpr float kLprtRelTol = 1e-4f;
 
 RelightInput lightingAt(double hour, std::span<const PointLight> lights = {}) {
   const SkyLighting s = evaluateSky(Sky::tropicalDefault(), hour);
-  return {s.sky_sh, s.sun_sh, lights, kAllComponents};
+  return {s.sky_sh, s.sun_sh, s.sky_direct_sh, lights, kAllComponents};
 }
 
 std::map<std::pair<SectorKey, int>, glm::dvec3> sharesByKey(const ProbeCache& cache, const std::vector<LightShare>& shares) {
@@ -48,7 +48,7 @@ TEST(Relight, MatchesTheReferenceFormulaForEveryProbeAndComponent) {
       cache.relightAll(in);
       for (const Sector& s : sectors)
         for (int i = 0; i < int(s.probes.size()); ++i)
-          expectColoursNear(cache.colours({cache.slotOf(s.key), i}), testing::referenceRelight(s, i, in.sky_sh, in.sun_sh, {}, components),
+          expectColoursNear(cache.colours({cache.slotOf(s.key), i}), testing::referenceRelight(s, i, in.sky_sh, in.sun_sh, in.sky_direct_sh, {}, components),
                             kRelightRelTol, "probe " + std::to_string(i));
     }
   }
@@ -73,7 +73,7 @@ TEST(Relight, LocalLightsMatchTheReferenceOnBasesAndInSh) {
     EXPECT_FALSE(shares.empty());
     for (const Sector& s : sectors)
       for (int i = 0; i < int(s.probes.size()); ++i)
-        expectColoursNear(cache.colours({cache.slotOf(s.key), i}), testing::referenceRelight(s, i, in.sky_sh, in.sun_sh, shares),
+        expectColoursNear(cache.colours({cache.slotOf(s.key), i}), testing::referenceRelight(s, i, in.sky_sh, in.sun_sh, in.sky_direct_sh, shares),
                           kLprtRelTol, "probe " + std::to_string(i));
   }
 }

@@ -105,7 +105,7 @@ TEST(OcclusionTile, ComesFromTheProbesSkyVisibilityAndTheGroundMap) {
       for (int k = 0; k < int(s.probes.size()); ++k) {
         if (k % 8 != x || (k / 8) % 8 != y) continue;
         const ProbeData p = unpackProbe(s.probes[k]);
-        sum += (p.sky_vis[0] + p.sky_vis[1] + p.sky_vis[2]) / 3.f;
+        sum += std::min(1.f, (p.sky_vis[0] + p.sky_vis[1] + p.sky_vis[2]) / (3.f * kOpenGroundSkyVisibility));
         ++count;
       }
       ASSERT_GT(count, 0);
@@ -115,6 +115,21 @@ TEST(OcclusionTile, ComesFromTheProbesSkyVisibilityAndTheGroundMap) {
   empty.key = {4, 4};
   const OcclusionTile e = makeOcclusionTile(empty);
   for (float v : e.sky_visibility) EXPECT_EQ(v, 1.f);
+}
+
+TEST(OcclusionTile, ReadsOpenGroundAsOpenSky) {
+  // Probes over open flat ground see the sky through their upward bases with (1 + cos 54.74)/2
+  // (the ground hides the rest); the distant sky SH is black below the horizon already, so the
+  // tile must not darken it again.
+  Sector s = testing::makeSector({0, 0}, {}, 5);
+  for (ProbeRecord& r : s.probes) {
+    ProbeData p = unpackProbe(r);
+    p.sky_vis = {kOpenGroundSkyVisibility, kOpenGroundSkyVisibility, kOpenGroundSkyVisibility, 0.f};
+    r = packProbe(p);
+  }
+  const OcclusionTile t = makeOcclusionTile(s);
+  for (float v : t.sky_visibility) EXPECT_NEAR(v, 1.f, 1e-4f);  // 16-bit quantisation of sky_vis
+  EXPECT_NEAR(kOpenGroundSkyVisibility, 0.5 * (1.0 + std::cos(std::acos(1.0 / std::sqrt(3.0)))), 1e-7);
 }
 
 TEST(Runtime, InteriorsTakeTheirDesignatedProbeBlendedOverTheSoftDistance) {

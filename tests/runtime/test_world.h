@@ -85,6 +85,7 @@ inline Sector makeSector(SectorKey key, const SectorSpec& spec, uint32_t seed) {
 // The relighting formula of DESIGN.md, probe by probe, in double, from the record itself.
 // `light_at` maps (sector key, probe index) of a source to the light colour assigned to it.
 inline runtime::BasisColours referenceRelight(const Sector& sector, int probe, const sh::Sh4Rgb& sky, const sh::Sh4Rgb& sun,
+                                              const sh::Sh4Rgb& sky_direct,
                                               const std::map<std::pair<SectorKey, int>, glm::dvec3>& light_at,
                                               uint32_t components = runtime::kAllComponents) {
   const ProbeData p = unpackProbe(sector.probes[probe]);
@@ -95,7 +96,7 @@ inline runtime::BasisColours referenceRelight(const Sector& sector, int probe, c
       for (int k = 0; k < 4; ++k) {
         if (components & runtime::kComponentSkyBounce) v += double(sky[c][k]) * p.prt[c][b][k];
         if (components & runtime::kComponentSunBounce) v += double(sun[c][k]) * p.prt[c][b][k];
-        if (components & runtime::kComponentDirectSky) v += double(sh::cosineLobe(sh::kBasis[b])[k]) * sky[c][k] * p.sky_vis[b];
+        if (components & runtime::kComponentDirectSky) v += double(sh::cosineLobe(sh::kBasis[b])[k]) * sky_direct[c][k] * p.sky_vis[b];
       }
       if ((components & runtime::kComponentLocalLights) && sector.hasLprt()) {
         const double range = sector.probes[probe].lprt_range;

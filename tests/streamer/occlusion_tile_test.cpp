@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include "drtv/runtime/occlusion.h"
 #include "drtv/streamer/occlusion_tile.h"
 #include "test_world.h"
 
@@ -24,7 +25,8 @@ TEST(BuildOcclusionTile, MatchesAGaussianWeightedMeanComputedInDouble) {
         const double wi = std::exp(-(dx * dx + dy * dy) / (2 * 64.0));
         const int gx = std::clamp(int(p.position[0] / 8), 0, 7), gy = std::clamp(int(p.position[1] / 8), 0, 7);
         w += wi;
-        v += wi * (p.sky_vis[0] + p.sky_vis[1] + p.sky_vis[2]) / (3 * 65535.0);
+        // Relative to open flat ground (runtime/occlusion.h), at most 1.
+        v += wi * std::min(1.0, (p.sky_vis[0] + p.sky_vis[1] + p.sky_vis[2]) / (3 * 65535.0 * runtime::kOpenGroundSkyVisibility));
         h += wi * std::max(0.0, double(p.position[2]) - s.groundHeight(gx, gy));
       }
       EXPECT_NEAR(t.sky_visibility[y * 8 + x], std::lround(v / w * 255), kUnorm8Tolerance);
@@ -47,7 +49,7 @@ TEST(BuildOcclusionTile, FarFromEveryProbeTakesTheNearestProbe) {
   s.probes[0].position[1] = 2.f;
   s.probes[0].sky_vis[0] = s.probes[0].sky_vis[1] = s.probes[0].sky_vis[2] = 65535 / 2;
   const OcclusionTile t = buildOcclusionTile(s);
-  EXPECT_NEAR(t.visibility(7, 7), 0.5f, 1.f / 255);
+  EXPECT_NEAR(t.visibility(7, 7), 0.5f / runtime::kOpenGroundSkyVisibility, 1.f / 255);
 }
 
 }  // namespace

@@ -17,6 +17,14 @@
 //     c2 = Y1 * 2pi * [ H/2 + (Z - H) * 2/5 - g H / 2 ]    (int_0^1 z sqrt(z) dz = 2/5)
 // The test checks both against sh::projectNumerically.
 //
+// Direct sky. The baked visibility v[b] is the cosine-weighted share of B_b's whole hemisphere
+// that sees the sky: over open ground an upward basis has v = (1 + cos 54.74 deg)/2 = 0.789
+// because the ground hides the part of its lobe below the horizon. Masking the sky SH with
+// g = 0 by v would remove that part twice (0.789^2: -30 % of the ambient on the test scenes,
+// docs/reference.md). The direct-sky term therefore masks the sky continued through the horizon
+// with the horizon colour (g = 1): exact for a uniform sky over a plane, and the ground's own
+// light comes back through the bounce transfer. The sky bounce keeps g, the sky as it is.
+//
 // Sun (windowed delta). The sun is a delta of irradiance E from direction d: SH E Y(d). Band 1
 // is scaled by a window factor w1 [2]. Why: the sun enters relighting only through the transfer
 // vectors, dot(SunSH, T), and DESIGN.md clamps ringing only at the end of a probe's sum, so a
@@ -70,6 +78,8 @@ struct SkyLighting {
   glm::vec3 sky_horizon{0.f};       // radiance per sr
   float ground_radiance_scale = 0.f;
   sh::Sh4Rgb sky_sh{};              // radiance SH of the sky (with ground term)
+  sh::Sh4Rgb sky_direct_sh{};       // the sky continued through the horizon (g = 1): what the
+                                    // baked visibility v[b] masks (see "Direct sky" above)
   sh::Sh4Rgb sun_sh{};              // radiance SH of the windowed sun
 };
 

@@ -9,7 +9,8 @@
 //
 // A tile has 8 x 8 texels of 8 m (the sector's ground-map cells). Each texel holds:
 //  - sky_visibility: the mean over the texel's probes of the mean up-basis visibility
-//    (v0 + v1 + v2) / 3 (cosine-weighted hemisphere openness), or, for a texel without probes,
+//    (v0 + v1 + v2) / 3 / kOpenGroundSkyVisibility, at most 1 (cosine-weighted openness of the
+//    sky above the horizon), or, for a texel without probes,
 //    the mean of the sector's probes weighted by 1 / (d^2 + (8 m)^2) (d horizontal distance to the
 //    texel centre); 1 (open sky) for a sector without probes;
 //  - ground_m: Sector::groundHeight when the sector has a ground map, else the lowest probe base
@@ -39,6 +40,11 @@ inline constexpr double kOcclusionTexelM = kSectorSizeM / kOcclusionTileDim;
 // An occluder is taken as at least this tall, so that t's divisor is never 0 (a texel of bare
 // ground with its probe on the ground still fades to open sky over 2 m).
 inline constexpr float kMinOccluderHeightM = 2.f;
+// Sky visibility of an upward basis over open flat ground: the ground hides the part of its
+// hemisphere below the horizon, (1 + cos 54.74 deg) / 2 = (1 + 1/sqrt 3) / 2. The tile divides the
+// probes' mean upward visibility by it, so that open ground reads as open sky: the sky SH that
+// distantAmbient masks has no light below the horizon already (lighting_sh.h, "Direct sky").
+inline constexpr float kOpenGroundSkyVisibility = 0.5f * (1.f + 0.57735027f);
 
 struct OcclusionTile {
   SectorKey key;

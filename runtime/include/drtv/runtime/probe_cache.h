@@ -74,6 +74,7 @@ using BasisColours = std::array<glm::vec3, 4>;
 struct RelightInput {
   sh::Sh4Rgb sky_sh{};                    // sky radiance SH (lighting_sh.h)
   sh::Sh4Rgb sun_sh{};                    // sun radiance SH, windowed
+  sh::Sh4Rgb sky_direct_sh{};             // sky masked by v[b] in the direct-sky term (lighting_sh.h)
   std::span<const PointLight> lights;     // validated (validateLighting)
   uint32_t components = kAllComponents;
 };

@@ -51,7 +51,8 @@ static_assert(sizeof(OcclusionTile) == 8 + 2 * 64, "a tile lives inline in its r
 // Builds the tile of `sector` [1]: each texel takes the Gaussian-weighted (sigma
 // kOcclusionSplatSigmaM, horizontal distance) mean over the sector's probes of
 //   visibility = mean of sky_vis[B0..B2] (the three upward bases cover the upper hemisphere
-//                symmetrically; B3 looks down and sees no sky)
+//                symmetrically; B3 looks down and sees no sky) over open ground's
+//                runtime::kOpenGroundSkyVisibility, at most 1
 //   height     = probe z - terrain height below it (the ground map when the sector has one,
 //                else the probe's own height_cm above the surface below it)
 // A sector without probes (sea, a hole in the bake) is open sky at height 0. Pure, thread-safe,

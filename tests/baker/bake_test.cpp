@@ -1,4 +1,5 @@
 // The whole bake: archive contents, budgets, determinism, resumption, shards, bad input.
+#include <unistd.h>
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -17,7 +18,7 @@ namespace fs = std::filesystem;
 struct TempDir {
   fs::path path;
   TempDir() {
-    path = fs::temp_directory_path() / ("drtv_baker_test_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+    path = fs::temp_directory_path() / ("drtv_baker_test_" + std::to_string(::getpid()) + "_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
     fs::remove_all(path);
     fs::create_directories(path);
   }

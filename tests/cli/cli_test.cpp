@@ -1,6 +1,7 @@
 // The drtv program's contract (STYLE.md, "Command line"): --help on stdout with exit 0; an
 // unknown flag named, exit 2; a failure "drtv: error: <file>: <what>", exit 1.
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <array>
 #include <cstdio>
@@ -27,13 +28,18 @@ std::string slurp(const std::string& path) {
 
 // Runs drtv with `args`; stdout arrives as-is, each stderr line prefixed "E:".
 Outcome drtv(const std::string& args) {
-  const std::string out = ::testing::TempDir() + "drtv_cli_out.txt", err = ::testing::TempDir() + "drtv_cli_err.txt";
+  // ctest runs the tests of this file in parallel processes: names unique to this test and process.
+  const ::testing::TestInfo* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  const std::string stem = ::testing::TempDir() + "drtv_cli_" + (info ? info->name() : "none") + "_" + std::to_string(::getpid());
+  const std::string out = stem + "_out.txt", err = stem + "_err.txt";
   const std::string cmd = std::string("'") + DRTV_EXE + "' " + args + " >'" + out + "' 2>'" + err + "'";
   Outcome r;
   const int st = std::system(cmd.c_str());
   r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
   r.out = slurp(out);
   std::string e = slurp(err);
+  std::remove(out.c_str());
+  std::remove(err.c_str());
   for (size_t at = 0; at < e.size();) {
     const size_t nl = e.find('\n', at);
     r.out += "E:" + e.substr(at, nl == std::string::npos ? std::string::npos : nl - at + 1);

@@ -1,4 +1,5 @@
 // `drtv export-vdb` (vdb.h): the grids read back with OpenVDB hold what the archive holds.
+#include <unistd.h>
 #include <gtest/gtest.h>
 
 #include <openvdb/openvdb.h>
@@ -18,7 +19,7 @@ TEST(ExportVdb, WritesGridsThatReadBackWithTheArchivesProbesAndFiniteLight) {
   ASSERT_TRUE(world.has_value());
   auto baked = bakeInMemory(*world, "fc3_testbox", BakeSettings::forQuality(Quality::kDraft, 1));
   ASSERT_TRUE(baked.has_value());
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "drtv_vdb_test";
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("drtv_vdb_test_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   auto writer = ArchiveWriter::create(dir / "box.drtv");
   ASSERT_TRUE(writer.has_value());

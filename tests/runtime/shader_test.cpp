@@ -2,6 +2,7 @@
 // to SPIR-V; HLSL through its -D front end). There is no GPU in CI and no CPU SPIR-V executor
 // here, so equality with sampleVolume is kept by the A1..A9 line correspondence (docs/runtime.md)
 // and by the check below that both files carry every numbered line in order.
+#include <unistd.h>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -17,7 +18,7 @@ const std::filesystem::path kShaders = std::filesystem::path(DRTV_SOURCE_DIR) / 
 bool haveGlslang() { return std::system("glslangValidator --version > /dev/null 2>&1") == 0; }
 
 int compile(const std::string& args) {
-  const std::filesystem::path out = std::filesystem::temp_directory_path() / "drtv_shader_test.spv";
+  const std::filesystem::path out = std::filesystem::temp_directory_path() / ("drtv_shader_test_" + std::to_string(::getpid()) + ".spv");
   return std::system(("glslangValidator " + args + " -o " + out.string() + " > /dev/null 2>&1").c_str());
 }
 

@@ -1,3 +1,4 @@
+#include <unistd.h>
 #include <filesystem>
 
 #include <gtest/gtest.h>
@@ -35,7 +36,7 @@ TEST(TopDown, WritesAPngAndNamesAnUnwritablePath) {
   World empty;
   const RgbImage img = renderTopDown(empty);
   EXPECT_EQ(img.width, 1);
-  const std::filesystem::path out = std::filesystem::path(::testing::TempDir()) / "drtv_topdown_test.png";
+  const std::filesystem::path out = std::filesystem::path(::testing::TempDir()) / ("drtv_topdown_test_" + std::to_string(::getpid()) + ".png");
   ASSERT_TRUE(writePng(out, img).has_value());
   EXPECT_GT(std::filesystem::file_size(out), 8u);
   auto bad = writePng("/nonexistent/dir/x.png", img);

@@ -47,6 +47,7 @@ struct Slot {
   std::vector<float> height;
   std::vector<glm::vec4> sky_vis;
   glm::vec3 lo{0.f}, hi{0.f};       // bounding box of `position`
+  std::vector<uint8_t> designated;  // probes flagged kProbeInterior (few: one per interior)
   // LPRT [2]
   std::vector<LprtSource> sources;
   std::vector<int16_t> lprt;        // [source][channel * 4 + k][probe], planes of the slot stride
@@ -249,6 +250,7 @@ Result<void> ProbeCache::addSector(const Sector& sector) {
     sl.interior[i] = d.interior;
     sl.height[i] = d.height_m;
     sl.sky_vis[i] = d.sky_vis;
+    if (d.flags & kProbeInterior) sl.designated.push_back(uint8_t(i));
     sl.lo = glm::min(sl.lo, d.position);
     sl.hi = glm::max(sl.hi, d.position);
     for (int c = 0; c < 3; ++c)
@@ -548,6 +550,43 @@ ProbeRef ProbeCache::probeAt(const glm::dvec3& pos) const {
   const int y = cell((pos.y - sl.origin.y) / kGridCellSizeM);
   const int z = cell((pos.z - sl.z_min) / sl.cell_h);
   return {s, sl.nearest[IndexGrid::cellIndex(x, y, z)]};
+}
+
+ProbeRef ProbeCache::interiorProbe(uint16_t index, const glm::dvec3& designated, const glm::dvec3& lo,
+                                   const glm::dvec3& hi) const {
+  auto world = [](const Slot& sl, int i) {
+    const glm::vec3& q = sl.position[i];
+    return glm::dvec3(sl.origin.x + q.x, sl.origin.y + q.y, q.z);
+  };
+  // Flagged probes: each slot keeps their short list.
+  ProbeRef best;
+  double best_d2 = std::numeric_limits<double>::infinity();
+  for (size_t s = 0; s < impl_->slots.size(); ++s) {
+    const Slot& sl = impl_->slots[s];
+    if (!sl.used) continue;
+    for (uint8_t i : sl.designated) {
+      if (sl.interior[i] != index) continue;
+      const glm::dvec3 d = world(sl, i) - designated;
+      if (glm::dot(d, d) < best_d2) best_d2 = glm::dot(d, d), best = {int(s), i};
+    }
+  }
+  if (best.valid()) return best;
+  // Else the nearest probe inside the box, visiting only slots whose bounds meet it.
+  for (size_t s = 0; s < impl_->slots.size(); ++s) {
+    const Slot& sl = impl_->slots[s];
+    if (!sl.used || sl.count == 0) continue;
+    const glm::dvec3 slo(sl.origin.x + sl.lo.x, sl.origin.y + sl.lo.y, sl.lo.z);
+    const glm::dvec3 shi(sl.origin.x + sl.hi.x, sl.origin.y + sl.hi.y, sl.hi.z);
+    if (glm::any(glm::greaterThan(slo, hi)) || glm::any(glm::lessThan(shi, lo))) continue;
+    for (int i = 0; i < sl.count; ++i) {
+      if ((sl.flags[i] & kProbeInterior) && sl.interior[i] == index) continue;  // none, or found above
+      const glm::dvec3 w = world(sl, i);
+      if (!glm::all(glm::greaterThanEqual(w, lo)) || !glm::all(glm::lessThanEqual(w, hi))) continue;
+      const glm::dvec3 d = w - designated;
+      if (glm::dot(d, d) < best_d2) best_d2 = glm::dot(d, d), best = {int(s), i};
+    }
+  }
+  return best;
 }
 
 ProbeRef ProbeCache::nearestProbe(const glm::dvec3& pos) const {

@@ -104,25 +104,11 @@ bool Runtime::removeSector(SectorKey key) {
 
 void Runtime::resolveInteriors() {
   interior_probes_.assign(interiors_.size(), ProbeRef{});
+  // The designated probe is flagged kProbeInterior and belongs to interior k + 1 (probe.h); without
+  // one resident, the resident probe inside the box nearest the artist's position.
   for (size_t k = 0; k < interiors_.size(); ++k) {
     const InteriorVolume& v = interiors_[k];
-    double best = std::numeric_limits<double>::infinity();
-    // The designated probe is flagged kProbeInterior and belongs to interior k (probe.h).
-    for (int s = 0; s < cache_.maxSectors(); ++s) {
-      if (!cache_.slotUsed(s)) continue;
-      for (int i = 0; i < cache_.slot(s).probe_count; ++i) {
-        const ProbeRef p{s, i};
-        if (!(cache_.flags(p) & kProbeInterior) || cache_.interior(p) != k + 1) continue;
-        const glm::dvec3 d = cache_.worldPosition(p) - v.probe_position;
-        if (glm::dot(d, d) < best) best = glm::dot(d, d), interior_probes_[k] = p;
-      }
-    }
-    if (interior_probes_[k].valid()) continue;
-    // Without a flagged probe: the resident probe nearest the artist's position, if in the box.
-    const ProbeRef p = cache_.nearestProbe(v.probe_position);
-    if (!p.valid()) continue;
-    const glm::dvec3 w = cache_.worldPosition(p);
-    if (glm::all(glm::greaterThanEqual(w, v.min)) && glm::all(glm::lessThanEqual(w, v.max))) interior_probes_[k] = p;
+    interior_probes_[k] = cache_.interiorProbe(uint16_t(k + 1), v.probe_position, v.min, v.max);
   }
 }
 

@@ -2,6 +2,7 @@
 // input validation, and finite output for any finite input.
 #include <cmath>
 #include <limits>
+#include <random>
 
 #include <gtest/gtest.h>
 
@@ -158,6 +159,48 @@ TEST(Runtime, InteriorsTakeTheirDesignatedProbeBlendedOverTheSoftDistance) {
   EXPECT_NEAR(edge.irradiance.b, 0.5f * (edge.volume_weight * edge.volume.b + (1 - edge.volume_weight) * edge.distant.b), 1e-5f);
   const AmbientSample outside = rt.ambient(probe_world + glm::dvec3(3.5, 0.0, 0.0), {0, 0, 1});
   EXPECT_EQ(outside.interior, -1);
+}
+
+// The slot-culled search against a brute-force scan of every resident probe: flagged probes of the
+// interior first (nearest the designated position), else the nearest probe inside the box.
+TEST(ProbeCache, InteriorProbeMatchesAScanOfEveryResidentProbe) {
+  ProbeCache cache;
+  for (int y = -1; y <= 1; ++y)
+    for (int x = -1; x <= 1; ++x) {
+      Sector s = testing::makeSector({x, y}, {}, 4);
+      // Flag probes 3 and 40 of sector (x, y) as the designated probes of interiors (x + 2) and 1.
+      for (int i : {3, 40}) {
+        ProbeData d = unpackProbe(s.probes[i]);
+        d.flags |= kProbeInterior;
+        d.interior = uint16_t(i == 3 ? x + 2 : 1);
+        s.probes[i] = packProbe(d);
+      }
+      ASSERT_TRUE(cache.addSector(s));
+    }
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-90.0, 150.0), h(0.5, 40.0);
+  for (int trial = 0; trial < 300; ++trial) {
+    const uint16_t index = uint16_t(1 + trial % 5);  // 4 and 5 have no flagged probe
+    const glm::dvec3 designated(u(rng), u(rng), 5.0 + 30.0 * std::fabs(u(rng)) / 150.0);
+    const glm::dvec3 half(h(rng), h(rng), h(rng) * 0.3);
+    const glm::dvec3 lo = designated - half, hi = designated + half;
+    ProbeRef flagged, inside;
+    double fd = INFINITY, id = INFINITY;
+    for (int s = 0; s < cache.maxSectors(); ++s) {
+      if (!cache.slotUsed(s)) continue;
+      for (int i = 0; i < cache.slot(s).probe_count; ++i) {
+        const ProbeRef p{s, i};
+        const glm::dvec3 w = cache.worldPosition(p);
+        const double d2 = glm::dot(w - designated, w - designated);
+        if ((cache.flags(p) & kProbeInterior) && cache.interior(p) == index) {
+          if (d2 < fd) fd = d2, flagged = p;
+        } else if (glm::all(glm::greaterThanEqual(w, lo)) && glm::all(glm::lessThanEqual(w, hi)) && d2 < id) {
+          id = d2, inside = p;
+        }
+      }
+    }
+    EXPECT_EQ(cache.interiorProbe(index, designated, lo, hi), flagged.valid() ? flagged : inside) << "trial " << trial;
+  }
 }
 
 TEST(Runtime, RejectsNanAndNegativeLightingWithAClearError) {

@@ -171,6 +171,12 @@ class ProbeCache {
   // The resident probe nearest to `pos` by Euclidean distance (brute force; for tools and
   // interiors). Invalid when nothing is resident.
   ProbeRef nearestProbe(const glm::dvec3& pos) const;
+  // The probe an interior volume [lo, hi] takes its light from: the resident probe flagged
+  // kProbeInterior of interior `index` (ProbeData::interior, 1-based) nearest `designated`, else
+  // the resident probe inside the box nearest `designated`; invalid when neither is resident.
+  // Flagged probes come from a per-slot list; the fallback visits only the slots whose probes'
+  // bounds meet the box, so an interior far from the camera costs next to nothing.
+  ProbeRef interiorProbe(uint16_t index, const glm::dvec3& designated, const glm::dvec3& lo, const glm::dvec3& hi) const;
 
  private:
   struct Impl;

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "drtv/formats/error.h"
 #include "pack.h"
@@ -42,12 +43,19 @@ struct SlotTable {
   }
 };
 
-// 4 bytes <-> 4 16-bit lanes of a uint64 (the blur sums up to 64 * 255 per lane: no carries).
-inline uint64_t expand(uint32_t v) {
-  return uint64_t(v & 0xff) | uint64_t(v & 0xff00) << 8 | uint64_t(v & 0xff0000) << 16 | uint64_t(v & 0xff000000) << 24;
+// The blur's row kernels, on 16-bit lanes (sums stay below 64 * 255), written so that they
+// vectorise: restrict pointers, no widening to int.
+void blurTap3(const uint8_t* __restrict m, uint16_t* __restrict out, int lo, int hi) {
+  for (int i = lo; i < hi; ++i) out[i] = uint16_t(uint16_t(m[i - 4]) + uint16_t(2 * m[i]) + uint16_t(m[i + 4]));
 }
-inline uint32_t compress(uint64_t v) {
-  return uint32_t(v & 0xff) | uint32_t((v >> 8) & 0xff00) | uint32_t((v >> 16) & 0xff0000) | uint32_t((v >> 24) & 0xff000000);
+void blurRows3(const uint16_t* __restrict r0, const uint16_t* __restrict r1, const uint16_t* __restrict r2,
+               uint16_t* __restrict out, int n) {
+  for (int i = 0; i < n; ++i) out[i] = uint16_t(r0[i] + uint16_t(2 * r1[i]) + r2[i]);
+}
+// Weights sum to 64: round half up, back to a byte.
+void blurFinish(const uint16_t* __restrict r0, const uint16_t* __restrict r1, const uint16_t* __restrict r2,
+                uint8_t* __restrict out, int n) {
+  for (int i = 0; i < n; ++i) out[i] = uint8_t(uint16_t(r0[i] + uint16_t(2 * r1[i]) + r2[i] + 32) >> 6);
 }
 
 }  // namespace
@@ -239,45 +247,99 @@ void Volume::blurBox(glm::ivec3 g0, glm::ivec3 g1) {
   // into the apron is the same as clamping it into the range (see volume.h: edges repeat).
   const glm::ivec3 a0 = glm::max(g0 - 1, origin_), a1 = glm::min(g1 + 1, origin_ + n);
   const glm::ivec3 a = a1 - a0;
-  std::vector<uint64_t> src(size_t(a.x) * a.y * a.z), bx(size_t(b.x) * a.y * a.z), by(size_t(b.x) * b.y * a.z);
+  // Storage index per apron column, row and layer, computed once (no per-texel modulo).
+  thread_local std::vector<int> sx, sy, sz;
+  sx.resize(a.x), sy.resize(a.y), sz.resize(a.z);
+  for (int x = 0; x < a.x; ++x) sx[x] = floorMod(a0.x + x, n.x);
+  for (int y = 0; y < a.y; ++y) sy[y] = floorMod(a0.y + y, n.y);
+  for (int z = 0; z < a.z; ++z) sz[z] = floorMod(a0.z + z, n.z);
+  const size_t row_stride = size_t(options_.size.x), layer_stride = row_stride * size_t(options_.size.y);
+  // Columns [0, apron_run) of the apron and [0, box_run) of the box are contiguous in storage; the
+  // rest (if any) continues from storage column 0.
+  int apron_run = 1;
+  while (apron_run < a.x && sx[apron_run] == sx[apron_run - 1] + 1) ++apron_run;
+  const int ox0 = g0.x - a0.x;
+  int box_run = 1;
+  while (box_run < b.x && sx[ox0 + box_run] == sx[ox0 + box_run - 1] + 1) ++box_run;
+  bool has_x0 = false;
+  for (int x = 0; x < b.x; ++x) has_x0 |= sx[ox0 + x] == 0;
+  // One layer at a time: a layer's x and y passes go into a ring of three blurred layers, and
+  // the z pass combines the ring as soon as it holds the layers an output layer needs. The
+  // working set (a few 100 KB) stays in cache, where whole-volume passes streamed ~10 MB.
+  const int ox = g0.x - a0.x, oy = g0.y - a0.y, oz = g0.z - a0.z;  // the box inside the apron
+  const size_t layer_in = size_t(a.x) * a.y, layer_x = size_t(b.x) * a.y, layer_out = size_t(b.x) * b.y;
+  // Bytes are blurred as 16-bit sums on the four interleaved lanes of a texel (tap offset +-4
+  // bytes in x), in plain loops over arrays that the compiler vectorises.
+  thread_local std::vector<uint8_t> src;
+  thread_local std::vector<uint16_t> bx, ring;
+  src.resize(layer_in * 4), bx.resize(layer_x * 4), ring.resize(3 * layer_out * 4);
+  const int rb = 4 * b.x;  // bytes (lanes) per output row
   for (int c = 0; c < 3; ++c) {
-    for (int z = 0; z < a.z; ++z)
-      for (int y = 0; y < a.y; ++y)
-        for (int x = 0; x < a.x; ++x)
-          src[(size_t(z) * a.y + y) * a.x + x] = expand(source_[c][physicalIndex(
-              {floorMod(a0.x + x, n.x), floorMod(a0.y + y, n.y), floorMod(a0.z + z, n.z)})]);
-    for (int z = 0; z < a.z; ++z)
-      for (int y = 0; y < a.y; ++y)
-        for (int x = 0; x < b.x; ++x) {
-          const int gx = g0.x + x - a0.x;
-          const uint64_t* r = &src[(size_t(z) * a.y + y) * a.x];
-          bx[(size_t(z) * a.y + y) * b.x + x] = r[std::max(gx - 1, 0)] + 2 * r[gx] + r[std::min(gx + 1, a.x - 1)];
-        }
-    for (int z = 0; z < a.z; ++z)
-      for (int y = 0; y < b.y; ++y) {
-        const int gy = g0.y + y - a0.y;
-        const uint64_t* r0 = &bx[(size_t(z) * a.y + std::max(gy - 1, 0)) * b.x];
-        const uint64_t* r1 = &bx[(size_t(z) * a.y + gy) * b.x];
-        const uint64_t* r2 = &bx[(size_t(z) * a.y + std::min(gy + 1, a.y - 1)) * b.x];
-        for (int x = 0; x < b.x; ++x) by[(size_t(z) * b.y + y) * b.x + x] = r0[x] + 2 * r1[x] + r2[x];
+    const uint32_t* in = source_[c].data();
+    int ring_z[3] = {-1, -1, -1};  // the apron layer each ring slot holds
+    auto layer = [&](int zi) -> const uint16_t* {
+      uint16_t* out_layer = &ring[size_t(zi % 3) * layer_out * 4];
+      if (ring_z[zi % 3] == zi) return out_layer;
+      ring_z[zi % 3] = zi;
+      for (int y = 0; y < a.y; ++y) {
+        const uint32_t* row = in + sz[zi] * layer_stride + sy[y] * row_stride;
+        uint8_t* out = &src[size_t(y) * a.x * 4];
+        // sx runs contiguously up to the storage wrap: at most two copies.
+        std::memcpy(out, row + sx[0], size_t(apron_run) * 4);
+        if (apron_run < a.x) std::memcpy(out + 4 * apron_run, row + sx[apron_run], size_t(a.x - apron_run) * 4);
       }
-    for (int z = 0; z < b.z; ++z) {
-      const int gz = g0.z + z - a0.z;
+      for (int y = 0; y < a.y; ++y) {
+        const uint8_t* r = &src[size_t(y) * a.x * 4];
+        uint16_t* out = &bx[size_t(y) * rb];
+        auto tap = [&](int i) {  // lane i of output column i / 4, neighbours clamped
+          const int gx = ox + i / 4, l = i % 4;
+          return uint16_t(r[4 * std::max(gx - 1, 0) + l] + 2 * r[4 * gx + l] + r[4 * std::min(gx + 1, a.x - 1) + l]);
+        };
+        // Only the apron's first and last columns clamp: the rest is a plain 3-tap.
+        const uint8_t* m = r + 4 * ox;
+        const int lo = ox == 0 ? 4 : 0, hi = ox + b.x == a.x ? rb - 4 : rb;  // [lo, hi) has both neighbours
+        for (int i = 0; i < lo && i < rb; ++i) out[i] = tap(i);
+        blurTap3(m, out, lo, hi);
+        for (int i = std::max(hi, lo); i < rb; ++i) out[i] = tap(i);
+      }
       for (int y = 0; y < b.y; ++y) {
-        const uint64_t* r0 = &by[(size_t(std::max(gz - 1, 0)) * b.y + y) * b.x];
-        const uint64_t* r1 = &by[(size_t(gz) * b.y + y) * b.x];
-        const uint64_t* r2 = &by[(size_t(std::min(gz + 1, a.z - 1)) * b.y + y) * b.x];
-        const int sz = floorMod(g0.z + z, n.z), sy = floorMod(g0.y + y, n.y);
-        for (int x = 0; x < b.x; ++x) {
-          // Weights sum to 64: round half up, then each lane fits in 8 bits again.
-          const uint64_t sum = r0[x] + 2 * r1[x] + r2[x] + 0x0020002000200020ull;
-          const uint32_t t = compress((sum >> 6) & 0x00ff00ff00ff00ffull);
-          const int sx = floorMod(g0.x + x, n.x);
-          for (int dz = 0; dz < (sz == 0 ? 2 : 1); ++dz)
-            for (int dy = 0; dy < (sy == 0 ? 2 : 1); ++dy)
-              for (int dx = 0; dx < (sx == 0 ? 2 : 1); ++dx)
-                texels_[c][physicalIndex({dx ? n.x : sx, dy ? n.y : sy, dz ? n.z : sz})] = t;
-        }
+        const int gy = oy + y;
+        const uint16_t* r0 = &bx[size_t(std::max(gy - 1, 0)) * rb];
+        const uint16_t* r1 = &bx[size_t(gy) * rb];
+        const uint16_t* r2 = &bx[size_t(std::min(gy + 1, a.y - 1)) * rb];
+        uint16_t* out = &out_layer[size_t(y) * rb];
+        blurRows3(r0, r1, r2, out, rb);
+      }
+      return out_layer;
+    };
+    thread_local std::vector<uint8_t> blurred_row;
+    blurred_row.resize(rb);
+    uint32_t* dst = texels_[c].data();
+    for (int z = 0; z < b.z; ++z) {
+      const int gz = oz + z;
+      const uint16_t* l0 = layer(std::max(gz - 1, 0));
+      const uint16_t* l1 = layer(gz);
+      const uint16_t* l2 = layer(std::min(gz + 1, a.z - 1));
+      const int tz = sz[gz];
+      for (int y = 0; y < b.y; ++y) {
+        const uint16_t* r0 = l0 + size_t(y) * rb;
+        const uint16_t* r1 = l1 + size_t(y) * rb;
+        const uint16_t* r2 = l2 + size_t(y) * rb;
+        uint8_t* br = blurred_row.data();
+        blurFinish(r0, r1, r2, br, rb);
+        const int ty = sy[oy + y];
+        uint32_t* row = dst + tz * layer_stride + ty * row_stride;
+        std::memcpy(row + sx[ox], br, size_t(box_run) * 4);
+        if (box_run < b.x) std::memcpy(row + sx[ox + box_run], br + 4 * box_run, size_t(b.x - box_run) * 4);
+        // The duplicated boundary: physical index n mirrors storage index 0 on each axis.
+        if (has_x0) row[n.x] = row[0];
+        auto mirror = [&](uint32_t* to) {
+          for (int x = 0; x < b.x; ++x) to[sx[ox + x]] = row[sx[ox + x]];
+          if (has_x0) to[n.x] = row[n.x];
+        };
+        if (ty == 0) mirror(dst + tz * layer_stride + n.y * row_stride);
+        if (tz == 0) mirror(dst + n.z * layer_stride + ty * row_stride);
+        if (ty == 0 && tz == 0) mirror(dst + n.z * layer_stride + n.y * row_stride);
       }
     }
   }

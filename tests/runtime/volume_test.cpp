@@ -66,17 +66,59 @@ TEST(VolumeFill, NearestModeMatchesTheReferenceForEveryTexel) {
   EXPECT_EQ(v.texture(0).size(), 147456u);  // the talk's 96x96x16
 }
 
+// The talk's PC-path blur, straight from its definition: 27 taps of [1 2 1] (x) [1 2 1] (x) [1 2 1]
+// over the unblurred texels, neighbours clamped into the volume, each byte (sum + 32) / 64. Checked
+// after a scroll too, so that the storage wrap is exercised.
+TEST(VolumeFill, BlurMatchesTheTwentySevenTapDefinitionForEveryTexel) {
+  const ProbeCache cache = makeWorld();
+  VolumeOptions plain_o, blur_o;
+  blur_o.blur = true;
+  Volume plain(plain_o), blurred(blur_o);
+  const glm::ivec3 origin = plain.originFor({17.0, -23.0, 12.0});
+  for (const glm::ivec3 move : {glm::ivec3(0), glm::ivec3(5, -7, 3)}) {
+    plain.rebuild(origin, cache);
+    blurred.rebuild(origin - move, cache);
+    blurred.scrollTo(origin, cache);
+    const glm::ivec3 n = plain.period(), o = plain.origin();
+    int mismatches = 0;
+    for (int c = 0; c < 3; ++c)
+      for (int z = 0; z < n.z; ++z)
+        for (int y = 0; y < n.y; ++y)
+          for (int x = 0; x < n.x; ++x) {
+            uint32_t want = 0;
+            for (int byte = 0; byte < 4; ++byte) {
+              uint32_t sum = 0;
+              for (int dz = -1; dz <= 1; ++dz)
+                for (int dy = -1; dy <= 1; ++dy)
+                  for (int dx = -1; dx <= 1; ++dx) {
+                    const glm::ivec3 q = glm::clamp(glm::ivec3(x + dx, y + dy, z + dz), glm::ivec3(0), n - 1);
+                    const uint32_t w = (2 - std::abs(dx)) * (2 - std::abs(dy)) * (2 - std::abs(dz));
+                    sum += w * ((plain.worldTexel(c, o + q) >> (8 * byte)) & 0xff);
+                  }
+              want |= ((sum + 32) / 64) << (8 * byte);
+            }
+            mismatches += blurred.worldTexel(c, o + glm::ivec3(x, y, z)) != want;
+          }
+    EXPECT_EQ(mismatches, 0) << "after a move of " << move.x << "," << move.y << "," << move.z;
+  }
+}
+
 TEST(VolumeFill, DuplicatedBoundaryTexelsMirrorTheFirstLayerOnEveryAxis) {
   const ProbeCache cache = makeWorld();
-  Volume v;
-  v.rebuild(v.originFor({0.0, 0.0, 10.0}), cache);
-  v.scrollTo(v.origin() + glm::ivec3(7, -3, 2), cache);
-  const glm::ivec3 p = v.size(), n = v.period();
-  for (int c = 0; c < 3; ++c)
-    for (int z = 0; z < p.z; ++z)
-      for (int y = 0; y < p.y; ++y)
-        for (int x = 0; x < p.x; ++x)
-          ASSERT_EQ(v.physicalTexel(c, {x, y, z}), v.physicalTexel(c, {x % n.x, y % n.y, z % n.z})) << x << " " << y << " " << z;
+  for (bool blur : {false, true}) {
+    VolumeOptions o;
+    o.blur = blur;
+    Volume v(o);
+    v.rebuild(v.originFor({0.0, 0.0, 10.0}), cache);
+    v.scrollTo(v.origin() + glm::ivec3(7, -3, 2), cache);
+    const glm::ivec3 p = v.size(), n = v.period();
+    for (int c = 0; c < 3; ++c)
+      for (int z = 0; z < p.z; ++z)
+        for (int y = 0; y < p.y; ++y)
+          for (int x = 0; x < p.x; ++x)
+            ASSERT_EQ(v.physicalTexel(c, {x, y, z}), v.physicalTexel(c, {x % n.x, y % n.y, z % n.z}))
+                << x << " " << y << " " << z << (blur ? " blurred" : "");
+  }
 }
 
 struct ScrollCase {

@@ -206,7 +206,11 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
   md << "\nProbes per sector:\n\n| probes | sectors |\n|---|---|\n";
   for (const auto& [b, n] : histogram) md << "| " << b << "-" << b + 9 << " | " << n << " |\n";
   md << "\n## Bytes per sector (encoded, before zstd)\n\n| | min | mean | max |\n|---|---|---|---|\n";
-  md << "| with LPRT | " << fixed(bytes.min, 0) << " | " << fixed(bytes.mean, 0) << " | " << fixed(bytes.max, 0) << " |\n";
+  if (r.effects_baked & kEffectLocalLights)
+    md << "| as stored, with LPRT | " << fixed(bytes.min, 0) << " | " << fixed(bytes.mean, 0) << " | " << fixed(bytes.max, 0) << " |\n";
+  else
+    md << "| as stored (no LPRT: the world has no local lights) | " << fixed(bytes.min, 0) << " | " << fixed(bytes.mean, 0) << " | "
+       << fixed(bytes.max, 0) << " |\n";
   md << "| without LPRT | " << fixed(bytes_no_lprt.min, 0) << " | " << fixed(bytes_no_lprt.mean, 0) << " | " << fixed(bytes_no_lprt.max, 0) << " |\n";
   md << "\n## Index grid\n\n" << cells_near << " cells took the nearest probe, " << cells_far
      << " a farther one because nearer ones were hidden, " << cells_inside << " lie inside geometry (nearest), "

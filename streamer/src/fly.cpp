@@ -340,9 +340,9 @@ Result<void> writeFlyReport(const FlyResult& r, const std::filesystem::path& dir
   char buf[1024];
   md << "# drtv fly: " << r.archive << "\n\n";
   std::snprintf(buf, sizeof buf,
-                "%d frames at %.0f Hz, %.0f m/s along a %s Catmull-Rom path of %.0f m (%zu waypoints); time of day "
+                "%d frames at %.0f Hz, %.0f m/s along %s Catmull-Rom path of %.0f m (%zu waypoints); time of day "
                 "%.2f h + %.3f h/s.\n\n",
-                s.frames, r.options.fps, r.options.speed_mps, r.loop ? "closed" : "open", r.path_length_m, r.waypoints.size(),
+                s.frames, r.options.fps, r.options.speed_mps, r.loop ? "a closed" : "an open", r.path_length_m, r.waypoints.size(),
                 r.options.start_hour, r.options.hours_per_s);
   md << buf;
   md << "Runtime: " << r.runtime_note << ".\n\n";

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <string>
 
@@ -61,14 +62,17 @@ std::string validateProbe(const ProbeRecord& r) {
   if (!std::isfinite(r.prt_range) || r.prt_range <= 0.f) return "prt_range " + std::to_string(r.prt_range) + " is not a finite positive number";
   if (!std::isfinite(r.lprt_range) || r.lprt_range < 0.f) return "lprt_range " + std::to_string(r.lprt_range) + " is not finite and >= 0";
   if (!std::isfinite(r.mean_hit_m) || r.mean_hit_m < 0.f) return "mean_hit_m is not finite and >= 0";
-  for (int c = 0; c < 3; ++c)
-    for (int b = 0; b < 4; ++b)
-      for (int k = 0; k < 4; ++k)
-        if (r.prt[c][b][k] == -32768) return "prt coefficient -32768 is never written";
-  for (int k = 0; k < 4; ++k)
-    if (r.sky_vis_sh[k] == -32768) return "sky_vis_sh coefficient -32768 is never written";
-  for (uint8_t b : r.reserved)
-    if (b != 0) return "reserved bytes are not zero";
+  // Min and or reductions (every streamed probe passes here): they vectorise, where an early
+  // exit per coefficient would not.
+  int16_t min_prt = INT16_MAX, min_sh = INT16_MAX;
+  const int16_t* prt = &r.prt[0][0][0];
+  for (int i = 0; i < 48; ++i) min_prt = std::min(min_prt, prt[i]);
+  if (min_prt == -32768) return "prt coefficient -32768 is never written";
+  for (int k = 0; k < 4; ++k) min_sh = std::min(min_sh, r.sky_vis_sh[k]);
+  if (min_sh == -32768) return "sky_vis_sh coefficient -32768 is never written";
+  uint8_t reserved = 0;
+  for (uint8_t b : r.reserved) reserved |= b;
+  if (reserved != 0) return "reserved bytes are not zero";
   return {};
 }
 

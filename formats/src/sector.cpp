@@ -1,9 +1,11 @@
 #include "drtv/formats/sector.h"
 
 #include <algorithm>
+#include <bit>
 #include <climits>
 #include <cmath>
 #include <cstring>
+#include <type_traits>
 
 #include "bytes.h"
 
@@ -204,9 +206,17 @@ Result<Sector> decodeSector(std::span<const uint8_t> bytes, const std::string& w
 
   rd.skip(kSectorHeaderBytes - rd.offset());
   s.probes.resize(n_probes);
+  // The record's memory layout is the file's (probe.h asserts every offset and the size, no
+  // padding): on a little-endian host the probes are one copy, the rest is validation.
+  const size_t probes_at = rd.offset();
+  if constexpr (std::endian::native == std::endian::little) {
+    static_assert(std::is_trivially_copyable_v<ProbeRecord>);
+    rd.bytes(s.probes.data(), size_t(n_probes) * sizeof(ProbeRecord));
+  } else {
+    for (ProbeRecord& r : s.probes) readProbe(rd, r);
+  }
   for (size_t i = 0; i < n_probes; ++i) {
-    const size_t at = rd.offset();
-    readProbe(rd, s.probes[i]);
+    const size_t at = probes_at + i * sizeof(ProbeRecord);
     const std::string what = validateProbe(s.probes[i]);
     if (!what.empty()) return failAt(where, at, "probe " + std::to_string(i) + ": " + what);
     if (n_sources == 0 && s.probes[i].lprt_range != 0.f)
@@ -214,10 +224,17 @@ Result<Sector> decodeSector(std::span<const uint8_t> bytes, const std::string& w
   }
   const size_t grid_at = rd.offset();
   rd.bytes(s.grid.cells.data(), kGridCells);
-  for (int i = 0; i < kGridCells; ++i)
-    if (s.grid.cells[i] != kNoProbe && s.grid.cells[i] >= n_probes)
-      return failAt(where, grid_at + i, "index grid cell names probe " + std::to_string(s.grid.cells[i]) + " of " +
-                                            std::to_string(n_probes));
+  // One max reduction (it vectorises); the offending cell is searched for only on failure. c + 1
+  // wraps kNoProbe (255) to 0, so the max is 1 + the largest probe index any cell names.
+  static_assert(kNoProbe == 255);
+  auto bad_cell = [n_probes](uint8_t c) { return c != kNoProbe && c >= n_probes; };
+  uint8_t max_named = 0;
+  for (uint8_t c : s.grid.cells) max_named = std::max(max_named, uint8_t(c + 1));
+  if (max_named > n_probes) {
+    const int i = int(std::find_if(s.grid.cells.begin(), s.grid.cells.end(), bad_cell) - s.grid.cells.begin());
+    return failAt(where, grid_at + i, "index grid cell names probe " + std::to_string(s.grid.cells[i]) + " of " +
+                                          std::to_string(n_probes));
+  }
   if (s.has_ground)
     for (uint16_t& q : s.ground) rd.get(q);
   if (n_sources > 0) {

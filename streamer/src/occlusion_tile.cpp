@@ -11,7 +11,8 @@
 namespace drtv::streamer {
 namespace {
 
-uint8_t toUnorm8(float v) { return uint8_t(std::lround(std::clamp(v, 0.f, 1.f) * 255.f)); }
+// Round half away from zero, as lround, without the library call (v * 255 + 0.5 >= 0.5 here).
+uint8_t toUnorm8(float v) { return uint8_t(int(std::clamp(v, 0.f, 1.f) * 255.f + 0.5f)); }
 
 // exp(-d^2 / 2 sigma^2) tabulated over |d| in [0, 64] m at 1/32 m: the largest slope of the
 // Gaussian is 0.076 per metre (at d = sigma), so nearest-entry lookup errs by < 0.0012, well under
@@ -66,22 +67,32 @@ OcclusionTile buildOcclusionTile(const Sector& s) {
     }
   }
   // The Gaussian is separable: exp(-(dx^2 + dy^2) / 2s^2) = g(dx) g(dy): 16 table lookups per
-  // probe instead of 64 exponentials (the tile is built for every streamed sector, on the I/O thread).
-  float w_sum[64] = {}, v_sum[64] = {}, h_sum[64] = {};
-  for (int i = 0; i < n; ++i) {
-    float ex[kOcclusionTileDim], ey[kOcclusionTileDim];
-    for (int k = 0; k < kOcclusionTileDim; ++k) {
+  // probe instead of 64 exponentials (the tile is built for every streamed sector, on the I/O
+  // thread). The sums are then three small matrix products, W[y][x] = sum_i gy_i[y] gx_i[x] (and
+  // the same with gx scaled by visibility or height), accumulated a texel row at a time in
+  // registers over the probes.
+  constexpr int D = kOcclusionTileDim;
+  float gx[kMax][D], gy[kMax][D], gxv[kMax][D], gxh[kMax][D];
+  for (int i = 0; i < n; ++i)
+    for (int k = 0; k < D; ++k) {
       const float c = float((k + 0.5) * kOcclusionTexelM);
-      ex[k] = gaussian(px[i] - c);
-      ey[k] = gaussian(py[i] - c);
+      gx[i][k] = gaussian(px[i] - c);
+      gy[i][k] = gaussian(py[i] - c);
+      gxv[i][k] = gx[i][k] * vis[i];
+      gxh[i][k] = gx[i][k] * height[i];
     }
-    for (int y = 0; y < kOcclusionTileDim; ++y)
-      for (int x = 0; x < kOcclusionTileDim; ++x) {
-        const float w = ex[x] * ey[y];
-        w_sum[y * kOcclusionTileDim + x] += w;
-        v_sum[y * kOcclusionTileDim + x] += w * vis[i];
-        h_sum[y * kOcclusionTileDim + x] += w * height[i];
+  float w_sum[D * D], v_sum[D * D], h_sum[D * D];
+  for (int y = 0; y < D; ++y) {
+    float w[D] = {}, v[D] = {}, h[D] = {};
+    for (int i = 0; i < n; ++i) {
+      const float a = gy[i][y];
+      for (int x = 0; x < D; ++x) {
+        w[x] += a * gx[i][x];
+        v[x] += a * gxv[i][x];
+        h[x] += a * gxh[i][x];
       }
+    }
+    for (int x = 0; x < D; ++x) w_sum[y * D + x] = w[x], v_sum[y * D + x] = v[x], h_sum[y * D + x] = h[x];
   }
   for (int y = 0; y < kOcclusionTileDim; ++y)
     for (int x = 0; x < kOcclusionTileDim; ++x) {

@@ -58,7 +58,7 @@ class ByteReader {
   }
   bool bytes(void* dst, size_t n) {
     if (!ok_ || in_.size() - pos_ < n) { ok_ = false; return false; }
-    std::memcpy(dst, in_.data() + pos_, n);
+    if (n > 0) std::memcpy(dst, in_.data() + pos_, n);  // dst may be null when n is 0 (an empty vector)
     pos_ += n;
     return true;
   }

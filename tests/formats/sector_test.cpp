@@ -42,6 +42,17 @@ TEST(Sector, RoundTripsBitForBit) {
   }
 }
 
+TEST(Sector, RoundTripsWithoutProbesAndWithTheMostProbes) {
+  for (int probes : {0, 1, kMaxProbesPerSector}) {
+    const Sector s = testing::makeSector({0, 0}, probes, 0, 5);
+    const std::vector<uint8_t> bytes = encodeSector(s);
+    auto d = decodeSector(bytes, "mem");
+    ASSERT_TRUE(d.has_value()) << probes << " probes: " << d.error().message;
+    EXPECT_EQ(d->probes.size(), size_t(probes));
+    EXPECT_EQ(encodeSector(*d), bytes);
+  }
+}
+
 TEST(Sector, SeventyProbesWithoutLprtTakeUnder15KBInMemory) {
   // The talk: "a little under 15KB" per sector with its grid (slide 22). Measured from the heap
   // allocations that decoding makes, plus the Sector object itself.

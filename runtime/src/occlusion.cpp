@@ -5,74 +5,147 @@
 #include <cmath>
 #include <limits>
 
+#include "drtv/formats/quantize.h"
+
 namespace drtv::runtime {
 namespace {
 constexpr double kMaxWorldM = 1e11;  // beyond, no sector (floor(x / 64) must fit in int32)
-constexpr float kFarWeightM2 = 64.f;  // (8 m)^2: the texel size, softens the 1/d^2 weights
+
+// Round half away from zero, as lround, without the library call (v * 255 + 0.5 >= 0.5 here).
+uint8_t toUnorm8(float v) { return uint8_t(int(std::clamp(v, 0.f, 1.f) * 255.f + 0.5f)); }
+
+// exp(-d^2 / 2 sigma^2) tabulated over |d| in [0, 64] m at 1/32 m: the largest slope of the
+// Gaussian is 0.076 per metre (at d = sigma), so nearest-entry lookup errs by < 0.0012, well under
+// the half unorm8 step (0.002) the tile stores. Built once; 2049 floats.
+constexpr int kExpTableSteps = 32;  // per metre
+const float* gaussianTable() {
+  static const auto table = [] {
+    std::array<float, 64 * kExpTableSteps + 1> t{};
+    for (size_t i = 0; i < t.size(); ++i) {
+      const double d = double(i) / kExpTableSteps;
+      t[i] = float(std::exp(-d * d / (2.0 * kOcclusionSplatSigmaM * kOcclusionSplatSigmaM)));
+    }
+    return t;
+  }();
+  return table.data();
+}
+float gaussian(float d_m) {
+  const int i = std::min(int(std::abs(d_m) * kExpTableSteps + 0.5f), 64 * kExpTableSteps);
+  return gaussianTable()[i];
+}
+
+// Below this total weight a texel is farther than ~3.5 sigma from every probe: use the nearest.
+constexpr float kMinSplatWeight = 1e-5f;
 }  // namespace
 
-std::array<uint32_t, kOcclusionTileDim * kOcclusionTileDim> OcclusionTile::toRgba8() const {
-  std::array<uint32_t, kOcclusionTileDim * kOcclusionTileDim> out{};
-  for (size_t i = 0; i < out.size(); ++i) {
-    const auto q = [](float v) { return uint32_t(std::clamp(v, 0.f, 1.f) * 255.f + 0.5f); };
-    out[i] = q(sky_visibility[i]) | q((top_m[i] - ground_m[i]) / float(kSectorSizeM)) << 8;
-  }
+std::array<uint32_t, OcclusionTile::kTexels> OcclusionTile::toRgba8() const {
+  std::array<uint32_t, kTexels> out{};
+  for (int i = 0; i < kTexels; ++i) out[i] = uint32_t(sky_visibility[i]) | uint32_t(occluder_height[i]) << 8;
   return out;
 }
 
-OcclusionTile makeOcclusionTile(const Sector& sector) {
+OcclusionTile makeOcclusionTile(const Sector& s) {
   OcclusionTile t;
-  t.key = sector.key;
-  const int n = int(sector.probes.size());
-  std::vector<ProbeData> probes;
-  probes.reserve(n);
-  for (const ProbeRecord& r : sector.probes) probes.push_back(unpackProbe(r));
-  float lowest_base = std::numeric_limits<float>::max();
-  for (const ProbeData& p : probes) lowest_base = std::min(lowest_base, p.position.z - p.height_m);
-  for (int y = 0; y < kOcclusionTileDim; ++y)
-    for (int x = 0; x < kOcclusionTileDim; ++x) {
-      const int i = y * kOcclusionTileDim + x;
-      const glm::vec2 centre((x + 0.5f) * float(kOcclusionTexelM), (y + 0.5f) * float(kOcclusionTexelM));
-      float vis_sum = 0.f, top = std::numeric_limits<float>::lowest(), base = std::numeric_limits<float>::max();
-      int inside = 0;
-      double w_sum = 0.0, w_vis = 0.0, w_height = 0.0;
-      for (const ProbeData& p : probes) {
-        const float vis = std::clamp((p.sky_vis[0] + p.sky_vis[1] + p.sky_vis[2]) / (3.f * kOpenGroundSkyVisibility), 0.f, 1.f);
-        const int px = std::clamp(int(p.position.x / float(kOcclusionTexelM)), 0, kOcclusionTileDim - 1);
-        const int py = std::clamp(int(p.position.y / float(kOcclusionTexelM)), 0, kOcclusionTileDim - 1);
-        if (px == x && py == y) {
-          vis_sum += vis;
-          top = std::max(top, p.position.z);
-          base = std::min(base, p.position.z - p.height_m);
-          ++inside;
-        }
-        const glm::vec2 d = glm::vec2(p.position.x, p.position.y) - centre;
-        const double w = 1.0 / (double(glm::dot(d, d)) + kFarWeightM2);
-        w_sum += w;
-        w_vis += w * vis;
-        w_height += w * p.height_m;
-      }
-      float ground;
-      if (sector.has_ground)
-        ground = sector.groundHeight(x, y);
-      else if (inside > 0)
-        ground = base;
-      else if (n > 0)
-        ground = lowest_base;
-      else
-        ground = sector.grid.z_min_m;
-      if (inside > 0) {
-        t.sky_visibility[i] = vis_sum / float(inside);
-      } else if (n > 0) {
-        t.sky_visibility[i] = float(w_vis / w_sum);
-        top = ground + float(w_height / w_sum);
-      } else {
-        t.sky_visibility[i] = 1.f;
-        top = ground;
-      }
-      t.ground_m[i] = ground;
-      t.top_m[i] = std::max(top, ground + kMinOccluderHeightM);
+  t.key = s.key;
+  constexpr int D = kOcclusionTileDim;
+  if (s.has_ground) {
+    t.ground_z_min_m = s.ground_z_min_m;
+    t.ground_z_max_m = s.ground_z_max_m;
+    t.ground = s.ground;
+  }
+  if (s.probes.empty()) {
+    t.sky_visibility.fill(255);
+    t.occluder_height.fill(0);
+    if (!s.has_ground) t.ground_z_min_m = t.ground_z_max_m = s.grid.z_min_m;
+    return t;
+  }
+  // Per probe once: its horizontal position, visibility, height over the terrain and base.
+  constexpr int kMax = kMaxProbesPerSector;
+  float px[kMax], py[kMax], vis[kMax], height[kMax], base[kMax];
+  const int n = int(std::min<size_t>(s.probes.size(), kMax));
+  for (int i = 0; i < n; ++i) {
+    const ProbeRecord& p = s.probes[i];
+    px[i] = p.position[0];
+    py[i] = p.position[1];
+    vis[i] = std::min(1.f, (dequantizeUnorm16(p.sky_vis[0]) + dequantizeUnorm16(p.sky_vis[1]) + dequantizeUnorm16(p.sky_vis[2])) /
+                               (3.f * kOpenGroundSkyVisibility));
+    if (s.has_ground) {
+      const int gx = std::clamp(int(p.position[0] / float(kOcclusionTexelM)), 0, kGroundDim - 1);
+      const int gy = std::clamp(int(p.position[1] / float(kOcclusionTexelM)), 0, kGroundDim - 1);
+      height[i] = std::max(0.f, p.position[2] - s.groundHeight(gx, gy));
+    } else {
+      height[i] = float(p.height_cm) / 100.f;
     }
+    base[i] = p.position[2] - height[i];
+  }
+  // The Gaussian is separable: exp(-(dx^2 + dy^2) / 2s^2) = g(dx) g(dy): 16 table lookups per
+  // probe instead of 64 exponentials. The sums are then small matrix products,
+  // W[y][x] = sum_i gy_i[y] gx_i[x] (and the same with gx scaled by visibility, height or base),
+  // accumulated a texel row at a time in registers over the probes.
+  float gx[kMax][D], gy[kMax][D], gxv[kMax][D], gxh[kMax][D], gxb[kMax][D];
+  for (int i = 0; i < n; ++i)
+    for (int k = 0; k < D; ++k) {
+      const float c = float((k + 0.5) * kOcclusionTexelM);
+      gx[i][k] = gaussian(px[i] - c);
+      gy[i][k] = gaussian(py[i] - c);
+      gxv[i][k] = gx[i][k] * vis[i];
+      gxh[i][k] = gx[i][k] * height[i];
+      gxb[i][k] = gx[i][k] * base[i];
+    }
+  float w_sum[D * D], v_sum[D * D], h_sum[D * D], b_sum[D * D] = {};
+  auto accumulate = [&]<bool kBases>() {  // the bases only matter without a ground map
+    for (int y = 0; y < D; ++y) {
+      float w[D] = {}, v[D] = {}, h[D] = {}, b[D] = {};
+      for (int i = 0; i < n; ++i) {
+        const float a = gy[i][y];
+        for (int x = 0; x < D; ++x) {
+          w[x] += a * gx[i][x];
+          v[x] += a * gxv[i][x];
+          h[x] += a * gxh[i][x];
+          if constexpr (kBases) b[x] += a * gxb[i][x];
+        }
+      }
+      for (int x = 0; x < D; ++x) w_sum[y * D + x] = w[x], v_sum[y * D + x] = v[x], h_sum[y * D + x] = h[x], b_sum[y * D + x] = b[x];
+    }
+  };
+  if (s.has_ground)
+    accumulate.template operator()<false>();
+  else
+    accumulate.template operator()<true>();
+  float ground[D * D];
+  for (int y = 0; y < D; ++y)
+    for (int x = 0; x < D; ++x) {
+      const int j = y * D + x;
+      float v, h, g;
+      if (w_sum[j] >= kMinSplatWeight) {
+        v = v_sum[j] / w_sum[j];
+        h = h_sum[j] / w_sum[j];
+        g = b_sum[j] / w_sum[j];
+      } else {
+        // Far from every probe (> ~3.5 sigma): the nearest probe's values.
+        const float cx = float((x + 0.5) * kOcclusionTexelM), cy = float((y + 0.5) * kOcclusionTexelM);
+        int nearest = 0;
+        float best = INFINITY;
+        for (int i = 0; i < n; ++i) {
+          const float d2 = (px[i] - cx) * (px[i] - cx) + (py[i] - cy) * (py[i] - cy);
+          if (d2 < best) best = d2, nearest = i;
+        }
+        v = vis[nearest];
+        h = height[nearest];
+        g = base[nearest];
+      }
+      t.sky_visibility[j] = toUnorm8(v);
+      t.occluder_height[j] = toUnorm8(h / kOcclusionHeightRangeM);
+      ground[j] = g;
+    }
+  if (!s.has_ground) {
+    // The probes' bases, quantised over their own range.
+    const auto [lo, hi] = std::minmax_element(ground, ground + D * D);
+    t.ground_z_min_m = *lo;
+    t.ground_z_max_m = *hi;
+    const float range = *hi - *lo;
+    for (int j = 0; j < D * D; ++j) t.ground[j] = range > 0.f ? quantizeUnorm16((ground[j] - *lo) / range) : 0;
+  }
   return t;
 }
 
@@ -98,10 +171,11 @@ float OcclusionMap::occlusion(const glm::dvec3& position) const {
       const float w = (dx ? fu : 1.f - fu) * (dy ? fv : 1.f - fv);
       float occ = 1.f;
       if (const OcclusionTile* t = find({int32_t(sx), int32_t(sy)})) {
-        const int i = int(gy - sy * kOcclusionTileDim) * kOcclusionTileDim + int(gx - sx * kOcclusionTileDim);
-        const float h = float(position.z) - t->ground_m[i];
-        const float s = std::clamp(h / (t->top_m[i] - t->ground_m[i]), 0.f, 1.f);
-        occ = t->sky_visibility[i] + (1.f - t->sky_visibility[i]) * s;
+        const int tx = int(gx - sx * kOcclusionTileDim), ty = int(gy - sy * kOcclusionTileDim);
+        const float vis = t->visibility(tx, ty);
+        const float h = float(position.z) - t->groundM(tx, ty);
+        const float s = std::clamp(h / std::max(t->heightM(tx, ty), kMinOccluderHeightM), 0.f, 1.f);
+        occ = vis + (1.f - vis) * s;
       }
       acc += w * occ;
     }

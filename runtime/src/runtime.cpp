@@ -78,9 +78,10 @@ void Runtime::rescale() {
   volume_.invalidateAll();
 }
 
-Result<void> Runtime::addSector(const Sector& sector) {
+Result<void> Runtime::addSector(const Sector& sector, const OcclusionTile* tile) {
+  if (tile) DRTV_CHECK(tile->key == sector.key);
   if (auto r = cache_.addSector(sector); !r) return r;
-  if (options_.effects & kEffectDistantOcclusion) occlusion_.add(makeOcclusionTile(sector));
+  if (options_.effects & kEffectDistantOcclusion) occlusion_.add(tile ? *tile : makeOcclusionTile(sector));
   resolveInteriors();
   if (!relit_once_) return {};  // the first update() relights everything
   cache_.relightSector(sector.key, relightInput());

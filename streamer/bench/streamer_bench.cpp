@@ -126,7 +126,7 @@ void BM_LoadPipelineOneSector(benchmark::State& state) {
     auto raw = zstdDecompress(*bytes, e.raw_bytes, "bench");
     auto sector = decodeSector(*raw, "bench");
     auto owned = std::make_unique<Sector>(std::move(*sector));
-    OcclusionTile tile = buildOcclusionTile(*owned);
+    OcclusionTile tile = runtime::makeOcclusionTile(*owned);
     benchmark::DoNotOptimize(tile);
   }
   state.SetItemsProcessed(state.iterations());
@@ -151,7 +151,7 @@ void BM_OcclusionTileOneSector(benchmark::State& state) {
   auto reader = ArchiveReader::open(w.path);
   const Sector sector = *reader->readSector(w.manifest.sectors[100].key);
   for (auto _ : state) {
-    OcclusionTile t = buildOcclusionTile(sector);
+    OcclusionTile t = runtime::makeOcclusionTile(sector);
     benchmark::DoNotOptimize(t);
   }
   state.SetItemsProcessed(state.iterations());

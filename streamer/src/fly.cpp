@@ -23,11 +23,11 @@ double msSince(Clock::time_point t0) { return std::chrono::duration<double, std:
 class FlySink final : public SectorSink {
  public:
   explicit FlySink(runtime::Runtime* rt) : rt_(rt) {}
-  void onSectorLoaded(const Sector& sector, const OcclusionTile&) override {
+  void onSectorLoaded(const Sector& sector, const OcclusionTile& tile) override {
     ever_loaded.insert(sector.key);
     if (!rt_) return;
     const auto t0 = Clock::now();
-    if (auto ok = rt_->addSector(sector); !ok) {
+    if (auto ok = rt_->addSector(sector, &tile); !ok) {
       ++runtime_errors;
       if (first_error.empty()) first_error = ok.error().message;
     }
@@ -72,7 +72,7 @@ FlySnapshot snapshot(const Streamer& s, const FlySink& sink, const CatmullRomPat
   const double x0_m = (kr.x0 - 1) * kSectorSizeM, y0_m = (kr.y0 - 1) * kSectorSizeM;
   auto px = [&](double wx) { return (wx - x0_m) / kSectorSizeM * ps; };
   auto py = [&](double wy) { return c.height() - (wy - y0_m) / kSectorSizeM * ps; };
-  const int tp = ps / kOcclusionTileDim;
+  const int tp = ps / runtime::kOcclusionTileDim;
   for (const SectorEntry& e : m.sectors) {
     const int sx = int(px(e.key.ix * kSectorSizeM)), sy = int(py((e.key.iy + 1) * kSectorSizeM));
     const SectorState st = s.state(e.key);
@@ -81,11 +81,11 @@ FlySnapshot snapshot(const Streamer& s, const FlySink& sink, const CatmullRomPat
     else if (st == SectorState::kBackingOff) col = {205, 40, 205};
     else if (sink.ever_loaded.count(e.key)) col = {120, 52, 52};  // evicted
     if (const OcclusionTile* t = s.occlusionTile(e.key)) {
-      for (int ty = 0; ty < kOcclusionTileDim; ++ty)
-        for (int tx = 0; tx < kOcclusionTileDim; ++tx) {
+      for (int ty = 0; ty < runtime::kOcclusionTileDim; ++ty)
+        for (int tx = 0; tx < runtime::kOcclusionTileDim; ++tx) {
           const float v = t->visibility(tx, ty);
           const detail::Rgb g{uint8_t(30 + 90 * v), uint8_t(90 + 165 * v), uint8_t(30 + 90 * v)};
-          const int y = sy + (kOcclusionTileDim - 1 - ty) * tp;  // tile row 0 is south
+          const int y = sy + (runtime::kOcclusionTileDim - 1 - ty) * tp;  // tile row 0 is south
           c.fill(sx + tx * tp, y, sx + (tx + 1) * tp, y + tp, g);
         }
     } else {

@@ -43,7 +43,7 @@ Streamer::Streamer(Manifest manifest, std::shared_ptr<SectorSource> source, Stre
   DRTV_CHECK(source_ != nullptr);
   DRTV_CHECK_LE(1, options_.residency.max_sectors);
   DRTV_CHECK_LE(1, options_.max_in_flight);
-  if (!options_.occlusion_tile) options_.occlusion_tile = buildOcclusionTile;
+  if (!options_.occlusion_tile) options_.occlusion_tile = runtime::makeOcclusionTile;
   bool lprt = false;
   for (const SectorEntry& e : manifest_.sectors) lprt |= e.lprt_sources > 0;
   max_bytes_ = options_.max_bytes ? options_.max_bytes : lprt ? kBudgetBytesWithLprt : kBudgetBytesWithoutLprt;

@@ -90,7 +90,7 @@ TEST_F(StreamerTest, HandsEachLoadedSectorToTheSinkWithItsOcclusionTile) {
   StreamerOptions o = deterministic();
   o.occlusion_tile = [&](const Sector& sector) {
     ++built;
-    return buildOcclusionTile(sector);
+    return runtime::makeOcclusionTile(sector);
   };
   auto s = openStreamer(path(), o);
   testing::CheckingSink sink;
@@ -106,7 +106,7 @@ TEST_F(StreamerTest, HandsEachLoadedSectorToTheSinkWithItsOcclusionTile) {
     EXPECT_EQ(encodeSector(*sector), encodeSector(*expect));
     const OcclusionTile* tile = s->occlusionTile(k);
     ASSERT_NE(tile, nullptr);
-    const OcclusionTile ref = buildOcclusionTile(*expect);
+    const OcclusionTile ref = runtime::makeOcclusionTile(*expect);
     EXPECT_EQ(tile->sky_visibility, ref.sky_visibility);
     EXPECT_EQ(tile->occluder_height, ref.occluder_height);
   }

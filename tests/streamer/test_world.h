@@ -68,7 +68,7 @@ class TempDir {
 class CheckingSink : public streamer::SectorSink {
  public:
   CheckingSink() { held_.reserve(256); }
-  void onSectorLoaded(const Sector& sector, const streamer::OcclusionTile& tile) override {
+  void onSectorLoaded(const Sector& sector, const runtime::OcclusionTile& tile) override {
     EXPECT_EQ(sector.key, tile.key);
     EXPECT_EQ(find(sector.key), held_.end()) << "loaded twice: " << toString(sector.key);
     held_.push_back({sector.key, &sector, &tile, sector.probes.size()});
@@ -98,7 +98,7 @@ class CheckingSink : public streamer::SectorSink {
   struct Held {
     SectorKey key;
     const Sector* sector;
-    const streamer::OcclusionTile* tile;
+    const runtime::OcclusionTile* tile;
     size_t probes;
   };
   std::vector<Held>::iterator find(SectorKey key) {

@@ -7,20 +7,25 @@
 //      stores the probes' heights "so we can darken less the objects that are high above the
 //      ground".
 //
-// A tile has 8 x 8 texels of 8 m (the sector's ground-map cells). Each texel holds:
-//  - sky_visibility: the mean over the texel's probes of the mean up-basis visibility
-//    (v0 + v1 + v2) / 3 / kOpenGroundSkyVisibility, at most 1 (cosine-weighted openness of the
-//    sky above the horizon), or, for a texel without probes,
-//    the mean of the sector's probes weighted by 1 / (d^2 + (8 m)^2) (d horizontal distance to the
-//    texel centre); 1 (open sky) for a sector without probes;
-//  - ground_m: Sector::groundHeight when the sector has a ground map, else the lowest probe base
-//    (z - height above ground) of the texel's probes (or of the sector), else the grid's z min;
-//  - top_m: the highest probe of the texel (or, without one, the weighted mean height above
-//    ground of the sector's probes plus the ground), at least ground_m + kMinOccluderHeightM.
-// At a point at height z, the texel's occlusion is mix(sky_visibility, 1, t) with
-// t = saturate((z - ground_m) / (top_m - ground_m)): full occlusion on the ground, none at and
-// above the probe tops. Tiles are bilinearly blended between texel centres; missing tiles read
-// as open sky (1).
+// A tile has 8 x 8 texels of 8 m (the sector's ground-map cells), [y][x], x east, y north, texel
+// (x, y) centred at sector-relative (8x + 4, 8y + 4) m. It is built once per load, on the
+// streamer's I/O thread (or by Runtime::addSector when no tile is handed over), and is compact
+// (272 B) because the streamer counts it in its resident budget. Each texel holds the
+// Gaussian-weighted mean (sigma kOcclusionSplatSigmaM, horizontal distance) over the sector's
+// probes of
+//  - sky_visibility: the probe's mean up-basis visibility (v0 + v1 + v2) / 3 over open ground's
+//    kOpenGroundSkyVisibility, at most 1 (cosine-weighted openness of the sky above the horizon;
+//    B3 looks down and sees no sky), unorm8;
+//  - occluder_height: the probe's height above the terrain below it (the ground map when the
+//    sector has one, else the probe's own height_cm), unorm8 over kOcclusionHeightRangeM;
+// and ground: the sector's ground map copied as is (unorm16 over ground_z_min_m..max), or,
+// without one, the same Gaussian mean of the probes' bases (z - height). A texel farther than
+// ~3.5 sigma from every probe takes the nearest probe's values; a sector without probes is open
+// sky (visibility 1, height 0).
+// At a point at height z, the texel's occlusion is mix(visibility, 1, t) with
+// t = saturate((z - ground) / max(height, kMinOccluderHeightM)): full occlusion on the ground,
+// none at and above the probes' height. Tiles are bilinearly blended between texel centres;
+// missing tiles read as open sky (1).
 //
 // Thread-safety: makeOcclusionTile is pure. OcclusionMap: one writer; const members concurrently.
 #pragma once
@@ -37,6 +42,12 @@ namespace drtv::runtime {
 
 inline constexpr int kOcclusionTileDim = kGroundDim;  // 8 texels of 8 m per sector side
 inline constexpr double kOcclusionTexelM = kSectorSizeM / kOcclusionTileDim;
+// Occluder heights are stored as unorm8 over [0, kOcclusionHeightRangeM]: 64 m covers the jungle
+// canopy and most buildings; taller occluders saturate (their shadow is then too short).
+inline constexpr float kOcclusionHeightRangeM = 64.f;
+// Gaussian radius (sigma) of a probe's footprint in the tile: one texel, so that the ~70 probes of
+// a sector (one per ~60 m^2) cover every texel without blurring a clearing away.
+inline constexpr float kOcclusionSplatSigmaM = 8.f;
 // An occluder is taken as at least this tall, so that t's divisor is never 0 (a texel of bare
 // ground with its probe on the ground still fades to open sky over 2 m).
 inline constexpr float kMinOccluderHeightM = 2.f;
@@ -47,17 +58,26 @@ inline constexpr float kMinOccluderHeightM = 2.f;
 inline constexpr float kOpenGroundSkyVisibility = 0.5f * (1.f + 0.57735027f);
 
 struct OcclusionTile {
+  static constexpr int kTexels = kOcclusionTileDim * kOcclusionTileDim;
   SectorKey key;
-  std::array<float, kOcclusionTileDim * kOcclusionTileDim> sky_visibility{};  // [y][x] in [0, 1]
-  std::array<float, kOcclusionTileDim * kOcclusionTileDim> ground_m{};        // world z
-  std::array<float, kOcclusionTileDim * kOcclusionTileDim> top_m{};           // world z
-  // RGBA8 form for a GPU atlas: R = visibility, G = (top - ground) / 64 m, B, A = 0 (the ground
-  // height stays on the CPU or in a separate height atlas). [y][x].
-  std::array<uint32_t, kOcclusionTileDim * kOcclusionTileDim> toRgba8() const;
-};
+  float ground_z_min_m = 0.f, ground_z_max_m = 0.f;  // the range `ground` is quantised over
+  std::array<uint8_t, kTexels> sky_visibility{};     // unorm8, 255 = open sky
+  std::array<uint8_t, kTexels> occluder_height{};    // unorm8 x kOcclusionHeightRangeM / 255 m
+  std::array<uint16_t, kTexels> ground{};            // unorm16 over [ground_z_min_m, ground_z_max_m]
 
-// Builds `sector`'s tile from its probes' sky visibility and heights and its ground map. Called
-// by the streamer on each load. Thread-safe, pure.
+  float visibility(int x, int y) const { return float(sky_visibility[y * kOcclusionTileDim + x]) / 255.f; }
+  float heightM(int x, int y) const { return float(occluder_height[y * kOcclusionTileDim + x]) * (kOcclusionHeightRangeM / 255.f); }
+  float groundM(int x, int y) const {
+    return ground_z_min_m + float(ground[y * kOcclusionTileDim + x]) / 65535.f * (ground_z_max_m - ground_z_min_m);
+  }
+  // RGBA8 form for a GPU atlas: R = visibility, G = occluder height, B, A = 0 (the ground height
+  // stays on the CPU or in a separate height atlas). [y][x].
+  std::array<uint32_t, kTexels> toRgba8() const;
+};
+static_assert(sizeof(OcclusionTile) == 272, "compact: the streamer counts it in its resident budget");
+
+// Builds `sector`'s tile (see above). The streamer calls it on its I/O threads for every load.
+// Thread-safe, pure, no allocation; ~64 x probes multiply-adds.
 OcclusionTile makeOcclusionTile(const Sector& sector);
 
 // The resident tiles, looked up by world position.

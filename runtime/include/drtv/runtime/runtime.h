@@ -92,7 +92,9 @@ class Runtime {
 
   // Makes `sector` resident: relit with the lighting last applied, its occlusion tile built, its
   // footprint refilled at the next update(). Errors as ProbeCache::addSector.
-  Result<void> addSector(const Sector& sector);
+  // `tile`: the sector's occlusion tile when the caller built it already (the streamer does, on
+  // its I/O thread); otherwise, with distant occlusion asked for, it is built here.
+  Result<void> addSector(const Sector& sector, const OcclusionTile* tile = nullptr);
   bool removeSector(SectorKey key);
 
   // Relights if needed, moves the volumes to `camera` (world metres) and publishes.

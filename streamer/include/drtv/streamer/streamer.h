@@ -56,11 +56,15 @@
 #include "drtv/formats/archive.h"
 #include "drtv/formats/error.h"
 #include "drtv/formats/sector.h"
-#include "drtv/streamer/occlusion_tile.h"
+#include "drtv/runtime/occlusion.h"
 #include "drtv/streamer/residency.h"
 #include "drtv/streamer/sector_source.h"
 
 namespace drtv::streamer {
+
+// The distant-occlusion tile of a sector (runtime/occlusion.h): built by the streamer on its I/O
+// threads, handed to the runtime as is.
+using runtime::OcclusionTile;
 
 // The talk's resident totals [1], read as binary units (15 KiB and 225 KiB per sector x 51).
 inline constexpr size_t kBudgetBytesWithoutLprt = 760 * 1024;
@@ -101,7 +105,7 @@ struct StreamerOptions {
   double retry_initial_s = 0.25;    // first back-off after a failed load, seconds
   double retry_max_s = 8.0;         // back-off doubles up to this
   size_t failure_log = 256;         // failures() keeps the latest this many
-  // Builds a loaded sector's occlusion tile on the I/O thread; empty = buildOcclusionTile.
+  // Builds a loaded sector's occlusion tile on the I/O thread; empty = runtime::makeOcclusionTile.
   std::function<OcclusionTile(const Sector&)> occlusion_tile;
 };
 

@@ -96,7 +96,7 @@ TEST(OcclusionMap, DarkensTheGroundByTheTexelsVisibilityAndNothingAboveTheOcclud
   const Sector s = testing::makeSector({-2, 1}, 70, 0, 13);
   OcclusionMap map;
   map.add(makeOcclusionTile(s));
-  const OcclusionTile& t = *map.find(s.key);
+  const OcclusionTile t = *map.find(s.key);  // a copy: the map drops its own below
   for (int y = 0; y < 8; ++y)
     for (int x = 0; x < 8; ++x) {
       // At a texel centre the bilinear blend is that texel alone.

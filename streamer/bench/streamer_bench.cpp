@@ -4,6 +4,7 @@
 // Stream-in = what an I/O thread does per sector: pread of the payload, size and XXH3 check, zstd
 // decode, decode + validate (formats/sector.h), the occlusion tile. Measured with the archive in
 // the page cache (a warm disk), so the comparison is of CPU work.
+#include <cstdlib>
 #include <filesystem>
 #include <random>
 
@@ -63,6 +64,50 @@ World& world() {
   static World w;
   return w;
 }
+
+// A baked archive named by DRTV_BENCH_ARCHIVE (e.g. out/world.drtv from scripts/demo): the same
+// zstd-alone and load-pipeline figures on real sectors, side by side. Skipped when unset.
+const char* realArchive() { return std::getenv("DRTV_BENCH_ARCHIVE"); }
+
+void BM_RealZstdDecode(benchmark::State& state) {
+  if (!realArchive()) return state.SkipWithError("DRTV_BENCH_ARCHIVE not set");
+  auto reader = ArchiveReader::open(realArchive());
+  if (!reader) return state.SkipWithError(reader.error().message.c_str());
+  const Manifest& m = reader->manifest();
+  std::vector<std::vector<uint8_t>> frames;
+  size_t raw_max = 0;
+  for (const SectorEntry& e : m.sectors) frames.push_back(*reader->readCompressed(e.key)), raw_max = std::max<size_t>(raw_max, e.raw_bytes);
+  ZSTD_DCtx* dctx = ZSTD_createDCtx();
+  std::vector<uint8_t> out(raw_max);
+  size_t i = 0;
+  for (auto _ : state) {
+    const auto& f = frames[i++ % frames.size()];
+    benchmark::DoNotOptimize(ZSTD_decompressDCtx(dctx, out.data(), out.size(), f.data(), f.size()));
+  }
+  ZSTD_freeDCtx(dctx);
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_RealZstdDecode);
+
+void BM_RealLoadPipeline(benchmark::State& state) {
+  if (!realArchive()) return state.SkipWithError("DRTV_BENCH_ARCHIVE not set");
+  auto reader = ArchiveReader::open(realArchive());
+  if (!reader) return state.SkipWithError(reader.error().message.c_str());
+  const Manifest m = reader->manifest();
+  auto file = FileSectorSource::open(realArchive());
+  size_t i = 0;
+  for (auto _ : state) {
+    const SectorEntry& e = m.sectors[i++ % m.sectors.size()];
+    auto bytes = (*file)->read(e);
+    auto raw = zstdDecompress(*bytes, e.raw_bytes, "bench");
+    auto sector = decodeSector(*raw, "bench");
+    auto owned = std::make_unique<Sector>(std::move(*sector));
+    OcclusionTile tile = runtime::makeOcclusionTile(*owned);
+    benchmark::DoNotOptimize(tile);
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_RealLoadPipeline);
 
 void BM_ZstdDecodeOneSector(benchmark::State& state) {
   const World& w = world();

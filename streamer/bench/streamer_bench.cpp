@@ -65,6 +65,15 @@ World& world() {
   return w;
 }
 
+// What Streamer::load runs on an I/O thread for one sector: read + check + decode + validate + tile.
+OcclusionTile loadOne(FileSectorSource& file, const SectorEntry& e) {
+  auto bytes = file.read(e);
+  auto raw = zstdDecompress(*bytes, e.raw_bytes, "bench");
+  auto sector = decodeSector(*raw, "bench");
+  auto owned = std::make_unique<Sector>(std::move(*sector));
+  return runtime::makeOcclusionTile(*owned);
+}
+
 // A baked archive named by DRTV_BENCH_ARCHIVE (e.g. out/world.drtv from scripts/demo): the same
 // zstd-alone and load-pipeline figures on real sectors, side by side. Skipped when unset.
 const char* realArchive() { return std::getenv("DRTV_BENCH_ARCHIVE"); }
@@ -98,12 +107,7 @@ void BM_RealLoadPipeline(benchmark::State& state) {
   size_t i = 0;
   for (auto _ : state) {
     const SectorEntry& e = m.sectors[i++ % m.sectors.size()];
-    auto bytes = (*file)->read(e);
-    auto raw = zstdDecompress(*bytes, e.raw_bytes, "bench");
-    auto sector = decodeSector(*raw, "bench");
-    auto owned = std::make_unique<Sector>(std::move(*sector));
-    OcclusionTile tile = runtime::makeOcclusionTile(*owned);
-    benchmark::DoNotOptimize(tile);
+    benchmark::DoNotOptimize(loadOne(**file, e));
   }
   state.SetItemsProcessed(state.iterations());
 }
@@ -167,12 +171,7 @@ void BM_LoadPipelineOneSector(benchmark::State& state) {
   int i = 0;
   for (auto _ : state) {
     const SectorEntry& e = w.manifest.sectors[size_t(i++ * 37 % 256)];
-    auto bytes = (*file)->read(e);
-    auto raw = zstdDecompress(*bytes, e.raw_bytes, "bench");
-    auto sector = decodeSector(*raw, "bench");
-    auto owned = std::make_unique<Sector>(std::move(*sector));
-    OcclusionTile tile = runtime::makeOcclusionTile(*owned);
-    benchmark::DoNotOptimize(tile);
+    benchmark::DoNotOptimize(loadOne(**file, e));
   }
   state.SetItemsProcessed(state.iterations());
 }

@@ -6,6 +6,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -345,25 +346,31 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
   const fs::path dir = sectorDirectory(archive);
   uint64_t fingerprint = hashKey(geometry->fingerprint(), effects, kBakeFormat);
   for (const auto& [k, v] : report.settings.describe()) fingerprint = hashKey(fingerprint, std::hash<std::string>{}(k + "=" + v));
-  for (const InteriorVolume& v : world.interiors)
-    fingerprint = hashKey(fingerprint, std::hash<std::string>{}(fmt(v.probe_position.x) + "," + fmt(v.probe_position.y) + "," +
-                                                                fmt(v.probe_position.z) + fmt(v.min.x) + fmt(v.max.x)));
+  // Interiors decide probe flags and indices: every field, exactly (bit patterns, not text).
+  for (const InteriorVolume& v : world.interiors) {
+    fingerprint = hashKey(fingerprint, std::hash<std::string>{}(v.name));
+    for (const glm::dvec3& p : {v.probe_position, v.min, v.max})
+      for (int a = 0; a < 3; ++a) fingerprint = hashKey(fingerprint, std::bit_cast<uint64_t>(p[a]));
+    fingerprint = hashKey(fingerprint, uint64_t(std::bit_cast<uint32_t>(v.blend_distance_m)));
+  }
   char fp_text[32];
   std::snprintf(fp_text, sizeof fp_text, "%016llx", static_cast<unsigned long long>(fingerprint));
   std::error_code ec;
   fs::create_directories(dir, ec);
   if (ec) return fail(dir.string() + ": cannot create: " + ec.message());
   const fs::path stamp = dir / "bake.txt";
-  if (fs::exists(stamp)) {
+  if (fs::exists(stamp, ec)) {
     auto old = readFile(stamp);
     const std::string text = old ? std::string(old->begin(), old->end()) : "";
     if (text != fp_text) {
       if (!options.fresh)
         return fail(dir.string() + ": holds sectors of a different bake (other world, quality or settings); pass --fresh to discard them");
-      for (const auto& entry : fs::directory_iterator(dir)) {
-        const std::string name = entry.path().filename().string();
-        if (name.starts_with("s_") || name == "bake.txt") fs::remove(entry.path(), ec);
+      for (auto it = fs::directory_iterator(dir, ec); !ec && it != fs::directory_iterator(); it.increment(ec)) {
+        const std::string name = it->path().filename().string();
+        std::error_code rm;
+        if (name.starts_with("s_") || name == "bake.txt") fs::remove(it->path(), rm);
       }
+      if (ec) return fail(dir.string() + ": cannot list: " + ec.message());
     }
   }
   if (auto w = writeAtomically(stamp, fp_text, std::strlen(fp_text)); !w) return std::unexpected(w.error());
@@ -374,7 +381,7 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
   std::vector<uint8_t> have(keys.size(), 0);
   for (size_t i = 0; i < keys.size(); ++i) {
     const fs::path sec = dir / (sectorFileStem(keys[i]) + ".sec");
-    if (fs::exists(sec)) {
+    if (fs::exists(sec, ec)) {
       have[i] = 1;
       stats[i].key = keys[i];
       stats[i].resumed = true;

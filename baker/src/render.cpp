@@ -103,7 +103,8 @@ glm::u8vec3 toneMap(const glm::vec3& radiance, float exposure) {
 }
 
 Result<RenderResult> render(const worlds::World& world, const std::string& where, const Manifest& baked,
-                            std::span<const Sector> sectors, const RenderOptions& options) {
+                            std::span<const Sector> sectors, const RenderOptions& options, const std::string& baked_where) {
+  const std::string& archive = baked_where.empty() ? where : baked_where;
   const RenderCamera& cam = options.camera;
   if (cam.width < 1 || cam.height < 1 || cam.width > 8192 || cam.height > 8192)
     return fail("--size " + std::to_string(cam.width) + "x" + std::to_string(cam.height) + ": each side must be in [1, 8192]");
@@ -116,7 +117,7 @@ Result<RenderResult> render(const worlds::World& world, const std::string& where
   if (!std::isfinite(options.hour)) return fail("--time: not a finite hour");
   if (options.reference_samples < 2) return fail("--samples " + std::to_string(options.reference_samples) + ": must be >= 2");
   if (std::string why = validateLighting(baked.sky, baked.lights, baked.interiors); !why.empty())
-    return fail(where + ": lighting: " + why);
+    return fail(archive + ": lighting: " + why);
 
   std::optional<tbb::global_control> limit;
   if (options.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(options.threads));
@@ -131,7 +132,7 @@ Result<RenderResult> render(const worlds::World& world, const std::string& where
   size_t loaded = 0;
   auto rt = detail::makeRuntime(baked, sectors, options.hour, detail::runtimeOptionsFor(baked.effects, options.smooth_fill),
                                 cam.position, [&](SectorKey k) { return detail::inStreamingBlock(k, cam.position); }, &loaded);
-  if (!rt) return std::unexpected(rt.error().context(where));
+  if (!rt) return std::unexpected(rt.error().context(archive));
   out.stats.sectors_loaded = loaded;
 
   // Camera frame: Z up; looking straight up or down picks +Y as the image's up.
@@ -268,7 +269,7 @@ Result<RenderResult> render(const worlds::World& world, const std::string& where
     if (!s) return std::unexpected(s.error());
     sectors.push_back(std::move(*s));
   }
-  return render(world, where, reader->manifest(), sectors, options);
+  return render(world, where, reader->manifest(), sectors, options, archive.string());
 }
 
 Result<std::vector<std::filesystem::path>> writeRenderImages(const RenderResult& result, const std::filesystem::path& path) {

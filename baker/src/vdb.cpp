@@ -12,11 +12,18 @@
 
 namespace drtv::baker {
 
+namespace {
+// Thinner voxels than 1 cm say nothing the 16 index-grid layers do not; more than 4096 layers in
+// one sector's column is a grid no tool wants (and bounds the work per sector).
+constexpr double kMinVoxelHeightM = 0.01;
+constexpr int kMaxVoxelLayersPerSector = 4096;
+}  // namespace
+
 Result<VdbExportStats> exportVdb(const std::filesystem::path& archive, const std::filesystem::path& output,
                                  const VdbExportOptions& options) {
   if (!std::isfinite(options.hour)) return fail("--time: not a finite hour");
-  if (!(options.voxel_height_m > 0.0) || !std::isfinite(options.voxel_height_m))
-    return fail("--voxel-height: must be a finite number > 0");
+  if (!(options.voxel_height_m >= kMinVoxelHeightM) || !std::isfinite(options.voxel_height_m))
+    return fail("--voxel-height: must be a finite number >= " + std::to_string(kMinVoxelHeightM) + " m");
   auto reader = ArchiveReader::open(archive);
   if (!reader) return std::unexpected(reader.error());
   const Manifest& m = reader->manifest();
@@ -51,6 +58,12 @@ Result<VdbExportStats> exportVdb(const std::filesystem::path& archive, const std
   for (const Sector& s : sectors) {
     const int ix0 = s.key.ix * kGridDim, iy0 = s.key.iy * kGridDim;
     const double z0 = s.grid.z_min_m, z1 = s.grid.z_min_m + kGridDim * double(s.grid.cell_height_m);
+    // A sector's grid may be tall (the decoder accepts cell heights up to 1e5 m): its layers are
+    // bounded before any loop runs.
+    const double layers = std::ceil(z1 / h) - std::floor(z0 / h);
+    if (!(layers <= double(kMaxVoxelLayersPerSector)))
+      return fail(archive.string() + ": sector " + toString(s.key) + ": its grid spans " + std::to_string(z1 - z0) + " m, more than " +
+                  std::to_string(kMaxVoxelLayersPerSector) + " voxels of " + std::to_string(h) + " m: raise --voxel-height");
     const int k0 = int(std::floor(z0 / h)), k1 = int(std::ceil(z1 / h)) - 1;
     for (int k = k0; k <= k1; ++k)
       for (int j = 0; j < kGridDim; ++j)

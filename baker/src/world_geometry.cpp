@@ -127,6 +127,15 @@ Result<WorldGeometry> WorldGeometry::build(const worlds::World& world, const std
   if (extent.x > kMaxWorldExtentM || extent.y > kMaxWorldExtentM || extent.z > kMaxWorldExtentM)
     return fail(where + ": geometry spans " + std::to_string(extent.x) + " x " + std::to_string(extent.y) + " x " +
                 std::to_string(extent.z) + " m, more than the " + std::to_string(kMaxWorldExtentM) + " m the baker accepts");
+  // Where it sits matters too: sector keys are int32 and a probe's height must pass validateProbe
+  // (|z| < 1e6 m), so the world must lie within kMaxWorldOffsetM horizontally and 1e5 m vertically.
+  if (glm::any(glm::greaterThan(glm::abs(glm::dvec2(bmin)), glm::dvec2(kMaxWorldOffsetM))) ||
+      glm::any(glm::greaterThan(glm::abs(glm::dvec2(bmax)), glm::dvec2(kMaxWorldOffsetM))) || std::fabs(bmin.z) > kMaxWorldHeightM ||
+      std::fabs(bmax.z) > kMaxWorldHeightM)
+    return fail(where + ": geometry lies at [" + std::to_string(bmin.x) + ", " + std::to_string(bmin.y) + ", " + std::to_string(bmin.z) +
+                "] .. [" + std::to_string(bmax.x) + ", " + std::to_string(bmax.y) + ", " + std::to_string(bmax.z) +
+                "] m: the baker accepts +-" + std::to_string(int64_t(kMaxWorldOffsetM)) + " m horizontally and +-" +
+                std::to_string(int64_t(kMaxWorldHeightM)) + " m vertically");
   g.bounds_min_ = bmin;
   g.bounds_max_ = bmax;
   g.sectors_.x0 = floorDiv(bmin.x, kSectorSizeM);

@@ -21,6 +21,10 @@ Result<CatmullRomPath> CatmullRomPath::create(std::vector<glm::dvec3> pts, bool 
   for (size_t i = 0; i < pts.size(); ++i) {
     if (!std::isfinite(pts[i].x) || !std::isfinite(pts[i].y) || !std::isfinite(pts[i].z))
       return fail("path: waypoint " + std::to_string(i) + ": not finite");
+    if (std::fabs(pts[i].x) > kMaxPathCoordinateM || std::fabs(pts[i].y) > kMaxPathCoordinateM ||
+        std::fabs(pts[i].z) > kMaxPathCoordinateM)
+      return fail("path: waypoint " + std::to_string(i) + ": beyond +-" + std::to_string(int(kMaxPathCoordinateM / 1000)) +
+                  " km of the origin");
     const size_t j = (i + 1) % pts.size();
     if ((j != 0 || closed) && glm::length(pts[j] - pts[i]) < 1e-3)
       return fail("path: waypoint " + std::to_string(j) + ": same as waypoint " + std::to_string(i));
@@ -121,6 +125,7 @@ Result<CatmullRomPath> loadFlightPath(const std::filesystem::path& path) {
   }
   if (!j.is_object() || !j.contains("waypoints") || !j["waypoints"].is_array())
     return fail(path.string() + ": expected {\"loop\": bool, \"waypoints\": [[x, y, z], ...]}");
+  if (j.contains("loop") && !j["loop"].is_boolean()) return fail(path.string() + ": \"loop\": expected true or false");
   const bool loop = j.value("loop", false);
   std::vector<glm::dvec3> pts;
   for (size_t i = 0; i < j["waypoints"].size(); ++i) {

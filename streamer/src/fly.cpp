@@ -61,6 +61,9 @@ KeyRange keyRange(const Manifest& m) {
   return r;
 }
 
+// Widest archive, in sectors, that gets top-down pictures (8 px per sector at least: 4096 px).
+constexpr int64_t kMaxPictureSectors = 512;
+
 // Top-down picture: one block per sector (its occlusion tile when resident), the volume's
 // footprint, the path and the camera.
 FlySnapshot snapshot(const Streamer& s, const FlySink& sink, const CatmullRomPath& path, const Camera& cam, int frame) {
@@ -116,7 +119,11 @@ double percentile(std::vector<double> v, double p) {
 }  // namespace
 
 Result<FlyResult> fly(Streamer& streamer, const CatmullRomPath& path, const FlyOptions& o, std::string archive_name) {
-  DRTV_CHECK(o.fps > 0 && o.speed_mps >= 0);
+  // Options come from the command line: bad values are errors, not bugs.
+  if (!(std::isfinite(o.fps) && o.fps > 0.0)) return fail("fly: fps must be a finite number > 0");
+  if (!(std::isfinite(o.speed_mps) && o.speed_mps >= 0.0)) return fail("fly: speed must be a finite number >= 0");
+  if (!std::isfinite(o.start_hour) || !std::isfinite(o.hours_per_s)) return fail("fly: start hour and time-of-day rate must be finite");
+  if (o.frames < 0 || o.frames > kMaxFlyFrames) return fail("fly: frames must be in [0, " + std::to_string(kMaxFlyFrames) + "]");
   const Manifest& m = streamer.manifest();
   FlyResult r;
   r.archive = std::move(archive_name);
@@ -146,7 +153,11 @@ Result<FlyResult> fly(Streamer& streamer, const CatmullRomPath& path, const FlyO
 
   const double dt = 1.0 / o.fps;
   const double travel_s = o.speed_mps > 0 ? path.lengthM() / o.speed_mps : 0.0;
-  const int frames = o.frames > 0 ? o.frames : std::max(1, int(std::ceil(travel_s * o.fps)) + 1);
+  const double path_frames = std::ceil(travel_s * o.fps) + 1.0;
+  if (o.frames == 0 && (o.speed_mps <= 0.0 || !(path_frames <= double(kMaxFlyFrames))))
+    return fail("fly: flying the " + std::to_string(int64_t(path.lengthM())) + " m path once at " + std::to_string(o.speed_mps) +
+                " m/s takes more than " + std::to_string(kMaxFlyFrames) + " frames: raise the speed or give the frame count");
+  const int frames = o.frames > 0 ? o.frames : std::max(1, int(path_frames));
   if (o.warmup_frames > 0) {
     const Camera start{path.position(0.0), path.direction(0.0) * o.speed_mps};
     // Warm-up time runs up to t = 0 so that back-off and simulated latency stay consistent.
@@ -158,7 +169,11 @@ Result<FlyResult> fly(Streamer& streamer, const CatmullRomPath& path, const FlyO
     if (rt) rt->update(start.position_m);
   }
   std::vector<int> snap_at;
-  for (int k = 1; k <= o.snapshots; ++k) snap_at.push_back(std::min(frames - 1, int(std::lround(double(frames - 1) * k / o.snapshots))));
+  // Top-down pictures cost 8 px per sector at least: a world wider than kMaxPictureSectors gets none.
+  const KeyRange kr = keyRange(m);
+  const bool pictures = int64_t(kr.x1) - kr.x0 + 3 <= kMaxPictureSectors && int64_t(kr.y1) - kr.y0 + 3 <= kMaxPictureSectors;
+  if (!pictures) r.runtime_note += "; no top-down pictures: the archive spans more than " + std::to_string(kMaxPictureSectors) + " sectors";
+  for (int k = 1; pictures && k <= o.snapshots; ++k) snap_at.push_back(std::min(frames - 1, int(std::lround(double(frames - 1) * k / o.snapshots))));
   r.frames.reserve(size_t(frames));
   for (int f = 0; f < frames; ++f) {
     const double t = f * dt;

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 
+#include <glm/gtc/matrix_transform.hpp>
+
 #include "drtv/baker/world_geometry.h"
 #include "test_worlds.h"
 
@@ -84,6 +86,19 @@ TEST(WorldGeometry, AbsurdSizesAreAnError) {
   auto g = WorldGeometry::build(w, "huge.json");
   ASSERT_FALSE(g);
   EXPECT_NE(g.error().message.find("huge.json: geometry spans"), std::string::npos) << g.error().message;
+}
+
+TEST(WorldGeometry, GeometryFarFromTheOriginIsAnErrorNotAnOverflow) {
+  // A small box 1e12 m out: narrow enough, but its sector keys would not fit in int32.
+  for (const glm::dvec3 at : {glm::dvec3(1e12, 0, 0), glm::dvec3(0, -3e7, 0), glm::dvec3(0, 0, 2e6)}) {
+    worlds::World w;
+    w.name = "far";
+    test::add(w, test::box(glm::vec3(0.f), glm::vec3(4.f), glm::vec3(0.5f), "rock"), worlds::InstanceClass::kStatic,
+              glm::translate(glm::dmat4(1.0), at));
+    auto g = WorldGeometry::build(w, "far.json");
+    ASSERT_FALSE(g) << at.x << " " << at.y << " " << at.z;
+    EXPECT_NE(g.error().message.find("far.json: geometry lies at"), std::string::npos) << g.error().message;
+  }
 }
 
 TEST(WorldGeometry, SingularOrNonFiniteTransformsAreSkippedWithANote) {

@@ -63,6 +63,14 @@ TEST(ExportVdb, WritesGridsThatReadBackWithTheArchivesProbesAndFiniteLight) {
   std::filesystem::remove_all(dir);
 }
 
+TEST(ExportVdb, RefusesVoxelsTooThinToBeAGrid) {
+  VdbExportOptions o;
+  o.voxel_height_m = 1e-300;
+  auto r = exportVdb("/nonexistent/box.drtv", "/tmp/never.vdb", o);
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().message.find("--voxel-height"), std::string::npos) << r.error().message;
+}
+
 TEST(ExportVdb, NamesTheArchiveWhenItCannotBeRead) {
   auto r = exportVdb("/nonexistent/box.drtv", "/tmp/never.vdb");
   ASSERT_FALSE(r.has_value());

@@ -51,6 +51,48 @@ TEST(CatmullRomPath, RejectsTooFewOrRepeatedWaypoints) {
   EXPECT_NE(dup.error().message.find("waypoint 1"), std::string::npos);
 }
 
+TEST(CatmullRomPath, RejectsWaypointsBeyondTenThousandKilometres) {
+  auto far = CatmullRomPath::create({{0, 0, 0}, {1e12, 0, 0}}, false);
+  ASSERT_FALSE(far.has_value());
+  EXPECT_NE(far.error().message.find("waypoint 1: beyond"), std::string::npos) << far.error().message;
+}
+
+TEST(LoadFlightPath, LoopMustBeABoolean) {
+  testing::TempDir dir;
+  std::ofstream(dir.path() / "p.json") << R"({"loop": 1, "waypoints": [[0,0,5],[100,0,5],[50,80,5]]})";
+  auto p = loadFlightPath(dir.path() / "p.json");
+  ASSERT_FALSE(p.has_value());
+  EXPECT_NE(p.error().message.find("p.json: \"loop\": expected true or false"), std::string::npos) << p.error().message;
+}
+
+TEST(Fly, BadOptionsAreErrorsNotCrashes) {
+  testing::TempDir dir;
+  testing::writeWorld(dir.path() / "w.drtv", {});
+  StreamerOptions so;
+  so.io_mode = IoMode::kDeterministic;
+  auto s = Streamer::open(dir.path() / "w.drtv", so);
+  ASSERT_TRUE(s.has_value());
+  const CatmullRomPath path = defaultFlightPath((*s)->manifest(), false);
+  auto with = [](auto change) {
+    FlyOptions o;
+    o.frames = 10;
+    change(o);
+    return o;
+  };
+  const FlyOptions bad[] = {
+      with([](FlyOptions& o) { o.fps = std::nan(""); }),          with([](FlyOptions& o) { o.speed_mps = -1.0; }),
+      with([](FlyOptions& o) { o.hours_per_s = INFINITY; }),      with([](FlyOptions& o) { o.frames = -3; }),
+      with([](FlyOptions& o) { o.frames = kMaxFlyFrames + 1; }),
+      // The path once at 1 nm/s would take ~1e12 frames.
+      with([](FlyOptions& o) { o.frames = 0, o.speed_mps = 1e-9; }),
+  };
+  for (const FlyOptions& o : bad) {
+    auto r = fly(**s, path, o, "w.drtv");
+    ASSERT_FALSE(r.has_value());
+    EXPECT_EQ(r.error().message.rfind("fly: ", 0), 0u) << r.error().message;
+  }
+}
+
 TEST(LoadFlightPath, ReadsWaypointsAndNamesABadOne) {
   testing::TempDir dir;
   {

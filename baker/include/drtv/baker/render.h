@@ -97,8 +97,10 @@ struct RenderResult {
 // the camera: the 7 x 7 block around the camera is made resident). `where` prefixes errors.
 // Errors: bad camera (non-finite, position == target, looking straight up or down is fine),
 // bad size, unsound lighting, geometry errors (reference.h), runtime errors (a sector rejected).
+// Errors in the baked data (lighting, sectors) name `baked_where` (the archive), or `where` when
+// it is empty.
 Result<RenderResult> render(const worlds::World& world, const std::string& where, const Manifest& baked,
-                            std::span<const Sector> sectors, const RenderOptions& options);
+                            std::span<const Sector> sectors, const RenderOptions& options, const std::string& baked_where = {});
 
 // The same from an archive: reads the sectors around the camera from it. Errors name the archive.
 Result<RenderResult> render(const worlds::World& world, const std::string& where, const std::filesystem::path& archive,

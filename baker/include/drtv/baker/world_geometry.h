@@ -27,6 +27,11 @@ namespace drtv::baker {
 
 // Worlds wider than this (either axis, metres) are refused as absurd: 1024 x 1024 sectors.
 inline constexpr double kMaxWorldExtentM = 65536.0;
+// Where the geometry may lie: within +-1e7 m of the origin horizontally (sector keys stay far
+// inside int32; the stability suite bakes a world 100 km out) and +-1e5 m vertically (probe
+// heights must stay below the 1e6 m the probe record accepts).
+inline constexpr double kMaxWorldOffsetM = 1e7;
+inline constexpr double kMaxWorldHeightM = 1e5;
 // Meshes with more triangles than this are binned triangle by triangle (terrain); smaller ones
 // are binned as whole instances and transformed at gather time (trees, boxes), which keeps the
 // memory of a forest of shared meshes at one copy. Tuned on the island: the terrain mesh is
@@ -66,7 +71,8 @@ class WorldGeometry {
  public:
   // Validates and bins `world`. Errors (message prefixed by `where`, e.g. the world file):
   // no terrain/static/vegetation triangle at all ("nothing to bake"), an instance whose mesh index
-  // is out of range, a mesh index past its positions, geometry wider than kMaxWorldExtentM.
+  // is out of range, a mesh index past its positions, geometry wider than kMaxWorldExtentM
+  // or beyond kMaxWorldOffsetM / kMaxWorldHeightM.
   // O(triangles of large meshes + instances). Not thread-safe to build; const methods are.
   static Result<WorldGeometry> build(const worlds::World& world, const std::string& where);
 

@@ -18,10 +18,17 @@
 
 namespace drtv::streamer {
 
+// Waypoints farther from the origin than this are an error: 10,000 km is far beyond any world the
+// baker accepts, and keeps sector keys (coordinate / 64 m) and path lengths well inside int32
+// and float precision limits.
+inline constexpr double kMaxPathCoordinateM = 1e7;
+
 class CatmullRomPath {
  public:
   // At least 2 waypoints (3 for a loop), finite, consecutive ones distinct (> 1 mm apart).
   // Error otherwise, naming the waypoint.
+  // Errors: fewer than 2 (open) or 3 (closed) waypoints, a waypoint not finite or beyond
+  // kMaxPathCoordinateM, two consecutive waypoints closer than 1 mm.
   static Result<CatmullRomPath> create(std::vector<glm::dvec3> waypoints, bool closed);
 
   double lengthM() const { return length_m_; }

@@ -36,6 +36,9 @@
 
 namespace drtv::streamer {
 
+// At most this many frames per flight (~3 days at 60 Hz; the per-frame records take ~170 B each).
+inline constexpr int kMaxFlyFrames = 10'000'000;
+
 struct FlyOptions {
   double speed_mps = 100.0;     // camera speed along the path, metres per second
   double fps = 60.0;            // fixed frame rate, frames per second

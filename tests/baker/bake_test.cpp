@@ -7,6 +7,9 @@
 #include <limits>
 
 #include "drtv/baker/bake.h"
+#include "drtv/baker/placement.h"
+#include "drtv/baker/ray_scene.h"
+#include "drtv/baker/world_geometry.h"
 #include "drtv/formats/archive.h"
 #include "test_worlds.h"
 
@@ -129,6 +132,45 @@ TEST(Bake, LprtAddsAtMost210KiBPerSectorOfAbout70Probes) {
   float biggest = 0.f;
   for (int16_t q : s->lprt.coeffs) biggest = std::max(biggest, float(std::abs(q)));
   EXPECT_GT(biggest, 0.f) << "the lamp's sources bounce light";
+}
+
+// Each sector names its LPRT sources by (neighbour, probe index), placing its neighbours again in
+// its own scene. Those indices must be the neighbours' own probes: same count, same order, same
+// positions as the neighbour's bake wrote.
+TEST(Bake, LprtSourcesNameTheNeighboursOwnProbes) {
+  TempDir dir;
+  const worlds::World world = litWorld();
+  auto r = bake(world, "lit", dir.path / "a.drtv", draft());
+  ASSERT_TRUE(r) << r.error().message;
+  auto reader = ArchiveReader::open(dir.path / "a.drtv");
+  ASSERT_TRUE(reader);
+  auto geometry = WorldGeometry::build(world, "lit");
+  ASSERT_TRUE(geometry);
+  const BakeSettings settings = BakeSettings::forQuality(Quality::kDraft);
+  int compared = 0;
+  for (const SectorEntry& e : reader->manifest().sectors) {
+    const SectorGeometry g = geometry->gather(e.key, settings.lprt_halo_m);
+    auto scene = RayScene::build(g.vertices);
+    ASSERT_TRUE(scene);
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        const SectorKey nk{e.key.ix + dx, e.key.iy + dy};
+        if (!reader->manifest().find(nk)) continue;
+        auto neighbour = reader->readSector(nk);
+        ASSERT_TRUE(neighbour);
+        PlacementStats ps;
+        const std::vector<PlacedProbe> again = placeProbes(*scene, g, {dx, dy}, {}, settings.placement, ps);
+        ASSERT_EQ(again.size(), neighbour->probes.size()) << toString(e.key) << " placing " << toString(nk);
+        for (size_t i = 0; i < again.size(); ++i) {
+          const float* q = neighbour->probes[i].position;
+          EXPECT_NEAR(again[i].position.x - float(dx * kSectorSizeM), q[0], 1e-3f) << toString(nk) << " probe " << i;
+          EXPECT_NEAR(again[i].position.y - float(dy * kSectorSizeM), q[1], 1e-3f) << toString(nk) << " probe " << i;
+          EXPECT_NEAR(again[i].position.z, q[2], 1e-3f) << toString(nk) << " probe " << i;
+        }
+        ++compared;
+      }
+  }
+  EXPECT_GT(compared, 4);
 }
 
 TEST(Bake, NoLprtBlockAtAllWithoutLocalLights) {

@@ -203,10 +203,12 @@ void Streamer::issue(Slot& slot, const RankedSector& r, double time_s, FrameStat
   Job job{slot.ticket, *r.entry, r.score_m + (r.tier == 0 ? -1e9 : 0.0)};
   if (options_.io_mode == IoMode::kDeterministic) {
     slot.state = SlotState::kLoading;
+    // The latency is asked before the read: a fault rule with a count is used up by the read.
+    const double latency_s = source_->simulatedLatencyS(r.key);
     const auto t0 = Clock::now();
     Done d = load(job);
     st.inline_io_ms += msSince(t0);
-    d.ready_s = time_s + options_.simulated_latency_s + source_->simulatedLatencyS(r.key);
+    d.ready_s = time_s + options_.simulated_latency_s + latency_s;
     // Keep delayed_ sorted by (ready time, ticket): completions are then handed over in a fixed
     // order whatever the latencies.
     auto pos = std::upper_bound(delayed_.begin(), delayed_.end(), d, [](const Done& a, const Done& b) {

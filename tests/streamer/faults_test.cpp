@@ -108,16 +108,19 @@ TEST_F(FaultsTest, BackOffDoublesFromAQuarterSecondUpToEightSeconds) {
 }
 
 TEST_F(FaultsTest, ASlowReadInDeterministicModeArrivesLaterWithoutHoldingUpOthers) {
-  auto s = make(IoMode::kDeterministic);
-  testing::CheckingSink sink;
-  faults_->inject(kBad, Fault::kSlow, FaultInjectingSource::kForever, 1.0);
-  const Camera cam{{512, 512, 0}, {0, 0, 0}};
-  double t = 0;
-  for (; t < 0.5; t += kFrameS) s->update(cam, t, sink);
-  EXPECT_EQ(s->state(kBad), SectorState::kLoading);
-  EXPECT_EQ(s->residentKeys().size(), size_t(kMaxResidentSectors - 1));
-  for (; t < 1.2; t += kFrameS) s->update(cam, t, sink);
-  EXPECT_EQ(s->state(kBad), SectorState::kResident);
+  // Every read slow, and only the next one: the first read is late either way.
+  for (int times : {FaultInjectingSource::kForever, 1}) {
+    auto s = make(IoMode::kDeterministic);
+    testing::CheckingSink sink;
+    faults_->inject(kBad, Fault::kSlow, times, 1.0);
+    const Camera cam{{512, 512, 0}, {0, 0, 0}};
+    double t = 0;
+    for (; t < 0.5; t += kFrameS) s->update(cam, t, sink);
+    EXPECT_EQ(s->state(kBad), SectorState::kLoading) << "times " << times;
+    EXPECT_EQ(s->residentKeys().size(), size_t(kMaxResidentSectors - 1));
+    for (; t < 1.2; t += kFrameS) s->update(cam, t, sink);
+    EXPECT_EQ(s->state(kBad), SectorState::kResident);
+  }
 }
 
 TEST_F(FaultsTest, AStalledReadOnOneThreadDoesNotStopTheOtherThreads) {

@@ -52,9 +52,30 @@ float groundAt(const RayScene& scene, const SectorGeometry& g, float x, float y,
     ++rays;
     if (!h.hit()) break;
     if (isStatic(g.cls[h.prim])) return origin.z - h.t;
-    t = h.t + 1e-4f;
+    t = std::max(h.t + 1e-4f, std::nextafter(h.t, INFINITY) * (1.f + 1e-6f));  // moves past the hit at any distance
   }
   return NAN;
+}
+
+// What is wrong with bake settings (they can come from a library caller), or "". The bounds keep
+// every loop and allocation they size sane: at most 1024 columns per sector side, 1 << 16 rays.
+std::string validateSettings(const BakeSettings& s) {
+  auto in = [](double v, double lo, double hi) { return std::isfinite(v) && v >= lo && v <= hi; };
+  const PlacementSettings& p = s.placement;
+  if (!in(p.column_spacing_m, 1.0 / 16, 64.0)) return "column_spacing_m must be in [1/16, 64] m";
+  if (!in(p.vegetation_spacing_m, 1.0 / 16, 64.0)) return "vegetation_spacing_m must be in [1/16, 64] m";
+  if (!in(p.lift_m, 0.0, 64.0)) return "lift_m must be in [0, 64] m";
+  if (!in(p.min_horizontal_m, 0.0, 64.0) || !in(p.min_vertical_m, 0.0, 1e4)) return "minimum probe distances must be finite and >= 0";
+  if (p.inside_test_rays < 0 || p.inside_test_rays > (1 << 16)) return "inside_test_rays must be in [0, 65536]";
+  if (!in(p.inside_test_range_m, 0.0, 64.0)) return "inside_test_range_m must be in [0, 64] m";
+  const TransferSettings& t = s.transfer;
+  if (t.probe_rays_per_basis < 1 || t.probe_rays_per_basis > (1 << 16)) return "probe_rays_per_basis must be in [1, 65536]";
+  if (t.surfel_rays < 1 || t.surfel_rays > (1 << 16)) return "surfel_rays must be in [1, 65536]";
+  if (!in(t.surfel_cell_m, 0.25, 64.0)) return "surfel_cell_m must be in [0.25, 64] m (cell keys assume >= 0.25 m)";
+  if (t.bounces < 1 || t.bounces > 64) return "bounces must be in [1, 64]";
+  if (s.grid.visibility_candidates < 1 || s.grid.visibility_candidates > 255) return "visibility_candidates must be in [1, 255]";
+  if (!in(s.halo_m, 0.0, 1024.0) || !in(s.lprt_halo_m, 0.0, 1024.0)) return "halos must be in [0, 1024] m";
+  return {};
 }
 
 std::string sectorFileStem(SectorKey k) { return "s_" + std::to_string(k.ix) + "_" + std::to_string(k.iy); }
@@ -314,6 +335,7 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
   report.world = world_name;
   report.archive = archive;
   report.settings = options.settings ? *options.settings : BakeSettings::forQuality(options.quality, options.seed);
+  if (std::string why = validateSettings(report.settings); !why.empty()) return fail("bake settings: " + why);
   report.threads = options.threads > 0 ? options.threads : int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
   if (options.shard_count > 1) report.shard = std::to_string(options.shard_index) + "/" + std::to_string(options.shard_count);
   report.effects_asked = world.effects;
@@ -438,7 +460,7 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
   });
   report.bake_s = since(t0);
   for (const auto& e : errors)
-    if (e) return std::unexpected(*e);
+    if (e) return std::unexpected(e->context(world_name));
 
   for (size_t i = 0; i < keys.size(); ++i)
     if (have[i]) {

@@ -16,6 +16,9 @@ constexpr int kMaxHitsPerColumn = 128;
 // Step past a hit before looking for the next one along the same ray: 0.1 mm, far below modelled
 // thickness and far above float round-off at sector coordinates.
 constexpr float kHitStepM = 1e-4f;
+// Where a ray continues after a hit at distance t: kHitStepM further, or more where floats are
+// coarser than that (beyond ~2 km a 0.1 mm step would round back onto the same hit).
+inline float nextRayStart(float t) { return std::max(t + kHitStepM, std::nextafter(t, INFINITY) * (1.f + 1e-6f)); }
 // Start vertical rays this far above the highest geometry.
 constexpr float kRayTopMarginM = 10.f;
 // Relocation offsets tried in order (metres): up first (most inside cases are a probe lifted
@@ -98,7 +101,7 @@ std::vector<PlacedProbe> placeProbes(const RayScene& scene, const SectorGeometry
         const Hit h = scene.intersect(Ray{origin, t, glm::vec3(0, 0, -1), ray_len});
         ++stats.rays;
         if (!h.hit()) break;
-        t = h.t + kHitStepM;
+        t = nextRayStart(h.t);
         if (!isStatic(geometry.cls[h.prim])) continue;
         const float z = origin.z - h.t;
         if (scene.normal(h.prim).z > 0.f) {  // front face of a downward ray

@@ -286,6 +286,28 @@ TEST(Bake, BadGeometryIsSkippedAndNamedInTheReport) {
   EXPECT_NE(std::string(md.begin(), md.end()).find("non-finite"), std::string::npos);
 }
 
+TEST(Bake, AbsurdSettingsAreAnErrorNotALoop) {
+  TempDir dir;
+  BakeOptions o = draft();
+  for (auto change : std::initializer_list<void (*)(BakeSettings&)>{
+           [](BakeSettings& s) { s.placement.column_spacing_m = 0.0; },
+           [](BakeSettings& s) { s.placement.inside_test_rays = -1; },
+           [](BakeSettings& s) { s.transfer.surfel_cell_m = std::numeric_limits<float>::quiet_NaN(); },
+           [](BakeSettings& s) { s.transfer.bounces = 0; }}) {
+    BakeSettings settings = BakeSettings::forQuality(Quality::kDraft);
+    change(settings);
+    o.settings = settings;
+    auto r = bake(test::smallWorld(), "small", dir.path / "a.drtv", o);
+    ASSERT_FALSE(r);
+    EXPECT_EQ(r.error().message.rfind("bake settings: ", 0), 0u) << r.error().message;
+  }
+  for (Quality q : {Quality::kDraft, Quality::kDefault, Quality::kHigh}) {
+    o.settings = BakeSettings::forQuality(q);
+    o.sectors = SectorRange{0, 0, 0, 0};
+    EXPECT_TRUE(bake(test::smallWorld(), "small", dir.path / "b.drtv", o)) << "every preset is valid";
+  }
+}
+
 TEST(Bake, EmptyWorldIsAClearError) {
   TempDir dir;
   worlds::World w;

@@ -4,8 +4,10 @@
 // Stream-in = what an I/O thread does per sector: pread of the payload, size and XXH3 check, zstd
 // decode, decode + validate (formats/sector.h), the occlusion tile. Measured with the archive in
 // the page cache (a warm disk), so the comparison is of CPU work.
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
+#include <optional>
 #include <random>
 
 #include <benchmark/benchmark.h>
@@ -74,18 +76,30 @@ OcclusionTile loadOne(FileSectorSource& file, const SectorEntry& e) {
   return runtime::makeOcclusionTile(*owned);
 }
 
-// A baked archive named by DRTV_BENCH_ARCHIVE (e.g. out/world.drtv from scripts/demo): the same
-// zstd-alone and load-pipeline figures on real sectors, side by side. Skipped when unset.
-const char* realArchive() { return std::getenv("DRTV_BENCH_ARCHIVE"); }
+// The archive a zstd / load benchmark reads: the synthetic world, or with `real` the baked
+// archive named by DRTV_BENCH_ARCHIVE (e.g. out/world.drtv from scripts/demo); nullopt (the
+// benchmark is skipped) when that is unset.
+std::optional<std::filesystem::path> archiveFor(bool real) {
+  if (!real) return world().path;
+  if (const char* p = std::getenv("DRTV_BENCH_ARCHIVE")) return std::filesystem::path(p);
+  return std::nullopt;
+}
 
-void BM_RealZstdDecode(benchmark::State& state) {
-  if (!realArchive()) return state.SkipWithError("DRTV_BENCH_ARCHIVE not set");
-  auto reader = ArchiveReader::open(realArchive());
+// zstd alone, cycling through every sector of the archive with one reused context (as the I/O
+// threads' thread_local one is): the reference the stream-in is measured against.
+void BM_ZstdDecode(benchmark::State& state, bool real) {
+  const auto path = archiveFor(real);
+  if (!path) return state.SkipWithError("DRTV_BENCH_ARCHIVE not set");
+  auto reader = ArchiveReader::open(*path);
   if (!reader) return state.SkipWithError(reader.error().message.c_str());
-  const Manifest& m = reader->manifest();
   std::vector<std::vector<uint8_t>> frames;
-  size_t raw_max = 0;
-  for (const SectorEntry& e : m.sectors) frames.push_back(*reader->readCompressed(e.key)), raw_max = std::max<size_t>(raw_max, e.raw_bytes);
+  size_t raw_max = 0, raw_sum = 0, compressed_sum = 0;
+  for (const SectorEntry& e : reader->manifest().sectors) {
+    frames.push_back(*reader->readCompressed(e.key));
+    raw_max = std::max<size_t>(raw_max, e.raw_bytes);
+    raw_sum += e.raw_bytes;
+    compressed_sum += e.compressed_bytes;
+  }
   ZSTD_DCtx* dctx = ZSTD_createDCtx();
   std::vector<uint8_t> out(raw_max);
   size_t i = 0;
@@ -95,43 +109,34 @@ void BM_RealZstdDecode(benchmark::State& state) {
   }
   ZSTD_freeDCtx(dctx);
   state.SetItemsProcessed(state.iterations());
+  state.counters["raw_bytes"] = double(raw_sum) / double(frames.size());
+  state.counters["compressed_bytes"] = double(compressed_sum) / double(frames.size());
 }
-BENCHMARK(BM_RealZstdDecode);
+BENCHMARK_CAPTURE(BM_ZstdDecode, synthetic, false);
+BENCHMARK_CAPTURE(BM_ZstdDecode, real_archive, true);
 
-void BM_RealLoadPipeline(benchmark::State& state) {
-  if (!realArchive()) return state.SkipWithError("DRTV_BENCH_ARCHIVE not set");
-  auto reader = ArchiveReader::open(realArchive());
+// The I/O thread's work alone, without the streamer's frame bookkeeping: read + check + decode +
+// validate + tile (loadOne), cycling through the same sectors as BM_ZstdDecode.
+void BM_LoadPipeline(benchmark::State& state, bool real) {
+  const auto path = archiveFor(real);
+  if (!path) return state.SkipWithError("DRTV_BENCH_ARCHIVE not set");
+  auto reader = ArchiveReader::open(*path);
   if (!reader) return state.SkipWithError(reader.error().message.c_str());
-  const Manifest m = reader->manifest();
-  auto file = FileSectorSource::open(realArchive());
+  auto file = FileSectorSource::open(*path);
+  if (!file) return state.SkipWithError(file.error().message.c_str());
+  const std::vector<SectorEntry>& sectors = reader->manifest().sectors;
   size_t i = 0;
-  for (auto _ : state) {
-    const SectorEntry& e = m.sectors[i++ % m.sectors.size()];
-    benchmark::DoNotOptimize(loadOne(**file, e));
-  }
+  for (auto _ : state) benchmark::DoNotOptimize(loadOne(**file, sectors[i++ % sectors.size()]));
   state.SetItemsProcessed(state.iterations());
 }
-BENCHMARK(BM_RealLoadPipeline);
+BENCHMARK_CAPTURE(BM_LoadPipeline, synthetic, false);
+BENCHMARK_CAPTURE(BM_LoadPipeline, real_archive, true);
 
-void BM_ZstdDecodeOneSector(benchmark::State& state) {
-  const World& w = world();
-  auto reader = ArchiveReader::open(w.path);
-  const SectorEntry& e = w.manifest.sectors[100];
-  const auto frame = *reader->readCompressed(e.key);
-  ZSTD_DCtx* dctx = ZSTD_createDCtx();  // reused, as the I/O threads' thread_local one is
-  std::vector<uint8_t> out(e.raw_bytes);
-  for (auto _ : state) {
-    const size_t n = ZSTD_decompressDCtx(dctx, out.data(), out.size(), frame.data(), frame.size());
-    benchmark::DoNotOptimize(n);
-    benchmark::DoNotOptimize(out.data());
-  }
-  ZSTD_freeDCtx(dctx);
-  state.SetItemsProcessed(state.iterations());
-  state.SetBytesProcessed(int64_t(state.iterations()) * e.raw_bytes);
-  state.counters["raw_bytes"] = e.raw_bytes;
-  state.counters["compressed_bytes"] = e.compressed_bytes;
-}
-BENCHMARK(BM_ZstdDecodeOneSector);
+// A sink that takes every hand-off and keeps nothing: the benchmarks time the streamer alone.
+struct NullSink final : SectorSink {
+  void onSectorLoaded(const Sector&, const OcclusionTile&) override {}
+  void onSectorEvicted(SectorKey) override {}
+};
 
 // The streamer's whole per-sector load, through a Streamer in deterministic mode: each iteration
 // requests one sector far from the previous one (so it is never resident) and reads it inline.
@@ -146,10 +151,7 @@ void BM_StreamInOneSector(benchmark::State& state) {
   o.simulated_latency_s = 0.0;
   o.max_in_flight = 1;
   Streamer s(w.manifest, source, o);
-  struct Sink : SectorSink {
-    void onSectorLoaded(const Sector&, const OcclusionTile&) override {}
-    void onSectorEvicted(SectorKey) override {}
-  } sink;
+  NullSink sink;
   double t = 0, io_ms = 0;
   int i = 0;
   for (auto _ : state) {
@@ -162,20 +164,6 @@ void BM_StreamInOneSector(benchmark::State& state) {
   state.counters["inline_io_us_per_sector"] = io_ms * 1000.0 / double(state.iterations());
 }
 BENCHMARK(BM_StreamInOneSector);
-
-// The I/O thread's work alone, without the streamer's frame bookkeeping: read + check + decode +
-// validate + tile, exactly what Streamer::load runs.
-void BM_LoadPipelineOneSector(benchmark::State& state) {
-  const World& w = world();
-  auto file = FileSectorSource::open(w.path);
-  int i = 0;
-  for (auto _ : state) {
-    const SectorEntry& e = w.manifest.sectors[size_t(i++ * 37 % 256)];
-    benchmark::DoNotOptimize(loadOne(**file, e));
-  }
-  state.SetItemsProcessed(state.iterations());
-}
-BENCHMARK(BM_LoadPipelineOneSector);
 
 // The parts of the pipeline, to see where a stream-in's time goes.
 void BM_DecodeAndValidateOneSector(benchmark::State& state) {
@@ -211,10 +199,7 @@ void BM_UpdateAt100MetresPerSecond(benchmark::State& state) {
   StreamerOptions o;
   o.io_mode = IoMode::kDeterministic;
   Streamer s(w.manifest, source, o);
-  struct Sink : SectorSink {
-    void onSectorLoaded(const Sector&, const OcclusionTile&) override {}
-    void onSectorEvicted(SectorKey) override {}
-  } sink;
+  NullSink sink;
   double t = 0, update_ms = 0;
   int64_t frames = 0;
   for (auto _ : state) {

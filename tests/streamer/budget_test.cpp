@@ -58,24 +58,28 @@ Measured flyAndMeasure(const std::filesystem::path& path, const Manifest& manife
   return m;
 }
 
+// 51 sectors resident; sector data at every frame end, loads in flight included, fits `budget`;
+// the slots fit kMaxConstructionBytes; and the accounting matches the allocations: resident bytes
+// = the sectors' heap, and the tiles live in the slots (construction), so the reported figure is
+// larger by one tile per sector.
+void expectFullAndWithin(const Measured& m, size_t budget, const char* what) {
+  std::printf("%s: construction %lld B, peak %lld B, settled %lld B (%d sectors), budget %zu B\n", what,
+              (long long)m.construction_bytes, (long long)m.peak_sector_bytes, (long long)m.settled_bytes, m.resident, budget);
+  EXPECT_EQ(m.resident, kMaxResidentSectors) << what;
+  EXPECT_LE(m.peak_sector_bytes, int64_t(budget)) << what;
+  EXPECT_LE(m.construction_bytes, kMaxConstructionBytes) << what;
+  const int64_t sectors = int64_t(m.reported_bytes) - int64_t(m.resident * sizeof(OcclusionTile));
+  EXPECT_LE(sectors, m.settled_bytes) << what;
+  EXPECT_LE(m.settled_bytes, sectors + kBookkeepingBytes) << what;
+}
+
 TEST(StreamerBudget, StaysUnder760KiBWithoutLprtByRealAllocations) {
   testing::TempDir dir;
   const Manifest manifest = testing::writeWorld(dir.path() / "w.drtv", {});
   const Measured m = flyAndMeasure(dir.path() / "w.drtv", manifest, {});
   RecordProperty("construction_bytes", std::to_string(m.construction_bytes));
   RecordProperty("peak_sector_bytes", std::to_string(m.peak_sector_bytes));
-  std::printf("without LPRT: construction %lld B, peak %lld B, settled %lld B (%d sectors), budget %zu B\n",
-              (long long)m.construction_bytes, (long long)m.peak_sector_bytes, (long long)m.settled_bytes, m.resident,
-              kBudgetBytesWithoutLprt);
-  EXPECT_EQ(m.resident, kMaxResidentSectors);
-  // Sector data at every frame end, loads in flight included, fits the talk's 760 KB.
-  EXPECT_LE(m.peak_sector_bytes, int64_t(kBudgetBytesWithoutLprt));
-  EXPECT_LE(m.construction_bytes, kMaxConstructionBytes);
-  // The accounting matches the allocations: resident bytes = the sectors' heap; the tiles live in
-  // the slots (construction), so the reported figure is larger by one tile per sector.
-  const int64_t sectors = int64_t(m.reported_bytes) - int64_t(m.resident * sizeof(OcclusionTile));
-  EXPECT_LE(sectors, m.settled_bytes);
-  EXPECT_LE(m.settled_bytes, sectors + kBookkeepingBytes);
+  expectFullAndWithin(m, kBudgetBytesWithoutLprt, "without LPRT");
 }
 
 TEST(StreamerBudget, StaysUnder11_5MiBWithLprtByRealAllocations) {
@@ -85,15 +89,7 @@ TEST(StreamerBudget, StaysUnder11_5MiBWithLprtByRealAllocations) {
   spec.lprt_sources = kMaxLprtSources;
   const Manifest manifest = testing::writeWorld(dir.path() / "w.drtv", spec);
   const Measured m = flyAndMeasure(dir.path() / "w.drtv", manifest, {});
-  std::printf("with LPRT: construction %lld B, peak %lld B, settled %lld B (%d sectors), budget %zu B\n",
-              (long long)m.construction_bytes, (long long)m.peak_sector_bytes, (long long)m.settled_bytes, m.resident,
-              kBudgetBytesWithLprt);
-  EXPECT_EQ(m.resident, kMaxResidentSectors);
-  EXPECT_LE(m.peak_sector_bytes, int64_t(kBudgetBytesWithLprt));
-  EXPECT_LE(m.construction_bytes, kMaxConstructionBytes);
-  const int64_t sectors = int64_t(m.reported_bytes) - int64_t(m.resident * sizeof(OcclusionTile));
-  EXPECT_LE(sectors, m.settled_bytes);
-  EXPECT_LE(m.settled_bytes, sectors + kBookkeepingBytes);
+  expectFullAndWithin(m, kBudgetBytesWithLprt, "with LPRT");
 }
 
 TEST(StreamerBudget, ASmallerByteBudgetHoldsFewerSectorsAndIsNeverExceeded) {

@@ -54,10 +54,8 @@ Result<void> runQuery(const QueryOptions& o) {
   }
   const uint32_t baked = runtime::componentsFromEffects(m.effects);
   auto evaluate = [&](uint32_t components) -> Result<runtime::AmbientSample> {
-    runtime::RuntimeOptions options;
+    runtime::RuntimeOptions options = runtime::optionsForEffects(m.effects);
     options.components = components;
-    options.effects = m.effects;
-    options.volume.blur = (m.effects & kEffectVolumeBlur) != 0;
     auto rt = std::make_unique<runtime::Runtime>(options);
     if (auto r = rt->setLighting(m.sky, m.lights, m.interiors); !r) return std::unexpected(r.error().context(o.path));
     if (auto r = rt->setTime(*hour); !r) return std::unexpected(r.error());

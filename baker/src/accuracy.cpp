@@ -14,12 +14,13 @@
 #include "drtv/baker/sampling.h"
 #include "drtv/formats/sh.h"
 #include "render_support.h"
+#include "stopwatch.h"
 
 namespace drtv::baker {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+using detail::Clock;
+using detail::since;
 
 // Share of the sample points put on dynamic objects when the world has some (the talk's spheres
 // are what its slides 7-9 show; the rest are static surfaces seen from the probes).

@@ -17,13 +17,14 @@
 
 #include "drtv/baker/sampling.h"
 #include "stats_json.h"
+#include "stopwatch.h"
 
 namespace drtv::baker {
 namespace fs = std::filesystem;
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+using detail::Clock;
+using detail::since;
 
 // Ground-map rays start this far above the gathered geometry.
 constexpr float kGroundRayMarginM = 10.f;

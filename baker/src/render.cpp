@@ -13,12 +13,13 @@
 
 #include "drtv/baker/reference.h"
 #include "render_support.h"
+#include "stopwatch.h"
 
 namespace drtv::baker {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+using detail::Clock;
+using detail::since;
 
 constexpr double kPi = 3.14159265358979323846;
 // Reinhard's middle grey [3]: the log-average luminance is mapped here.

@@ -15,13 +15,10 @@
 
 namespace drtv::baker::detail {
 
-// Runtime options an engine would pick for an archive with `effects` baked: the components it
-// has, interiors and distant occlusion as baked, the volume blur when asked for.
+// Runtime options an engine would pick for an archive with `effects` baked
+// (runtime::optionsForEffects), with the fill mode asked for.
 inline runtime::RuntimeOptions runtimeOptionsFor(uint32_t effects, bool smooth_fill) {
-  runtime::RuntimeOptions o;
-  o.components = runtime::componentsFromEffects(effects);
-  o.effects = effects;
-  o.volume.blur = (effects & kEffectVolumeBlur) != 0;
+  runtime::RuntimeOptions o = runtime::optionsForEffects(effects);
   o.volume.fill = smooth_fill ? runtime::FillMode::kSmooth : runtime::FillMode::kNearest;
   return o;
 }

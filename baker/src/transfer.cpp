@@ -11,12 +11,13 @@
 
 #include "drtv/baker/sampling.h"
 #include "drtv/formats/sh.h"
+#include "stopwatch.h"
 
 namespace drtv::baker {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+using detail::Clock;
+using detail::since;
 
 // Surfel rays start this far off the surface along its normal: 1 mm is ~60 float ulps at the
 // 200 m coordinates of a sector with its halo, and far below modelled detail.

@@ -32,6 +32,14 @@ uint32_t componentsFromEffects(uint32_t effects) {
   return c;
 }
 
+RuntimeOptions optionsForEffects(uint32_t effects) {
+  RuntimeOptions o;
+  o.components = componentsFromEffects(effects);
+  o.effects = effects;
+  o.volume.blur = (effects & kEffectVolumeBlur) != 0;
+  return o;
+}
+
 Runtime::Runtime(RuntimeOptions options)
     : options_(options), cache_(options.cache), volume_(options.volume) {
   current_ = applied_ = evaluateSky(sky_, hour_, options_.sun_band1_window);

@@ -136,11 +136,8 @@ Result<FlyResult> fly(Streamer& streamer, const CatmullRomPath& path, const FlyO
 
   std::unique_ptr<runtime::Runtime> rt;
   if (o.runtime) {
-    runtime::RuntimeOptions ro;
+    runtime::RuntimeOptions ro = runtime::optionsForEffects(m.effects);
     ro.volume.texel_size_m.x = ro.volume.texel_size_m.y = float(streamer.options().residency.volume_texel_m);
-    ro.effects = m.effects;
-    ro.volume.blur = (m.effects & kEffectVolumeBlur) != 0;  // the talk's PC path, when the world asks for it
-    ro.components = runtime::componentsFromEffects(m.effects);
     rt = std::make_unique<runtime::Runtime>(ro);
     if (auto ok = rt->setLighting(m.sky, m.lights, m.interiors); !ok) return std::unexpected(ok.error().context(r.archive));
     if (auto ok = rt->setTime(o.start_hour); !ok) return std::unexpected(ok.error());

@@ -68,6 +68,11 @@ struct RuntimeOptions {
   float edge_fade_texels = 2.f;
 };
 
+// The options an engine picks for an archive whose manifest says `effects` were baked: the
+// relighting components it has, interiors and distant occlusion as baked, the volume blur (the
+// talk's PC path) when the world asks for it; everything else at its default.
+RuntimeOptions optionsForEffects(uint32_t effects);
+
 // Which path produced the ambient at a point, with its parts.
 struct AmbientSample {
   glm::vec3 irradiance{0.f};      // the final ambient irradiance, linear RGB

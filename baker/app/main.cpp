@@ -2,6 +2,7 @@
 // Thin by design (STYLE.md): parse options, call a library, map the result to an exit code.
 #include <cstdio>
 #include <cstdlib>
+#include <malloc.h>
 #include <sstream>
 #include <unistd.h>
 #include <vector>
@@ -22,6 +23,12 @@ Result<double> parseTimeOfDay(const std::string& text, const std::string& flag) 
 }  // namespace drtv::app
 
 int main(int argc, char** argv) {
+  // The bake allocates and frees a few MB of scratch per sector on every thread. glibc serves
+  // blocks over 128 KB with mmap and returns them at free, so each sector paid for page faults on
+  // fresh zeroed pages (~5% of a bake's CPU time). Keep such blocks in the heap instead; the
+  // process's peak is unchanged, it only stops returning memory to the system between sectors.
+  mallopt(M_MMAP_THRESHOLD, 32 << 20);
+  mallopt(M_TRIM_THRESHOLD, 256 << 20);
   CLI::App app{"drtv: bakes, streams and relights probe-based global illumination for large worlds\n"
                "(after \"Deferred Radiance Transfer Volumes\", Far Cry 3, GDC 2012)."};
   app.require_subcommand(1);

@@ -39,8 +39,17 @@ void fillIndexGrid(const RayScene& scene, std::span<const glm::vec3> probes, con
   const size_t k = std::min(probes.size(), size_t(std::max(1, settings.visibility_candidates)));
   std::atomic<uint64_t> rays{0};
   std::atomic<size_t> nearest{0}, farther{0}, inside{0}, unseen{0};
+  // Probe coordinates as separate arrays, so that each cell's distances are one vectorised loop.
+  const size_t P = probes.size();
+  std::vector<float> px(P), py(P), pz(P);
+  for (size_t i = 0; i < P; ++i) {
+    px[i] = probes[i].x;
+    py[i] = probes[i].y;
+    pz[i] = probes[i].z;
+  }
   tbb::parallel_for(tbb::blocked_range<int>(0, kGridDim), [&](const tbb::blocked_range<int>& zr) {
     std::vector<std::pair<float, uint32_t>> order(k);
+    std::vector<float> dist2(P);
     uint64_t n_rays = 0;
     size_t n_nearest = 0, n_farther = 0, n_inside = 0, n_unseen = 0;
     for (int z = zr.begin(); z < zr.end(); ++z)
@@ -49,11 +58,15 @@ void fillIndexGrid(const RayScene& scene, std::span<const glm::vec3> probes, con
           const glm::vec3 c(float((x + 0.5) * kGridCellSizeM), float((y + 0.5) * kGridCellSizeM),
                             grid.z_min_m + (float(z) + 0.5f) * grid.cell_height_m);
           // The k nearest, by insertion (k <= 16 of <= 255): ties broken by index, deterministic.
+          // Same rounding as glm::dot(d, d) of d = probe - c: ((dx*dx + dy*dy) + dz*dz).
+          for (size_t i = 0; i < P; ++i) {
+            const float dx = px[i] - c.x, dy = py[i] - c.y, dz = pz[i] - c.z;
+            dist2[i] = dx * dx + dy * dy + dz * dz;
+          }
           size_t n = 0;
-          for (size_t i = 0; i < probes.size(); ++i) {
-            const glm::vec3 d = probes[i] - c;
-            const std::pair<float, uint32_t> e{glm::dot(d, d), uint32_t(i)};
-            if (n == k && !(e < order[k - 1])) continue;
+          for (size_t i = 0; i < P; ++i) {
+            if (n == k && !(dist2[i] < order[k - 1].first)) continue;  // ties keep the lower index
+            const std::pair<float, uint32_t> e{dist2[i], uint32_t(i)};
             size_t j = n < k ? n++ : k - 1;
             for (; j > 0 && e < order[j - 1]; --j) order[j] = order[j - 1];
             order[j] = e;

@@ -30,12 +30,20 @@ constexpr float kPi = sh::kPi;
 constexpr uint64_t kEscaped = ~0ull;
 constexpr uint64_t kBackface = ~0ull - 1;
 constexpr uint32_t kNoSurfel = ~0u;
+constexpr uint32_t kPending = ~0u - 1;  // an edge whose cell is created after the trace
 
 // The cache key of a surface point: 20 bits per cell coordinate (offset so that negatives fit),
 // 3 bits for the dominant axis and sign of the front normal. Exact, no collisions for any world
 // the baker accepts (+-2^19 cells of >= 0.25 m is +-131 km).
+// floor() without a call: on the x86-64 baseline std::floor(float) is a libm call (no SSE4.1
+// roundss), and cell keys are computed for every ray hit (3% of a bake's CPU time).
+inline int64_t floorToInt(float v) {
+  const int64_t t = int64_t(v);  // truncates toward zero
+  return t - int64_t(float(t) > v);
+}
+
 uint64_t cellKey(const glm::vec3& p, const glm::vec3& n, float inv_cell) {
-  auto q = [&](float v) { return uint64_t(int64_t(std::floor(v * inv_cell)) + (1 << 19)) & 0xfffffull; };
+  auto q = [&](float v) { return uint64_t(floorToInt(v * inv_cell) + (1 << 19)) & 0xfffffull; };
   const glm::vec3 a = glm::abs(n);
   const int axis = a.x >= a.y && a.x >= a.z ? 0 : (a.y >= a.z ? 1 : 2);
   const uint64_t bucket = uint64_t(axis * 2 + (n[axis] < 0.f ? 1 : 0));
@@ -237,12 +245,24 @@ std::vector<ProbeData> bakeTransfer(const RayScene& scene, const SectorGeometry&
   if (s.prt) {
     std::vector<sh::Sh4> direct;
     std::vector<Edge> edges;
-    std::vector<RayResult> res;
+    // A hit whose cell did not exist before its level: where it landed, linked after the trace.
+    struct Miss {
+      uint64_t key;
+      glm::vec3 position;
+      uint32_t prim;
+    };
+    std::vector<Miss> misses;
     size_t lo = 0;
     for (int level = 1; level <= s.bounces && lo < surfels.size(); ++level) {
       const size_t hi = surfels.size();
+      const bool last = level == s.bounces;
       direct.resize(hi, sh::Sh4(0.f));
-      res.assign((hi - lo) * M, RayResult{});
+      edges.resize(hi * M);
+      if (!last) misses.resize((hi - lo) * M);
+      // The cell map is read-only while the level is traced, so each ray finds the cell it
+      // landed in right there; only hits in cells that do not exist yet (at the last level they
+      // stay unlinked) are left for the serial pass below, which creates them in (surfel, ray)
+      // order: the ids are those a serial insert of every hit would give.
       tbb::parallel_for(tbb::blocked_range<size_t>(lo, hi, 16), [&](const tbb::blocked_range<size_t>& range) {
         std::vector<Ray> rays(M);
         std::vector<Hit> hits(M);
@@ -258,29 +278,30 @@ std::vector<ProbeData> bakeTransfer(const RayScene& scene, const SectorGeometry&
           sh::Sh4 d(0.f);
           for (size_t i = 0; i < M; ++i) {
             const RayResult r = classify(scene, rays[i], hits[i], inv_cell);
-            res[(si - lo) * M + i] = r;
+            Edge& e = edges[si * M + i];
+            e = Edge{};
             if (r.key == kEscaped) d += sh::evaluate(rays[i].dir);
+            if (r.key >= kBackface) continue;
+            e.material = geometry.material[r.prim];
+            e.child = cells.find(r.key);
+            if (e.child == kNoSurfel && !last) {
+              e.child = kPending;
+              misses[(si - lo) * M + i] = Miss{r.key, r.position, r.prim};
+            }
           }
           direct[si] = d * (kPi / float(M));
         }
       });
       stats.surfel_rays += uint64_t(hi - lo) * M;
-      // Link (and at all but the last level, create) the cells these rays landed in.
-      edges.resize(hi * M);
-      for (size_t si = lo; si < hi; ++si) {
-        for (size_t i = 0; i < M; ++i) {
-          const RayResult& r = res[(si - lo) * M + i];
-          Edge& e = edges[si * M + i];
-          if (r.key >= kBackface) continue;
-          e.material = geometry.material[r.prim];
-          if (level < s.bounces) {
-            e.child = cells.insert(r.key, uint32_t(surfels.size()));
-            if (e.child == surfels.size()) surfels.push_back({r.position, scene.normal(r.prim)});
-          } else {
-            e.child = cells.find(r.key);
+      if (!last)
+        for (size_t si = lo; si < hi; ++si)
+          for (size_t i = 0; i < M; ++i) {
+            Edge& e = edges[si * M + i];
+            if (e.child != kPending) continue;
+            const Miss& m = misses[(si - lo) * M + i];
+            e.child = cells.insert(m.key, uint32_t(surfels.size()));
+            if (e.child == surfels.size()) surfels.push_back({m.position, scene.normal(m.prim)});
           }
-        }
-      }
       lo = hi;
     }
     const size_t count = lo;  // surfels traced (the last level creates none)

@@ -16,6 +16,7 @@
 #include <sstream>
 
 #include "drtv/baker/sampling.h"
+#include "sector_journal.h"
 #include "stats_json.h"
 #include "stopwatch.h"
 
@@ -30,8 +31,9 @@ using detail::since;
 constexpr float kGroundRayMarginM = 10.f;
 // Hits stepped through per ground ray (vegetation is passed through to reach the ground).
 constexpr int kMaxGroundHits = 128;
-// Version of what the sector files hold; part of the resume fingerprint.
-constexpr int kBakeFormat = 1;
+// Version of what the sector journals hold; part of the resume fingerprint (2: journals instead
+// of a pair of files per sector).
+constexpr int kBakeFormat = 2;
 
 std::string fmt(double v) {
   std::ostringstream s;
@@ -78,8 +80,6 @@ std::string validateSettings(const BakeSettings& s) {
   if (!in(s.halo_m, 0.0, 1024.0) || !in(s.lprt_halo_m, 0.0, 1024.0)) return "halos must be in [0, 1024] m";
   return {};
 }
-
-std::string sectorFileStem(SectorKey k) { return "s_" + std::to_string(k.ix) + "_" + std::to_string(k.iy); }
 
 Result<void> writeAtomically(const fs::path& path, const void* data, size_t size) {
   const fs::path tmp = path.string() + ".tmp";
@@ -391,7 +391,7 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
       for (auto it = fs::directory_iterator(dir, ec); !ec && it != fs::directory_iterator(); it.increment(ec)) {
         const std::string name = it->path().filename().string();
         std::error_code rm;
-        if (name.starts_with("s_") || name == "bake.txt") fs::remove(it->path(), rm);
+        if (detail::isJournalFile(name) || name == "bake.txt") fs::remove(it->path(), rm);
       }
       if (ec) return fail(dir.string() + ": cannot list: " + ec.message());
     }
@@ -402,18 +402,17 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
   std::vector<size_t> todo;
   std::vector<SectorStats> stats(keys.size());
   std::vector<uint8_t> have(keys.size(), 0);
+  auto journal = detail::scanJournals(dir);
+  if (!journal) return std::unexpected(journal.error());
   for (size_t i = 0; i < keys.size(); ++i) {
-    const fs::path sec = dir / (sectorFileStem(keys[i]) + ".sec");
-    if (fs::exists(sec, ec)) {
+    if (const auto it = journal->find(keys[i]); it != journal->end()) {
       have[i] = 1;
-      stats[i].key = keys[i];
-      stats[i].resumed = true;
-      if (auto j = readFile(dir / (sectorFileStem(keys[i]) + ".json")); j) {
+      if (auto j = detail::readStats(it->second); j) {
         const auto parsed = nlohmann::json::parse(j->begin(), j->end(), nullptr, false);
         if (!parsed.is_discarded()) stats[i] = sectorStatsFromJson(parsed);
-        stats[i].key = keys[i];
-        stats[i].resumed = true;
       }
+      stats[i].key = keys[i];
+      stats[i].resumed = true;
       continue;
     }
     if (options.merge_only) continue;
@@ -427,7 +426,15 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
     if (missing) return fail(dir.string() + ": " + std::to_string(missing) + " sectors not baked yet (first " + first + "); run the missing shards");
   }
 
-  // Bake, in parallel over sectors (and inside each sector over probes and surfels).
+  // Bake, in parallel over sectors (and inside each sector over probes and surfels); each
+  // finished sector is one record of this shard's journal.
+  std::optional<detail::JournalWriter> writer;
+  if (!todo.empty()) {
+    auto w = detail::JournalWriter::open(
+        dir / ("sectors-" + std::to_string(options.shard_index) + "-of-" + std::to_string(options.shard_count) + ".log"));
+    if (!w) return std::unexpected(w.error());
+    writer.emplace(std::move(*w));
+  }
   t0 = Clock::now();
   std::mutex mutex;
   size_t done = keys.size() - todo.size();
@@ -442,20 +449,14 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
       return;
     }
     const std::vector<uint8_t> bytes = encodeSector(*sector);
-    const std::string stem = sectorFileStem(keys[i]);
     const std::string js = toJson(st).dump();
-    // The stats first: the .sec file is the commit marker of a finished sector.
-    if (auto w = writeAtomically(dir / (stem + ".json"), js.data(), js.size()); !w) {
-      errors[t] = w.error();
-      return;
-    }
-    if (auto w = writeAtomically(dir / (stem + ".sec"), bytes.data(), bytes.size()); !w) {
+    std::lock_guard lock(mutex);
+    if (auto w = writer->append(keys[i], js, bytes); !w) {
       errors[t] = w.error();
       return;
     }
     stats[i] = st;
     have[i] = 1;
-    std::lock_guard lock(mutex);
     ++done;
     if (options.progress) options.progress(done, keys.size());
   });
@@ -474,14 +475,18 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
   const bool complete = std::all_of(have.begin(), have.end(), [](uint8_t h) { return h != 0; });
   if (options.shard_count == 1 && complete) {
     t0 = Clock::now();
-    auto writer = ArchiveWriter::create(archive, report.settings.zstd_level);
-    if (!writer) return std::unexpected(writer.error());
+    writer.reset();  // closes (and unlocks) this shard's journal
+    auto entries = detail::scanJournals(dir);
+    if (!entries) return std::unexpected(entries.error());
+    auto out = ArchiveWriter::create(archive, report.settings.zstd_level);
+    if (!out) return std::unexpected(out.error());
     report.sectors_empty = 0;
     for (size_t i = 0; i < keys.size(); ++i) {
-      const fs::path sec = dir / (sectorFileStem(keys[i]) + ".sec");
-      auto bytes = readFile(sec);
+      const auto entry = entries->find(keys[i]);
+      if (entry == entries->end()) return fail(dir.string() + ": sector " + toString(keys[i]) + " is missing from the journals it was written to");
+      auto bytes = detail::readSector(entry->second);
       if (!bytes) return std::unexpected(bytes.error());
-      auto decoded = decodeSector(*bytes, sec.string());
+      auto decoded = decodeSector(*bytes, entry->second.file.string() + " sector " + toString(keys[i]));
       if (!decoded) return std::unexpected(decoded.error());
       if (decoded->probes.empty()) {
         ++report.sectors_empty;
@@ -493,7 +498,7 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
       st.lprt_sources = decoded->lprt.sources.size();
       st.bytes = bytes->size();
       st.bytes_without_lprt = encodedSectorBytes(st.probes, 0, decoded->has_ground);
-      if (auto a = writer->addEncodedSector(*bytes); !a) return std::unexpected(a.error());
+      if (auto a = out->addEncodedSector(*bytes); !a) return std::unexpected(a.error());
     }
     Manifest m;
     m.bounds_min = geometry->boundsMin();
@@ -505,7 +510,7 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
     m.sky = world.sky;
     m.lights = world.lights;
     m.interiors = world.interiors;
-    if (auto f = writer->finish(m); !f) return std::unexpected(f.error());
+    if (auto f = out->finish(m); !f) return std::unexpected(f.error());
     report.packed = true;
     report.pack_s = since(t0);
     if (!options.keep_sector_files) fs::remove_all(dir, ec);

@@ -1,4 +1,6 @@
 // The whole bake: archive contents, budgets, determinism, resumption, shards, bad input.
+#include <fcntl.h>
+#include <sys/file.h>
 #include <unistd.h>
 #include <gtest/gtest.h>
 
@@ -223,6 +225,61 @@ TEST(Bake, AnInterruptedBakeResumesAndGivesTheSameArchive) {
   for (const auto& s : rest->sectors) resumed += s.resumed;
   EXPECT_EQ(resumed, 1u);
   EXPECT_TRUE(readBytes(dir.path / "fresh.drtv") == readBytes(dir.path / "resumed.drtv"));
+}
+
+// A bake killed in the middle of writing a sector leaves a torn record at the end of its shard's
+// journal; a bit flipped on disk leaves a record whose hash fails. Either way the whole records
+// before it are resumed and the bad one is baked again: same archive as a clean bake.
+TEST(Bake, ATornOrCorruptJournalRecordIsBakedAgain) {
+  TempDir dir;
+  const worlds::World w = test::smallWorld();
+  ASSERT_TRUE(bake(w, "small", dir.path / "fresh.drtv", draft()));
+  for (const bool torn : {true, false}) {
+    SCOPED_TRACE(torn ? "torn" : "corrupt");
+    const fs::path archive = dir.path / (torn ? "torn.drtv" : "corrupt.drtv");
+    BakeOptions part = draft();
+    part.shard_count = 2;
+    part.shard_index = 0;
+    auto first = bake(w, "small", archive, part);
+    ASSERT_TRUE(first) << first.error().message;
+    ASSERT_GE(first->sectors.size(), 2u);
+    const fs::path log = fs::path(archive.string() + ".sectors") / "sectors-0-of-2.log";
+    ASSERT_TRUE(fs::exists(log));
+    const auto size = fs::file_size(log);
+    if (torn) {
+      fs::resize_file(log, size - 100);
+    } else {
+      std::fstream f(log, std::ios::in | std::ios::out | std::ios::binary);
+      f.seekp(std::streamoff(size - 200));
+      const char byte = char(f.get() ^ 0x10);
+      f.seekp(std::streamoff(size - 200));
+      f.put(byte);
+    }
+    auto rest = bake(w, "small", archive, draft());
+    ASSERT_TRUE(rest) << rest.error().message;
+    size_t resumed = 0;
+    for (const auto& s : rest->sectors) resumed += s.resumed;
+    EXPECT_EQ(resumed, first->sectors.size() - 1);  // all but the last record of shard 0
+    EXPECT_TRUE(readBytes(dir.path / "fresh.drtv") == readBytes(archive));
+  }
+}
+
+TEST(Bake, TwoBakesOfTheSameShardAtOnceAreRefused) {
+  TempDir dir;
+  const fs::path sectors = dir.path / "a.drtv.sectors";
+  fs::create_directories(sectors);
+  // Another process holds this shard's journal (flock is per open file, so a second open in this
+  // process stands for it).
+  const int fd = ::open((sectors / "sectors-0-of-2.log").c_str(), O_RDWR | O_CREAT, 0644);
+  ASSERT_GE(fd, 0);
+  ASSERT_EQ(::flock(fd, LOCK_EX | LOCK_NB), 0);
+  BakeOptions o = draft();
+  o.shard_count = 2;
+  auto r = bake(test::smallWorld(), "small", dir.path / "a.drtv", o);
+  ::close(fd);
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().message.find("another bake is writing"), std::string::npos) << r.error().message;
+  EXPECT_TRUE(bake(test::smallWorld(), "small", dir.path / "a.drtv", o));
 }
 
 TEST(Bake, ShardsMergeIntoTheSameArchiveAsOneBake) {

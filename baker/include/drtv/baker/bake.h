@@ -6,8 +6,9 @@
 // sectors can be baked in any order, by any process, and resumed):
 //   gather (world_geometry.h) -> Embree scene (ray_scene.h) -> placement (placement.h) ->
 //   LPRT sources (neighbours' placement) -> transfer (transfer.h) -> index grid (index_grid.h) ->
-//   ground map -> encoded sector written atomically to "<archive>.sectors/s_<ix>_<iy>.sec".
-// Then the sector files are packed, in key order, into the archive with a Manifest holding the
+//   ground map -> encoded sector appended as one checked record to its shard's journal,
+//   "<archive>.sectors/sectors-<k>-of-<N>.log".
+// Then the journals' sectors are packed, in key order, into the archive with a Manifest holding the
 // bounds, the effects baked, the bake settings, the sky, the lights and the interiors.
 //
 // Halo: 64 m (one sector) of geometry around the sector occludes and bounces; rays leaving it

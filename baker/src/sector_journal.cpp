@@ -1,0 +1,184 @@
+// Sector journals (see sector_journal.h).
+#include "sector_journal.h"
+
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+#include <xxhash.h>
+
+#include <cerrno>
+#include <cstring>
+#include <system_error>
+
+namespace drtv::baker::detail {
+namespace fs = std::filesystem;
+namespace {
+
+constexpr uint32_t kMagic = 0x4a525444;  // "DRTJ"
+constexpr uint32_t kVersion = 1;
+constexpr size_t kHeaderBytes = 24, kHashBytes = 8;
+// A sector with LPRT is < 256 KB and its stats a few KB; anything far larger is not a record.
+constexpr uint32_t kMaxPayload = 64u << 20;
+
+std::string errnoText() { return std::error_code(errno, std::generic_category()).message(); }
+
+uint32_t loadU32(const uint8_t* p) {
+  uint32_t v;
+  std::memcpy(&v, p, 4);
+  return v;
+}
+void storeU32(uint8_t* p, uint32_t v) { std::memcpy(p, &v, 4); }
+
+// Reads exactly n bytes at offset; false at end of file (a torn tail), an error otherwise.
+Result<bool> preadAll(int fd, void* out, size_t n, uint64_t offset, const fs::path& file) {
+  auto* p = static_cast<uint8_t*>(out);
+  while (n > 0) {
+    const ssize_t r = ::pread(fd, p, n, off_t(offset));
+    if (r < 0) {
+      if (errno == EINTR) continue;
+      return fail(file.string() + ": read failed: " + errnoText());
+    }
+    if (r == 0) return false;
+    p += r;
+    n -= size_t(r);
+    offset += uint64_t(r);
+  }
+  return true;
+}
+
+struct Fd {
+  int fd = -1;
+  ~Fd() {
+    if (fd >= 0) ::close(fd);
+  }
+};
+
+// Scans one journal: calls `take` for every whole record; returns where the whole records end.
+template <class Take>
+Result<uint64_t> scanOne(int fd, const fs::path& file, Take&& take) {
+  uint64_t offset = 0;
+  std::vector<uint8_t> record;
+  for (;;) {
+    uint8_t header[kHeaderBytes];
+    auto got = preadAll(fd, header, kHeaderBytes, offset, file);
+    if (!got) return std::unexpected(got.error());
+    if (!*got || loadU32(header) != kMagic || loadU32(header + 4) != kVersion) return offset;
+    const uint32_t stats_size = loadU32(header + 16), sector_size = loadU32(header + 20);
+    if (stats_size > kMaxPayload || sector_size > kMaxPayload) return offset;
+    const size_t total = kHeaderBytes + size_t(stats_size) + sector_size + kHashBytes;
+    record.resize(total);
+    std::memcpy(record.data(), header, kHeaderBytes);
+    got = preadAll(fd, record.data() + kHeaderBytes, total - kHeaderBytes, offset + kHeaderBytes, file);
+    if (!got) return std::unexpected(got.error());
+    if (!*got) return offset;
+    uint64_t hash;
+    std::memcpy(&hash, record.data() + total - kHashBytes, kHashBytes);
+    if (hash != XXH3_64bits(record.data(), total - kHashBytes)) return offset;
+    JournalEntry e;
+    e.file = file;
+    e.stats_offset = offset + kHeaderBytes;
+    e.stats_size = stats_size;
+    e.sector_offset = e.stats_offset + stats_size;
+    e.sector_size = sector_size;
+    take(SectorKey{int32_t(loadU32(header + 8)), int32_t(loadU32(header + 12))}, e);
+    offset += total;
+  }
+}
+
+Result<std::vector<uint8_t>> readRange(const fs::path& file, uint64_t offset, uint32_t size) {
+  Fd f{::open(file.c_str(), O_RDONLY | O_CLOEXEC)};
+  if (f.fd < 0) return fail(file.string() + ": cannot open: " + errnoText());
+  std::vector<uint8_t> out(size);
+  auto got = preadAll(f.fd, out.data(), size, offset, file);
+  if (!got) return std::unexpected(got.error());
+  if (!*got) return fail(file.string() + ": shorter than when it was scanned (was it changed during the bake?)");
+  return out;
+}
+
+}  // namespace
+
+bool isJournalFile(const std::string& name) {
+  return (name.starts_with("sectors-") && name.ends_with(".log")) || name.starts_with("s_");
+}
+
+Result<std::map<SectorKey, JournalEntry>> scanJournals(const fs::path& dir) {
+  std::map<SectorKey, JournalEntry> out;
+  std::error_code ec;
+  std::vector<fs::path> files;
+  for (auto it = fs::directory_iterator(dir, ec); !ec && it != fs::directory_iterator(); it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (name.starts_with("sectors-") && name.ends_with(".log")) files.push_back(it->path());
+  }
+  if (ec) return fail(dir.string() + ": cannot list: " + ec.message());
+  std::sort(files.begin(), files.end());  // a fixed order: which record of a key wins is not up to the file system
+  for (const fs::path& file : files) {
+    Fd f{::open(file.c_str(), O_RDONLY | O_CLOEXEC)};
+    if (f.fd < 0) return fail(file.string() + ": cannot open: " + errnoText());
+    auto end = scanOne(f.fd, file, [&](SectorKey key, const JournalEntry& e) { out[key] = e; });
+    if (!end) return std::unexpected(end.error());
+  }
+  return out;
+}
+
+Result<std::vector<uint8_t>> readStats(const JournalEntry& e) { return readRange(e.file, e.stats_offset, e.stats_size); }
+Result<std::vector<uint8_t>> readSector(const JournalEntry& e) { return readRange(e.file, e.sector_offset, e.sector_size); }
+
+Result<JournalWriter> JournalWriter::open(const fs::path& file) {
+  JournalWriter w;
+  w.file_ = file;
+  w.fd_ = ::open(file.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (w.fd_ < 0) return fail(file.string() + ": cannot open for writing: " + errnoText());
+  if (::flock(w.fd_, LOCK_EX | LOCK_NB) != 0)
+    return fail(file.string() + ": another bake is writing this shard (" + errnoText() + ")");
+  // Keep the whole records; cut off what an interrupted append left.
+  auto end = scanOne(w.fd_, file, [](SectorKey, const JournalEntry&) {});
+  if (!end) return std::unexpected(end.error());
+  if (::ftruncate(w.fd_, off_t(*end)) != 0) return fail(file.string() + ": cannot truncate a torn record: " + errnoText());
+  if (::lseek(w.fd_, off_t(*end), SEEK_SET) < 0) return fail(file.string() + ": cannot seek: " + errnoText());
+  return w;
+}
+
+JournalWriter::JournalWriter(JournalWriter&& o) noexcept : fd_(std::exchange(o.fd_, -1)), file_(std::move(o.file_)) {}
+JournalWriter& JournalWriter::operator=(JournalWriter&& o) noexcept {
+  if (this != &o) {
+    if (fd_ >= 0) ::close(fd_);
+    fd_ = std::exchange(o.fd_, -1);
+    file_ = std::move(o.file_);
+  }
+  return *this;
+}
+JournalWriter::~JournalWriter() {
+  if (fd_ >= 0) ::close(fd_);  // also releases the lock
+}
+
+Result<void> JournalWriter::append(SectorKey key, std::string_view stats, std::span<const uint8_t> sector) {
+  if (stats.size() > kMaxPayload || sector.size() > kMaxPayload)
+    return fail(file_.string() + ": sector " + toString(key) + " is too large for a journal record");
+  std::vector<uint8_t> record(kHeaderBytes + stats.size() + sector.size() + kHashBytes);
+  storeU32(record.data(), kMagic);
+  storeU32(record.data() + 4, kVersion);
+  storeU32(record.data() + 8, uint32_t(key.ix));
+  storeU32(record.data() + 12, uint32_t(key.iy));
+  storeU32(record.data() + 16, uint32_t(stats.size()));
+  storeU32(record.data() + 20, uint32_t(sector.size()));
+  std::memcpy(record.data() + kHeaderBytes, stats.data(), stats.size());
+  if (!sector.empty()) std::memcpy(record.data() + kHeaderBytes + stats.size(), sector.data(), sector.size());
+  const uint64_t hash = XXH3_64bits(record.data(), record.size() - kHashBytes);
+  std::memcpy(record.data() + record.size() - kHashBytes, &hash, kHashBytes);
+  const off_t start = ::lseek(fd_, 0, SEEK_CUR);
+  size_t done = 0;
+  while (done < record.size()) {
+    const ssize_t r = ::write(fd_, record.data() + done, record.size() - done);
+    if (r < 0 && errno == EINTR) continue;
+    if (r <= 0) {
+      const std::string why = r < 0 ? errnoText() : "no progress";
+      // Leave no torn record behind for the next append to follow.
+      if (start >= 0 && ::ftruncate(fd_, start) == 0) ::lseek(fd_, start, SEEK_SET);
+      return fail(file_.string() + ": write failed: " + why);
+    }
+    done += size_t(r);
+  }
+  return {};
+}
+
+}  // namespace drtv::baker::detail

@@ -78,4 +78,40 @@ Result<RawRayFigures> measureRawRays(const WorldGeometry& geometry, std::span<co
   return f;
 }
 
+ReplayFigures replayRays(const RayScene& scene, const RayLog& log, int repeat) {
+  ReplayFigures f;
+  using Clock = std::chrono::steady_clock;
+  const auto t0 = Clock::now();
+  const double c0 = processCpuSeconds();
+  for (int k = 0; k < repeat; ++k)
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, log.calls.size()), [&](const tbb::blocked_range<size_t>& r) {
+      std::vector<Hit> hits;
+      std::vector<uint8_t> blocked;
+      for (size_t c = r.begin(); c < r.end(); ++c) {
+        const RayLog::Call& call = log.calls[c];
+        const std::span<const Ray> rays(log.rays.data() + call.first, call.count);
+        switch (call.kind) {
+          case RayLog::Kind::kIntersect1:
+            for (const Ray& ray : rays) (void)scene.intersect(ray);
+            break;
+          case RayLog::Kind::kIntersectM:
+            hits.resize(rays.size());
+            scene.intersect(rays, hits);
+            break;
+          case RayLog::Kind::kOccluded1:
+            for (const Ray& ray : rays) (void)scene.occluded(ray);
+            break;
+          case RayLog::Kind::kOccludedM:
+            blocked.resize(rays.size());
+            scene.occluded(rays, blocked);
+            break;
+        }
+      }
+    });
+  f.wall_s = std::chrono::duration<double>(Clock::now() - t0).count();
+  f.cpu_s = processCpuSeconds() - c0;
+  f.rays = uint64_t(log.rays.size()) * uint64_t(repeat);
+  return f;
+}
+
 }  // namespace drtv::baker

@@ -4,6 +4,7 @@
 #include <embree3/rtcore.h>
 
 #include <algorithm>
+#include <atomic>
 #include <mutex>
 #include <string>
 #include <vector>
@@ -46,7 +47,19 @@ void toRtc(const Ray& r, RTCRay& o) {
   o.flags = 0;
 }
 
+std::atomic<RayLog*> g_log{nullptr};
+
+void logCall(RayLog::Kind kind, std::span<const Ray> rays) {
+  RayLog* log = g_log.load(std::memory_order_relaxed);
+  if (!log) return;
+  std::lock_guard lock(log->mutex);
+  log->calls.push_back({kind, uint32_t(log->rays.size()), uint32_t(rays.size())});
+  log->rays.insert(log->rays.end(), rays.begin(), rays.end());
+}
+
 }  // namespace
+
+void setRayLog(RayLog* log) { g_log.store(log); }
 
 struct RayScene::Impl {
   RTCScene scene = nullptr;
@@ -108,6 +121,7 @@ size_t RayScene::triangleCount() const { return impl_->normals.size(); }
 const glm::vec3& RayScene::normal(uint32_t prim) const { return impl_->normals[prim]; }
 
 Hit RayScene::intersect(const Ray& ray) const {
+  logCall(RayLog::Kind::kIntersect1, std::span(&ray, 1));
   RTCIntersectContext ctx;
   rtcInitIntersectContext(&ctx);
   RTCRayHit rh;
@@ -125,6 +139,7 @@ Hit RayScene::intersect(const Ray& ray) const {
 
 void RayScene::intersect(std::span<const Ray> rays, std::span<Hit> hits) const {
   DRTV_CHECK_EQ(rays.size(), hits.size());
+  logCall(RayLog::Kind::kIntersectM, rays);
   RTCIntersectContext ctx;
   rtcInitIntersectContext(&ctx);
   RTCRayHit buf[kStreamChunk];
@@ -149,6 +164,7 @@ void RayScene::intersect(std::span<const Ray> rays, std::span<Hit> hits) const {
 }
 
 bool RayScene::occluded(const Ray& ray) const {
+  logCall(RayLog::Kind::kOccluded1, std::span(&ray, 1));
   RTCIntersectContext ctx;
   rtcInitIntersectContext(&ctx);
   RTCRay r;
@@ -159,6 +175,7 @@ bool RayScene::occluded(const Ray& ray) const {
 
 void RayScene::occluded(std::span<const Ray> rays, std::span<uint8_t> blocked) const {
   DRTV_CHECK_EQ(rays.size(), blocked.size());
+  logCall(RayLog::Kind::kOccludedM, rays);
   RTCIntersectContext ctx;
   rtcInitIntersectContext(&ctx);
   RTCRay buf[kStreamChunk];

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <span>
 
+#include "drtv/baker/ray_scene.h"
 #include "drtv/baker/world_geometry.h"
 #include "drtv/formats/error.h"
 
@@ -29,5 +30,14 @@ double processCpuSeconds();
 // mode, in parallel over points (TBB). Scene builds are not timed. Errors: Embree's.
 Result<RawRayFigures> measureRawRays(const WorldGeometry& geometry, std::span<const SectorKey> keys, uint64_t rays,
                                      double halo_m, uint64_t seed = 1);
+
+// Embree alone on a bake's own rays: `log`'s calls cast again on `scene` through the same entry
+// points (rtcIntersect1/1M, rtcOccluded1/1M, the same batches), `repeat` times, in parallel over
+// calls (TBB); results are discarded. The scene must be the one the calls were made on.
+struct ReplayFigures {
+  uint64_t rays = 0;  // rays cast (log rays x repeat)
+  double wall_s = 0, cpu_s = 0;
+};
+ReplayFigures replayRays(const RayScene& scene, const RayLog& log, int repeat = 1);
 
 }  // namespace drtv::baker

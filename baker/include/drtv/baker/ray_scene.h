@@ -11,7 +11,9 @@
 #include <cstdint>
 #include <limits>
 #include <memory>
+#include <mutex>
 #include <span>
+#include <vector>
 
 #include <glm/glm.hpp>
 
@@ -35,6 +37,23 @@ struct Hit {
   uint32_t prim = kNoPrim;  // triangle index in the soup given to build()
   bool hit() const { return prim != kNoPrim; }
 };
+
+// Every query made on any RayScene while a log is installed (setRayLog), in call order per
+// thread: bench-bake bakes a few sectors with one installed and then casts exactly those rays
+// again with nothing else around them, to time Embree alone on the bake's own rays.
+struct RayLog {
+  enum class Kind : uint8_t { kIntersect1, kIntersectM, kOccluded1, kOccludedM };
+  struct Call {
+    Kind kind;
+    uint32_t first, count;  // rays[first, first + count)
+  };
+  std::mutex mutex;
+  std::vector<Call> calls;
+  std::vector<Ray> rays;
+};
+// Installs `log` process-wide (nullptr: none, the default). Not for production bakes: every
+// query then takes the log's mutex. When none is installed a query pays one relaxed load.
+void setRayLog(RayLog* log);
 
 // An immutable acceleration structure over a triangle soup. Move-only.
 // Thread-safety: build() may run concurrently for different scenes; after build every query is

@@ -19,7 +19,17 @@ inline int floorMod(int a, int n) {
   return r < 0 ? r + n : r;
 }
 inline int floorDiv(int a, int n) { return (a - floorMod(a, n)) / n; }
-inline int cellOf(double v) { return int(std::clamp(std::floor(v), 0.0, double(kGridDim - 1))); }
+// Boxes at most this many texels wide in x are filled column by column (see fillBox).
+constexpr int kThinSlabX = 2;
+
+// floor() inline: on the x86-64 baseline std::floor is a libm call (no SSE4.1 roundsd), and a
+// one-texel scroll computes ~250 of them (a third of its time). |v| < 2^31 (cameras are clamped).
+inline int floorInt(double v) {
+  const int t = int(v);  // truncates toward zero
+  return t - int(double(t) > v);
+}
+// The index-grid cell of a coordinate in cell units, clamped to the grid (NaN reads as 0).
+inline int cellOf(double v) { return v > 0.0 ? int(std::min(v, double(kGridDim - 1))) : 0; }
 
 // Sector slots of a rectangle of sector keys, looked up once per fill.
 struct SlotTable {
@@ -95,29 +105,120 @@ void Volume::fillBox(const glm::ivec3& g0, const glm::ivec3& g1, const ProbeCach
     int sector, cell, s;
   };
   // Per column and row: the sector, the index-grid cell and the storage index of each texel.
-  auto axis = [&](int a, int count) {
-    std::vector<Axis> v(count);
+  // Scratch is per thread and kept (a one-texel scroll is ~3 us; allocations were a tenth of it).
+  thread_local std::vector<Axis> xs, ys;
+  auto axis = [&](int a, int count, std::vector<Axis>& v) {
+    v.resize(size_t(count));
     for (int i = 0; i < count; ++i) {
       const int g = g0[a] + i;
       const double c = (g + 0.5) * double(options_.texel_size_m[a]);
-      const int sec = int(std::floor(c / kSectorSizeM));
-      v[i] = {sec, cellOf((c - sec * kSectorSizeM) / kGridCellSizeM), floorMod(g, n[a])};
+      const int sec = floorInt(c / kSectorSizeM);
+      v[size_t(i)] = {sec, cellOf((c - sec * kSectorSizeM) / kGridCellSizeM), floorMod(g, n[a])};
     }
-    return v;
   };
-  const std::vector<Axis> xs = axis(0, d.x), ys = axis(1, d.y);
+  axis(0, d.x, xs);
+  axis(1, d.y, ys);
   const SlotTable table(cache, xs.front().sector, xs.back().sector, ys.front().sector, ys.back().sector);
   const std::array<uint32_t, 3> fb = cache.packedFallback();
   const bool has_x0 = std::any_of(xs.begin(), xs.end(), [](const Axis& a) { return a.s == 0; });
   // Each sector's grid row base per layer, computed once per box (a thin slab has many rows of
   // one texel: per-row float work would dominate).
   const int table_size = table.w * table.h;
-  std::vector<int> cz(size_t(d.z) * table_size, 0);
+  thread_local std::vector<int> cz;
+  cz.assign(size_t(d.z) * table_size, 0);
   for (int z = 0; z < d.z; ++z) {
     const double zc = (g0.z + z + 0.5) * double(options_.texel_size_m.z);
     for (int t = 0; t < table_size; ++t)
       if (table.present[t])
         cz[size_t(z) * table_size + t] = cellOf((zc - table.views[t].grid_z_min_m) / table.views[t].grid_cell_height_m);
+  }
+  if (d.x <= kThinSlabX) {
+    // A slab this thin in x (a scroll along x) has one or two texels per row: the row loop below
+    // would pay its per-row set-up (row pointers, sector runs, boundary checks) for each of them
+    // (10 us for a one-texel x scroll, against 2 us for its stores alone). Go column by column
+    // with the per-row data of y computed once; the stores stay scattered (x-major rows).
+    const size_t row_stride = size_t(options_.size.x), layer_stride = row_stride * size_t(options_.size.y);
+    struct YRow {
+      int cell;       // the index-grid row, times 16
+      size_t offset;  // storage row offset
+    };
+    struct YRun {
+      int t, begin, end;  // the sector's row in the slot table; rows [begin, end) of yrows
+    };
+    thread_local std::vector<YRow> yrows;
+    thread_local std::vector<YRun> yruns;
+    yrows.resize(size_t(d.y));
+    yruns.clear();
+    for (int i = 0; i < d.y; ++i) {
+      const Axis& ya = ys[size_t(i)];
+      yrows[size_t(i)] = {ya.cell * kGridDim, size_t(ya.s) * row_stride};
+      const int t = (ya.sector - table.iy0) * table.w;
+      if (yruns.empty() || yruns.back().t != t) yruns.push_back({t, i, i});
+      yruns.back().end = i + 1;
+    }
+    for (const Axis& xa : xs) {
+      const int tx = xa.sector - table.ix0;
+      for (int z = 0; z < d.z; ++z) {
+        const size_t layer = size_t(floorMod(g0.z + z, n.z)) * layer_stride + size_t(xa.s);
+        uint32_t* __restrict c0 = dst[0].data() + layer;
+        uint32_t* __restrict c1 = dst[1].data() + layer;
+        uint32_t* __restrict c2 = dst[2].data() + layer;
+        const int* cz_row = cz.data() + size_t(z) * table_size;
+        for (const YRun& run : yruns) {
+          const int t = run.t + tx;
+          const YRow* __restrict rows = yrows.data();
+          if (!table.present[size_t(t)]) {
+            for (int i = run.begin; i < run.end; ++i) {
+              c0[rows[i].offset] = fb[0];
+              c1[rows[i].offset] = fb[1];
+              c2[rows[i].offset] = fb[2];
+            }
+            continue;
+          }
+          const ProbeCache::SlotView& v = table.views[size_t(t)];
+          // This column of the sector's index grid at this layer: one byte per grid row.
+          const uint8_t* __restrict column = v.nearest + cz_row[t] * (kGridDim * kGridDim) + xa.cell;
+          const uint32_t* __restrict packed = v.packed;
+          for (int i = run.begin; i < run.end; ++i) {
+            const uint32_t* src = packed + 3 * column[rows[i].cell];
+            c0[rows[i].offset] = src[0];
+            c1[rows[i].offset] = src[1];
+            c2[rows[i].offset] = src[2];
+          }
+        }
+      }
+    }
+    // The duplicated boundary (physical index n mirrors storage index 0 on each axis), visiting
+    // only the rows that have one.
+    int y0 = -1, z0 = -1;  // the box's row with storage y 0 and layer with storage z 0, if any
+    for (int i = 0; i < d.y; ++i)
+      if (ys[size_t(i)].s == 0) y0 = i;
+    for (int z = 0; z < d.z; ++z)
+      if (floorMod(g0.z + z, n.z) == 0) z0 = z;
+    for (int c = 0; c < 3; ++c) {
+      uint32_t* base = dst[c].data();
+      auto row = [&](int sy, int sz) { return base + physicalIndex({0, sy, sz}); };
+      if (has_x0)
+        for (int z = 0; z < d.z; ++z)
+          for (const Axis& ya : ys) {
+            uint32_t* r = row(ya.s, floorMod(g0.z + z, n.z));
+            r[n.x] = r[0];
+          }
+      auto mirror = [&](const uint32_t* from, uint32_t* to) {
+        for (const Axis& xa : xs) to[xa.s] = from[xa.s];
+        if (has_x0) to[n.x] = from[n.x];
+      };
+      if (y0 >= 0)
+        for (int z = 0; z < d.z; ++z) {
+          const int sz = floorMod(g0.z + z, n.z);
+          mirror(row(0, sz), row(n.y, sz));
+        }
+      if (z0 >= 0)
+        for (const Axis& ya : ys) mirror(row(ya.s, 0), row(ya.s, n.z));
+      if (y0 >= 0 && z0 >= 0) mirror(row(0, 0), row(n.y, n.z));
+    }
+    filled_ += uint64_t(d.x) * d.y * d.z;
+    return;
   }
   for (int z = g0.z; z < g1.z; ++z) {
     const int sz = floorMod(z, n.z);
@@ -371,7 +472,8 @@ void Volume::scrollTo(const glm::ivec3& origin, const ProbeCache& cache) {
   // Texels in the new range but not the old: for the first axis a on which a texel is outside
   // the old range, it lies in the entered slab of a; on earlier axes it is in both ranges, on
   // later axes anywhere in the new range. Each entered texel is filled exactly once.
-  std::vector<std::pair<glm::ivec3, glm::ivec3>> boxes;
+  std::array<std::pair<glm::ivec3, glm::ivec3>, 3> box_list;
+  std::span<std::pair<glm::ivec3, glm::ivec3>> boxes(box_list.data(), 0);
   for (int a = 0; a < 3; ++a) {
     if (d[a] == 0) continue;
     glm::ivec3 lo = o2, hi = o2 + n;
@@ -380,7 +482,8 @@ void Volume::scrollTo(const glm::ivec3& origin, const ProbeCache& cache) {
       lo[a] = o1[a] + n[a], hi[a] = o2[a] + n[a];
     else
       lo[a] = o2[a], hi[a] = o1[a];
-    boxes.push_back({lo, hi});
+    box_list[boxes.size()] = {lo, hi};
+    boxes = std::span(box_list.data(), boxes.size() + 1);
   }
   for (const auto& [lo, hi] : boxes) writeRangeBox(lo, hi, cache);
   if (!options_.blur) return;

@@ -387,13 +387,8 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
     const std::string text = old ? std::string(old->begin(), old->end()) : "";
     if (text != fp_text) {
       if (!options.fresh)
-        return fail(dir.string() + ": holds sectors of a different bake (other world, quality or settings); pass --fresh to discard them");
-      for (auto it = fs::directory_iterator(dir, ec); !ec && it != fs::directory_iterator(); it.increment(ec)) {
-        const std::string name = it->path().filename().string();
-        std::error_code rm;
-        if (detail::isJournalFile(name) || name == "bake.txt") fs::remove(it->path(), rm);
-      }
-      if (ec) return fail(dir.string() + ": cannot list: " + ec.message());
+        return fail(dir.string() + ": holds sectors of a different bake (other world, quality, settings or drtv version); pass --fresh to discard them");
+      if (auto r = detail::removeJournals(dir); !r) return std::unexpected(r.error());
     }
   }
   if (auto w = writeAtomically(stamp, fp_text, std::strlen(fp_text)); !w) return std::unexpected(w.error());

@@ -6,9 +6,11 @@
 #include <unistd.h>
 #include <xxhash.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 #include <system_error>
+#include <utility>
 
 namespace drtv::baker::detail {
 namespace fs = std::filesystem;
@@ -48,10 +50,23 @@ Result<bool> preadAll(int fd, void* out, size_t n, uint64_t offset, const fs::pa
 
 struct Fd {
   int fd = -1;
+  explicit Fd(int f) : fd(f) {}
+  Fd(const Fd&) = delete;
+  Fd& operator=(const Fd&) = delete;
   ~Fd() {
     if (fd >= 0) ::close(fd);
   }
 };
+
+// Takes the journal's exclusive lock without waiting. Ok(true): locked; Ok(false): the file
+// system has no locks (NFS without lockd, some FUSE mounts), so the bake runs unlocked as it did
+// with per-sector files; an error when another process holds it.
+Result<bool> lockJournal(int fd, const fs::path& file) {
+  if (::flock(fd, LOCK_EX | LOCK_NB) == 0) return true;
+  if (errno == EWOULDBLOCK) return fail(file.string() + ": another bake is writing this shard's journal");
+  if (errno == ENOLCK || errno == EOPNOTSUPP || errno == ENOSYS || errno == EINVAL) return false;
+  return fail(file.string() + ": cannot lock: " + errnoText());
+}
 
 // Scans one journal: calls `take` for every whole record; returns where the whole records end.
 template <class Take>
@@ -62,7 +77,10 @@ Result<uint64_t> scanOne(int fd, const fs::path& file, Take&& take) {
     uint8_t header[kHeaderBytes];
     auto got = preadAll(fd, header, kHeaderBytes, offset, file);
     if (!got) return std::unexpected(got.error());
-    if (!*got || loadU32(header) != kMagic || loadU32(header + 4) != kVersion) return offset;
+    if (!*got || loadU32(header) != kMagic) return offset;
+    if (loadU32(header + 4) != kVersion)
+      return fail(file.string() + ": a record of journal version " + std::to_string(loadU32(header + 4)) + " (this drtv writes " +
+                  std::to_string(kVersion) + "); pass --fresh to discard it");
     const uint32_t stats_size = loadU32(header + 16), sector_size = loadU32(header + 20);
     if (stats_size > kMaxPayload || sector_size > kMaxPayload) return offset;
     const size_t total = kHeaderBytes + size_t(stats_size) + sector_size + kHashBytes;
@@ -86,7 +104,7 @@ Result<uint64_t> scanOne(int fd, const fs::path& file, Take&& take) {
 }
 
 Result<std::vector<uint8_t>> readRange(const fs::path& file, uint64_t offset, uint32_t size) {
-  Fd f{::open(file.c_str(), O_RDONLY | O_CLOEXEC)};
+  Fd f(::open(file.c_str(), O_RDONLY | O_CLOEXEC));
   if (f.fd < 0) return fail(file.string() + ": cannot open: " + errnoText());
   std::vector<uint8_t> out(size);
   auto got = preadAll(f.fd, out.data(), size, offset, file);
@@ -96,6 +114,24 @@ Result<std::vector<uint8_t>> readRange(const fs::path& file, uint64_t offset, ui
 }
 
 }  // namespace
+
+Result<void> removeJournals(const fs::path& dir) {
+  std::error_code ec;
+  std::vector<fs::path> doomed;
+  for (auto it = fs::directory_iterator(dir, ec); !ec && it != fs::directory_iterator(); it.increment(ec))
+    if (isJournalFile(it->path().filename().string())) doomed.push_back(it->path());
+  if (ec) return fail(dir.string() + ": cannot list: " + ec.message());
+  for (const fs::path& file : doomed) {
+    // A journal another bake still writes is not ours to discard: its sectors would vanish.
+    Fd f(::open(file.c_str(), O_RDWR | O_CLOEXEC));
+    if (f.fd >= 0)
+      if (auto locked = lockJournal(f.fd, file); !locked) return std::unexpected(locked.error());
+    std::error_code rm;
+    fs::remove(file, rm);
+    if (rm) return fail(file.string() + ": cannot remove: " + rm.message());
+  }
+  return {};
+}
 
 bool isJournalFile(const std::string& name) {
   return (name.starts_with("sectors-") && name.ends_with(".log")) || name.starts_with("s_");
@@ -112,7 +148,7 @@ Result<std::map<SectorKey, JournalEntry>> scanJournals(const fs::path& dir) {
   if (ec) return fail(dir.string() + ": cannot list: " + ec.message());
   std::sort(files.begin(), files.end());  // a fixed order: which record of a key wins is not up to the file system
   for (const fs::path& file : files) {
-    Fd f{::open(file.c_str(), O_RDONLY | O_CLOEXEC)};
+    Fd f(::open(file.c_str(), O_RDONLY | O_CLOEXEC));
     if (f.fd < 0) return fail(file.string() + ": cannot open: " + errnoText());
     auto end = scanOne(f.fd, file, [&](SectorKey key, const JournalEntry& e) { out[key] = e; });
     if (!end) return std::unexpected(end.error());
@@ -128,8 +164,7 @@ Result<JournalWriter> JournalWriter::open(const fs::path& file) {
   w.file_ = file;
   w.fd_ = ::open(file.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
   if (w.fd_ < 0) return fail(file.string() + ": cannot open for writing: " + errnoText());
-  if (::flock(w.fd_, LOCK_EX | LOCK_NB) != 0)
-    return fail(file.string() + ": another bake is writing this shard (" + errnoText() + ")");
+  if (auto locked = lockJournal(w.fd_, file); !locked) return std::unexpected(locked.error());
   // Keep the whole records; cut off what an interrupted append left.
   auto end = scanOne(w.fd_, file, [](SectorKey, const JournalEntry&) {});
   if (!end) return std::unexpected(end.error());
@@ -138,11 +173,13 @@ Result<JournalWriter> JournalWriter::open(const fs::path& file) {
   return w;
 }
 
-JournalWriter::JournalWriter(JournalWriter&& o) noexcept : fd_(std::exchange(o.fd_, -1)), file_(std::move(o.file_)) {}
+JournalWriter::JournalWriter(JournalWriter&& o) noexcept
+    : fd_(std::exchange(o.fd_, -1)), broken_(o.broken_), file_(std::move(o.file_)) {}
 JournalWriter& JournalWriter::operator=(JournalWriter&& o) noexcept {
   if (this != &o) {
     if (fd_ >= 0) ::close(fd_);
     fd_ = std::exchange(o.fd_, -1);
+    broken_ = o.broken_;
     file_ = std::move(o.file_);
   }
   return *this;
@@ -152,6 +189,7 @@ JournalWriter::~JournalWriter() {
 }
 
 Result<void> JournalWriter::append(SectorKey key, std::string_view stats, std::span<const uint8_t> sector) {
+  if (broken_) return fail(file_.string() + ": an earlier write failed and could not be undone; no more records are appended");
   if (stats.size() > kMaxPayload || sector.size() > kMaxPayload)
     return fail(file_.string() + ": sector " + toString(key) + " is too large for a journal record");
   std::vector<uint8_t> record(kHeaderBytes + stats.size() + sector.size() + kHashBytes);
@@ -172,8 +210,9 @@ Result<void> JournalWriter::append(SectorKey key, std::string_view stats, std::s
     if (r < 0 && errno == EINTR) continue;
     if (r <= 0) {
       const std::string why = r < 0 ? errnoText() : "no progress";
-      // Leave no torn record behind for the next append to follow.
-      if (start >= 0 && ::ftruncate(fd_, start) == 0) ::lseek(fd_, start, SEEK_SET);
+      // Leave no torn record behind for the next append to follow; if that fails too, append
+      // nothing more (a record after a torn one would never be read).
+      if (start < 0 || ::ftruncate(fd_, start) != 0 || ::lseek(fd_, start, SEEK_SET) < 0) broken_ = true;
       return fail(file_.string() + ": write failed: " + why);
     }
     done += size_t(r);

@@ -3,7 +3,9 @@
 // One append-only file per writing process (`sectors-<k>-of-<N>.log` in `<archive>.sectors/`):
 // a finished sector is one record, written with a single write() and checked by an XXH3 hash,
 // so a record either is whole or is ignored, and an interrupted bake resumes from the records
-// that are whole. This replaced a pair of files per sector (stats + sector, each written to a
+// that are whole. Reading stops at the first bad record of a journal (lengths after it cannot be
+// trusted): that sector and any after it in the same journal are baked again. A record of
+// another journal version is an error, not a torn tail. This replaced a pair of files per sector (stats + sector, each written to a
 // temporary file and renamed): creating and deleting ~2 inodes per sector was 6% of a bake's CPU
 // time on ext4, whose inode allocator scans recently deleted inodes.
 //
@@ -15,7 +17,9 @@
 #include <filesystem>
 #include <map>
 #include <memory>
+#include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "drtv/formats/error.h"
@@ -41,6 +45,9 @@ Result<std::vector<uint8_t>> readSector(const JournalEntry& e);
 
 // True for the names of the files journals and the bake's older per-sector files use.
 bool isJournalFile(const std::string& filename);
+// Removes every journal (and older per-sector file) in `dir` (--fresh). Errors: a journal another
+// bake holds locked (its sectors would vanish under it), a file that cannot be removed.
+Result<void> removeJournals(const std::filesystem::path& dir);
 
 // Appends records to one journal. Opening takes an exclusive lock on the file (a second process
 // with the same shard gets an error instead of interleaving) and cuts a torn tail off.
@@ -56,6 +63,7 @@ class JournalWriter {
  private:
   JournalWriter() = default;
   int fd_ = -1;
+  bool broken_ = false;  // a failed write could not be cut off: refuse further appends
   std::filesystem::path file_;
 };
 

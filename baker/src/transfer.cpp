@@ -37,6 +37,7 @@ constexpr uint32_t kPending = ~0u - 1;  // an edge whose cell is created after t
 // the baker accepts (+-2^19 cells of >= 0.25 m is +-131 km).
 // floor() without a call: on the x86-64 baseline std::floor(float) is a libm call (no SSE4.1
 // roundss), and cell keys are computed for every ray hit (3% of a bake's CPU time).
+// Precondition: |v| < 2^62 (hit positions are finite and inside the world's bounds).
 inline int64_t floorToInt(float v) {
   const int64_t t = int64_t(v);  // truncates toward zero
   return t - int64_t(float(t) > v);

@@ -2,8 +2,10 @@
 #include "drtv/runtime/volume.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
+#include <span>
 
 #include "drtv/formats/error.h"
 #include "pack.h"

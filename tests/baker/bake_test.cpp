@@ -229,14 +229,16 @@ TEST(Bake, AnInterruptedBakeResumesAndGivesTheSameArchive) {
 
 // A bake killed in the middle of writing a sector leaves a torn record at the end of its shard's
 // journal; a bit flipped on disk leaves a record whose hash fails. Either way the whole records
-// before it are resumed and the bad one is baked again: same archive as a clean bake.
+// before it are resumed and the bad one (and any after it in that journal) is baked again: same
+// archive as a clean bake.
 TEST(Bake, ATornOrCorruptJournalRecordIsBakedAgain) {
   TempDir dir;
   const worlds::World w = test::smallWorld();
   ASSERT_TRUE(bake(w, "small", dir.path / "fresh.drtv", draft()));
-  for (const bool torn : {true, false}) {
-    SCOPED_TRACE(torn ? "torn" : "corrupt");
-    const fs::path archive = dir.path / (torn ? "torn.drtv" : "corrupt.drtv");
+  enum Damage { kTornTail, kCorruptLast, kCorruptFirst };
+  for (const Damage damage : {kTornTail, kCorruptLast, kCorruptFirst}) {
+    SCOPED_TRACE(int(damage));
+    const fs::path archive = dir.path / ("damaged" + std::to_string(int(damage)) + ".drtv");
     BakeOptions part = draft();
     part.shard_count = 2;
     part.shard_index = 0;
@@ -246,20 +248,22 @@ TEST(Bake, ATornOrCorruptJournalRecordIsBakedAgain) {
     const fs::path log = fs::path(archive.string() + ".sectors") / "sectors-0-of-2.log";
     ASSERT_TRUE(fs::exists(log));
     const auto size = fs::file_size(log);
-    if (torn) {
+    if (damage == kTornTail) {
       fs::resize_file(log, size - 100);
     } else {
+      const std::streamoff at = damage == kCorruptLast ? std::streamoff(size - 200) : 100;
       std::fstream f(log, std::ios::in | std::ios::out | std::ios::binary);
-      f.seekp(std::streamoff(size - 200));
+      f.seekg(at);
       const char byte = char(f.get() ^ 0x10);
-      f.seekp(std::streamoff(size - 200));
+      f.seekp(at);
       f.put(byte);
     }
     auto rest = bake(w, "small", archive, draft());
     ASSERT_TRUE(rest) << rest.error().message;
     size_t resumed = 0;
     for (const auto& s : rest->sectors) resumed += s.resumed;
-    EXPECT_EQ(resumed, first->sectors.size() - 1);  // all but the last record of shard 0
+    // All but the last record of shard 0; none when its first record is bad.
+    EXPECT_EQ(resumed, damage == kCorruptFirst ? 0u : first->sectors.size() - 1);
     EXPECT_TRUE(readBytes(dir.path / "fresh.drtv") == readBytes(archive));
   }
 }
@@ -276,10 +280,25 @@ TEST(Bake, TwoBakesOfTheSameShardAtOnceAreRefused) {
   BakeOptions o = draft();
   o.shard_count = 2;
   auto r = bake(test::smallWorld(), "small", dir.path / "a.drtv", o);
-  ::close(fd);
   ASSERT_FALSE(r);
   EXPECT_NE(r.error().message.find("another bake is writing"), std::string::npos) << r.error().message;
-  EXPECT_TRUE(bake(test::smallWorld(), "small", dir.path / "a.drtv", o));
+  // Nor may a --fresh bake of other settings (shard 1 here) discard the journal under it.
+  BakeOptions other = o;
+  other.shard_index = 1;
+  other.quality = Quality::kDefault;
+  other.fresh = true;
+  {
+    std::ofstream stamp(sectors / "bake.txt");
+    stamp << "0000000000000000";  // a different bake's fingerprint
+  }
+  auto f = bake(test::smallWorld(), "small", dir.path / "a.drtv", other);
+  ASSERT_FALSE(f);
+  EXPECT_NE(f.error().message.find("another bake is writing"), std::string::npos) << f.error().message;
+  EXPECT_TRUE(fs::exists(sectors / "sectors-0-of-2.log"));
+  ::close(fd);
+  o.fresh = true;  // bake.txt now names another bake
+  auto after = bake(test::smallWorld(), "small", dir.path / "a.drtv", o);
+  EXPECT_TRUE(after) << after.error().message;
 }
 
 TEST(Bake, ShardsMergeIntoTheSameArchiveAsOneBake) {

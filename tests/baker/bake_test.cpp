@@ -403,5 +403,26 @@ TEST(Bake, ReportsSayWhatWasBakedAndSkipped) {
     EXPECT_NE(text.find(key), std::string::npos) << key;
 }
 
+// The report's ray counts are what the bake really cast: every query on any scene is logged
+// (RayLog, the hook bench-bake replays) and counted, with and without LPRT.
+TEST(Bake, ReportCountsEveryRayTheBakeCasts) {
+  TempDir dir;
+  for (const bool lit : {false, true}) {
+    SCOPED_TRACE(lit ? "with LPRT" : "without LPRT");
+    RayLog log;
+    setRayLog(&log);
+    auto r = bake(lit ? litWorld() : test::smallWorld(), "small", dir.path / (lit ? "lit.drtv" : "a.drtv"), draft());
+    setRayLog(nullptr);
+    ASSERT_TRUE(r) << r.error().message;
+    uint64_t counted = 0;
+    for (const auto& s : r->sectors) counted += s.rays();
+    EXPECT_GT(counted, 0u);
+    EXPECT_EQ(counted, log.rays.size());
+    size_t in_calls = 0;
+    for (const RayLog::Call& c : log.calls) in_calls += c.count;
+    EXPECT_EQ(in_calls, log.rays.size());
+  }
+}
+
 }  // namespace
 }  // namespace drtv::baker

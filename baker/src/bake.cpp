@@ -12,6 +12,8 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <functional>
+#include <map>
 #include <mutex>
 #include <sstream>
 
@@ -279,6 +281,7 @@ Result<Sector> bakeSector(const WorldGeometry& geometry, const worlds::World& wo
     std::stable_sort(sources.begin(), sources.end(), [](const Source& a, const Source& b) { return a.d2 < b.d2; });
     if (sources.size() > size_t(kMaxLprtSources)) sources.resize(kMaxLprtSources);
     stats.lprt_sources = sources.size();
+    for (const Source& s : sources) stats.lprt_source_positions.push_back(s.position);
     stats.placement_s += since(t0);
   }
 
@@ -318,6 +321,38 @@ Result<Sector> bakeSector(const WorldGeometry& geometry, const worlds::World& wo
   stats.bytes_without_lprt = encodedSectorBytes(sector.probes.size(), 0, sector.has_ground);
   stats.total_s = since(t_start);
   return sector;
+}
+
+Result<size_t> reconcileLprtSources(Sector& sector, std::span<const glm::vec3> assumed,
+                                    const std::function<std::span<const glm::vec3>(SectorKey)>& probe_positions) {
+  const std::string where = "sector " + toString(sector.key) + ": ";
+  if (assumed.size() != sector.lprt.sources.size())
+    return fail(where + "bug: " + std::to_string(sector.lprt.sources.size()) + " LPRT sources but " + std::to_string(assumed.size()) +
+                " recorded source positions");
+  const float tol2 = kLprtSourceToleranceM * kLprtSourceToleranceM;
+  size_t reindexed = 0;
+  for (size_t j = 0; j < assumed.size(); ++j) {
+    LprtSource& ref = sector.lprt.sources[j];
+    const SectorKey nk{sector.key.ix + ref.dx, sector.key.iy + ref.dy};
+    const std::span<const glm::vec3> probes = probe_positions(nk);
+    // The neighbour's probes in this sector's frame: x, y shifted by whole sectors, z is world z.
+    const glm::vec3 shift(float(ref.dx * kSectorSizeM), float(ref.dy * kSectorSizeM), 0.f);
+    auto d2 = [&](size_t i) {
+      const glm::vec3 d = probes[i] + shift - assumed[j];
+      return glm::dot(d, d);
+    };
+    if (ref.probe < probes.size() && d2(ref.probe) <= tol2) continue;
+    size_t best = probes.size();
+    for (size_t i = 0; i < probes.size(); ++i)
+      if (d2(i) <= tol2 && (best == probes.size() || d2(i) < d2(best))) best = i;
+    if (best == probes.size())
+      return fail(where + "bug: LPRT source " + std::to_string(j) + " was baked for a probe of sector " + toString(nk) + " at (" +
+                  std::to_string(assumed[j].x) + ", " + std::to_string(assumed[j].y) + ", " + std::to_string(assumed[j].z) +
+                  ") in this sector's frame, and that sector has no probe there");
+    ref.probe = uint8_t(best);
+    ++reindexed;
+  }
+  return reindexed;
 }
 
 fs::path sectorDirectory(const fs::path& archive) { return fs::path(archive.string() + ".sectors"); }
@@ -444,7 +479,13 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
       return;
     }
     const std::vector<uint8_t> bytes = encodeSector(*sector);
-    const std::string js = toJson(st).dump();
+    nlohmann::json record = toJson(st);
+    if (!st.lprt_source_positions.empty()) {
+      nlohmann::json& a = record["lprt_source_positions"] = nlohmann::json::array();
+      for (const glm::vec3& p : st.lprt_source_positions) a.push_back({p.x, p.y, p.z});
+    }
+    const std::string js = record.dump();
+    st.lprt_source_positions.clear();  // the report does not carry them
     std::lock_guard lock(mutex);
     if (auto w = writer->append(keys[i], js, bytes); !w) {
       errors[t] = w.error();
@@ -473,19 +514,58 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
     writer.reset();  // closes (and unlocks) this shard's journal
     auto entries = detail::scanJournals(dir);
     if (!entries) return std::unexpected(entries.error());
+    for (size_t i = 0; i < keys.size(); ++i)
+      if (entries->find(keys[i]) == entries->end())
+        return fail(dir.string() + ": sector " + toString(keys[i]) + " is missing from the journals it was written to");
+    auto sectorOf = [&](size_t i) -> Result<std::pair<std::vector<uint8_t>, Sector>> {
+      const detail::JournalEntry& e = entries->at(keys[i]);
+      auto bytes = detail::readSector(e);
+      if (!bytes) return std::unexpected(bytes.error());
+      auto decoded = decodeSector(*bytes, e.file.string() + " sector " + toString(keys[i]));
+      if (!decoded) return std::unexpected(decoded.error());
+      return std::pair{std::move(*bytes), std::move(*decoded)};
+    };
+    // With LPRT, every source must name the probe its sector baked for (reconcileLprtSources):
+    // first every sector's probe positions, then each sector checked as it is packed.
+    std::map<SectorKey, std::vector<glm::vec3>> probe_positions;
+    if (effects & kEffectLocalLights)
+      for (size_t i = 0; i < keys.size(); ++i) {
+        auto s = sectorOf(i);
+        if (!s) return std::unexpected(s.error());
+        std::vector<glm::vec3>& p = probe_positions[keys[i]];
+        for (const ProbeRecord& r : s->second.probes) p.emplace_back(r.position[0], r.position[1], r.position[2]);
+      }
     auto out = ArchiveWriter::create(archive, report.settings.zstd_level);
     if (!out) return std::unexpected(out.error());
     report.sectors_empty = 0;
+    size_t reindexed = 0;
     for (size_t i = 0; i < keys.size(); ++i) {
-      const auto entry = entries->find(keys[i]);
-      if (entry == entries->end()) return fail(dir.string() + ": sector " + toString(keys[i]) + " is missing from the journals it was written to");
-      auto bytes = detail::readSector(entry->second);
-      if (!bytes) return std::unexpected(bytes.error());
-      auto decoded = decodeSector(*bytes, entry->second.file.string() + " sector " + toString(keys[i]));
-      if (!decoded) return std::unexpected(decoded.error());
+      auto s = sectorOf(i);
+      if (!s) return std::unexpected(s.error());
+      std::vector<uint8_t>* bytes = &s->first;
+      Sector* decoded = &s->second;
       if (decoded->probes.empty()) {
         ++report.sectors_empty;
         continue;
+      }
+      if (!decoded->lprt.sources.empty()) {
+        std::vector<glm::vec3> assumed;
+        if (auto j = detail::readStats(entries->at(keys[i])); j) {
+          const auto parsed = nlohmann::json::parse(j->begin(), j->end(), nullptr, false);
+          if (!parsed.is_discarded() && parsed.contains("lprt_source_positions") && parsed["lprt_source_positions"].is_array())
+            for (const auto& p : parsed["lprt_source_positions"])
+              if (p.is_array() && p.size() == 3 && p[0].is_number() && p[1].is_number() && p[2].is_number())
+                assumed.emplace_back(p[0].get<float>(), p[1].get<float>(), p[2].get<float>());
+        }
+        auto fixed = reconcileLprtSources(*decoded, assumed, [&](SectorKey k) -> std::span<const glm::vec3> {
+          const auto it = probe_positions.find(k);
+          return it == probe_positions.end() ? std::span<const glm::vec3>() : std::span<const glm::vec3>(it->second);
+        });
+        if (!fixed) return std::unexpected(fixed.error().context(world_name));
+        if (*fixed > 0) {
+          reindexed += *fixed;
+          *bytes = encodeSector(*decoded);
+        }
       }
       // A resumed sector's stats may be missing: take the counts from the bytes themselves.
       SectorStats& st = *std::find_if(report.sectors.begin(), report.sectors.end(), [&](const SectorStats& s) { return s.key == keys[i]; });
@@ -506,6 +586,8 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
     m.lights = world.lights;
     m.interiors = world.interiors;
     if (auto f = out->finish(m); !f) return std::unexpected(f.error());
+    if (reindexed > 0)
+      report.notes.push_back(std::to_string(reindexed) + " LPRT sources named a neighbour's probe by another index than that sector gave it; re-indexed at packing");
     report.packed = true;
     report.pack_s = since(t0);
     if (!options.keep_sector_files) fs::remove_all(dir, ec);

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <map>
 
 #include "drtv/baker/bake.h"
 #include "drtv/baker/placement.h"
@@ -144,6 +145,8 @@ TEST(Bake, LprtSourcesNameTheNeighboursOwnProbes) {
   const worlds::World world = litWorld();
   auto r = bake(world, "lit", dir.path / "a.drtv", draft());
   ASSERT_TRUE(r) << r.error().message;
+  // The packer checked every source against its neighbour (reconcileLprtSources): none was off.
+  for (const std::string& note : r->notes) EXPECT_EQ(note.find("LPRT"), std::string::npos) << note;
   auto reader = ArchiveReader::open(dir.path / "a.drtv");
   ASSERT_TRUE(reader);
   auto geometry = WorldGeometry::build(world, "lit");
@@ -401,6 +404,42 @@ TEST(Bake, ReportsSayWhatWasBakedAndSkipped) {
   const std::string text(json.begin(), json.end());
   for (const char* key : {"\"per_sector\"", "\"invalid_dropped\"", "\"without_lprt\"", "\"per_second_wall\"", "\"skipped\"", "\"index_grid\""})
     EXPECT_NE(text.find(key), std::string::npos) << key;
+}
+
+// The packer's check of LPRT source indices, on a hand-made sector: sources baked for probes of
+// the east and south neighbours. Indices that name those probes pass; an index that names another
+// probe is re-indexed to the probe at the position the source was baked for; no probe there (or
+// positions not matching the sources) is an error.
+TEST(Bake, LprtSourceIndicesAreCheckedAndReindexedAtPacking) {
+  std::map<SectorKey, std::vector<glm::vec3>> probes;
+  probes[{1, 0}] = {{10.f, 10.f, 3.f}, {30.f, 12.f, 4.f}, {5.f, 50.f, 2.f}};
+  probes[{0, -1}] = {{40.f, 60.f, 1.5f}};
+  auto lookup = [&](SectorKey k) -> std::span<const glm::vec3> {
+    const auto it = probes.find(k);
+    return it == probes.end() ? std::span<const glm::vec3>() : std::span<const glm::vec3>(it->second);
+  };
+  Sector s;
+  s.key = {0, 0};
+  s.lprt.sources = {{1, 0, 2}, {0, -1, 0}};
+  // In sector (0,0)'s frame: x + 64 for the east neighbour, y - 64 for the south one.
+  const std::vector<glm::vec3> assumed = {{69.f, 50.f, 2.f}, {40.f, -4.f, 1.5f}};
+  auto ok = reconcileLprtSources(s, assumed, lookup);
+  ASSERT_TRUE(ok) << ok.error().message;
+  EXPECT_EQ(*ok, 0u);
+
+  s.lprt.sources[0].probe = 1;  // names the wrong probe of (1,0)
+  auto fixed = reconcileLprtSources(s, assumed, lookup);
+  ASSERT_TRUE(fixed) << fixed.error().message;
+  EXPECT_EQ(*fixed, 1u);
+  EXPECT_EQ(s.lprt.sources[0].probe, 2);
+  EXPECT_EQ(s.lprt.sources[1].probe, 0);
+
+  std::vector<glm::vec3> moved = assumed;
+  moved[1].x += 0.5f;  // no probe of (0,-1) there
+  auto bad = reconcileLprtSources(s, moved, lookup);
+  ASSERT_FALSE(bad);
+  EXPECT_NE(bad.error().message.find("sector (0,-1) at"), std::string::npos) << bad.error().message;
+  EXPECT_FALSE(reconcileLprtSources(s, std::span(assumed).first(1), lookup));
 }
 
 // The report's ray counts are what the bake really cast: every query on any scene is logged

@@ -23,6 +23,7 @@
 #include <filesystem>
 #include <functional>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -81,6 +82,9 @@ struct SectorStats {
   uint64_t other_rays = 0;              // ground map, LPRT neighbour placement
   double gather_s = 0, build_s = 0, placement_s = 0, transfer_s = 0, grid_s = 0, total_s = 0;
   bool resumed = false;                 // read back from a sector file of an earlier run
+  // Where this sector placed its LPRT sources (its frame), in source order: the packer checks
+  // that each source's (dx, dy, probe) names a probe there. In the journal, not in reports.
+  std::vector<glm::vec3> lprt_source_positions;
   uint64_t rays() const {
     return placement.rays + transfer.probe_rays + transfer.surfel_rays + transfer.lprt_rays + grid.rays + other_rays;
   }
@@ -116,6 +120,17 @@ struct BakeReport {
   double geometry_s = 0, bake_s = 0, pack_s = 0, wall_s = 0;
   bool packed = false;                   // the archive was written (false for a shard)
 };
+
+// An LPRT source names a neighbour's probe by index, and a sector finds its sources by placing
+// its neighbours again in its own scene (bake.cpp). Checks that each source of `sector` names the
+// probe the sector baked for: the neighbour's probe `ref.probe` must lie within
+// kLprtSourceToleranceM of `assumed[j]` (the sector's frame). A source whose index is off while a
+// probe of that neighbour lies there is re-indexed (the count is returned); one with no probe
+// there, or `assumed` not matching the sources, is an error naming the sector (a baker bug).
+// `probe_positions(key)`: the probe positions of sector `key` in its own frame (empty: none).
+inline constexpr float kLprtSourceToleranceM = 0.01f;
+Result<size_t> reconcileLprtSources(Sector& sector, std::span<const glm::vec3> assumed,
+                                    const std::function<std::span<const glm::vec3>(SectorKey)>& probe_positions);
 
 // Bakes one sector in memory (no files). `effects` from effectsToBake. Thread-safe; uses TBB.
 Result<Sector> bakeSector(const WorldGeometry& geometry, const worlds::World& world, SectorKey key,

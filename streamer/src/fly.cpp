@@ -133,6 +133,7 @@ Result<FlyResult> fly(Streamer& streamer, const CatmullRomPath& path, const FlyO
   r.loop = path.closed();
   r.waypoints = path.waypoints();
   r.max_bytes = streamer.maxBytes();
+  r.io_working_bytes = streamer.ioWorkingBytes();
 
   std::unique_ptr<runtime::Runtime> rt;
   if (o.runtime) {
@@ -312,7 +313,7 @@ Result<void> writeFlyReport(const FlyResult& r, const std::filesystem::path& dir
   for (const auto& w : r.waypoints) wps.push_back({w.x, w.y, w.z});
   j["path"] = {{"length_m", r.path_length_m}, {"loop", r.loop}, {"waypoints", wps}};
   j["budget"] = {{"max_sectors", r.streamer.residency.max_sectors}, {"max_bytes", r.max_bytes},
-                 {"volume_bytes", r.volume_bytes}};
+                 {"volume_bytes", r.volume_bytes}, {"io_working_bytes", r.io_working_bytes}};
   j["summary"] = {{"frames", s.frames},
                   {"max_resident", s.max_resident},
                   {"max_resident_bytes", s.max_resident_bytes},
@@ -376,6 +377,9 @@ Result<void> writeFlyReport(const FlyResult& r, const std::filesystem::path& dir
   std::snprintf(buf, sizeof buf, "| resident + in-flight bytes, max | %zu | <= %zu |\n", s.max_reserved_bytes, r.max_bytes);
   md << buf;
   std::snprintf(buf, sizeof buf, "| volume textures (runtime) | %zu B | on top |\n", r.volume_bytes);
+  md << buf;
+  std::snprintf(buf, sizeof buf, "| loads' transient I/O buffers, at most | %zu B (readers x largest compressed + raw sector) | on top |\n",
+                r.io_working_bytes);
   md << buf;
   std::snprintf(buf, sizeof buf, "| misses (sector-frames) | %lld in %lld frames | 0 |\n", (long long)s.misses,
                 (long long)s.frames_with_misses);

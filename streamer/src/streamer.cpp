@@ -433,6 +433,13 @@ std::vector<SectorKey> Streamer::residentKeys() const {
   return keys;
 }
 
+size_t Streamer::ioWorkingBytes() const {
+  size_t largest = 0;
+  for (const SectorEntry& e : manifest_.sectors) largest = std::max(largest, size_t(e.compressed_bytes) + size_t(e.raw_bytes));
+  const size_t readers = options_.io_mode == IoMode::kThreads ? size_t(options_.io_threads) : 1;
+  return readers * largest;
+}
+
 size_t Streamer::residentBytes() const {
   size_t n = 0;
   for (const Slot& s : slots_)

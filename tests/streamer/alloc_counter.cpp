@@ -10,6 +10,7 @@ namespace {
 
 std::atomic<int64_t> g_live{0};
 std::atomic<int64_t> g_count{0};
+std::atomic<int64_t> g_peak{0};
 constexpr size_t kHeader = 16;  // keeps the default new alignment (16 on x86-64)
 
 void* allocate(size_t n, size_t align) {
@@ -18,7 +19,10 @@ void* allocate(size_t n, size_t align) {
   if (!raw) return nullptr;
   auto* p = static_cast<unsigned char*>(raw) + header;
   reinterpret_cast<size_t*>(p)[-1] = n;
-  g_live.fetch_add(int64_t(n), std::memory_order_relaxed);
+  const int64_t live = g_live.fetch_add(int64_t(n), std::memory_order_relaxed) + int64_t(n);
+  int64_t peak = g_peak.load(std::memory_order_relaxed);
+  while (live > peak && !g_peak.compare_exchange_weak(peak, live, std::memory_order_relaxed)) {
+  }
   g_count.fetch_add(1, std::memory_order_relaxed);
   return p;
 }
@@ -41,6 +45,8 @@ void* allocateOrThrow(size_t n, size_t align) {
 namespace drtv::testing {
 int64_t liveHeapBytes() { return g_live.load(); }
 int64_t heapAllocations() { return g_count.load(); }
+int64_t heapPeakBytes() { return g_peak.load(); }
+void resetHeapPeak() { g_peak.store(g_live.load()); }
 }  // namespace drtv::testing
 
 void* operator new(size_t n) { return allocateOrThrow(n, 0); }

@@ -12,5 +12,8 @@ namespace drtv::testing {
 int64_t liveHeapBytes();
 // Number of operator new calls since start-up.
 int64_t heapAllocations();
+// The most liveHeapBytes() has been since the last resetHeapPeak() (which sets it to now).
+int64_t heapPeakBytes();
+void resetHeapPeak();
 
 }  // namespace drtv::testing

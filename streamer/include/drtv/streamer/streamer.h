@@ -186,6 +186,11 @@ class Streamer {
   double retryAtS(SectorKey key) const;                    // kBackingOff: when; else 0
   std::vector<SectorKey> residentKeys() const;             // sorted
   size_t residentBytes() const;                            // as FrameStats::resident_bytes
+  // The most the loads' transient buffers can hold at once, outside the sector budget: a load
+  // holds its compressed bytes and the decompressed payload only while it runs, so at most one
+  // per reader runs (io_threads; 1 in kDeterministic mode, where it runs inside update()):
+  // readers x the archive's largest (compressed + raw) sector.
+  size_t ioWorkingBytes() const;
   bool idle() const;                                       // no load queued or running
   const std::deque<SectorFailure>& failures() const { return failures_; }  // oldest first
   uint64_t totalLoads() const { return total_loads_; }

@@ -147,6 +147,15 @@ BENCHMARK(BM_ScrollOneTexelZ)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_ScrollOneTexelXSmooth)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_ScrollOneTexelXBlurred)->Unit(benchmark::kMicrosecond);
 
+// The z goal's trade (docs/runtime.md): a z slab is 1/(depth - 1) of the texels, so a one-texel z
+// scroll reaches 1/50 of a refill only with >= 51 layers. The same texel size, 64 layers (4x
+// the memory): the refill and the z scroll side by side.
+constexpr VolumeOptions kDeep{.size = {96, 96, 64}};
+void BM_FullRefillNearestDeep64(benchmark::State& state) { fullRefill(state, kDeep); }
+void BM_ScrollOneTexelZDeep64(benchmark::State& state) { scrollOne(state, 2, kDeep); }
+BENCHMARK(BM_FullRefillNearestDeep64)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_ScrollOneTexelZDeep64)->Unit(benchmark::kMicrosecond);
+
 std::vector<std::pair<glm::dvec3, glm::vec3>> lookupPoints() {
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> u(-80.0, 80.0), h(2.0, 25.0);

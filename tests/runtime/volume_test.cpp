@@ -18,7 +18,9 @@ ProbeCache makeWorld(uint32_t seed = 1) {
   ProbeCache cache;
   for (int y = -2; y <= 2; ++y)
     for (int x = -2; x <= 2; ++x)
-      if (!(x == 1 && y == 1)) EXPECT_TRUE(cache.addSector(testing::makeSector({x, y}, {.no_probe_fraction = 0.2f}, seed)));
+      if (!(x == 1 && y == 1)) {
+        EXPECT_TRUE(cache.addSector(testing::makeSector({x, y}, {.no_probe_fraction = 0.2f}, seed)));
+      }
   const SkyLighting s = evaluateSky(Sky::tropicalDefault(), 10.0);
   cache.relightAll({s.sky_sh, s.sun_sh, s.sky_direct_sh, {}, kAllComponents});
   cache.setFallback({glm::vec3(0.1f, 0.2f, 0.3f), glm::vec3(0.1f, 0.2f, 0.3f), glm::vec3(0.1f, 0.2f, 0.3f), glm::vec3(0.05f)});

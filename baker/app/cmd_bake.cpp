@@ -117,7 +117,7 @@ Result<void> runBake(const BakeCliOptions& o) {
     std::printf("baked %s: %zu sectors, %zu probes, %.1f M rays in %.2f s -> %s\n", o.world.c_str(), sectors, probes,
                 double(rays) / 1e6, report->wall_s, o.output.c_str());
   else
-    std::printf("baked shard %s of %s: %zu sectors so far, %zu probes (sector files in %s; run --merge when all shards are done)\n",
+    std::printf("baked shard %s of %s: %zu sectors so far, %zu probes (sector journals in %s; run --merge when all shards are done)\n",
                 report->shard.c_str(), o.world.c_str(), sectors, probes, baker::sectorDirectory(archive).string().c_str());
   return {};
 }
@@ -133,8 +133,8 @@ Command registerBake(CLI::App& app) {
   sub->add_option("--quality", o->quality, "draft | default | high")->check(CLI::IsMember({"draft", "default", "high"}));
   sub->add_option("--sectors", o->sectors, "Only sectors x0:x1,y0:y1 (inclusive sector keys)");
   sub->add_option("--shard", o->shard, "Bake shard k of N (sectors i with i % N == k); pack later with --merge");
-  sub->add_flag("--merge", o->merge, "Pack the sector files all shards wrote into the archive");
-  sub->add_flag("--fresh", o->fresh, "Discard sector files left by a different bake");
+  sub->add_flag("--merge", o->merge, "Pack the sectors all shards wrote (their journals) into the archive");
+  sub->add_flag("--fresh", o->fresh, "Discard sector journals left by a different bake");
   sub->add_flag("--keep-sectors", o->keep_sectors, "Keep <archive>.sectors/ after packing");
   sub->add_option("--seed", o->seed, "Seed of every random number (default 1)");
   return {sub, [o]() { return runBake(*o); }};

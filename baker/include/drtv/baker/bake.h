@@ -97,8 +97,8 @@ struct BakeOptions {
   std::optional<SectorRange> sectors;    // bake only these sector keys (inclusive)
   int shard_index = 0, shard_count = 1;  // bake sectors i with i % count == index; no archive
                                          // unless count == 1 (then merge with merge_only)
-  bool merge_only = false;               // bake nothing: pack the sector files shards wrote
-  bool fresh = false;                    // discard sector files of a different bake
+  bool merge_only = false;               // bake nothing: pack the sectors the shards journaled
+  bool fresh = false;                    // discard sector journals of a different bake
   bool keep_sector_files = false;        // keep "<archive>.sectors/" after packing
   std::optional<BakeSettings> settings;  // overrides the quality preset (tests)
   // Called after each sector with (done, total), from one thread at a time. May be empty.
@@ -149,7 +149,7 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
 Result<void> writeReports(const BakeReport& report, const std::filesystem::path& json_path,
                           const std::filesystem::path& markdown_path);
 
-// "<archive>.sectors" — where sector files live while a bake runs.
+// "<archive>.sectors" — where the sector journals live while a bake runs.
 std::filesystem::path sectorDirectory(const std::filesystem::path& archive);
 
 }  // namespace drtv::baker

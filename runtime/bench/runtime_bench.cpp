@@ -146,6 +146,10 @@ BENCHMARK(BM_ScrollOneTexelY)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_ScrollOneTexelZ)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_ScrollOneTexelXSmooth)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_ScrollOneTexelXBlurred)->Unit(benchmark::kMicrosecond);
+void BM_ScrollOneTexelYBlurred(benchmark::State& state) { scrollOne(state, 1, {.blur = true}); }
+void BM_ScrollOneTexelZBlurred(benchmark::State& state) { scrollOne(state, 2, {.blur = true}); }
+BENCHMARK(BM_ScrollOneTexelYBlurred)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_ScrollOneTexelZBlurred)->Unit(benchmark::kMicrosecond);
 
 // The z goal's trade (docs/runtime.md): a z slab is 1/(depth - 1) of the texels, so a one-texel z
 // scroll reaches 1/50 of a refill only with >= 51 layers. The same texel size, 64 layers (4x

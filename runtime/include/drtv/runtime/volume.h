@@ -115,6 +115,7 @@ class Volume {
   void fillBox(const glm::ivec3& g0, const glm::ivec3& g1, const ProbeCache& cache);
   void fillBoxSmooth(const glm::ivec3& g0, const glm::ivec3& g1, const ProbeCache& cache);
   void blurBox(glm::ivec3 g0, glm::ivec3 g1);
+  void blurThinX(const glm::ivec3& g0, const glm::ivec3& b, const glm::ivec3& a0, const glm::ivec3& a);
   void writeRangeBox(const glm::ivec3& g0, const glm::ivec3& g1, const ProbeCache& cache);
   size_t physicalIndex(const glm::ivec3& s) const { return size_t(s.x) + size_t(options_.size.x) * (size_t(s.y) + size_t(options_.size.y) * s.z); }
 

@@ -34,8 +34,8 @@ constexpr float kGroundRayMarginM = 10.f;
 // Hits stepped through per ground ray (vegetation is passed through to reach the ground).
 constexpr int kMaxGroundHits = 128;
 // Version of what the sector journals hold; part of the resume fingerprint (2: journals instead
-// of a pair of files per sector).
-constexpr int kBakeFormat = 2;
+// of a pair of files per sector; 3: records keep their LPRT source positions for packing).
+constexpr int kBakeFormat = 3;
 
 std::string fmt(double v) {
   std::ostringstream s;
@@ -324,7 +324,7 @@ Result<Sector> bakeSector(const WorldGeometry& geometry, const worlds::World& wo
 }
 
 Result<size_t> reconcileLprtSources(Sector& sector, std::span<const glm::vec3> assumed,
-                                    const std::function<std::span<const glm::vec3>(SectorKey)>& probe_positions) {
+                                    const std::function<std::optional<std::span<const glm::vec3>>(SectorKey)>& probe_positions) {
   const std::string where = "sector " + toString(sector.key) + ": ";
   if (assumed.size() != sector.lprt.sources.size())
     return fail(where + "bug: " + std::to_string(sector.lprt.sources.size()) + " LPRT sources but " + std::to_string(assumed.size()) +
@@ -334,7 +334,9 @@ Result<size_t> reconcileLprtSources(Sector& sector, std::span<const glm::vec3> a
   for (size_t j = 0; j < assumed.size(); ++j) {
     LprtSource& ref = sector.lprt.sources[j];
     const SectorKey nk{sector.key.ix + ref.dx, sector.key.iy + ref.dy};
-    const std::span<const glm::vec3> probes = probe_positions(nk);
+    const std::optional<std::span<const glm::vec3>> in_bake = probe_positions(nk);
+    if (!in_bake) continue;  // a neighbour outside the baked range (--sectors): nothing to check
+    const std::span<const glm::vec3> probes = *in_bake;
     // The neighbour's probes in this sector's frame: x, y shifted by whole sectors, z is world z.
     const glm::vec3 shift(float(ref.dx * kSectorSizeM), float(ref.dy * kSectorSizeM), 0.f);
     auto d2 = [&](size_t i) {
@@ -550,16 +552,17 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
       }
       if (!decoded->lprt.sources.empty()) {
         std::vector<glm::vec3> assumed;
-        if (auto j = detail::readStats(entries->at(keys[i])); j) {
-          const auto parsed = nlohmann::json::parse(j->begin(), j->end(), nullptr, false);
-          if (!parsed.is_discarded() && parsed.contains("lprt_source_positions") && parsed["lprt_source_positions"].is_array())
-            for (const auto& p : parsed["lprt_source_positions"])
-              if (p.is_array() && p.size() == 3 && p[0].is_number() && p[1].is_number() && p[2].is_number())
-                assumed.emplace_back(p[0].get<float>(), p[1].get<float>(), p[2].get<float>());
-        }
-        auto fixed = reconcileLprtSources(*decoded, assumed, [&](SectorKey k) -> std::span<const glm::vec3> {
+        auto j = detail::readStats(entries->at(keys[i]));
+        if (!j) return std::unexpected(j.error());
+        const auto parsed = nlohmann::json::parse(j->begin(), j->end(), nullptr, false);
+        if (!parsed.is_discarded() && parsed.contains("lprt_source_positions") && parsed["lprt_source_positions"].is_array())
+          for (const auto& p : parsed["lprt_source_positions"])
+            if (p.is_array() && p.size() == 3 && p[0].is_number() && p[1].is_number() && p[2].is_number())
+              assumed.emplace_back(p[0].get<float>(), p[1].get<float>(), p[2].get<float>());
+        auto fixed = reconcileLprtSources(*decoded, assumed, [&](SectorKey k) -> std::optional<std::span<const glm::vec3>> {
           const auto it = probe_positions.find(k);
-          return it == probe_positions.end() ? std::span<const glm::vec3>() : std::span<const glm::vec3>(it->second);
+          if (it == probe_positions.end()) return std::nullopt;
+          return std::span<const glm::vec3>(it->second);
         });
         if (!fixed) return std::unexpected(fixed.error().context(world_name));
         if (*fixed > 0) {

@@ -10,6 +10,7 @@
 #include <system_error>
 
 #include <xxhash.h>
+#define ZSTD_STATIC_LINKING_ONLY  // ZSTD_estimateDCtxSize (exported by the shared library too)
 #include <zstd.h>
 
 #include "bytes.h"
@@ -315,6 +316,8 @@ Result<std::vector<uint8_t>> zstdDecompress(std::span<const uint8_t> frame, size
   if (n != raw_bytes) return fail(where + ": zstd frame holds " + std::to_string(n) + " bytes, the manifest says " + std::to_string(raw_bytes));
   return out;
 }
+
+size_t zstdContextBytes() { return ZSTD_estimateDCtxSize(); }
 
 Result<Manifest> decodeArchiveHeaderAndManifest(std::span<const uint8_t> file, const std::string& where) {
   auto header = parseHeader(file.first(std::min(file.size(), kArchiveHeaderBytes)), file.size(), where);

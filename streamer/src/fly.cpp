@@ -378,7 +378,7 @@ Result<void> writeFlyReport(const FlyResult& r, const std::filesystem::path& dir
   md << buf;
   std::snprintf(buf, sizeof buf, "| volume textures (runtime) | %zu B | on top |\n", r.volume_bytes);
   md << buf;
-  std::snprintf(buf, sizeof buf, "| loads' transient I/O buffers, at most | %zu B (readers x largest compressed + raw sector) | on top |\n",
+  std::snprintf(buf, sizeof buf, "| loads' working memory, at most | %zu B (readers x (largest compressed + raw sector + zstd context)) | on top |\n",
                 r.io_working_bytes);
   md << buf;
   std::snprintf(buf, sizeof buf, "| misses (sector-frames) | %lld in %lld frames | 0 |\n", (long long)s.misses,

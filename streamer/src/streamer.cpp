@@ -433,12 +433,19 @@ std::vector<SectorKey> Streamer::residentKeys() const {
   return keys;
 }
 
-size_t Streamer::ioWorkingBytes() const {
+namespace {
+size_t readers(const StreamerOptions& o) {
+  return o.io_mode == IoMode::kThreads ? size_t(std::min(o.io_threads, o.max_in_flight)) : 1;
+}
+}  // namespace
+
+size_t Streamer::ioBufferBytes() const {
   size_t largest = 0;
   for (const SectorEntry& e : manifest_.sectors) largest = std::max(largest, size_t(e.compressed_bytes) + size_t(e.raw_bytes));
-  const size_t readers = options_.io_mode == IoMode::kThreads ? size_t(options_.io_threads) : 1;
-  return readers * largest;
+  return readers(options_) * largest;
 }
+
+size_t Streamer::ioWorkingBytes() const { return ioBufferBytes() + readers(options_) * zstdContextBytes(); }
 
 size_t Streamer::residentBytes() const {
   size_t n = 0;

@@ -414,9 +414,10 @@ TEST(Bake, LprtSourceIndicesAreCheckedAndReindexedAtPacking) {
   std::map<SectorKey, std::vector<glm::vec3>> probes;
   probes[{1, 0}] = {{10.f, 10.f, 3.f}, {30.f, 12.f, 4.f}, {5.f, 50.f, 2.f}};
   probes[{0, -1}] = {{40.f, 60.f, 1.5f}};
-  auto lookup = [&](SectorKey k) -> std::span<const glm::vec3> {
+  auto lookup = [&](SectorKey k) -> std::optional<std::span<const glm::vec3>> {
     const auto it = probes.find(k);
-    return it == probes.end() ? std::span<const glm::vec3>() : std::span<const glm::vec3>(it->second);
+    if (it == probes.end()) return std::nullopt;  // outside the bake: not checked
+    return std::span<const glm::vec3>(it->second);
   };
   Sector s;
   s.key = {0, 0};
@@ -440,6 +441,26 @@ TEST(Bake, LprtSourceIndicesAreCheckedAndReindexedAtPacking) {
   ASSERT_FALSE(bad);
   EXPECT_NE(bad.error().message.find("sector (0,-1) at"), std::string::npos) << bad.error().message;
   EXPECT_FALSE(reconcileLprtSources(s, std::span(assumed).first(1), lookup));
+
+  probes[{0, -1}].clear();  // in the bake, without probes: the source names nothing
+  EXPECT_FALSE(reconcileLprtSources(s, assumed, lookup));
+  probes.erase({0, -1});  // outside the bake (--sectors): not checked
+  auto outside = reconcileLprtSources(s, moved, lookup);
+  ASSERT_TRUE(outside) << outside.error().message;
+  EXPECT_EQ(*outside, 0u);
+}
+
+// A lit world baked in part (--sectors): the edge sectors' sources in neighbours outside the
+// range cannot be checked, and packing must not call that a bug.
+TEST(Bake, ALitWorldBakesInPart) {
+  TempDir dir;
+  BakeOptions o = draft();
+  o.sectors = SectorRange{0, 0, 0, 0};
+  auto r = bake(litWorld(), "lit", dir.path / "part.drtv", o);
+  ASSERT_TRUE(r) << r.error().message;
+  EXPECT_TRUE(r->packed);
+  ASSERT_EQ(r->sectors.size(), 1u);
+  EXPECT_GT(r->sectors[0].lprt_sources, r->sectors[0].probes);  // it has neighbours' sources
 }
 
 // The report's ray counts are what the bake really cast: every query on any scene is logged

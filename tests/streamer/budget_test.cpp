@@ -26,7 +26,8 @@ class NullSink : public SectorSink {
 struct Measured {
   int64_t construction_bytes = 0;  // heap the streamer took before any sector (slots, scratch)
   int64_t transient_bytes = 0;     // max over updates of the heap's peak inside it above both ends
-  size_t io_working_bytes = 0;     // Streamer::ioWorkingBytes()
+  size_t io_buffer_bytes = 0;      // Streamer::ioBufferBytes() (operator new sees the buffers,
+                                   // not zstd's context, which is malloc'd once per reader)
   int64_t peak_sector_bytes = 0;   // max over frames of live heap minus that, at frame ends
   int64_t settled_bytes = 0;       // live heap minus construction at the end, all loads done
   size_t reported_bytes = 0;       // residentBytes() at the end
@@ -48,7 +49,7 @@ Measured flyAndMeasure(const std::filesystem::path& path, const Manifest& manife
   const glm::dvec3 a = manifest.bounds_min + glm::dvec3(20), b = manifest.bounds_max - glm::dvec3(20);
   const glm::dvec3 v = glm::normalize(glm::dvec3(b.x - a.x, b.y - a.y, 0)) * 100.0;
   double t = 0;
-  m.io_working_bytes = s->ioWorkingBytes();
+  m.io_buffer_bytes = s->ioBufferBytes();
   for (glm::dvec3 p = a; glm::dot(b - p, v) > 0; p += v * kFrameS, t += kFrameS) {
     const int64_t before_update = testing::liveHeapBytes();
     testing::resetHeapPeak();
@@ -78,10 +79,10 @@ void expectFullAndWithin(const Measured& m, size_t budget, const char* what) {
   EXPECT_LE(m.peak_sector_bytes, int64_t(budget)) << what;
   EXPECT_LE(m.construction_bytes, kMaxConstructionBytes) << what;
   // The loads' transient buffers: outside the sector budget, but within the bound the streamer
-  // states (one reader here: deterministic mode), and really used (the bound is not slack).
-  EXPECT_GT(m.transient_bytes, 0) << what;
-  EXPECT_LE(m.transient_bytes, int64_t(m.io_working_bytes) + kBookkeepingBytes) << what;
-  std::printf("%s: transient I/O buffers at most %lld B, stated bound %zu B\n", what, (long long)m.transient_bytes, m.io_working_bytes);
+  // states (one reader here: deterministic mode), and reached (the bound is not slack).
+  EXPECT_GE(m.transient_bytes, int64_t(m.io_buffer_bytes) * 9 / 10) << what;
+  EXPECT_LE(m.transient_bytes, int64_t(m.io_buffer_bytes) + kBookkeepingBytes) << what;
+  std::printf("%s: transient I/O buffers at most %lld B, stated bound %zu B\n", what, (long long)m.transient_bytes, m.io_buffer_bytes);
   const int64_t sectors = int64_t(m.reported_bytes) - int64_t(m.resident * sizeof(OcclusionTile));
   EXPECT_LE(sectors, m.settled_bytes) << what;
   EXPECT_LE(m.settled_bytes, sectors + kBookkeepingBytes) << what;

@@ -127,10 +127,12 @@ struct BakeReport {
 // kLprtSourceToleranceM of `assumed[j]` (the sector's frame). A source whose index is off while a
 // probe of that neighbour lies there is re-indexed (the count is returned); one with no probe
 // there, or `assumed` not matching the sources, is an error naming the sector (a baker bug).
-// `probe_positions(key)`: the probe positions of sector `key` in its own frame (empty: none).
+// `probe_positions(key)`: the probe positions of sector `key` in its own frame (empty: a sector
+// of the bake without probes); nullopt for a sector outside the bake (--sectors), whose sources
+// are not checked.
 inline constexpr float kLprtSourceToleranceM = 0.01f;
 Result<size_t> reconcileLprtSources(Sector& sector, std::span<const glm::vec3> assumed,
-                                    const std::function<std::span<const glm::vec3>(SectorKey)>& probe_positions);
+                                    const std::function<std::optional<std::span<const glm::vec3>>(SectorKey)>& probe_positions);
 
 // Bakes one sector in memory (no files). `effects` from effectsToBake. Thread-safe; uses TBB.
 Result<Sector> bakeSector(const WorldGeometry& geometry, const worlds::World& world, SectorKey key,

@@ -135,7 +135,10 @@ Result<Manifest> decodeArchiveHeaderAndManifest(std::span<const uint8_t> file_by
 // Reads the version of an archive file (after checking its magic).
 Result<uint32_t> peekArchiveVersion(const std::filesystem::path& path);
 
-// Decompresses a zstd frame whose decompressed size must equal `raw_bytes` exactly.
+// Decompresses a zstd frame whose decompressed size must equal `raw_bytes` exactly. Each thread
+// that calls it keeps one decompression context (zstdContextBytes(), from malloc) for its life.
 Result<std::vector<uint8_t>> zstdDecompress(std::span<const uint8_t> frame, size_t raw_bytes, const std::string& where);
+// The size of that per-thread context (ZSTD_estimateDCtxSize).
+size_t zstdContextBytes();
 
 }  // namespace drtv

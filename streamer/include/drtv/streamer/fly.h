@@ -86,7 +86,7 @@ struct FlyResult {
   std::vector<SectorFailure> failures;
   size_t max_bytes = 0;             // the streamer's byte budget
   size_t volume_bytes = 0;          // the runtime's 3 RGBA8 textures (0 without runtime)
-  size_t io_working_bytes = 0;      // the loads' transient buffers at most (Streamer::ioWorkingBytes)
+  size_t io_working_bytes = 0;      // the loads' working memory at most (Streamer::ioWorkingBytes)
   uint64_t total_loads = 0, total_evictions = 0;
 };
 

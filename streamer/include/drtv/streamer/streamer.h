@@ -186,11 +186,14 @@ class Streamer {
   double retryAtS(SectorKey key) const;                    // kBackingOff: when; else 0
   std::vector<SectorKey> residentKeys() const;             // sorted
   size_t residentBytes() const;                            // as FrameStats::resident_bytes
-  // The most the loads' transient buffers can hold at once, outside the sector budget: a load
-  // holds its compressed bytes and the decompressed payload only while it runs, so at most one
-  // per reader runs (io_threads; 1 in kDeterministic mode, where it runs inside update()):
-  // readers x the archive's largest (compressed + raw) sector.
+  // The most the loads' working memory can hold at once, outside the sector budget: a load holds
+  // its compressed bytes and the decompressed payload only while it runs, one load per reader
+  // (min(io_threads, max_in_flight); 1 in kDeterministic mode, where loads run inside update()),
+  // and each reader keeps one zstd context for its life (zstdContextBytes()):
+  // readers x (the archive's largest compressed + raw sector + the zstd context).
   size_t ioWorkingBytes() const;
+  // The buffers' part of it alone (no zstd context): readers x largest compressed + raw sector.
+  size_t ioBufferBytes() const;
   bool idle() const;                                       // no load queued or running
   const std::deque<SectorFailure>& failures() const { return failures_; }  // oldest first
   uint64_t totalLoads() const { return total_loads_; }

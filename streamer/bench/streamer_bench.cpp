@@ -8,7 +8,6 @@
 #include <cstdlib>
 #include <filesystem>
 #include <optional>
-#include <random>
 
 #include <benchmark/benchmark.h>
 #include <unistd.h>
@@ -16,32 +15,16 @@
 
 #include "drtv/formats/archive.h"
 #include "drtv/streamer/streamer.h"
+#include "test_sectors.h"
 
 namespace drtv::streamer {
 namespace {
 
+// The formats tests' sector (testing::makeSector), with an index grid made of runs as a baked
+// nearest-probe grid is (compresses 4-7x, DESIGN.md) instead of noise, so that zstd does real work.
 Sector makeSector(SectorKey key, int probes, uint32_t seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<float> u(0.f, 1.f);
-  Sector s;
-  s.key = key;
-  for (int i = 0; i < probes; ++i) {
-    ProbeData p;
-    p.position = {64.f * u(rng), 64.f * u(rng), 10.f + 30.f * u(rng)};
-    for (auto& c : p.prt)
-      for (auto& b : c)
-        for (int k = 0; k < 4; ++k) b[k] = u(rng) - 0.3f;
-    for (int b = 0; b < 3; ++b) p.sky_vis[b] = u(rng);
-    p.height_m = 2.f * u(rng);
-    s.probes.push_back(packProbe(p));
-  }
-  s.grid.z_min_m = 5.f;
-  s.grid.cell_height_m = 3.f;
-  // A nearest-probe grid is made of runs (compresses 4-7x, DESIGN.md), not noise.
+  Sector s = testing::makeSector(key, probes, 0, seed);
   for (int i = 0; i < kGridCells; ++i) s.grid.cells[i] = uint8_t((i / 37) % probes);
-  s.has_ground = true;
-  s.ground_z_max_m = 20.f;
-  for (int i = 0; i < 64; ++i) s.ground[i] = uint16_t(i * 1000);
   return s;
 }
 

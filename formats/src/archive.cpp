@@ -403,17 +403,25 @@ Result<std::vector<uint8_t>> ArchiveReader::readSectorBytes(SectorKey key) const
   return zstdDecompress(*compressed, e->raw_bytes, impl_->name + ": sector " + toString(key));
 }
 
-Result<Sector> ArchiveReader::readSector(SectorKey key) const {
-  auto raw = readSectorBytes(key);
+Result<Sector> decodeSectorPayload(const SectorEntry& e, std::span<const uint8_t> compressed, const std::string& where) {
+  if (compressed.size() != e.compressed_bytes)
+    return fail(where + ": byte " + std::to_string(e.offset + compressed.size()) + ": short read: " + std::to_string(compressed.size()) +
+                " of " + std::to_string(e.compressed_bytes) + " bytes");
+  if (hash64(compressed) != e.hash) return fail(where + ": byte " + std::to_string(e.offset) + ": payload hash mismatch (corrupt)");
+  auto raw = zstdDecompress(compressed, e.raw_bytes, where);
   if (!raw) return std::unexpected(raw.error());
-  const std::string where = impl_->name + ": sector " + toString(key);
   auto sector = decodeSector(*raw, where);
   if (!sector) return sector;
-  if (sector->key != key) return fail(where + ": byte 8: payload holds sector " + toString(sector->key));
-  const SectorEntry* e = impl_->manifest.find(key);
-  if (sector->probes.size() != e->probes || sector->lprt.sources.size() != e->lprt_sources)
+  if (sector->key != e.key) return fail(where + ": byte 8: payload holds sector " + toString(sector->key));
+  if (sector->probes.size() != e.probes || sector->lprt.sources.size() != e.lprt_sources)
     return fail(where + ": payload counts differ from the manifest's");
   return sector;
+}
+
+Result<Sector> ArchiveReader::readSector(SectorKey key) const {
+  auto compressed = readCompressed(key);  // read and hash-checked
+  if (!compressed) return std::unexpected(compressed.error());
+  return decodeSectorPayload(*impl_->manifest.find(key), *compressed, impl_->name + ": sector " + toString(key));
 }
 
 Result<uint32_t> peekArchiveVersion(const std::filesystem::path& path) {

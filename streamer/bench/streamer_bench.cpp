@@ -53,8 +53,7 @@ World& world() {
 // What Streamer::load runs on an I/O thread for one sector: read + check + decode + validate + tile.
 OcclusionTile loadOne(FileSectorSource& file, const SectorEntry& e) {
   auto bytes = file.read(e);
-  auto raw = zstdDecompress(*bytes, e.raw_bytes, "bench");
-  auto sector = decodeSector(*raw, "bench");
+  auto sector = decodeSectorPayload(e, *bytes, "bench");
   auto owned = std::make_unique<Sector>(std::move(*sector));
   return runtime::makeOcclusionTile(*owned);
 }

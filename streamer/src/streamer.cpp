@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <chrono>
 
-#include <xxhash.h>
 
 namespace drtv::streamer {
 namespace {
@@ -84,31 +83,9 @@ Streamer::Done Streamer::load(const Job& job) const {
     d.error = bytes.error().message;
     return d;
   }
-  if (bytes->size() != e.compressed_bytes) {
-    d.error = where + ": byte " + std::to_string(e.offset + bytes->size()) + ": short read: " + std::to_string(bytes->size()) +
-              " of " + std::to_string(e.compressed_bytes) + " bytes";
-    return d;
-  }
-  if (XXH3_64bits(bytes->data(), bytes->size()) != e.hash) {
-    d.error = where + ": byte " + std::to_string(e.offset) + ": payload hash mismatch (corrupt)";
-    return d;
-  }
-  auto raw = zstdDecompress(*bytes, e.raw_bytes, where);
-  if (!raw) {
-    d.error = raw.error().message;
-    return d;
-  }
-  auto sector = decodeSector(*raw, where);
+  auto sector = decodeSectorPayload(e, *bytes, where);
   if (!sector) {
     d.error = sector.error().message;
-    return d;
-  }
-  if (sector->key != e.key) {
-    d.error = where + ": byte 8: payload holds sector " + toString(sector->key);
-    return d;
-  }
-  if (sector->probes.size() != e.probes || sector->lprt.sources.size() != e.lprt_sources) {
-    d.error = where + ": payload counts differ from the manifest's";
     return d;
   }
   d.sector = std::make_unique<Sector>(std::move(*sector));

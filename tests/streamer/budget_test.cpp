@@ -79,8 +79,10 @@ void expectFullAndWithin(const Measured& m, size_t budget, const char* what) {
   EXPECT_LE(m.peak_sector_bytes, int64_t(budget)) << what;
   EXPECT_LE(m.construction_bytes, kMaxConstructionBytes) << what;
   // The loads' transient buffers: outside the sector budget, but within the bound the streamer
-  // states (one reader here: deterministic mode), and reached (the bound is not slack).
-  EXPECT_GE(m.transient_bytes, int64_t(m.io_buffer_bytes) * 9 / 10) << what;
+  // states (one reader here: deterministic mode), and nearly reached (the bound is not slack):
+  // the decompressed payload is freed before the decoded sector's own block (4 KB of index grid)
+  // is allocated, so the peak above both ends is the buffers less about that block.
+  EXPECT_GE(m.transient_bytes, int64_t(m.io_buffer_bytes) - int64_t(sizeof(Sector)) - kBookkeepingBytes) << what;
   EXPECT_LE(m.transient_bytes, int64_t(m.io_buffer_bytes) + kBookkeepingBytes) << what;
   std::printf("%s: transient I/O buffers at most %lld B, stated bound %zu B\n", what, (long long)m.transient_bytes, m.io_buffer_bytes);
   const int64_t sectors = int64_t(m.reported_bytes) - int64_t(m.resident * sizeof(OcclusionTile));

@@ -141,4 +141,10 @@ Result<std::vector<uint8_t>> zstdDecompress(std::span<const uint8_t> frame, size
 // The size of that per-thread context (ZSTD_estimateDCtxSize).
 size_t zstdContextBytes();
 
+// The sector `entry` names, from its compressed payload as stored at entry.offset: the size and
+// XXH3 checked against the manifest, zstd, decodeSector, then the key and counts against the
+// manifest. `where` prefixes errors ("<archive>: sector (x,y)"). What ArchiveReader::readSector
+// and the streamer's loads both run; thread-safe.
+Result<Sector> decodeSectorPayload(const SectorEntry& entry, std::span<const uint8_t> compressed, const std::string& where);
+
 }  // namespace drtv

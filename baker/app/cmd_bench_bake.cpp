@@ -16,7 +16,6 @@
 #include "drtv/baker/bake.h"
 #include "drtv/baker/raw_rays.h"
 #include "drtv/baker/ray_scene.h"
-#include "drtv/formats/effects.h"
 #include "drtv/worlds/island.h"
 
 namespace drtv::app {
@@ -71,23 +70,20 @@ Result<void> runBench(const BenchOptions& o) {
       keys.push_back({r.x0 + (r.x1 - r.x0) * (2 * i + 1) / 16, r.y0 + (r.y1 - r.y0) * (2 * i + 1) / 16});
     auto raw = baker::measureRawRays(*geometry, keys, o.rays, report->settings.halo_m);
     if (!raw) return std::unexpected(raw.error());
-    // Embree alone on the bake's own rays: bake each of those sectors again with a ray log
-    // installed, then cast the logged calls again on the same sector's scene.
-    const bool lprt = (report->effects_baked & kEffectLocalLights) != 0;
+    // Embree alone on the bake's own rays: bake each of those sectors again in memory with a ray
+    // log installed, then cast the logged calls again on the same sector's scene.
     baker::ReplayFigures replay;
     uint64_t logged = 0, counted = 0;
     for (const SectorKey key : keys) {
       baker::RayLog log;
-      baker::BakeOptions one = bo;
-      one.sectors = baker::SectorRange{key.ix, key.ix, key.iy, key.iy};
-      one.fresh = true;
+      baker::SectorStats st;
       baker::setRayLog(&log);
-      auto again = baker::bake(*world, "island", dir / "replay.drtv", one);
+      auto again = baker::bakeSector(*geometry, *world, key, report->settings, report->effects_baked, st);
       baker::setRayLog(nullptr);
       if (!again) return std::unexpected(again.error());
-      for (const auto& s : again->sectors) counted += s.rays();
+      counted += st.rays();
       logged += log.rays.size();
-      const baker::SectorGeometry g = geometry->gather(key, lprt ? report->settings.lprt_halo_m : report->settings.halo_m);
+      const baker::SectorGeometry g = geometry->gather(key, baker::haloFor(report->settings, report->effects_baked));
       auto scene = baker::RayScene::build(g.vertices);
       if (!scene) return std::unexpected(scene.error());
       const baker::ReplayFigures f = baker::replayRays(*scene, log, 3);

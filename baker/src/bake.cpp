@@ -201,6 +201,10 @@ uint32_t effectsToBake(const worlds::World& world, std::vector<std::string>* ski
   return e;
 }
 
+double haloFor(const BakeSettings& settings, uint32_t effects) {
+  return (effects & kEffectLocalLights) ? settings.lprt_halo_m : settings.halo_m;
+}
+
 Result<Sector> bakeSector(const WorldGeometry& geometry, const worlds::World& world, SectorKey key,
                           const BakeSettings& settings, uint32_t effects, SectorStats& stats) {
   const auto t_start = Clock::now();
@@ -212,7 +216,7 @@ Result<Sector> bakeSector(const WorldGeometry& geometry, const worlds::World& wo
   ts.sky_visibility = (effects & kEffectDirectSky) != 0;
 
   auto t0 = Clock::now();
-  const SectorGeometry g = geometry.gather(key, lprt ? settings.lprt_halo_m : settings.halo_m);
+  const SectorGeometry g = geometry.gather(key, haloFor(settings, effects));
   stats.triangles = g.triangleCount();
   stats.gather_s = since(t0);
   t0 = Clock::now();

@@ -134,6 +134,10 @@ inline constexpr float kLprtSourceToleranceM = 0.01f;
 Result<size_t> reconcileLprtSources(Sector& sector, std::span<const glm::vec3> assumed,
                                     const std::function<std::optional<std::span<const glm::vec3>>(SectorKey)>& probe_positions);
 
+// The halo of geometry a sector is baked with: lprt_halo_m when local lights are baked (LPRT
+// sources sit in the neighbours), else halo_m.
+double haloFor(const BakeSettings& settings, uint32_t effects);
+
 // Bakes one sector in memory (no files). `effects` from effectsToBake. Thread-safe; uses TBB.
 Result<Sector> bakeSector(const WorldGeometry& geometry, const worlds::World& world, SectorKey key,
                           const BakeSettings& settings, uint32_t effects, SectorStats& stats);

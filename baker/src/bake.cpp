@@ -4,6 +4,7 @@
 
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
+#include <xxhash.h>
 
 #include <algorithm>
 #include <bit>
@@ -409,10 +410,13 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
   // The sector directory and its fingerprint: a resumed bake must be the same bake.
   const fs::path dir = sectorDirectory(archive);
   uint64_t fingerprint = hashKey(geometry->fingerprint(), effects, kBakeFormat);
-  for (const auto& [k, v] : report.settings.describe()) fingerprint = hashKey(fingerprint, std::hash<std::string>{}(k + "=" + v));
+  // Text hashed with XXH3, not std::hash: the stamp outlives the build (std::hash may change with
+  // the standard library, and a rebuilt drtv would then refuse to resume its own bake).
+  auto textHash = [](const std::string& t) { return uint64_t(XXH3_64bits(t.data(), t.size())); };
+  for (const auto& [k, v] : report.settings.describe()) fingerprint = hashKey(fingerprint, textHash(k + "=" + v));
   // Interiors decide probe flags and indices: every field, exactly (bit patterns, not text).
   for (const InteriorVolume& v : world.interiors) {
-    fingerprint = hashKey(fingerprint, std::hash<std::string>{}(v.name));
+    fingerprint = hashKey(fingerprint, textHash(v.name));
     for (const glm::dvec3& p : {v.probe_position, v.min, v.max})
       for (int a = 0; a < 3; ++a) fingerprint = hashKey(fingerprint, std::bit_cast<uint64_t>(p[a]));
     fingerprint = hashKey(fingerprint, uint64_t(std::bit_cast<uint32_t>(v.blend_distance_m)));

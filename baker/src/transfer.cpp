@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 
@@ -349,7 +350,9 @@ std::vector<ProbeData> bakeTransfer(const RayScene& scene, const SectorGeometry&
   // ---- LPRT: direct irradiance of each source at each level-1 surfel, then one bounce.
   t0 = Clock::now();
   std::vector<float> irradiance(level1 * S, 0.f);
+  std::atomic<uint64_t> lprt_rays{0};
   tbb::parallel_for(tbb::blocked_range<size_t>(0, level1, 16), [&](const tbb::blocked_range<size_t>& range) {
+    uint64_t cast = 0;
     std::vector<Ray> rays;
     std::vector<uint32_t> which;
     std::vector<float> value;
@@ -374,19 +377,13 @@ std::vector<ProbeData> bakeTransfer(const RayScene& scene, const SectorGeometry&
       }
       blocked.resize(rays.size());
       scene.occluded(rays, blocked);
+      cast += rays.size();
       for (size_t k = 0; k < rays.size(); ++k)
         if (!blocked[k]) irradiance[si * S + which[k]] = value[k];
     }
+    lprt_rays += cast;
   });
-  stats.lprt_rays += [&] {
-    uint64_t n = 0;  // counted exactly: the rays cast above, recomputed cheaply
-    for (size_t si = 0; si < level1; ++si)
-      for (size_t j = 0; j < S; ++j) {
-        const glm::vec3 to = lprt_sources[j] - (surfels[si].position + kRayOffsetM * surfels[si].normal);
-        n += glm::dot(to, to) > 0.f && glm::dot(surfels[si].normal, to) > 0.f;
-      }
-    return n;
-  }();
+  stats.lprt_rays += lprt_rays;
   lprt->assign(P * S * 12, 0.f);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, P, 1), [&](const tbb::blocked_range<size_t>& range) {
     std::vector<float> acc(S * 12);

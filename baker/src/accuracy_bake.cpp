@@ -14,6 +14,7 @@ Result<InMemoryBake> bakeInMemory(const worlds::World& world, const std::string&
   if (std::string why = validateLighting(world.sky, world.lights, world.interiors); !why.empty())
     return fail(where + ": " + why);
   if (threads < 0) return fail("threads " + std::to_string(threads) + ": must be >= 0");
+  if (std::string why = validateSettings(settings); !why.empty()) return fail(where + ": bake settings: " + why);
   std::optional<tbb::global_control> limit;
   if (threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(threads));
   auto geometry = WorldGeometry::build(world, where);
@@ -47,13 +48,7 @@ Result<InMemoryBake> bakeInMemory(const worlds::World& world, const std::string&
     out.bytes += encodedSectorBytes(s.probes.size(), s.lprt.sources.size(), s.has_ground);
     out.sectors.push_back(std::move(s));
   }
-  out.manifest.bounds_min = geometry->boundsMin();
-  out.manifest.bounds_max = geometry->boundsMax();
-  out.manifest.effects = effects;
-  out.manifest.settings = settings.describe();
-  out.manifest.sky = world.sky;
-  out.manifest.lights = world.lights;
-  out.manifest.interiors = world.interiors;
+  out.manifest = manifestFor(*geometry, world, where, settings, effects);
   return out;
 }
 

@@ -63,26 +63,6 @@ float groundAt(const RayScene& scene, const SectorGeometry& g, float x, float y,
   return NAN;
 }
 
-// What is wrong with bake settings (they can come from a library caller), or "". The bounds keep
-// every loop and allocation they size sane: at most 1024 columns per sector side, 1 << 16 rays.
-std::string validateSettings(const BakeSettings& s) {
-  auto in = [](double v, double lo, double hi) { return std::isfinite(v) && v >= lo && v <= hi; };
-  const PlacementSettings& p = s.placement;
-  if (!in(p.column_spacing_m, 1.0 / 16, 64.0)) return "column_spacing_m must be in [1/16, 64] m";
-  if (!in(p.vegetation_spacing_m, 1.0 / 16, 64.0)) return "vegetation_spacing_m must be in [1/16, 64] m";
-  if (!in(p.lift_m, 0.0, 64.0)) return "lift_m must be in [0, 64] m";
-  if (!in(p.min_horizontal_m, 0.0, 64.0) || !in(p.min_vertical_m, 0.0, 1e4)) return "minimum probe distances must be finite and >= 0";
-  if (p.inside_test_rays < 0 || p.inside_test_rays > (1 << 16)) return "inside_test_rays must be in [0, 65536]";
-  if (!in(p.inside_test_range_m, 0.0, 64.0)) return "inside_test_range_m must be in [0, 64] m";
-  const TransferSettings& t = s.transfer;
-  if (t.probe_rays_per_basis < 1 || t.probe_rays_per_basis > (1 << 16)) return "probe_rays_per_basis must be in [1, 65536]";
-  if (t.surfel_rays < 1 || t.surfel_rays > (1 << 16)) return "surfel_rays must be in [1, 65536]";
-  if (!in(t.surfel_cell_m, 0.25, 64.0)) return "surfel_cell_m must be in [0.25, 64] m (cell keys assume >= 0.25 m)";
-  if (t.bounces < 1 || t.bounces > 64) return "bounces must be in [1, 64]";
-  if (s.grid.visibility_candidates < 1 || s.grid.visibility_candidates > 255) return "visibility_candidates must be in [1, 255]";
-  if (!in(s.halo_m, 0.0, 1024.0) || !in(s.lprt_halo_m, 0.0, 1024.0)) return "halos must be in [0, 1024] m";
-  return {};
-}
 
 Result<void> writeAtomically(const fs::path& path, const void* data, size_t size) {
   const fs::path tmp = path.string() + ".tmp";
@@ -118,6 +98,40 @@ std::vector<LocalInterior> localInteriors(const worlds::World& world, SectorKey 
 }
 
 }  // namespace
+
+std::string validateSettings(const BakeSettings& s) {
+  auto in = [](double v, double lo, double hi) { return std::isfinite(v) && v >= lo && v <= hi; };
+  const PlacementSettings& p = s.placement;
+  if (!in(p.column_spacing_m, 1.0 / 16, 64.0)) return "column_spacing_m must be in [1/16, 64] m";
+  if (!in(p.vegetation_spacing_m, 1.0 / 16, 64.0)) return "vegetation_spacing_m must be in [1/16, 64] m";
+  if (!in(p.lift_m, 0.0, 64.0)) return "lift_m must be in [0, 64] m";
+  if (!in(p.min_horizontal_m, 0.0, 64.0) || !in(p.min_vertical_m, 0.0, 1e4)) return "minimum probe distances must be finite and >= 0";
+  if (p.inside_test_rays < 0 || p.inside_test_rays > (1 << 16)) return "inside_test_rays must be in [0, 65536]";
+  if (!in(p.inside_test_range_m, 0.0, 64.0)) return "inside_test_range_m must be in [0, 64] m";
+  const TransferSettings& t = s.transfer;
+  if (t.probe_rays_per_basis < 1 || t.probe_rays_per_basis > (1 << 16)) return "probe_rays_per_basis must be in [1, 65536]";
+  if (t.surfel_rays < 1 || t.surfel_rays > (1 << 16)) return "surfel_rays must be in [1, 65536]";
+  if (!in(t.surfel_cell_m, 0.25, 64.0)) return "surfel_cell_m must be in [0.25, 64] m (cell keys assume >= 0.25 m)";
+  if (t.bounces < 1 || t.bounces > 64) return "bounces must be in [1, 64]";
+  if (s.grid.visibility_candidates < 1 || s.grid.visibility_candidates > 255) return "visibility_candidates must be in [1, 255]";
+  if (!in(s.halo_m, 0.0, 1024.0) || !in(s.lprt_halo_m, 0.0, 1024.0)) return "halos must be in [0, 1024] m";
+  return {};
+}
+
+Manifest manifestFor(const WorldGeometry& geometry, const worlds::World& world, const std::string& world_name,
+                     const BakeSettings& settings, uint32_t effects) {
+  Manifest m;
+  m.bounds_min = geometry.boundsMin();
+  m.bounds_max = geometry.boundsMax();
+  m.sector_size_m = kSectorSizeM;
+  m.effects = effects;
+  m.settings = settings.describe();
+  m.settings.emplace_back("world", world.name.empty() ? world_name : world.name);
+  m.sky = world.sky;
+  m.lights = world.lights;
+  m.interiors = world.interiors;
+  return m;
+}
 
 const char* qualityName(Quality q) {
   switch (q) {
@@ -586,17 +600,7 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
       st.bytes_without_lprt = encodedSectorBytes(st.probes, 0, decoded->has_ground);
       if (auto a = out->addEncodedSector(*bytes); !a) return std::unexpected(a.error());
     }
-    Manifest m;
-    m.bounds_min = geometry->boundsMin();
-    m.bounds_max = geometry->boundsMax();
-    m.sector_size_m = kSectorSizeM;
-    m.effects = effects;
-    m.settings = report.settings.describe();
-    m.settings.emplace_back("world", world.name.empty() ? world_name : world.name);
-    m.sky = world.sky;
-    m.lights = world.lights;
-    m.interiors = world.interiors;
-    if (auto f = out->finish(m); !f) return std::unexpected(f.error());
+    if (auto f = out->finish(manifestFor(*geometry, world, world_name, report.settings, effects)); !f) return std::unexpected(f.error());
     if (reindexed > 0)
       report.notes.push_back(std::to_string(reindexed) + " LPRT sources named a neighbour's probe by another index than that sector gave it; re-indexed at packing");
     report.packed = true;

@@ -9,6 +9,7 @@
 #include <limits>
 #include <map>
 
+#include "drtv/baker/accuracy.h"
 #include "drtv/baker/bake.h"
 #include "drtv/baker/placement.h"
 #include "drtv/baker/ray_scene.h"
@@ -379,6 +380,10 @@ TEST(Bake, AbsurdSettingsAreAnErrorNotALoop) {
     auto r = bake(test::smallWorld(), "small", dir.path / "a.drtv", o);
     ASSERT_FALSE(r);
     EXPECT_EQ(r.error().message.rfind("bake settings: ", 0), 0u) << r.error().message;
+    // The accuracy sweep's in-memory bake takes settings from its knobs: checked the same way.
+    auto m = bakeInMemory(test::smallWorld(), "small", settings, std::nullopt, 0);
+    ASSERT_FALSE(m);
+    EXPECT_NE(m.error().message.find("bake settings: "), std::string::npos) << m.error().message;
   }
   for (Quality q : {Quality::kDraft, Quality::kDefault, Quality::kHigh}) {
     o.settings = BakeSettings::forQuality(q);

@@ -134,6 +134,15 @@ inline constexpr float kLprtSourceToleranceM = 0.01f;
 Result<size_t> reconcileLprtSources(Sector& sector, std::span<const glm::vec3> assumed,
                                     const std::function<std::optional<std::span<const glm::vec3>>(SectorKey)>& probe_positions);
 
+// What is wrong with bake settings (they can come from a library caller), or "". The bounds keep
+// every loop and allocation they size sane: at most 1024 columns per sector side, 1 << 16 rays.
+std::string validateSettings(const BakeSettings& settings);
+
+// The manifest of a bake of `world` (bounds, sector size, effects baked, settings and the world's
+// name, sky, lights and interiors): what bake() packs and bakeInMemory() returns.
+Manifest manifestFor(const WorldGeometry& geometry, const worlds::World& world, const std::string& world_name,
+                     const BakeSettings& settings, uint32_t effects);
+
 // The halo of geometry a sector is baked with: lprt_halo_m when local lights are baked (LPRT
 // sources sit in the neighbours), else halo_m.
 double haloFor(const BakeSettings& settings, uint32_t effects);

@@ -32,15 +32,6 @@ Result<std::vector<double>> parseHours(const std::string& text) {
   return out;
 }
 
-Result<baker::SectorRange> parseRange(const std::string& s) {
-  baker::SectorRange r;
-  char c1 = 0, c2 = 0, c3 = 0;
-  std::istringstream t(s);
-  if (!(t >> r.x0 >> c1 >> r.x1 >> c2 >> r.y0 >> c3 >> r.y1) || c1 != ':' || c2 != ',' || c3 != ':' || !t.eof() || r.empty())
-    return fail("--sectors '" + s + "': expected x0:x1,y0:y1 (inclusive, non-empty)");
-  return r;
-}
-
 }  // namespace
 
 Command registerAccuracy(CLI::App& app) {
@@ -64,7 +55,7 @@ Command registerAccuracy(CLI::App& app) {
             if (!hours) return std::unexpected(hours.error());
             opts.hours = *hours;
             if (!o->sectors.empty()) {
-              auto r = parseRange(o->sectors);
+              auto r = parseSectors(o->sectors);
               if (!r) return std::unexpected(r.error());
               opts.sectors = *r;
             }

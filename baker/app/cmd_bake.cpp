@@ -25,39 +25,6 @@ struct BakeCliOptions {
   uint64_t seed = 1;
 };
 
-Result<int> parseInt(const std::string& s, const std::string& flag) {
-  try {
-    size_t used = 0;
-    const int v = std::stoi(s, &used);
-    if (used != s.size()) throw std::invalid_argument(s);
-    return v;
-  } catch (const std::exception&) {
-    return fail(flag + " '" + s + "': not an integer");
-  }
-}
-
-// "x0:x1,y0:y1", inclusive sector keys.
-Result<baker::SectorRange> parseSectors(const std::string& s) {
-  const std::string flag = "--sectors";
-  const size_t comma = s.find(',');
-  if (comma == std::string::npos) return fail(flag + " '" + s + "': expected x0:x1,y0:y1");
-  auto pair = [&](const std::string& part) -> Result<std::pair<int, int>> {
-    const size_t colon = part.find(':', 1);  // skip a leading minus sign
-    if (colon == std::string::npos) return fail(flag + " '" + s + "': expected x0:x1,y0:y1");
-    auto a = parseInt(part.substr(0, colon), flag);
-    auto b = parseInt(part.substr(colon + 1), flag);
-    if (!a) return std::unexpected(a.error());
-    if (!b) return std::unexpected(b.error());
-    if (*b < *a) return fail(flag + " '" + s + "': range " + part + " is empty");
-    return std::pair{*a, *b};
-  };
-  auto x = pair(s.substr(0, comma));
-  if (!x) return std::unexpected(x.error());
-  auto y = pair(s.substr(comma + 1));
-  if (!y) return std::unexpected(y.error());
-  return baker::SectorRange{x->first, x->second, y->first, y->second};
-}
-
 void drawProgress(size_t done, size_t total) {
   constexpr int kWidth = 40;
   const int filled = total ? int(double(done) / double(total) * kWidth) : kWidth;

@@ -20,16 +20,6 @@ struct QueryOptions {
   bool json = false;
 };
 
-Result<glm::dvec3> parseVec3(const std::string& text, const std::string& flag) {
-  std::istringstream s(text);
-  glm::dvec3 v;
-  char c1 = 0, c2 = 0;
-  if (!(s >> v.x >> c1 >> v.y >> c2 >> v.z) || c1 != ',' || c2 != ',' || !s.eof() ||
-      !(std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z)))
-    return fail(flag + " '" + text + "': expected three finite numbers x,y,z");
-  return v;
-}
-
 nlohmann::json rgb(const glm::vec3& v) { return {v.r, v.g, v.b}; }
 
 Result<void> runQuery(const QueryOptions& o) {

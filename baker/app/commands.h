@@ -8,6 +8,9 @@
 
 #include <CLI/CLI.hpp>
 
+#include <glm/glm.hpp>
+
+#include "drtv/baker/world_geometry.h"
 #include "drtv/formats/error.h"
 
 namespace drtv::app {
@@ -34,6 +37,13 @@ Command registerExportVdb(CLI::App& app);
 
 // A time of day "HH:MM" (00:00 to 23:59) as hours; the error names `flag` and the text.
 Result<double> parseTimeOfDay(const std::string& text, const std::string& flag = "--time");
+
+// An integer option; the error names `flag` and the text.
+Result<int> parseInt(const std::string& text, const std::string& flag);
+// "x0:x1,y0:y1": inclusive, non-empty ranges of sector keys (--sectors).
+Result<baker::SectorRange> parseSectors(const std::string& text);
+// "x,y,z": three finite numbers; the error names `flag` and the text.
+Result<glm::dvec3> parseVec3(const std::string& text, const std::string& flag);
 
 // True when stderr is a terminal and CI is not set: long work may draw progress there.
 bool showProgress();

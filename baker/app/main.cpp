@@ -3,7 +3,9 @@
 #include <cstdio>
 #include <cstdlib>
 #include <malloc.h>
+#include <cmath>
 #include <sstream>
+#include <stdexcept>
 #include <unistd.h>
 #include <vector>
 
@@ -20,6 +22,48 @@ Result<double> parseTimeOfDay(const std::string& text, const std::string& flag) 
     return fail(flag + " '" + text + "': expected HH:MM (00:00 to 23:59)");
   return h + m / 60.0;
 }
+Result<int> parseInt(const std::string& s, const std::string& flag) {
+  try {
+    size_t used = 0;
+    const int v = std::stoi(s, &used);
+    if (used != s.size()) throw std::invalid_argument(s);
+    return v;
+  } catch (const std::exception&) {
+    return fail(flag + " '" + s + "': not an integer");
+  }
+}
+
+Result<baker::SectorRange> parseSectors(const std::string& s) {
+  const std::string flag = "--sectors";
+  const size_t comma = s.find(',');
+  if (comma == std::string::npos) return fail(flag + " '" + s + "': expected x0:x1,y0:y1");
+  auto pair = [&](const std::string& part) -> Result<std::pair<int, int>> {
+    const size_t colon = part.find(':', 1);  // skip a leading minus sign
+    if (colon == std::string::npos) return fail(flag + " '" + s + "': expected x0:x1,y0:y1");
+    auto a = parseInt(part.substr(0, colon), flag);
+    auto b = parseInt(part.substr(colon + 1), flag);
+    if (!a) return std::unexpected(a.error());
+    if (!b) return std::unexpected(b.error());
+    if (*b < *a) return fail(flag + " '" + s + "': range " + part + " is empty");
+    return std::pair{*a, *b};
+  };
+  auto x = pair(s.substr(0, comma));
+  if (!x) return std::unexpected(x.error());
+  auto y = pair(s.substr(comma + 1));
+  if (!y) return std::unexpected(y.error());
+  return baker::SectorRange{x->first, x->second, y->first, y->second};
+}
+
+Result<glm::dvec3> parseVec3(const std::string& text, const std::string& flag) {
+  std::istringstream s(text);
+  glm::dvec3 v;
+  char c1 = 0, c2 = 0;
+  if (!(s >> v.x >> c1 >> v.y >> c2 >> v.z) || c1 != ',' || c2 != ',' || !s.eof() ||
+      !(std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z)))
+    return fail(flag + " '" + text + "': expected three finite numbers x,y,z");
+  return v;
+}
+
 }  // namespace drtv::app
 
 int main(int argc, char** argv) {

@@ -130,9 +130,14 @@ void Volume::fillBox(const glm::ivec3& g0, const glm::ivec3& g1, const ProbeCach
   };
   axis(0, d.x, xs);
   axis(1, d.y, ys);
+  // The box's storage indices per axis, for the duplicated boundary (mirrorBoundary).
+  thread_local std::vector<int> sxs, sys, szs;
+  sxs.resize(size_t(d.x)), sys.resize(size_t(d.y)), szs.resize(size_t(d.z));
+  for (int i = 0; i < d.x; ++i) sxs[size_t(i)] = xs[size_t(i)].s;
+  for (int i = 0; i < d.y; ++i) sys[size_t(i)] = ys[size_t(i)].s;
+  for (int i = 0; i < d.z; ++i) szs[size_t(i)] = floorMod(g0.z + i, n.z);
   const SlotTable table(cache, xs.front().sector, xs.back().sector, ys.front().sector, ys.back().sector);
   const std::array<uint32_t, 3> fb = cache.packedFallback();
-  const bool has_x0 = std::any_of(xs.begin(), xs.end(), [](const Axis& a) { return a.s == 0; });
   // Each sector's grid row base per layer, computed once per box (a thin slab has many rows of
   // one texel: per-row float work would dominate).
   const int table_size = table.w * table.h;
@@ -200,35 +205,7 @@ void Volume::fillBox(const glm::ivec3& g0, const glm::ivec3& g1, const ProbeCach
         }
       }
     }
-    // The duplicated boundary (physical index n mirrors storage index 0 on each axis), visiting
-    // only the rows that have one.
-    int y0 = -1, z0 = -1;  // the box's row with storage y 0 and layer with storage z 0, if any
-    for (int i = 0; i < d.y; ++i)
-      if (ys[size_t(i)].s == 0) y0 = i;
-    for (int z = 0; z < d.z; ++z)
-      if (floorMod(g0.z + z, n.z) == 0) z0 = z;
-    for (int c = 0; c < 3; ++c) {
-      uint32_t* base = dst[c].data();
-      auto row = [&](int sy, int sz) { return base + physicalIndex({0, sy, sz}); };
-      if (has_x0)
-        for (int z = 0; z < d.z; ++z)
-          for (const Axis& ya : ys) {
-            uint32_t* r = row(ya.s, floorMod(g0.z + z, n.z));
-            r[n.x] = r[0];
-          }
-      auto mirror = [&](const uint32_t* from, uint32_t* to) {
-        for (const Axis& xa : xs) to[xa.s] = from[xa.s];
-        if (has_x0) to[n.x] = from[n.x];
-      };
-      if (y0 >= 0)
-        for (int z = 0; z < d.z; ++z) {
-          const int sz = floorMod(g0.z + z, n.z);
-          mirror(row(0, sz), row(n.y, sz));
-        }
-      if (z0 >= 0)
-        for (const Axis& ya : ys) mirror(row(ya.s, 0), row(ya.s, n.z));
-      if (y0 >= 0 && z0 >= 0) mirror(row(0, 0), row(n.y, n.z));
-    }
+    for (int c = 0; c < 3; ++c) mirrorBoundary(dst[c].data(), sxs, sys, szs);
     filled_ += uint64_t(d.x) * d.y * d.z;
     return;
   }
@@ -263,19 +240,9 @@ void Volume::fillBox(const glm::ivec3& g0, const glm::ivec3& g1, const ProbeCach
         }
         i = j;
       }
-      // The duplicated boundary: physical index n mirrors storage index 0 on each axis.
-      for (int c = 0; c < 3; ++c) {
-        if (has_x0) row[c][n.x] = row[c][0];
-        auto mirror = [&](uint32_t* to) {
-          for (const Axis& xa : xs) to[xa.s] = row[c][xa.s];
-          if (has_x0) to[n.x] = row[c][n.x];
-        };
-        if (ya.s == 0) mirror(dst[c].data() + physicalIndex({0, n.y, sz}));
-        if (sz == 0) mirror(dst[c].data() + physicalIndex({0, ya.s, n.z}));
-        if (ya.s == 0 && sz == 0) mirror(dst[c].data() + physicalIndex({0, n.y, n.z}));
-      }
     }
   }
+  for (int c = 0; c < 3; ++c) mirrorBoundary(dst[c].data(), sxs, sys, szs);
   filled_ += uint64_t(d.x) * d.y * d.z;
 }
 
@@ -375,8 +342,6 @@ void Volume::blurBox(glm::ivec3 g0, glm::ivec3 g1) {
   const int ox0 = g0.x - a0.x;
   int box_run = 1;
   while (box_run < b.x && sx[ox0 + box_run] == sx[ox0 + box_run - 1] + 1) ++box_run;
-  bool has_x0 = false;
-  for (int x = 0; x < b.x; ++x) has_x0 |= sx[ox0 + x] == 0;
   // One layer at a time: a layer's x and y passes go into a ring of three blurred layers, and
   // the z pass combines the ring as soon as it holds the layers an output layer needs. The
   // working set (a few 100 KB) stays in cache, where whole-volume passes streamed ~10 MB.
@@ -445,17 +410,10 @@ void Volume::blurBox(glm::ivec3 g0, glm::ivec3 g1) {
         uint32_t* row = dst + tz * layer_stride + ty * row_stride;
         std::memcpy(row + sx[ox], br, size_t(box_run) * 4);
         if (box_run < b.x) std::memcpy(row + sx[ox + box_run], br + 4 * box_run, size_t(b.x - box_run) * 4);
-        // The duplicated boundary: physical index n mirrors storage index 0 on each axis.
-        if (has_x0) row[n.x] = row[0];
-        auto mirror = [&](uint32_t* to) {
-          for (int x = 0; x < b.x; ++x) to[sx[ox + x]] = row[sx[ox + x]];
-          if (has_x0) to[n.x] = row[n.x];
-        };
-        if (ty == 0) mirror(dst + tz * layer_stride + n.y * row_stride);
-        if (tz == 0) mirror(dst + n.z * layer_stride + ty * row_stride);
-        if (ty == 0 && tz == 0) mirror(dst + n.z * layer_stride + n.y * row_stride);
       }
     }
+    mirrorBoundary(dst, std::span(sx).subspan(size_t(ox), size_t(b.x)), std::span(sy).subspan(size_t(oy), size_t(b.y)),
+                   std::span(sz).subspan(size_t(oz), size_t(b.z)));
   }
 }
 
@@ -483,13 +441,6 @@ void Volume::blurThinX(const glm::ivec3& g0, const glm::ivec3& b, const glm::ive
   px.resize(size_t(b.x) * a.z * ay4);
   py.resize(size_t(b.x) * a.z * by4);
   out.resize(by4);
-  bool has_x0 = false;
-  for (int x = 0; x < b.x; ++x) has_x0 |= sx[size_t(ox + x)] == 0;
-  int y0 = -1, z0 = -1;  // the box's row with storage y 0 and its layer with storage z 0
-  for (int y = 0; y < b.y; ++y)
-    if (sy[size_t(oy + y)] == 0) y0 = y;
-  for (int z = 0; z < b.z; ++z)
-    if (sz[size_t(oz + z)] == 0) z0 = z;
   for (int c = 0; c < 3; ++c) {
     const uint32_t* in = source_[c].data();
     for (int z = 0; z < a.z; ++z)
@@ -529,24 +480,32 @@ void Volume::blurThinX(const glm::ivec3& g0, const glm::ivec3& b, const glm::ive
         for (int y = 0; y < b.y; ++y) std::memcpy(layer + size_t(sy[size_t(oy + y)]) * row_stride, &out[size_t(y) * 4], 4);
       }
     }
-    // The duplicated boundary, as blurBox writes it: physical index n mirrors storage index 0.
-    auto row = [&](int ty, int tz) { return dst + size_t(tz) * layer_stride + size_t(ty) * row_stride; };
-    if (has_x0)
-      for (int z = 0; z < b.z; ++z)
-        for (int y = 0; y < b.y; ++y) {
-          uint32_t* r = row(sy[size_t(oy + y)], sz[size_t(oz + z)]);
-          r[n.x] = r[0];
-        }
-    auto mirror = [&](const uint32_t* from, uint32_t* to) {
-      for (int x = 0; x < b.x; ++x) to[sx[size_t(ox + x)]] = from[sx[size_t(ox + x)]];
-      if (has_x0) to[n.x] = from[n.x];
-    };
-    if (y0 >= 0)
-      for (int z = 0; z < b.z; ++z) mirror(row(0, sz[size_t(oz + z)]), row(n.y, sz[size_t(oz + z)]));
-    if (z0 >= 0)
-      for (int y = 0; y < b.y; ++y) mirror(row(sy[size_t(oy + y)], 0), row(sy[size_t(oy + y)], n.z));
-    if (y0 >= 0 && z0 >= 0) mirror(row(0, 0), row(n.y, n.z));
+    mirrorBoundary(dst, std::span(sx).subspan(size_t(ox), size_t(b.x)), std::span(sy).subspan(size_t(oy), size_t(b.y)),
+                   std::span(sz).subspan(size_t(oz), size_t(b.z)));
   }
+}
+
+void Volume::mirrorBoundary(uint32_t* tex, std::span<const int> xs, std::span<const int> ys, std::span<const int> zs) const {
+  const glm::ivec3 n = period();
+  const size_t row_stride = size_t(options_.size.x), layer_stride = row_stride * size_t(options_.size.y);
+  auto has0 = [](std::span<const int> v) { return std::find(v.begin(), v.end(), 0) != v.end(); };
+  const bool x0 = has0(xs), y0 = has0(ys), z0 = has0(zs);
+  auto row = [&](int sy, int sz) { return tex + size_t(sz) * layer_stride + size_t(sy) * row_stride; };
+  if (x0)
+    for (const int sz : zs)
+      for (const int sy : ys) {
+        uint32_t* r = row(sy, sz);
+        r[n.x] = r[0];
+      }
+  auto mirror = [&](const uint32_t* from, uint32_t* to) {
+    for (const int sx : xs) to[sx] = from[sx];
+    if (x0) to[n.x] = from[n.x];
+  };
+  if (y0)
+    for (const int sz : zs) mirror(row(0, sz), row(n.y, sz));
+  if (z0)
+    for (const int sy : ys) mirror(row(sy, 0), row(sy, n.z));
+  if (y0 && z0) mirror(row(0, 0), row(n.y, n.z));
 }
 
 void Volume::writeRangeBox(const glm::ivec3& g0, const glm::ivec3& g1, const ProbeCache& cache) {

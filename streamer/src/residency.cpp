@@ -64,7 +64,8 @@ KeyBox clipToManifest(const Manifest& m, KeyBox box) {
   return {std::max(box.x0, mx0), std::max(box.y0, my0), std::min(box.x1, mx1), std::min(box.y1, my1)};
 }
 
-int32_t floorKey(double v_m) { return int32_t(std::floor(v_m / kSectorSizeM)); }
+// formats' sectorAt per axis: clamped to int32 and NaN-safe (a camera can hold anything).
+int32_t floorKey(double v_m) { return sectorAt(v_m, 0.0).ix; }
 
 }  // namespace
 

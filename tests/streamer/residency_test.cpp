@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include "drtv/streamer/residency.h"
 
 namespace drtv::streamer {
@@ -126,6 +128,24 @@ TEST(RankSectors, RanksOnlySectorsTheArchiveHolds) {
   for (auto& r : ranked) EXPECT_EQ(r.entry, m.find(r.key));
   rankSectors(m, {{-5000, -5000, 0}, {0, 0, 0}}, {}, {}, ranked);
   EXPECT_TRUE(ranked.empty());
+}
+
+// A camera far beyond int32 sector keys wants nothing: its keys are clamped (formats' sectorAt),
+// not converted out of range. A NaN camera reads as the origin's sector there, and ranks at most
+// the archive.
+TEST(RankSectors, AnAbsurdCameraWantsNothing) {
+  const Manifest m = gridManifest(4, 4);
+  std::vector<RankedSector> ranked;
+  std::vector<SectorKey> footprint;
+  for (const double v : {1e300, -1e300}) {
+    rankSectors(m, {{v, v, 0}, {0, 0, 0}}, {}, {}, ranked);
+    EXPECT_TRUE(ranked.empty()) << v;
+    footprintSectors(m, {v, v, 0}, {}, footprint);
+    EXPECT_TRUE(footprint.empty()) << v;
+  }
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  rankSectors(m, {{nan, nan, 0}, {0, 0, 0}}, {}, {}, ranked);
+  EXPECT_LE(ranked.size(), m.sectors.size());
 }
 
 TEST(RankSectors, IsIdenticalForIdenticalInputs) {

@@ -511,10 +511,12 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
     const std::string js = record.dump();
     st.lprt_source_positions.clear();  // the report does not carry them
     std::lock_guard lock(mutex);
-    if (auto w = writer->append(keys[i], js, bytes); !w) {
-      errors[t] = w.error();
+    auto written = writer->append(keys[i], js, bytes);
+    if (!written) {
+      errors[t] = written.error();
       return;
     }
+    (*journal)[keys[i]] = std::move(*written);
     stats[i] = st;
     have[i] = 1;
     ++done;
@@ -536,8 +538,8 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
   if (options.shard_count == 1 && complete) {
     t0 = Clock::now();
     writer.reset();  // closes (and unlocks) this shard's journal
-    auto entries = detail::scanJournals(dir);
-    if (!entries) return std::unexpected(entries.error());
+    // Every record: those the scan found at the start and those this process appended.
+    const auto& entries = journal;
     for (size_t i = 0; i < keys.size(); ++i)
       if (entries->find(keys[i]) == entries->end())
         return fail(dir.string() + ": sector " + toString(keys[i]) + " is missing from the journals it was written to");

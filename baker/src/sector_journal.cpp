@@ -188,7 +188,7 @@ JournalWriter::~JournalWriter() {
   if (fd_ >= 0) ::close(fd_);  // also releases the lock
 }
 
-Result<void> JournalWriter::append(SectorKey key, std::string_view stats, std::span<const uint8_t> sector) {
+Result<JournalEntry> JournalWriter::append(SectorKey key, std::string_view stats, std::span<const uint8_t> sector) {
   if (broken_) return fail(file_.string() + ": an earlier write failed and could not be undone; no more records are appended");
   if (stats.size() > kMaxPayload || sector.size() > kMaxPayload)
     return fail(file_.string() + ": sector " + toString(key) + " is too large for a journal record");
@@ -217,7 +217,14 @@ Result<void> JournalWriter::append(SectorKey key, std::string_view stats, std::s
     }
     done += size_t(r);
   }
-  return {};
+  if (start < 0) return fail(file_.string() + ": cannot tell where the record was written: " + errnoText());
+  JournalEntry e;
+  e.file = file_;
+  e.stats_offset = uint64_t(start) + kHeaderBytes;
+  e.stats_size = uint32_t(stats.size());
+  e.sector_offset = e.stats_offset + stats.size();
+  e.sector_size = uint32_t(sector.size());
+  return e;
 }
 
 }  // namespace drtv::baker::detail

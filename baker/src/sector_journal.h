@@ -58,7 +58,8 @@ class JournalWriter {
   JournalWriter(JournalWriter&&) noexcept;
   JournalWriter& operator=(JournalWriter&&) noexcept;
   ~JournalWriter();
-  Result<void> append(SectorKey key, std::string_view stats, std::span<const uint8_t> sector);
+  // Returns where the record lies, as scanJournals would name it.
+  Result<JournalEntry> append(SectorKey key, std::string_view stats, std::span<const uint8_t> sector);
 
  private:
   JournalWriter() = default;

@@ -534,8 +534,8 @@ void Volume::scrollTo(const glm::ivec3& origin, const ProbeCache& cache) {
   // Texels in the new range but not the old: for the first axis a on which a texel is outside
   // the old range, it lies in the entered slab of a; on earlier axes it is in both ranges, on
   // later axes anywhere in the new range. Each entered texel is filled exactly once.
-  std::array<std::pair<glm::ivec3, glm::ivec3>, 3> box_list;
-  std::span<std::pair<glm::ivec3, glm::ivec3>> boxes(box_list.data(), 0);
+  std::array<std::pair<glm::ivec3, glm::ivec3>, 3> box_list;  // at most one per axis
+  size_t count = 0;
   for (int a = 0; a < 3; ++a) {
     if (d[a] == 0) continue;
     glm::ivec3 lo = o2, hi = o2 + n;
@@ -544,9 +544,9 @@ void Volume::scrollTo(const glm::ivec3& origin, const ProbeCache& cache) {
       lo[a] = o1[a] + n[a], hi[a] = o2[a] + n[a];
     else
       lo[a] = o2[a], hi[a] = o1[a];
-    box_list[boxes.size()] = {lo, hi};
-    boxes = std::span(box_list.data(), boxes.size() + 1);
+    box_list[count++] = {lo, hi};
   }
+  const std::span boxes(box_list.data(), count);
   for (const auto& [lo, hi] : boxes) writeRangeBox(lo, hi, cache);
   if (!options_.blur) return;
   // Blurred texels that changed: those within one texel of an entered one, and the new faces

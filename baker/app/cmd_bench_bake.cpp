@@ -78,7 +78,10 @@ Result<void> runBench(const BenchOptions& o) {
       baker::RayLog log;
       baker::SectorStats st;
       baker::setRayLog(&log);
-      auto again = baker::bakeSector(*geometry, *world, key, report->settings, report->effects_baked, st);
+      auto placements = baker::placeSectors(*geometry, *world, baker::placementKeys(std::span(&key, 1), report->effects_baked),
+                                            report->settings, report->effects_baked);
+      if (!placements) return std::unexpected(placements.error());
+      auto again = baker::bakeSector(*geometry, *world, key, report->settings, report->effects_baked, *placements, st);
       baker::setRayLog(nullptr);
       if (!again) return std::unexpected(again.error());
       counted += st.rays();

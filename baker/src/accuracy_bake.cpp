@@ -2,6 +2,7 @@
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <chrono>
 #include <optional>
 
@@ -34,10 +35,15 @@ Result<InMemoryBake> bakeInMemory(const worlds::World& world, const std::string&
   InMemoryBake out;
   const uint32_t effects = effectsToBake(world, nullptr);
   const auto t0 = std::chrono::steady_clock::now();
+  // bake()'s two passes: with LPRT every sector's and its neighbours' placement first.
+  auto placements = placeSectors(*geometry, world, placementKeys(keys, effects), settings, effects);
+  if (!placements) return std::unexpected(placements.error().context(where));
+  for (const auto& [k, p] : *placements)
+    if (!std::binary_search(keys.begin(), keys.end(), k)) out.rays += p.stats.rays;
   std::vector<std::optional<Result<Sector>>> baked(keys.size());
   out.stats.resize(keys.size());
   tbb::parallel_for(size_t(0), keys.size(),
-                    [&](size_t i) { baked[i] = bakeSector(*geometry, world, keys[i], settings, effects, out.stats[i]); });
+                    [&](size_t i) { baked[i] = bakeSector(*geometry, world, keys[i], settings, effects, *placements, out.stats[i]); });
   out.bake_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   for (size_t i = 0; i < keys.size(); ++i) {
     if (!*baked[i]) return std::unexpected(baked[i]->error());

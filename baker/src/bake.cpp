@@ -16,6 +16,7 @@
 #include <functional>
 #include <map>
 #include <mutex>
+#include <set>
 #include <sstream>
 
 #include "drtv/baker/sampling.h"
@@ -35,8 +36,9 @@ constexpr float kGroundRayMarginM = 10.f;
 // Hits stepped through per ground ray (vegetation is passed through to reach the ground).
 constexpr int kMaxGroundHits = 128;
 // Version of what the sector journals hold; part of the resume fingerprint (2: journals instead
-// of a pair of files per sector; 3: records keep their LPRT source positions for packing).
-constexpr int kBakeFormat = 3;
+// of a pair of files per sector; 3: records keep their LPRT source positions for packing; 4: a
+// placement pass names LPRT sources, records keep no positions).
+constexpr int kBakeFormat = 4;
 
 std::string fmt(double v) {
   std::ostringstream s;
@@ -93,6 +95,75 @@ std::vector<LocalInterior> localInteriors(const worlds::World& world, SectorKey 
   for (size_t i = 0; i < world.interiors.size() && i < 65535; ++i) {
     const InteriorVolume& v = world.interiors[i];
     out.push_back({{glm::vec3(v.min - origin), glm::vec3(v.max - origin)}, glm::vec3(v.probe_position - origin), uint16_t(i + 1)});
+  }
+  return out;
+}
+
+
+// A placement journal record's payload (little-endian, like the sector records):
+//   u32 probe count n, u64 x 8 PlacementStats (in declaration order), f64 seconds,
+//   then n x { f32 x, y, z; u16 flags; u16 interior } — positions bit for bit, so that a resumed
+//   placement gives the same LPRT source positions as a fresh one.
+static_assert(std::endian::native == std::endian::little, "journal records are little-endian");
+constexpr size_t kPlacementHeaderBytes = 4 + 8 * 8 + 8;
+constexpr size_t kPlacedProbeBytes = 16;
+
+template <class T>
+void put(std::vector<uint8_t>& out, T v) {
+  const size_t at = out.size();
+  out.resize(at + sizeof v);
+  std::memcpy(out.data() + at, &v, sizeof v);
+}
+template <class T>
+T take(const uint8_t*& p) {
+  T v;
+  std::memcpy(&v, p, sizeof v);
+  p += sizeof v;
+  return v;
+}
+
+std::vector<uint8_t> encodePlacement(const SectorPlacement& p) {
+  std::vector<uint8_t> out;
+  out.reserve(kPlacementHeaderBytes + p.probes.size() * kPlacedProbeBytes);
+  put(out, uint32_t(p.probes.size()));
+  const PlacementStats& s = p.stats;
+  for (uint64_t v : {uint64_t(s.static_candidates), uint64_t(s.vegetation_candidates), uint64_t(s.interior_probes),
+                     uint64_t(s.relocated), uint64_t(s.dropped_inside), uint64_t(s.rejected_distance),
+                     uint64_t(s.thinned_cap), s.rays})
+    put(out, v);
+  put(out, p.seconds);
+  for (const PlacedProbe& q : p.probes) {
+    put(out, q.position.x);
+    put(out, q.position.y);
+    put(out, q.position.z);
+    put(out, q.flags);
+    put(out, q.interior);
+  }
+  return out;
+}
+
+Result<SectorPlacement> decodePlacement(std::span<const uint8_t> bytes, const std::string& where) {
+  if (bytes.size() < kPlacementHeaderBytes) return fail(where + ": placement record of " + std::to_string(bytes.size()) + " bytes is truncated");
+  const uint8_t* p = bytes.data();
+  const uint32_t n = take<uint32_t>(p);
+  if (n > uint32_t(kMaxProbesPerSector) || bytes.size() != kPlacementHeaderBytes + size_t(n) * kPlacedProbeBytes)
+    return fail(where + ": placement record of " + std::to_string(bytes.size()) + " bytes does not hold " + std::to_string(n) + " probes");
+  SectorPlacement out;
+  PlacementStats& s = out.stats;
+  for (size_t* f : {&s.static_candidates, &s.vegetation_candidates, &s.interior_probes, &s.relocated, &s.dropped_inside,
+                    &s.rejected_distance, &s.thinned_cap})
+    *f = size_t(take<uint64_t>(p));
+  s.rays = take<uint64_t>(p);
+  out.seconds = take<double>(p);
+  out.probes.resize(n);
+  for (PlacedProbe& q : out.probes) {
+    q.position.x = take<float>(p);
+    q.position.y = take<float>(p);
+    q.position.z = take<float>(p);
+    q.flags = take<uint16_t>(p);
+    q.interior = take<uint16_t>(p);
+    if (!std::isfinite(q.position.x) || !std::isfinite(q.position.y) || !std::isfinite(q.position.z))
+      return fail(where + ": placement record holds a non-finite probe position");
   }
   return out;
 }
@@ -220,8 +291,44 @@ double haloFor(const BakeSettings& settings, uint32_t effects) {
   return (effects & kEffectLocalLights) ? settings.lprt_halo_m : settings.halo_m;
 }
 
+Result<SectorPlacement> placeSector(const WorldGeometry& geometry, const worlds::World& world, SectorKey key,
+                                    const BakeSettings& settings, uint32_t effects) {
+  const auto t0 = Clock::now();
+  const SectorGeometry g = geometry.gather(key, haloFor(settings, effects));
+  auto scene = RayScene::build(g.vertices);
+  if (!scene) return std::unexpected(scene.error().context("sector " + toString(key)));
+  SectorPlacement out;
+  out.probes = placeProbes(*scene, g, {0, 0}, localInteriors(world, key, effects), settings.placement, out.stats);
+  out.seconds = since(t0);
+  return out;
+}
+
+std::vector<SectorKey> placementKeys(std::span<const SectorKey> keys, uint32_t effects) {
+  std::vector<SectorKey> out;
+  if (!(effects & kEffectLocalLights)) return out;
+  for (const SectorKey k : keys)
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) out.push_back({k.ix + dx, k.iy + dy});
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+Result<SectorPlacements> placeSectors(const WorldGeometry& geometry, const worlds::World& world,
+                                      std::span<const SectorKey> keys, const BakeSettings& settings, uint32_t effects) {
+  std::vector<std::optional<Result<SectorPlacement>>> placed(keys.size());
+  tbb::parallel_for(size_t(0), keys.size(), [&](size_t i) { placed[i] = placeSector(geometry, world, keys[i], settings, effects); });
+  SectorPlacements out;
+  for (size_t i = 0; i < keys.size(); ++i) {
+    if (!*placed[i]) return std::unexpected(placed[i]->error());
+    out[keys[i]] = std::move(**placed[i]);
+  }
+  return out;
+}
+
 Result<Sector> bakeSector(const WorldGeometry& geometry, const worlds::World& world, SectorKey key,
-                          const BakeSettings& settings, uint32_t effects, SectorStats& stats) {
+                          const BakeSettings& settings, uint32_t effects, const SectorPlacements& placements,
+                          SectorStats& stats) {
   const auto t_start = Clock::now();
   stats = SectorStats{};
   stats.key = key;
@@ -239,10 +346,18 @@ Result<Sector> bakeSector(const WorldGeometry& geometry, const worlds::World& wo
   if (!scene) return std::unexpected(scene.error().context("sector " + toString(key)));
   stats.build_s = since(t0);
 
-  t0 = Clock::now();
-  const std::vector<LocalInterior> interiors = localInteriors(world, key, effects);
-  const std::vector<PlacedProbe> placed = placeProbes(*scene, g, {0, 0}, interiors, settings.placement, stats.placement);
-  stats.placement_s = since(t0);
+  // The sector's probes: from the placement pass when it ran (the same bits placeSector gives
+  // here, since the scene is the same gather), else placed on this scene.
+  std::vector<PlacedProbe> placed;
+  if (const auto own = placements.find(key); own != placements.end()) {
+    placed = own->second.probes;
+    stats.placement = own->second.stats;
+    stats.placement_s = own->second.seconds;
+  } else {
+    t0 = Clock::now();
+    placed = placeProbes(*scene, g, {0, 0}, localInteriors(world, key, effects), settings.placement, stats.placement);
+    stats.placement_s = since(t0);
+  }
 
   Sector sector;
   sector.key = key;
@@ -276,7 +391,8 @@ Result<Sector> bakeSector(const WorldGeometry& geometry, const worlds::World& wo
   }
 
   // LPRT sources: the 128 probes nearest to the sector's centre among this sector's and its 8
-  // neighbours' (placed again here, with this sector's halo scene: deterministic and identical).
+  // neighbours', as the placement pass placed them in their own scenes: (dx, dy, i) is the i-th
+  // probe of the neighbour's record by construction.
   struct Source {
     LprtSource ref;
     glm::vec3 position;
@@ -284,24 +400,24 @@ Result<Sector> bakeSector(const WorldGeometry& geometry, const worlds::World& wo
   };
   std::vector<Source> sources;
   if (lprt) {
-    t0 = Clock::now();
     for (int dy = -1; dy <= 1; ++dy)
       for (int dx = -1; dx <= 1; ++dx) {
-        PlacementStats ps;
-        const std::vector<PlacedProbe> nb =
-            (dx == 0 && dy == 0) ? placed
-                                 : placeProbes(*scene, g, {dx, dy}, localInteriors(world, key, effects), settings.placement, ps);
-        stats.other_rays += ps.rays;
+        const SectorKey nk{key.ix + dx, key.iy + dy};
+        const auto it = placements.find(nk);
+        DRTV_CHECK(it != placements.end());  // the caller ran the placement pass (placementKeys)
+        const std::vector<PlacedProbe>& nb = it->second.probes;
+        DRTV_CHECK_LE(nb.size(), size_t(kMaxProbesPerSector));
+        // The neighbour's frame shifted by whole sectors into this one's; z is world z in both.
+        const glm::vec3 shift(float(dx * kSectorSizeM), float(dy * kSectorSizeM), 0.f);
         for (size_t i = 0; i < nb.size(); ++i) {
-          const glm::vec2 d = glm::vec2(nb[i].position) - glm::vec2(float(kSectorSizeM / 2));
-          sources.push_back({{int8_t(dx), int8_t(dy), uint8_t(i)}, nb[i].position, glm::dot(d, d)});
+          const glm::vec3 position = nb[i].position + shift;
+          const glm::vec2 d = glm::vec2(position) - glm::vec2(float(kSectorSizeM / 2));
+          sources.push_back({{int8_t(dx), int8_t(dy), uint8_t(i)}, position, glm::dot(d, d)});
         }
       }
     std::stable_sort(sources.begin(), sources.end(), [](const Source& a, const Source& b) { return a.d2 < b.d2; });
     if (sources.size() > size_t(kMaxLprtSources)) sources.resize(kMaxLprtSources);
     stats.lprt_sources = sources.size();
-    for (const Source& s : sources) stats.lprt_source_positions.push_back(s.position);
-    stats.placement_s += since(t0);
   }
 
   t0 = Clock::now();
@@ -340,40 +456,6 @@ Result<Sector> bakeSector(const WorldGeometry& geometry, const worlds::World& wo
   stats.bytes_without_lprt = encodedSectorBytes(sector.probes.size(), 0, sector.has_ground);
   stats.total_s = since(t_start);
   return sector;
-}
-
-Result<size_t> reconcileLprtSources(Sector& sector, std::span<const glm::vec3> assumed,
-                                    const std::function<std::optional<std::span<const glm::vec3>>(SectorKey)>& probe_positions) {
-  const std::string where = "sector " + toString(sector.key) + ": ";
-  if (assumed.size() != sector.lprt.sources.size())
-    return fail(where + "bug: " + std::to_string(sector.lprt.sources.size()) + " LPRT sources but " + std::to_string(assumed.size()) +
-                " recorded source positions");
-  const float tol2 = kLprtSourceToleranceM * kLprtSourceToleranceM;
-  size_t reindexed = 0;
-  for (size_t j = 0; j < assumed.size(); ++j) {
-    LprtSource& ref = sector.lprt.sources[j];
-    const SectorKey nk{sector.key.ix + ref.dx, sector.key.iy + ref.dy};
-    const std::optional<std::span<const glm::vec3>> in_bake = probe_positions(nk);
-    if (!in_bake) continue;  // a neighbour outside the baked range (--sectors): nothing to check
-    const std::span<const glm::vec3> probes = *in_bake;
-    // The neighbour's probes in this sector's frame: x, y shifted by whole sectors, z is world z.
-    const glm::vec3 shift(float(ref.dx * kSectorSizeM), float(ref.dy * kSectorSizeM), 0.f);
-    auto d2 = [&](size_t i) {
-      const glm::vec3 d = probes[i] + shift - assumed[j];
-      return glm::dot(d, d);
-    };
-    if (ref.probe < probes.size() && d2(ref.probe) <= tol2) continue;
-    size_t best = probes.size();
-    for (size_t i = 0; i < probes.size(); ++i)
-      if (d2(i) <= tol2 && (best == probes.size() || d2(i) < d2(best))) best = i;
-    if (best == probes.size())
-      return fail(where + "bug: LPRT source " + std::to_string(j) + " was baked for a probe of sector " + toString(nk) + " at (" +
-                  std::to_string(assumed[j].x) + ", " + std::to_string(assumed[j].y) + ", " + std::to_string(assumed[j].z) +
-                  ") in this sector's frame, and that sector has no probe there");
-    ref.probe = uint8_t(best);
-    ++reindexed;
-  }
-  return reindexed;
 }
 
 fs::path sectorDirectory(const fs::path& archive) { return fs::path(archive.string() + ".sectors"); }
@@ -480,7 +562,52 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
     if (missing) return fail(dir.string() + ": " + std::to_string(missing) + " sectors not baked yet (first " + first + "); run the missing shards");
   }
 
-  // Bake, in parallel over sectors (and inside each sector over probes and surfels); each
+  // Pass 1, with LPRT: the placement of every sector this process bakes and of their neighbours,
+  // read back from any placement journal or placed now and appended to this shard's.
+  SectorPlacements placements;
+  {
+    std::vector<SectorKey> todo_keys;
+    for (const size_t i : todo) todo_keys.push_back(keys[i]);
+    const std::vector<SectorKey> needed = placementKeys(todo_keys, effects);
+    if (!needed.empty()) {
+      t0 = Clock::now();
+      auto placed = detail::scanJournals(dir, "placement-");
+      if (!placed) return std::unexpected(placed.error());
+      std::vector<SectorKey> missing;
+      for (const SectorKey k : needed) {
+        const auto it = placed->find(k);
+        if (it == placed->end()) {
+          missing.push_back(k);
+          continue;
+        }
+        auto bytes = detail::readSector(it->second);
+        if (!bytes) return std::unexpected(bytes.error());
+        auto p = decodePlacement(*bytes, it->second.file.string() + " sector " + toString(k));
+        if (!p) return std::unexpected(p.error());
+        placements[k] = std::move(*p);
+        ++report.placement_pass.resumed;
+      }
+      auto fresh = placeSectors(*geometry, world, missing, report.settings, effects);
+      if (!fresh) return std::unexpected(fresh.error().context(world_name));
+      if (!missing.empty()) {
+        auto w = detail::JournalWriter::open(
+            dir / ("placement-" + std::to_string(options.shard_index) + "-of-" + std::to_string(options.shard_count) + ".log"));
+        if (!w) return std::unexpected(w.error());
+        for (auto& [k, p] : *fresh) {
+          if (auto a = w->append(k, "{}", encodePlacement(p)); !a) return std::unexpected(a.error());
+          placements[k] = std::move(p);
+        }
+      }
+      const std::set<SectorKey> own(todo_keys.begin(), todo_keys.end());
+      for (const SectorKey k : missing)
+        if (!own.contains(k)) report.placement_pass.outside_rays += placements.at(k).stats.rays;
+      report.placement_pass.sectors = needed.size();
+      report.placement_pass.outside = needed.size() - own.size();
+      report.placement_pass.seconds = since(t0);
+    }
+  }
+
+  // Pass 2: bake, in parallel over sectors (and inside each sector over probes and surfels); each
   // finished sector is one record of this shard's journal.
   std::optional<detail::JournalWriter> writer;
   if (!todo.empty()) {
@@ -497,19 +624,13 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
   tbb::parallel_for(size_t(0), todo.size(), [&](size_t t) {
     const size_t i = todo[t];
     SectorStats st;
-    auto sector = bakeSector(*geometry, world, keys[i], report.settings, effects, st);
+    auto sector = bakeSector(*geometry, world, keys[i], report.settings, effects, placements, st);
     if (!sector) {
       errors[t] = sector.error();
       return;
     }
     const std::vector<uint8_t> bytes = encodeSector(*sector);
-    nlohmann::json record = toJson(st);
-    if (!st.lprt_source_positions.empty()) {
-      nlohmann::json& a = record["lprt_source_positions"] = nlohmann::json::array();
-      for (const glm::vec3& p : st.lprt_source_positions) a.push_back({p.x, p.y, p.z});
-    }
-    const std::string js = record.dump();
-    st.lprt_source_positions.clear();  // the report does not carry them
+    const std::string js = toJson(st).dump();
     std::lock_guard lock(mutex);
     auto written = writer->append(keys[i], js, bytes);
     if (!written) {
@@ -543,56 +664,18 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
     for (size_t i = 0; i < keys.size(); ++i)
       if (entries->find(keys[i]) == entries->end())
         return fail(dir.string() + ": sector " + toString(keys[i]) + " is missing from the journals it was written to");
-    auto sectorOf = [&](size_t i) -> Result<std::pair<std::vector<uint8_t>, Sector>> {
+    auto out = ArchiveWriter::create(archive, report.settings.zstd_level);
+    if (!out) return std::unexpected(out.error());
+    report.sectors_empty = 0;
+    for (size_t i = 0; i < keys.size(); ++i) {
       const detail::JournalEntry& e = entries->at(keys[i]);
       auto bytes = detail::readSector(e);
       if (!bytes) return std::unexpected(bytes.error());
       auto decoded = decodeSector(*bytes, e.file.string() + " sector " + toString(keys[i]));
       if (!decoded) return std::unexpected(decoded.error());
-      return std::pair{std::move(*bytes), std::move(*decoded)};
-    };
-    // With LPRT, every source must name the probe its sector baked for (reconcileLprtSources):
-    // first every sector's probe positions, then each sector checked as it is packed.
-    std::map<SectorKey, std::vector<glm::vec3>> probe_positions;
-    if (effects & kEffectLocalLights)
-      for (size_t i = 0; i < keys.size(); ++i) {
-        auto s = sectorOf(i);
-        if (!s) return std::unexpected(s.error());
-        std::vector<glm::vec3>& p = probe_positions[keys[i]];
-        for (const ProbeRecord& r : s->second.probes) p.emplace_back(r.position[0], r.position[1], r.position[2]);
-      }
-    auto out = ArchiveWriter::create(archive, report.settings.zstd_level);
-    if (!out) return std::unexpected(out.error());
-    report.sectors_empty = 0;
-    size_t reindexed = 0;
-    for (size_t i = 0; i < keys.size(); ++i) {
-      auto s = sectorOf(i);
-      if (!s) return std::unexpected(s.error());
-      std::vector<uint8_t>* bytes = &s->first;
-      Sector* decoded = &s->second;
       if (decoded->probes.empty()) {
         ++report.sectors_empty;
         continue;
-      }
-      if (!decoded->lprt.sources.empty()) {
-        std::vector<glm::vec3> assumed;
-        auto j = detail::readStats(entries->at(keys[i]));
-        if (!j) return std::unexpected(j.error());
-        const auto parsed = nlohmann::json::parse(j->begin(), j->end(), nullptr, false);
-        if (!parsed.is_discarded() && parsed.contains("lprt_source_positions") && parsed["lprt_source_positions"].is_array())
-          for (const auto& p : parsed["lprt_source_positions"])
-            if (p.is_array() && p.size() == 3 && p[0].is_number() && p[1].is_number() && p[2].is_number())
-              assumed.emplace_back(p[0].get<float>(), p[1].get<float>(), p[2].get<float>());
-        auto fixed = reconcileLprtSources(*decoded, assumed, [&](SectorKey k) -> std::optional<std::span<const glm::vec3>> {
-          const auto it = probe_positions.find(k);
-          if (it == probe_positions.end()) return std::nullopt;
-          return std::span<const glm::vec3>(it->second);
-        });
-        if (!fixed) return std::unexpected(fixed.error().context(world_name));
-        if (*fixed > 0) {
-          reindexed += *fixed;
-          *bytes = encodeSector(*decoded);
-        }
       }
       // A resumed sector's stats may be missing: take the counts from the bytes themselves.
       SectorStats& st = *std::find_if(report.sectors.begin(), report.sectors.end(), [&](const SectorStats& s) { return s.key == keys[i]; });
@@ -603,8 +686,6 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
       if (auto a = out->addEncodedSector(*bytes); !a) return std::unexpected(a.error());
     }
     if (auto f = out->finish(manifestFor(*geometry, world, world_name, report.settings, effects)); !f) return std::unexpected(f.error());
-    if (reindexed > 0)
-      report.notes.push_back(std::to_string(reindexed) + " LPRT sources named a neighbour's probe by another index than that sector gave it; re-indexed at packing");
     report.packed = true;
     report.pack_s = since(t0);
     if (!options.keep_sector_files) fs::remove_all(dir, ec);

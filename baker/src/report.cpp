@@ -143,7 +143,11 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
     triangles.add(double(s.triangles));
     ++histogram[s.probes / 10 * 10];
   }
-  const double rays_per_s = r.bake_s > 0 ? double(rays) / r.bake_s : 0.0;
+  // The placement pass's rays for sectors this bake does not bake (its sectors' own count above).
+  rays += r.placement_pass.outside_rays;
+  r_place += r.placement_pass.outside_rays;
+  const double cast_s = r.bake_s + r.placement_pass.seconds;
+  const double rays_per_s = cast_s > 0 ? double(rays) / cast_s : 0.0;
 
   nlohmann::json j;
   j["world"] = r.world;
@@ -172,7 +176,11 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
   j["surface_cache"] = {{"surfels", surfels}, {"probe_hits_reusing_a_cell", cached}};
   j["rays"] = {{"total", rays}, {"placement", r_place}, {"probe", r_probe}, {"surfel", r_surfel}, {"lprt", r_lprt},
                {"grid", r_grid}, {"other", r_other}, {"per_second_wall", rays_per_s}};
-  j["seconds"] = {{"wall", r.wall_s}, {"geometry", r.geometry_s}, {"bake", r.bake_s}, {"pack", r.pack_s},
+  j["placement_pass"] = {{"sectors", r.placement_pass.sectors}, {"resumed", r.placement_pass.resumed},
+                         {"outside", r.placement_pass.outside}, {"outside_rays", r.placement_pass.outside_rays},
+                         {"seconds", r.placement_pass.seconds}};
+  j["seconds"] = {{"wall", r.wall_s}, {"geometry", r.geometry_s}, {"placement_pass", r.placement_pass.seconds},
+                  {"bake", r.bake_s}, {"pack", r.pack_s},
                   {"sum_over_sectors",
                    {{"gather", t_gather}, {"scene_build", t_build}, {"placement", t_place}, {"probe_rays", t_probe},
                     {"surface_cache", t_surfel}, {"lprt", t_lprt}, {"index_grid", t_grid}, {"total", t_total}}}};
@@ -218,11 +226,17 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
   md << "\n## Rays\n\n| stage | rays |\n|---|---|\n";
   md << "| placement | " << r_place << " |\n| probe basis rays | " << r_probe << " |\n| surface cache | " << r_surfel
      << " (" << surfels << " cells) |\n| LPRT shadow rays | " << r_lprt << " |\n| index grid visibility | " << r_grid
-     << " |\n| ground map, LPRT sources | " << r_other << " |\n| **total** | **" << rays << "** |\n";
-  md << "\n" << fixed(rays_per_s / 1e6, 2) << " M rays/s over the bake's wall time.\n";
+     << " |\n| ground map | " << r_other << " |\n| **total** | **" << rays << "** |\n";
+  md << "\n" << fixed(rays_per_s / 1e6, 2) << " M rays/s over the bake's wall time (placement pass and sectors).\n";
+  if (r.placement_pass.sectors > 0)
+    md << "\nPlacement pass (LPRT sources are the neighbours' probes): " << r.placement_pass.sectors << " sectors placed ("
+       << r.placement_pass.resumed << " read back from placement journals, " << r.placement_pass.outside
+       << " only as neighbours), " << r.placement_pass.outside_rays << " rays for those, " << fixed(r.placement_pass.seconds, 2)
+       << " s.\n";
   md << "\n## Time (seconds)\n\n| stage | seconds |\n|---|---|\n";
   md << "| wall | " << fixed(r.wall_s, 2) << " |\n| world geometry | " << fixed(r.geometry_s, 2) << " |\n| sectors (wall) | "
-     << fixed(r.bake_s, 2) << " |\n| pack | " << fixed(r.pack_s, 2) << " |\n";
+     << fixed(r.bake_s, 2) << " |\n| placement pass (LPRT) | " << fixed(r.placement_pass.seconds, 2) << " |\n| pack | "
+     << fixed(r.pack_s, 2) << " |\n";
   md << "\nSummed over sectors (each a wall time within its sector's task):\n\n| stage | seconds |\n|---|---|\n";
   md << "| gather | " << fixed(t_gather, 2) << " |\n| scene build | " << fixed(t_build, 2) << " |\n| placement | " << fixed(t_place, 2)
      << " |\n| probe rays | " << fixed(t_probe, 2) << " |\n| surface cache + bounces | " << fixed(t_surfel, 2) << " |\n| LPRT | "

@@ -134,16 +134,16 @@ Result<void> removeJournals(const fs::path& dir) {
 }
 
 bool isJournalFile(const std::string& name) {
-  return (name.starts_with("sectors-") && name.ends_with(".log")) || name.starts_with("s_");
+  return ((name.starts_with("sectors-") || name.starts_with("placement-")) && name.ends_with(".log")) || name.starts_with("s_");
 }
 
-Result<std::map<SectorKey, JournalEntry>> scanJournals(const fs::path& dir) {
+Result<std::map<SectorKey, JournalEntry>> scanJournals(const fs::path& dir, std::string_view prefix) {
   std::map<SectorKey, JournalEntry> out;
   std::error_code ec;
   std::vector<fs::path> files;
   for (auto it = fs::directory_iterator(dir, ec); !ec && it != fs::directory_iterator(); it.increment(ec)) {
     const std::string name = it->path().filename().string();
-    if (name.starts_with("sectors-") && name.ends_with(".log")) files.push_back(it->path());
+    if (name.starts_with(prefix) && name.ends_with(".log")) files.push_back(it->path());
   }
   if (ec) return fail(dir.string() + ": cannot list: " + ec.message());
   std::sort(files.begin(), files.end());  // a fixed order: which record of a key wins is not up to the file system

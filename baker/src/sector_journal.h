@@ -1,6 +1,7 @@
 // Sector journals: where a bake keeps its finished sectors until it packs the archive.
 //
-// One append-only file per writing process (`sectors-<k>-of-<N>.log` in `<archive>.sectors/`):
+// One append-only file per writing process and kind (`sectors-<k>-of-<N>.log` for baked sectors,
+// `placement-<k>-of-<N>.log` for the placement pass of an LPRT bake, in `<archive>.sectors/`):
 // a finished sector is one record, written with a single write() and checked by an XXH3 hash,
 // so a record either is whole or is ignored, and an interrupted bake resumes from the records
 // that are whole. Reading stops at the first bad record of a journal (lengths after it cannot be
@@ -34,10 +35,11 @@ struct JournalEntry {
   uint32_t stats_size = 0, sector_size = 0;
 };
 
-// The sectors held by every journal in `dir`, by key (a later record of a key wins; a bake is
-// deterministic, so records of one key hold the same bytes). Torn or corrupt tails are skipped.
+// The records held by every journal in `dir` whose name starts with `prefix` ("sectors-" or
+// "placement-"), by key (a later record of a key wins; a bake is deterministic, so records of one
+// key hold the same bytes). Torn or corrupt tails are skipped.
 // Errors: a journal that cannot be opened or read.
-Result<std::map<SectorKey, JournalEntry>> scanJournals(const std::filesystem::path& dir);
+Result<std::map<SectorKey, JournalEntry>> scanJournals(const std::filesystem::path& dir, std::string_view prefix = "sectors-");
 
 // The bytes of an entry's stats or sector.
 Result<std::vector<uint8_t>> readStats(const JournalEntry& e);

@@ -15,6 +15,7 @@
 #include "drtv/baker/ray_scene.h"
 #include "drtv/baker/world_geometry.h"
 #include "drtv/formats/archive.h"
+#include "drtv/worlds/island.h"
 #include "test_worlds.h"
 
 namespace drtv::baker {
@@ -138,45 +139,38 @@ TEST(Bake, LprtAddsAtMost210KiBPerSectorOfAbout70Probes) {
   EXPECT_GT(biggest, 0.f) << "the lamp's sources bounce light";
 }
 
-// Each sector names its LPRT sources by (neighbour, probe index), placing its neighbours again in
-// its own scene. Those indices must be the neighbours' own probes: same count, same order, same
-// positions as the neighbour's bake wrote.
+// Each sector names its LPRT sources by (neighbour, probe index). Those must be the neighbours'
+// own probes: every neighbour placed alone in its own scene (placeSector) gives exactly the probes
+// its record holds, and every source names one of them.
 TEST(Bake, LprtSourcesNameTheNeighboursOwnProbes) {
   TempDir dir;
   const worlds::World world = litWorld();
   auto r = bake(world, "lit", dir.path / "a.drtv", draft());
   ASSERT_TRUE(r) << r.error().message;
-  // The packer checked every source against its neighbour (reconcileLprtSources): none was off.
-  for (const std::string& note : r->notes) EXPECT_EQ(note.find("LPRT"), std::string::npos) << note;
   auto reader = ArchiveReader::open(dir.path / "a.drtv");
   ASSERT_TRUE(reader);
   auto geometry = WorldGeometry::build(world, "lit");
   ASSERT_TRUE(geometry);
   const BakeSettings settings = BakeSettings::forQuality(Quality::kDraft);
+  const uint32_t effects = reader->manifest().effects;
   int compared = 0;
   for (const SectorEntry& e : reader->manifest().sectors) {
-    const SectorGeometry g = geometry->gather(e.key, settings.lprt_halo_m);
-    auto scene = RayScene::build(g.vertices);
-    ASSERT_TRUE(scene);
-    for (int dy = -1; dy <= 1; ++dy)
-      for (int dx = -1; dx <= 1; ++dx) {
-        const SectorKey nk{e.key.ix + dx, e.key.iy + dy};
-        if (!reader->manifest().find(nk)) continue;
-        auto neighbour = reader->readSector(nk);
-        ASSERT_TRUE(neighbour);
-        PlacementStats ps;
-        const std::vector<PlacedProbe> again = placeProbes(*scene, g, {dx, dy}, {}, settings.placement, ps);
-        ASSERT_EQ(again.size(), neighbour->probes.size()) << toString(e.key) << " placing " << toString(nk);
-        for (size_t i = 0; i < again.size(); ++i) {
-          const float* q = neighbour->probes[i].position;
-          EXPECT_NEAR(again[i].position.x - float(dx * kSectorSizeM), q[0], 1e-3f) << toString(nk) << " probe " << i;
-          EXPECT_NEAR(again[i].position.y - float(dy * kSectorSizeM), q[1], 1e-3f) << toString(nk) << " probe " << i;
-          EXPECT_NEAR(again[i].position.z, q[2], 1e-3f) << toString(nk) << " probe " << i;
-        }
-        ++compared;
-      }
+    auto sector = reader->readSector(e.key);
+    ASSERT_TRUE(sector);
+    auto alone = placeSector(*geometry, world, e.key, settings, effects);
+    ASSERT_TRUE(alone);
+    ASSERT_EQ(alone->probes.size(), sector->probes.size()) << toString(e.key);
+    for (size_t i = 0; i < alone->probes.size(); ++i)
+      for (int a = 0; a < 3; ++a) EXPECT_EQ(alone->probes[i].position[a], sector->probes[i].position[a]) << toString(e.key) << " probe " << i;
+    for (const LprtSource& src : sector->lprt.sources) {
+      const SectorKey nk{e.key.ix + src.dx, e.key.iy + src.dy};
+      const SectorEntry* n = reader->manifest().find(nk);
+      ASSERT_NE(n, nullptr) << toString(e.key) << " names a source in " << toString(nk) << ", which has no probes";
+      EXPECT_LT(src.probe, n->probes) << toString(e.key) << " source in " << toString(nk);
+      ++compared;
+    }
   }
-  EXPECT_GT(compared, 4);
+  EXPECT_GT(compared, 100);
 }
 
 TEST(Bake, NoLprtBlockAtAllWithoutLocalLights) {
@@ -411,53 +405,58 @@ TEST(Bake, ReportsSayWhatWasBakedAndSkipped) {
     EXPECT_NE(text.find(key), std::string::npos) << key;
 }
 
-// The packer's check of LPRT source indices, on a hand-made sector: sources baked for probes of
-// the east and south neighbours. Indices that name those probes pass; an index that names another
-// probe is re-indexed to the probe at the position the source was baked for; no probe there (or
-// positions not matching the sources) is an error.
-TEST(Bake, LprtSourceIndicesAreCheckedAndReindexedAtPacking) {
-  std::map<SectorKey, std::vector<glm::vec3>> probes;
-  probes[{1, 0}] = {{10.f, 10.f, 3.f}, {30.f, 12.f, 4.f}, {5.f, 50.f, 2.f}};
-  probes[{0, -1}] = {{40.f, 60.f, 1.5f}};
-  auto lookup = [&](SectorKey k) -> std::optional<std::span<const glm::vec3>> {
-    const auto it = probes.find(k);
-    if (it == probes.end()) return std::nullopt;  // outside the bake: not checked
-    return std::span<const glm::vec3>(it->second);
-  };
-  Sector s;
-  s.key = {0, 0};
-  s.lprt.sources = {{1, 0, 2}, {0, -1, 0}};
-  // In sector (0,0)'s frame: x + 64 for the east neighbour, y - 64 for the south one.
-  const std::vector<glm::vec3> assumed = {{69.f, 50.f, 2.f}, {40.f, -4.f, 1.5f}};
-  auto ok = reconcileLprtSources(s, assumed, lookup);
-  ASSERT_TRUE(ok) << ok.error().message;
-  EXPECT_EQ(*ok, 0u);
-
-  s.lprt.sources[0].probe = 1;  // names the wrong probe of (1,0)
-  auto fixed = reconcileLprtSources(s, assumed, lookup);
-  ASSERT_TRUE(fixed) << fixed.error().message;
-  EXPECT_EQ(*fixed, 1u);
-  EXPECT_EQ(s.lprt.sources[0].probe, 2);
-  EXPECT_EQ(s.lprt.sources[1].probe, 0);
-
-  std::vector<glm::vec3> moved = assumed;
-  moved[1].x += 0.5f;  // no probe of (0,-1) there
-  auto bad = reconcileLprtSources(s, moved, lookup);
-  ASSERT_FALSE(bad);
-  EXPECT_NE(bad.error().message.find("sector (0,-1) at"), std::string::npos) << bad.error().message;
-  EXPECT_FALSE(reconcileLprtSources(s, std::span(assumed).first(1), lookup));
-
-  probes[{0, -1}].clear();  // in the bake, without probes: the source names nothing
-  EXPECT_FALSE(reconcileLprtSources(s, assumed, lookup));
-  probes.erase({0, -1});  // outside the bake (--sectors): not checked
-  auto outside = reconcileLprtSources(s, moved, lookup);
-  ASSERT_TRUE(outside) << outside.error().message;
-  EXPECT_EQ(*outside, 0u);
+// A lit island with lights where placement is hardest for LPRT: on sector corners, exactly on
+// probes, inside interiors, high above the ground, below the terrain. Every sector bakes, and 1
+// thread, 2 threads and 2 shards merged write the same archive.
+TEST(Bake, ALitIslandWithLightsEverywhereBakesTheSameEveryWay) {
+  TempDir dir;
+  worlds::IslandOptions io;
+  io.size_km2 = 0.25;
+  io.seed = 3;
+  io.buildings_per_km2 = 120;  // interiors to put lights in
+  auto island = worlds::generateIsland(io);
+  ASSERT_TRUE(island) << island.error().message;
+  worlds::World w = std::move(*island);
+  auto light = [&](const std::string& name, glm::dvec3 at) { w.lights.push_back({name, at, glm::vec3(30.f), 14.f}); };
+  for (int i = -3; i <= 3; ++i) light("corner " + std::to_string(i), {64.0 * i, 64.0 * -i, 6.0 + 4 * (i + 3)});
+  for (size_t i = 0; i < w.interiors.size() && i < 6; ++i) light("interior " + std::to_string(i), w.interiors[i].probe_position);
+  for (int i = 0; i < 4; ++i) light("high " + std::to_string(i), {-200.0 + 130 * i, 100.0 - 70 * i, 120.0});
+  light("under the terrain", {10.0, 20.0, -30.0});
+  // Exactly on probes of two sectors, as an unlit bake places them.
+  auto geometry = WorldGeometry::build(w, "island");
+  ASSERT_TRUE(geometry);
+  for (const SectorKey k : {SectorKey{0, 0}, SectorKey{-2, 1}}) {
+    auto p = placeSector(*geometry, w, k, BakeSettings::forQuality(Quality::kDraft), w.effects);
+    ASSERT_TRUE(p);
+    for (size_t i = 0; i < p->probes.size() && i < 3; ++i)
+      light("on a probe", glm::dvec3(p->probes[i].position) + glm::dvec3(k.ix * kSectorSizeM, k.iy * kSectorSizeM, 0.0));
+  }
+  ASSERT_GE(w.lights.size(), 24u);
+  w.effects |= kEffectLocalLights;
+  auto one = bake(w, "island", dir.path / "one.drtv", draft(1));
+  ASSERT_TRUE(one) << one.error().message;
+  EXPECT_GT(one->sectors.size() - one->sectors_empty, 40u);
+  auto two = bake(w, "island", dir.path / "two.drtv", draft(2));
+  ASSERT_TRUE(two) << two.error().message;
+  for (int k = 0; k < 2; ++k) {
+    BakeOptions o = draft();
+    o.shard_index = k;
+    o.shard_count = 2;
+    auto s = bake(w, "island", dir.path / "merged.drtv", o);
+    ASSERT_TRUE(s) << s.error().message;
+  }
+  BakeOptions merge = draft();
+  merge.merge_only = true;
+  auto m = bake(w, "island", dir.path / "merged.drtv", merge);
+  ASSERT_TRUE(m) << m.error().message;
+  const auto bytes = readBytes(dir.path / "one.drtv");
+  EXPECT_EQ(bytes, readBytes(dir.path / "two.drtv"));
+  EXPECT_EQ(bytes, readBytes(dir.path / "merged.drtv"));
 }
 
-// A lit world baked in part (--sectors): the edge sectors' sources in neighbours outside the
-// range cannot be checked, and packing must not call that a bug.
-TEST(Bake, ALitWorldBakesInPart) {
+// A lit world baked in part (--sectors): the neighbours outside the range are placed too, so the
+// sector comes out exactly as in a whole bake.
+TEST(Bake, ALitWorldBakedInPartGivesTheWholeBakesSector) {
   TempDir dir;
   BakeOptions o = draft();
   o.sectors = SectorRange{0, 0, 0, 0};
@@ -466,6 +465,39 @@ TEST(Bake, ALitWorldBakesInPart) {
   EXPECT_TRUE(r->packed);
   ASSERT_EQ(r->sectors.size(), 1u);
   EXPECT_GT(r->sectors[0].lprt_sources, r->sectors[0].probes);  // it has neighbours' sources
+  EXPECT_EQ(r->placement_pass.sectors, 9u);
+  EXPECT_EQ(r->placement_pass.outside, 8u);
+  auto whole = bake(litWorld(), "lit", dir.path / "whole.drtv", draft());
+  ASSERT_TRUE(whole) << whole.error().message;
+  auto a = ArchiveReader::open(dir.path / "part.drtv");
+  auto b = ArchiveReader::open(dir.path / "whole.drtv");
+  ASSERT_TRUE(a && b);
+  auto sa = a->readSector({0, 0});
+  auto sb = b->readSector({0, 0});
+  ASSERT_TRUE(sa && sb);
+  EXPECT_EQ(encodeSector(*sa), encodeSector(*sb));
+}
+
+// A bake stopped after its placement pass (here: one shard's, which placed its sectors and their
+// neighbours) resumes from the placement journal and writes the archive a fresh bake writes.
+TEST(Bake, APlacementJournalIsResumedBitForBit) {
+  TempDir dir;
+  auto fresh = bake(litWorld(), "lit", dir.path / "fresh.drtv", draft());
+  ASSERT_TRUE(fresh) << fresh.error().message;
+  BakeOptions shard = draft();
+  shard.shard_index = 0;
+  shard.shard_count = 2;
+  auto first = bake(litWorld(), "lit", dir.path / "resumed.drtv", shard);
+  ASSERT_TRUE(first) << first.error().message;
+  EXPECT_GT(first->placement_pass.sectors, 0u);
+  // Drop the shard's sectors, keep its placements: the whole bake must place nothing it has.
+  for (const auto& f : fs::directory_iterator(sectorDirectory(dir.path / "resumed.drtv")))
+    if (f.path().filename().string().starts_with("sectors-")) fs::remove(f.path());
+  auto whole = bake(litWorld(), "lit", dir.path / "resumed.drtv", draft());
+  ASSERT_TRUE(whole) << whole.error().message;
+  EXPECT_EQ(whole->placement_pass.resumed, first->placement_pass.sectors);
+  EXPECT_GT(whole->placement_pass.sectors, whole->placement_pass.resumed);
+  EXPECT_EQ(readBytes(dir.path / "fresh.drtv"), readBytes(dir.path / "resumed.drtv"));
 }
 
 // The report's ray counts are what the bake really cast: every query on any scene is logged
@@ -479,7 +511,7 @@ TEST(Bake, ReportCountsEveryRayTheBakeCasts) {
     auto r = bake(lit ? litWorld() : test::smallWorld(), "small", dir.path / (lit ? "lit.drtv" : "a.drtv"), draft());
     setRayLog(nullptr);
     ASSERT_TRUE(r) << r.error().message;
-    uint64_t counted = 0;
+    uint64_t counted = r->placement_pass.outside_rays;
     for (const auto& s : r->sectors) counted += s.rays();
     EXPECT_GT(counted, 0u);
     EXPECT_EQ(counted, log.rays.size());

@@ -102,4 +102,31 @@ TEST(Cli, ACorruptArchiveIsAnErrorNamingTheFileAndOffset) {
   EXPECT_NE(r.out.find("E:drtv: error: " + bad + ": byte 40: "), std::string::npos) << r.out;
 }
 
+// The project's own lit world (a glTF Cornell box on a ground plane with a lamp): it bakes LPRT
+// through the CLI, and 1 thread, 2 threads and 2 shards merged write the same bytes.
+TEST(Cli, ALitGltfWorldBakesAndEveryWayOfBakingItAgrees) {
+  const std::string dir = ::testing::TempDir() + "drtv_cli_lit_" + std::to_string(::getpid());
+  const std::string world = src("tests/reference/data/cornell_world.json");
+  ASSERT_EQ(std::system(("rm -rf '" + dir + "' && mkdir -p '" + dir + "'").c_str()), 0);
+  for (const char* t : {"1", "2"}) {
+    const Outcome r = drtv("bake " + world + " -o " + dir + "/t" + t + ".drtv --quality draft --threads " + t);
+    ASSERT_EQ(r.status, 0) << r.out;
+    EXPECT_NE(r.out.find("sectors"), std::string::npos) << r.out;
+  }
+  for (const char* k : {"0/2", "1/2"}) {
+    const Outcome r = drtv("bake " + world + " -o " + dir + "/m.drtv --quality draft --shard " + k);
+    ASSERT_EQ(r.status, 0) << r.out;
+  }
+  const Outcome m = drtv("bake " + world + " -o " + dir + "/m.drtv --quality draft --merge");
+  ASSERT_EQ(m.status, 0) << m.out;
+  const std::string one = slurp(dir + "/t1.drtv");
+  EXPECT_GT(one.size(), 1000u);
+  EXPECT_EQ(one, slurp(dir + "/t2.drtv"));
+  EXPECT_EQ(one, slurp(dir + "/m.drtv"));
+  const Outcome info = drtv("info " + dir + "/t1.drtv");
+  ASSERT_EQ(info.status, 0) << info.out;
+  EXPECT_NE(info.out.find("with LPRT"), std::string::npos) << info.out;
+  std::system(("rm -rf '" + dir + "'").c_str());
+}
+
 }  // namespace

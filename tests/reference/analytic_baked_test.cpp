@@ -39,7 +39,7 @@ std::unique_ptr<Baked> bakeAndRelight(const worlds::World& world, const Sky& sky
   BakeSettings settings = BakeSettings::forQuality(Quality::kDefault, 1);
   settings.transfer.probe_rays_per_basis = kRaysPerBasis;
   SectorStats stats;
-  auto sector = bakeSector(*geometry, world, SectorKey{0, 0}, settings, world.effects, stats);
+  auto sector = bakeSector(*geometry, world, SectorKey{0, 0}, settings, world.effects, {}, stats);
   EXPECT_TRUE(sector.has_value());
   auto b = std::make_unique<Baked>();
   b->sector = std::move(*sector);

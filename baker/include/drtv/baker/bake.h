@@ -2,18 +2,27 @@
 //
 //  [1] Gilabert & Stefanov, "Deferred Radiance Transfer Volumes", GDC 2012, slides 15-24.
 //
-// Pipeline per sector (each sector is baked alone from the geometry within a halo around it, so
-// sectors can be baked in any order, by any process, and resumed):
-//   gather (world_geometry.h) -> Embree scene (ray_scene.h) -> placement (placement.h) ->
-//   LPRT sources (neighbours' placement) -> transfer (transfer.h) -> index grid (index_grid.h) ->
-//   ground map -> encoded sector appended as one checked record to its shard's journal,
-//   "<archive>.sectors/sectors-<k>-of-<N>.log".
+// Two passes (each sector is baked alone from the geometry within a halo around it, so sectors
+// can be baked in any order, by any process, and resumed):
+//  1. Placement (placement.h), only when LPRT is baked: a sector's LPRT sources are its own and
+//     its 8 neighbours' probes, named by (neighbour, probe index), so every sector's placement
+//     must be known before any sector's transfer. Each sector is placed once, in its own scene
+//     (placeSector), by whichever process needs it; the result is a pure function of the world,
+//     the key and the settings, and is appended to that process's placement journal
+//     "<archive>.sectors/placement-<k>-of-<N>.log" (resumed like the sectors). Sources therefore
+//     name exactly the probes their neighbours bake: there is nothing to reconcile at packing.
+//     Without LPRT nothing depends on a neighbour, and each sector places its probes inside its
+//     own task on the scene it bakes with (no second gather).
+//  2. Per sector: gather (world_geometry.h) -> Embree scene (ray_scene.h) -> its placement ->
+//     LPRT sources (the placements of pass 1) -> transfer (transfer.h) -> index grid
+//     (index_grid.h) -> ground map -> encoded sector appended as one checked record to its shard's
+//     journal, "<archive>.sectors/sectors-<k>-of-<N>.log".
 // Then the journals' sectors are packed, in key order, into the archive with a Manifest holding the
 // bounds, the effects baked, the bake settings, the sky, the lights and the interiors.
 //
 // Halo: 64 m (one sector) of geometry around the sector occludes and bounces; rays leaving it
-// reach the sky. With LPRT it is 80 m so that the neighbours' placement (their probes are the
-// LPRT sources) sees all the geometry it depends on (placement looks 16 m around, placement.h).
+// reach the sky. With LPRT it is 80 m: the sources sit up to a sector away, and their light must
+// be occluded and bounced by what lies around them too (placement itself looks 16 m around).
 //
 // Determinism: the archive depends only on the world, the quality and the seed — not on the
 // thread count, the shard split or whether the bake was resumed (tests say so).
@@ -22,6 +31,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <map>
 #include <optional>
 #include <span>
 #include <string>
@@ -79,12 +89,9 @@ struct SectorStats {
   PlacementStats placement;
   TransferStats transfer;
   IndexGridStats grid;
-  uint64_t other_rays = 0;              // ground map, LPRT neighbour placement
+  uint64_t other_rays = 0;              // ground map
   double gather_s = 0, build_s = 0, placement_s = 0, transfer_s = 0, grid_s = 0, total_s = 0;
   bool resumed = false;                 // read back from a sector file of an earlier run
-  // Where this sector placed its LPRT sources (its frame), in source order: the packer checks
-  // that each source's (dx, dy, probe) names a probe there. In the journal, not in reports.
-  std::vector<glm::vec3> lprt_source_positions;
   uint64_t rays() const {
     return placement.rays + transfer.probe_rays + transfer.surfel_rays + transfer.lprt_rays + grid.rays + other_rays;
   }
@@ -105,6 +112,24 @@ struct BakeOptions {
   std::function<void(size_t, size_t)> progress;
 };
 
+// The probes one sector places, in its own frame (x, y from its min corner), in the order its
+// record stores them, with the figures of its placement.
+struct SectorPlacement {
+  std::vector<PlacedProbe> probes;
+  PlacementStats stats;
+  double seconds = 0;  // gather, scene build and placement, wall
+};
+using SectorPlacements = std::map<SectorKey, SectorPlacement>;
+
+// The placement pass of a bake with LPRT (see the top of this file).
+struct PlacementPass {
+  size_t sectors = 0;          // placements this bake used (its sectors and their neighbours)
+  size_t resumed = 0;          // of which read back from placement journals
+  size_t outside = 0;          // of which not baked by this process (neighbours, other shards)
+  uint64_t outside_rays = 0;   // rays cast placing those (the bake's own sectors count theirs)
+  double seconds = 0;          // wall time of the pass
+};
+
 struct BakeReport {
   std::string world;                     // name or file
   std::filesystem::path archive;
@@ -117,22 +142,10 @@ struct BakeReport {
   std::vector<SectorStats> sectors;      // every sector baked or resumed, in key order
   size_t sectors_empty = 0;              // sectors with no probe (not written to the archive)
   size_t triangles = 0;                  // contributing triangles in the world
+  PlacementPass placement_pass;          // empty without LPRT
   double geometry_s = 0, bake_s = 0, pack_s = 0, wall_s = 0;
   bool packed = false;                   // the archive was written (false for a shard)
 };
-
-// An LPRT source names a neighbour's probe by index, and a sector finds its sources by placing
-// its neighbours again in its own scene (bake.cpp). Checks that each source of `sector` names the
-// probe the sector baked for: the neighbour's probe `ref.probe` must lie within
-// kLprtSourceToleranceM of `assumed[j]` (the sector's frame). A source whose index is off while a
-// probe of that neighbour lies there is re-indexed (the count is returned); one with no probe
-// there, or `assumed` not matching the sources, is an error naming the sector (a baker bug).
-// `probe_positions(key)`: the probe positions of sector `key` in its own frame (empty: a sector
-// of the bake without probes); nullopt for a sector outside the bake (--sectors), whose sources
-// are not checked.
-inline constexpr float kLprtSourceToleranceM = 0.01f;
-Result<size_t> reconcileLprtSources(Sector& sector, std::span<const glm::vec3> assumed,
-                                    const std::function<std::optional<std::span<const glm::vec3>>(SectorKey)>& probe_positions);
 
 // What is wrong with bake settings (they can come from a library caller), or "". The bounds keep
 // every loop and allocation they size sane: at most 1024 columns per sector side, 1 << 16 rays.
@@ -147,9 +160,28 @@ Manifest manifestFor(const WorldGeometry& geometry, const worlds::World& world, 
 // sources sit in the neighbours), else halo_m.
 double haloFor(const BakeSettings& settings, uint32_t effects);
 
-// Bakes one sector in memory (no files). `effects` from effectsToBake. Thread-safe; uses TBB.
+// Places the probes of sector `key` in its own scene (the gather with haloFor's halo): what the
+// sector bakes and what its neighbours' LPRT sources name. Deterministic: the same world, key and
+// settings give the same bits in any process. Thread-safe; uses TBB. Errors: the scene cannot be
+// built (names the sector).
+Result<SectorPlacement> placeSector(const WorldGeometry& geometry, const worlds::World& world, SectorKey key,
+                                    const BakeSettings& settings, uint32_t effects);
+
+// The sectors whose placement a bake of `keys` needs before its transfer: with LPRT the keys and
+// their 8 neighbours (in key order, each once), without it none.
+std::vector<SectorKey> placementKeys(std::span<const SectorKey> keys, uint32_t effects);
+
+// placeSector for every key, in parallel, into a map. Errors: the first sector's, in key order.
+Result<SectorPlacements> placeSectors(const WorldGeometry& geometry, const worlds::World& world,
+                                      std::span<const SectorKey> keys, const BakeSettings& settings, uint32_t effects);
+
+// Bakes one sector in memory (no files). `effects` from effectsToBake. `placements` must hold the
+// sector's 8 neighbours when LPRT is baked (placementKeys; a missing one is a bug and aborts); the
+// sector's own placement is taken from it when present and placed here otherwise (the same bits).
+// Thread-safe; uses TBB.
 Result<Sector> bakeSector(const WorldGeometry& geometry, const worlds::World& world, SectorKey key,
-                          const BakeSettings& settings, uint32_t effects, SectorStats& stats);
+                          const BakeSettings& settings, uint32_t effects, const SectorPlacements& placements,
+                          SectorStats& stats);
 
 // The whole bake (see the top of this file). `world_name` prefixes error messages. Writes the
 // archive at `archive` (unless a shard), "<archive>.sectors/" while it runs, and nothing else:

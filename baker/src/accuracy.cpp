@@ -581,6 +581,18 @@ Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::st
                              base->bake_s, *base_ms, base->bytes, volumeBytes(o, 12.0),
                              "local_lights term alone vs the reference's, as a share of the total ambient"});
     }
+    for (const auto& [name, mode] : {std::pair{"visible", runtime::LightSources::kVisibleFromLight},
+                                     std::pair{"nearest", runtime::LightSources::kNearest}}) {
+      runtime::RuntimeOptions o = base_rt;
+      o.cache.light_sources = mode;
+      progress(std::string("light_sources=") + name);
+      auto e = partError(*base, o, runtime::kComponentLocalLights, 3);
+      if (!e) return std::unexpected(e.error());
+      report.rows.push_back({"light_sources", name, mode == base_rt.cache.light_sources, e->rel, e->bias, base->bake_s, *base_ms,
+                             base->bytes, volumeBytes(o, 12.0),
+                             mode == runtime::LightSources::kNearest ? "the talk's rule: the nearest source probes"
+                                                                     : "the probes the index grid names around the light"});
+    }
     for (size_t keep : {size_t(8), size_t(32), size_t(64), size_t(kMaxLprtSources)}) {
       const InMemoryBake b = truncateLprt(*base, keep);
       if (keep == size_t(kMaxLprtSources)) {

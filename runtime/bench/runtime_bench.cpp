@@ -23,8 +23,8 @@ std::vector<SectorKey> residentKeys() {
   return keys;  // 51
 }
 
-ProbeCache makeCache(int sources, int sources_per_light = 4) {
-  ProbeCache cache({.max_sectors = kMaxResidentSectors, .sources_per_light = sources_per_light});
+ProbeCache makeCache(int sources, int sources_per_light = 4, LightSources light_sources = LightSources::kVisibleFromLight) {
+  ProbeCache cache({.max_sectors = kMaxResidentSectors, .sources_per_light = sources_per_light, .light_sources = light_sources});
   for (SectorKey k : residentKeys())
     if (!cache.addSector(testing::makeSector(k, {.probes = 70, .sources = sources}, 1))) std::abort();
   return cache;
@@ -100,10 +100,10 @@ void BM_RelightWith32MovingLights(benchmark::State& state) {
 }
 BENCHMARK(BM_RelightWith32MovingLights)->Unit(benchmark::kMicrosecond);
 
-// The worst case: one light shared by every source probe, so all 128 sources of every probe
-// carry energy and the whole LPRT block streams through.
+// The worst case: one huge light spread on 64 source probes (the most sources_per_light allows,
+// by the nearest rule), so that most sources of every probe carry energy and the LPRT block streams.
 void BM_RelightWithLprtAllSourcesLit(benchmark::State& state) {
-  ProbeCache cache = makeCache(128, 4000);
+  ProbeCache cache = makeCache(128, 64, LightSources::kNearest);  // the most a light may be spread on
   const PointLight light{"everywhere", {0.0, 0.0, 12.0}, glm::vec3(1.f), 1e4f};
   const RelightInput in = noonInput(std::span(&light, 1));
   for (auto _ : state) {

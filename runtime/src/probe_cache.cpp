@@ -186,6 +186,7 @@ struct ProbeCache::Impl {
 
 ProbeCache::ProbeCache(ProbeCacheOptions options) : impl_(std::make_unique<Impl>()) {
   DRTV_CHECK(options.max_sectors >= 1 && options.sources_per_light >= 1);
+  DRTV_CHECK_LE(options.sources_per_light, 64);  // the weights live in a fixed array of 64
   Impl& m = *impl_;
   m.opt = options;
   const size_t n = size_t(options.max_sectors);
@@ -330,28 +331,61 @@ std::vector<LightShare> ProbeCache::Impl::distribute(std::span<const PointLight>
     ProbeRef p;
   };
   std::vector<Candidate> best;
+  // Keeps the k_max nearest, sorted; ties keep the earlier (slot, index): deterministic.
+  auto consider = [&](const ProbeRef& p, double d2) {
+    for (const Candidate& c : best)
+      if (c.p == p) return;
+    if (int(best.size()) == k_max && d2 >= best.back().d2) return;
+    if (int(best.size()) == k_max) best.pop_back();
+    auto at = std::upper_bound(best.begin(), best.end(), d2, [](double v, const Candidate& c) { return v < c.d2; });
+    best.insert(at, Candidate{d2, p});
+  };
+  auto world = [&](int s, int i) {
+    const Slot& sl = slots[s];
+    return glm::dvec3(sl.origin.x + sl.position[i].x, sl.origin.y + sl.position[i].y, sl.position[i].z);
+  };
   for (const PointLight& light : lights) {
     const double r = light.radius_m, r2 = r * r;
     best.clear();
-    for (size_t s = 0; s < slots.size(); ++s) {
-      const Slot& sl = slots[s];
-      if (!sl.used || sl.count == 0) continue;
-      // Skip sectors whose probes' bounding box is out of reach.
-      const glm::dvec3 lo(sl.origin.x + sl.lo.x, sl.origin.y + sl.lo.y, sl.lo.z);
-      const glm::dvec3 hi(sl.origin.x + sl.hi.x, sl.origin.y + sl.hi.y, sl.hi.z);
-      const glm::dvec3 gap = glm::max(glm::dvec3(0.0), glm::max(lo - light.position, light.position - hi));
-      if (glm::dot(gap, gap) >= r2) continue;
-      for (int i = 0; i < sl.count; ++i) {
-        if (!is_source[s * kSlotProbes + i]) continue;
-        const glm::dvec3 w(sl.origin.x + sl.position[i].x, sl.origin.y + sl.position[i].y, sl.position[i].z);
-        const glm::dvec3 d = w - light.position;
-        const double d2 = glm::dot(d, d);
-        if (!(d2 < r2)) continue;
-        // Keep the k_max nearest, sorted; ties keep the earlier (slot, index): deterministic.
-        if (int(best.size()) == k_max && d2 >= best.back().d2) continue;
-        if (int(best.size()) == k_max) best.pop_back();
-        auto at = std::upper_bound(best.begin(), best.end(), d2, [](double v, const Candidate& c) { return v < c.d2; });
-        best.insert(at, Candidate{d2, ProbeRef{int(s), i}});
+    if (opt.light_sources == LightSources::kVisibleFromLight) {
+      // The probes the index grid names in the 4 cells at the light's height whose centres
+      // surround it (a bilinear look-up's cells). The bake named, for each cell, a probe that
+      // sees it, so a probe on the far side of a roof or wall is not among them unless a cell
+      // centre lies there too. Not the cells above and below: 4 m x 4 m x ~1.5 m cells put a
+      // centre above a roof as soon as a lamp hangs within a cell of it.
+      for (int k = 0; k < 4; ++k) {
+        glm::dvec3 at = light.position;
+        // The lower corner of the surrounding centres, then this corner's offset.
+        auto lower = [](double v) { return (std::floor(v / kGridCellSizeM - 0.5) + 0.5) * kGridCellSizeM; };
+        at.x = lower(at.x) + ((k & 1) ? kGridCellSizeM : 0.0);
+        at.y = lower(at.y) + ((k & 2) ? kGridCellSizeM : 0.0);
+        if (!(std::fabs(at.x) < kMaxWorldM && std::fabs(at.y) < kMaxWorldM && std::isfinite(at.z))) continue;
+        const int s = slotOf(sectorAt(at.x, at.y));
+        if (s < 0 || slots[s].count == 0) continue;
+        const Slot& sl = slots[s];
+        auto cell = [](double v) { return int(std::clamp(std::floor(v), 0.0, double(kGridDim - 1))); };
+        const int cx = cell((at.x - sl.origin.x) / kGridCellSizeM), cy = cell((at.y - sl.origin.y) / kGridCellSizeM);
+        const int cz = cell((at.z - sl.z_min) / sl.cell_h);
+        const int i = sl.nearest[IndexGrid::cellIndex(cx, cy, cz)];
+        if (i >= sl.count || !is_source[s * kSlotProbes + i]) continue;
+        const glm::dvec3 d = world(s, i) - light.position;
+        if (glm::dot(d, d) < r2) consider({s, i}, glm::dot(d, d));
+      }
+    } else {
+      for (size_t s = 0; s < slots.size(); ++s) {
+        const Slot& sl = slots[s];
+        if (!sl.used || sl.count == 0) continue;
+        // Skip sectors whose probes' bounding box is out of reach.
+        const glm::dvec3 lo(sl.origin.x + sl.lo.x, sl.origin.y + sl.lo.y, sl.lo.z);
+        const glm::dvec3 hi(sl.origin.x + sl.hi.x, sl.origin.y + sl.hi.y, sl.hi.z);
+        const glm::dvec3 gap = glm::max(glm::dvec3(0.0), glm::max(lo - light.position, light.position - hi));
+        if (glm::dot(gap, gap) >= r2) continue;
+        for (int i = 0; i < sl.count; ++i) {
+          if (!is_source[s * kSlotProbes + i]) continue;
+          const glm::dvec3 d = world(int(s), i) - light.position;
+          const double d2 = glm::dot(d, d);
+          if (d2 < r2) consider({int(s), i}, d2);
+        }
       }
     }
     double sum = 0.0;

@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include "drtv/runtime/lighting_sh.h"
 #include "drtv/runtime/probe_cache.h"
 #include "test_world.h"
@@ -79,7 +81,7 @@ TEST(Relight, LocalLightsMatchTheReferenceOnBasesAndInSh) {
 }
 
 TEST(LightKernel, KeepsEachLightsEnergyOnTheNearestSourceProbesWithinItsRadius) {
-  ProbeCache cache({.max_sectors = 51, .sources_per_light = 4});
+  ProbeCache cache({.max_sectors = 51, .sources_per_light = 4, .light_sources = LightSources::kNearest});
   for (int y = -1; y <= 1; ++y)
     for (int x = -1; x <= 1; ++x) ASSERT_TRUE(cache.addSector(testing::makeSector({x, y}, {.probes = 30, .sources = 30}, 5)));
   const PointLight light{"l", {5.0, 5.0, 12.0}, {2.f, 4.f, 8.f}, 30.f};
@@ -94,6 +96,27 @@ TEST(LightKernel, KeepsEachLightsEnergyOnTheNearestSourceProbesWithinItsRadius) 
   EXPECT_NEAR(sum.x, 2.0, 1e-5);
   EXPECT_NEAR(sum.z, 8.0, 1e-5);
   EXPECT_LT(farthest, light.radius_m);
+}
+
+// The default candidates: the probes the index grid names in the 4 cells around the light. The
+// light's energy is kept whole, and every share sits on a probe one of those cells names.
+TEST(LightKernel, KeepsEachLightsEnergyOnTheProbesTheGridNamesAroundIt) {
+  ProbeCache cache({.max_sectors = 51, .sources_per_light = 4});
+  for (int y = -1; y <= 1; ++y)
+    for (int x = -1; x <= 1; ++x) ASSERT_TRUE(cache.addSector(testing::makeSector({x, y}, {.probes = 30, .sources = 30}, 5)));
+  const PointLight light{"l", {5.0, 5.0, 12.0}, {2.f, 4.f, 8.f}, 30.f};
+  const std::vector<LightShare> shares = cache.distributeLights(std::span(&light, 1));
+  ASSERT_FALSE(shares.empty());
+  std::vector<ProbeRef> named;
+  for (const double dx : {-2.0, 2.0})
+    for (const double dy : {-2.0, 2.0}) named.push_back(cache.probeAt(light.position + glm::dvec3(dx, dy, 0.0)));
+  glm::dvec3 sum(0.0);
+  for (const LightShare& s : shares) {
+    sum += glm::dvec3(s.colour);
+    EXPECT_NE(std::find(named.begin(), named.end(), s.probe), named.end()) << "slot " << s.probe.slot << " probe " << s.probe.index;
+  }
+  EXPECT_NEAR(sum.x, 2.0, 1e-5);
+  EXPECT_NEAR(sum.z, 8.0, 1e-5);
 }
 
 TEST(LightKernel, ALightExactlyOnAProbeIsFinite) {

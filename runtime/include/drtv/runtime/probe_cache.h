@@ -23,11 +23,17 @@
 // Packing then converts each probe once to three RGBA8 texels (one per colour channel, RGBA =
 // the four basis intensities) for the volume fill to gather by index.
 //
-// Local lights [2]: a light's intensity is distributed onto the LPRT source probes nearest to it
-// within its radius: the `sources_per_light` nearest source probes (default 4) with weights
-// w = (1 - (d/R)^2)^2, normalised to sum to 1 so that the light's energy is kept. The weight is
-// finite and largest (1) at d = 0, so a light exactly on a probe is fine; a light with no source
-// probe within its radius contributes nothing (no baked bounce exists for it there).
+// Local lights [2]: a light's intensity is distributed onto LPRT source probes within its radius:
+// the `sources_per_light` nearest candidates (default 4) with weights w = (1 - (d/R)^2)^2,
+// normalised to sum to 1 so that the light's energy is kept. The weight is finite and largest (1)
+// at d = 0, so a light exactly on a probe is fine; a light with no candidate within its radius
+// contributes nothing (no baked bounce exists for it there). The candidates (LightSources):
+//  - kVisibleFromLight (default): the probes the index grid names in the light's cell and the 8
+//    cells beside it at the light's height. The bake named for each cell a probe that sees it, so
+//    a lamp under a roof never lends its light to a probe standing on the roof (which would then
+//    light the roof's outside: tests/reference/local_lights_test.cpp). Costs 9 cell look-ups per
+//    light, independent of how many probes are resident.
+//  - kNearest: every resident source probe (the talk's rule); leaks through roofs and walls.
 //
 // Thread-safety: not thread-safe; one writer. Const member functions may run concurrently with
 // each other.
@@ -87,9 +93,13 @@ struct ProbeRef {
   friend bool operator==(const ProbeRef&, const ProbeRef&) = default;
 };
 
+// Which source probes may take a light's energy (see the header comment).
+enum class LightSources { kVisibleFromLight, kNearest };
+
 struct ProbeCacheOptions {
   int max_sectors = kMaxResidentSectors;  // slots; memory is reserved for all of them up front
-  int sources_per_light = 4;              // LPRT source probes that share one light (>= 1)
+  int sources_per_light = 4;              // LPRT source probes that share one light, 1..64
+  LightSources light_sources = LightSources::kVisibleFromLight;
 };
 
 // One light's share on one source probe (the output of distributeLights).

@@ -1,0 +1,74 @@
+// Local lights (LPRT) against physics where it has a plain answer: a lamp inside a closed room
+// does not light the outside of its roof. The talk's runtime spreads a light onto the source
+// probes nearest to it; a probe standing on the roof is often among them.
+#include <gtest/gtest.h>
+
+#include "../baker/test_worlds.h"
+#include "baked_world.h"
+#include "drtv/baker/reference.h"
+
+namespace drtv::testing {
+namespace {
+
+using baker::test::add;
+using baker::test::box;
+
+// A closed room (walls 0.4 m, roof slab 0.3 m, no door) on a ground plane, with a lamp 0.5 m
+// under its roof: its room spans [27.4, 36.6] x [28.4, 35.6] x [0, 3] in sector (0, 0).
+worlds::World closedRoomWithLamp() {
+  worlds::World w = baker::test::planeWorld(64.0, {0.4f, 0.4f, 0.4f});
+  w.name = "closed room";
+  const glm::vec3 c(32.f, 32.f, 0.f), lo = c - glm::vec3(5, 4, 0), hi = c + glm::vec3(5, 4, 3);
+  const glm::vec3 a(0.7f, 0.7f, 0.7f);
+  const auto wall = worlds::InstanceClass::kStatic;
+  add(w, box({lo.x, lo.y, lo.z}, {lo.x + 0.4f, hi.y, hi.z}, a, "west wall"), wall);
+  add(w, box({hi.x - 0.4f, lo.y, lo.z}, {hi.x, hi.y, hi.z}, a, "east wall"), wall);
+  add(w, box({lo.x + 0.4f, hi.y - 0.4f, lo.z}, {hi.x - 0.4f, hi.y, hi.z}, a, "north wall"), wall);
+  add(w, box({lo.x + 0.4f, lo.y, lo.z}, {hi.x - 0.4f, lo.y + 0.4f, hi.z}, a, "south wall"), wall);
+  add(w, box({lo.x - 0.3f, lo.y - 0.3f, hi.z}, {hi.x + 0.3f, hi.y + 0.3f, hi.z + 0.3f}, a, "roof"), wall);
+  w.lights.push_back({"lamp", {32.0, 33.0, 2.5}, glm::vec3(40.f), 12.f});
+  w.effects |= kEffectLocalLights;
+  return w;
+}
+
+// The lamp's energy goes to source probes inside its room only. The talk's rule (the nearest
+// sources within the light's radius) also feeds probes outside the walls and on the roof, which
+// then light the roof's outside and the ground around the house; the reference gives those
+// nothing (checked below).
+TEST(LocalLights, ALampInAClosedRoomLendsItsLightOnlyToProbesInTheRoom) {
+  const worlds::World w = closedRoomWithLamp();
+  const BakedWorld baked = bakeWorld(w, baker::Quality::kDraft);
+  ASSERT_FALSE(baked.sectors.empty());
+  const glm::dvec3 room_lo(27.4, 28.4, 0.0), room_hi(36.6, 35.6, 3.0);
+  auto inRoom = [&](const glm::dvec3& p) {
+    return glm::all(glm::greaterThan(p, room_lo)) && glm::all(glm::lessThan(p, room_hi));
+  };
+  for (const auto mode : {runtime::LightSources::kVisibleFromLight, runtime::LightSources::kNearest}) {
+    runtime::RuntimeOptions o;
+    o.cache.light_sources = mode;
+    auto rt = relit(baked, 23.0, {32, 32, 2}, o);
+    float inside = 0.f, outside = 0.f;
+    for (const runtime::LightShare& sh : rt->cache().distributeLights(baked.manifest.lights))
+      (inRoom(rt->cache().worldPosition(sh.probe)) ? inside : outside) += sh.colour.g;
+    if (mode == runtime::LightSources::kVisibleFromLight) {
+      EXPECT_FLOAT_EQ(inside, w.lights[0].intensity.g) << "all of the lamp, and only it, goes to the room's probes";
+      EXPECT_EQ(outside, 0.f);
+    } else {
+      EXPECT_GT(outside, 0.25f * w.lights[0].intensity.g) << "the talk's nearest rule leaks here (what the default avoids)";
+    }
+  }
+
+  // The reference: the roof's top and the ground outside get nothing of the lamp.
+  auto scene = baker::ReferenceScene::build(w, "closed room");
+  ASSERT_TRUE(scene);
+  baker::ReferenceLighting lighting{w.sky, 23.0, w.lights};
+  baker::ReferenceSettings settings;
+  settings.samples = 256;
+  const double floor = baker::referenceIrradiance(*scene, lighting, {{31.0, 31.0, 0.0}, {0, 0, 1}}, settings).parts[baker::kRefLocalLights].mean.g;
+  EXPECT_GT(floor, 0.1);
+  for (const glm::dvec3 at : {glm::dvec3(31.0, 31.0, 3.3), glm::dvec3(40.0, 31.0, 0.0)})
+    EXPECT_LT(baker::referenceIrradiance(*scene, lighting, {at, {0, 0, 1}}, settings).parts[baker::kRefLocalLights].mean.g, 0.01 * floor);
+}
+
+}  // namespace
+}  // namespace drtv::testing

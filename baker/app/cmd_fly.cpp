@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.h"
+#include "drtv/worlds/load.h"
 #include "drtv/streamer/fly.h"
 
 namespace drtv::app {
@@ -30,6 +31,7 @@ struct FlyCliOptions {
   int io_threads = 0;  // 0 = deterministic I/O
   bool no_runtime = false;
   std::vector<std::string> faults;  // "ix,iy:kind"
+  std::string world;                // world file whose lights (and their paths) to fly with
 };
 
 // "3,-1:corrupt" -> key and fault.
@@ -79,6 +81,15 @@ Result<void> runFly(const FlyCliOptions& o) {
   fo.start_hour = o.start_hour;
   fo.hours_per_s = o.hours_per_s;
   fo.runtime = !o.no_runtime;
+  if (!o.world.empty()) {
+    auto world = worlds::loadWorld(o.world);
+    if (!world) return std::unexpected(world.error());
+    if (world->lights.empty()) return fail(o.world + ": --world gives the flight its lights, and this world has none");
+    if (!(reader->manifest().effects & kEffectLocalLights))
+      return fail(o.archive + ": baked without local lights (LPRT), so the lights of " + o.world + " would not show; bake a world with lights");
+    fo.lights = world->lights;
+    fo.light_paths = world->light_paths;
+  }
   if (showProgress())
     fo.progress = [](int done, int total) {
       std::fprintf(stderr, "\rdrtv fly: frame %d / %d", done, total);
@@ -122,6 +133,8 @@ Command registerFly(CLI::App& app) {
   sub->add_option("--io-threads", o->io_threads,
                   "Background I/O threads; 0 (default) = deterministic simulated I/O, reproducible reports")
       ->check(CLI::Range(0, 64));
+  sub->add_option("--world", o->world,
+                  "World file whose lights fly with the camera; lights with a path move along it (docs/world-format.md)");
   sub->add_option("--fault", o->faults, "Inject a fault on a sector: IX,IY:missing|truncated|corrupt|slow (repeatable)");
   sub->add_flag("--no-runtime", o->no_runtime, "Stream only: no relighting or volume updates");
   sub->add_flag("--json", o->json, "Print fly-report.json on stdout instead of the text summary");

@@ -115,4 +115,49 @@ std::string validateLighting(const Sky& sky, const std::vector<PointLight>& ligh
   return {};
 }
 
+std::string validateLightPath(const LightPath& path) {
+  if (path.keys.size() < 2) return "keys: a path needs at least 2 keys (a light that stays put needs no path)";
+  for (size_t i = 0; i < path.keys.size(); ++i) {
+    const LightKey& k = path.keys[i];
+    const std::string at = "keys[" + std::to_string(i) + "]";
+    if (!std::isfinite(k.t_s) || (i > 0 && !(k.t_s > path.keys[i - 1].t_s)))
+      return at + ".t_s: must be finite" + (i > 0 ? " and greater than keys[" + std::to_string(i - 1) + "].t_s" : std::string());
+    if (!finite3(k.position) || glm::any(glm::greaterThan(glm::abs(k.position), glm::dvec3(1e7))))
+      return at + ".position: must be finite and within 1e7 m";
+    for (int c = 0; c < 3; ++c)
+      if (!std::isfinite(k.intensity[c]) || k.intensity[c] < 0.f) return at + ".intensity: must be finite and >= 0";
+    if (!std::isfinite(k.radius_m) || !(k.radius_m > 0.f)) return at + ".radius_m: must be finite and > 0";
+  }
+  return {};
+}
+
+PointLight lightAt(const PointLight& light, const LightPath& path, double t_s) {
+  DRTV_CHECK_LE(size_t(2), path.keys.size());
+  const std::vector<LightKey>& k = path.keys;
+  double t = t_s;
+  if (path.loop) {
+    const double t0 = k.front().t_s, period = k.back().t_s - t0;
+    t = t0 + (t - t0 - period * std::floor((t - t0) / period));
+  }
+  PointLight out = light;
+  auto set = [&](const LightKey& a) {
+    out.position = a.position, out.intensity = a.intensity, out.radius_m = a.radius_m;
+  };
+  if (!(t > k.front().t_s)) {
+    set(k.front());
+    return out;
+  }
+  if (!(t < k.back().t_s)) {
+    set(k.back());
+    return out;
+  }
+  const size_t i = size_t(std::upper_bound(k.begin(), k.end(), t, [](double v, const LightKey& key) { return v < key.t_s; }) - k.begin());
+  const LightKey &a = k[i - 1], &b = k[i];
+  const double u = (t - a.t_s) / (b.t_s - a.t_s);
+  out.position = a.position + (b.position - a.position) * u;
+  out.intensity = a.intensity + (b.intensity - a.intensity) * float(u);
+  out.radius_m = a.radius_m + (b.radius_m - a.radius_m) * float(u);
+  return out;
+}
+
 }  // namespace drtv

@@ -140,10 +140,20 @@ Result<FlyResult> fly(Streamer& streamer, const CatmullRomPath& path, const FlyO
     runtime::RuntimeOptions ro = runtime::optionsForEffects(m.effects);
     ro.volume.texel_size_m.x = ro.volume.texel_size_m.y = float(streamer.options().residency.volume_texel_m);
     rt = std::make_unique<runtime::Runtime>(ro);
-    if (auto ok = rt->setLighting(m.sky, m.lights, m.interiors); !ok) return std::unexpected(ok.error().context(r.archive));
+    for (size_t i = 0; i < o.light_paths.size(); ++i)
+      if (!o.light_paths[i].keys.empty())
+        if (std::string e = validateLightPath(o.light_paths[i]); !e.empty())
+          return fail("fly: lights[" + std::to_string(i) + "].path." + e);
+    if (o.light_paths.size() > o.lights.size()) return fail("fly: more light paths than lights");
+    const std::vector<PointLight>& lights = o.lights.empty() ? m.lights : o.lights;
+    if (auto ok = rt->setLighting(m.sky, lights, m.interiors); !ok) return std::unexpected(ok.error().context(r.archive));
     if (auto ok = rt->setTime(o.start_hour); !ok) return std::unexpected(ok.error());
     r.runtime_note = "drtv::runtime: Runtime::addSector per load, setTime + update per frame (" +
                      effectsToString(m.effects) + ")";
+    const size_t movers = size_t(std::count_if(o.light_paths.begin(), o.light_paths.end(), [](const LightPath& p) { return !p.keys.empty(); }));
+    if (movers > 0)
+      r.runtime_note += "; " + std::to_string(movers) + " of " + std::to_string(lights.size()) +
+                        " lights move (Runtime::setLights every frame, in the frame time)";
   } else {
     r.runtime_note = "runtime off (--no-runtime): streaming only; relight and volume times are 0";
   }
@@ -173,6 +183,8 @@ Result<FlyResult> fly(Streamer& streamer, const CatmullRomPath& path, const FlyO
   if (!pictures) r.runtime_note += "; no top-down pictures: the archive spans more than " + std::to_string(kMaxPictureSectors) + " sectors";
   for (int k = 1; pictures && k <= o.snapshots; ++k) snap_at.push_back(std::min(frames - 1, int(std::lround(double(frames - 1) * k / o.snapshots))));
   r.frames.reserve(size_t(frames));
+  const bool moving = std::any_of(o.light_paths.begin(), o.light_paths.end(), [](const LightPath& p) { return !p.keys.empty(); });
+  std::vector<PointLight> lights_now = o.lights;
   for (int f = 0; f < frames; ++f) {
     const double t = f * dt;
     const double s_m = o.speed_mps * t;
@@ -184,6 +196,13 @@ Result<FlyResult> fly(Streamer& streamer, const CatmullRomPath& path, const FlyO
     sink.relight_ms = 0.0;
     ff.stats = streamer.update(cam, t, sink);
     ff.relight_ms = sink.relight_ms;
+    if (rt && moving) {
+      const auto t0 = Clock::now();
+      for (size_t i = 0; i < o.light_paths.size(); ++i)
+        if (!o.light_paths[i].keys.empty()) lights_now[i] = lightAt(o.lights[i], o.light_paths[i], t);
+      (void)rt->setLights(lights_now);  // validated paths give valid lights
+      ff.lights_ms = msSince(t0);
+    }
     if (rt) {
       const uint64_t relights = rt->relightCount();
       const auto t0 = Clock::now();
@@ -192,7 +211,7 @@ Result<FlyResult> fly(Streamer& streamer, const CatmullRomPath& path, const FlyO
       ff.volume_ms = msSince(t0);
       ff.full_relight = rt->relightCount() != relights;
     }
-    ff.frame_ms = ff.stats.update_ms + ff.relight_ms + ff.volume_ms;
+    ff.frame_ms = ff.stats.update_ms + ff.relight_ms + ff.lights_ms + ff.volume_ms;
     r.frames.push_back(ff);
     if (std::find(snap_at.begin(), snap_at.end(), f) != snap_at.end()) r.snapshots.push_back(snapshot(streamer, sink, path, cam, f));
     if (o.progress && (f % std::max(1, frames / 100) == 0 || f == frames - 1)) o.progress(f + 1, frames);

@@ -154,6 +154,50 @@ TEST(Fly, DeterministicFlightsGiveTheSameFramesAndNoMissesAt100MetresPerSecond) 
   EXPECT_GT(a.volume_bytes, 0u);
 }
 
+// 32 lights on vehicles driving at 100 m/s around the flight (plus a flicker), over a world with
+// LPRT, at 0.2 h/s: the streamer keeps up (no misses), the resident bytes stay within the LPRT
+// budget, and every frame sets the moved lights and relights.
+TEST(Fly, ThirtyTwoMovingLightsAtHundredMetresPerSecondStayWithinTheLprtBudget) {
+  testing::TempDir dir;
+  const Manifest m = testing::writeWorld(dir.path() / "lit.drtv", {.lprt_sources = 128});
+  StreamerOptions so;
+  so.io_mode = IoMode::kDeterministic;
+  auto s = Streamer::open(dir.path() / "lit.drtv", so);
+  ASSERT_TRUE(s.has_value());
+  FlyOptions fo;
+  fo.frames = 300;
+  fo.hours_per_s = 0.2;
+  fo.start_hour = 19.0;
+  const CatmullRomPath path = defaultFlightPath(m, false);
+  for (int i = 0; i < 32; ++i) {
+    PointLight l{"vehicle " + std::to_string(i), path.position(0.0), glm::vec3(20.f), 12.f};
+    LightPath p;
+    const glm::dvec3 offset(8.0 * (i % 8) - 28.0, 8.0 * (i / 8) - 12.0, 2.0);
+    for (int k = 0; k <= 10; ++k) {
+      const double t = 0.5 * k;  // 5 s: 500 m along the camera's path at 100 m/s
+      p.keys.push_back({t, path.position(100.0 * t) + offset, glm::vec3(k % 2 ? 12.f : 20.f), 12.f});
+    }
+    fo.lights.push_back(l);
+    fo.light_paths.push_back(p);
+  }
+  auto r = fly(**s, path, fo, "lit.drtv");
+  ASSERT_TRUE(r.has_value()) << r.error().message;
+  const FlySummary sum = summarize(*r);
+  EXPECT_EQ(sum.misses, 0);
+  EXPECT_LE(sum.max_reserved_bytes, kBudgetBytesWithLprt);
+  EXPECT_GT(sum.max_reserved_bytes, kBudgetBytesWithoutLprt) << "the sectors carry LPRT";
+  int relit = 0;
+  for (const FlyFrame& f : r->frames) relit += f.full_relight && f.lights_ms > 0.0;
+  EXPECT_EQ(relit, int(r->frames.size()));
+  EXPECT_NE(r->runtime_note.find("32 of 32 lights move"), std::string::npos) << r->runtime_note;
+
+  // A path that is not one is an error naming the light, not a flight.
+  fo.light_paths[3].keys.resize(1);
+  auto bad = fly(**s, path, fo, "lit.drtv");
+  ASSERT_FALSE(bad.has_value());
+  EXPECT_NE(bad.error().message.find("lights[3].path.keys"), std::string::npos) << bad.error().message;
+}
+
 TEST(Fly, WritesCsvJsonMarkdownAndPngs) {
   testing::TempDir dir;
   testing::writeWorld(dir.path() / "w.drtv", {});

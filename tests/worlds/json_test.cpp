@@ -152,6 +152,61 @@ TEST(WorldJson, ParsesLightsInteriorsEffectsAndSky) {
   EXPECT_NEAR(w->sky.sky_horizon.at(18.0).x, 0.45, kFloatTolerance);  // wraps 12 h -> 0 h
 }
 
+// A light with a path moves: keys in time, linear between them, clamped (or wrapped with loop).
+// The world keeps the light where its path starts, for the bake and the archive.
+TEST(WorldJson, ParsesLightPathsAndPlaysThem) {
+  const auto w = parse(R"({"lights": [
+    {"name": "torch", "position": [0, 0, 2], "intensity": [4, 3, 2], "radius_m": 8,
+     "path": {"keys": [{"t_s": 1, "position": [10, 0, 2]}, {"t_s": 3, "position": [10, 20, 2], "intensity": [0, 0, 0]}]}},
+    {"name": "fire", "position": [5, 5, 1],
+     "path": {"loop": true, "keys": [{"t_s": 0, "position": [5, 5, 1]}, {"t_s": 0.5, "position": [5, 5, 1], "intensity": [3, 3, 3]},
+                                     {"t_s": 1, "position": [5, 5, 1]}]}},
+    {"name": "still", "position": [1, 2, 3]}]})");
+  ASSERT_TRUE(w.has_value()) << w.error().message;
+  ASSERT_EQ(w->lights.size(), 3u);
+  ASSERT_EQ(w->light_paths.size(), 3u);
+  EXPECT_EQ(w->lights[0].position, glm::dvec3(10, 0, 2)) << "kept where the path starts";
+  EXPECT_TRUE(w->light_paths[2].keys.empty());
+  const LightPath& torch = w->light_paths[0];
+  EXPECT_EQ(lightAt(w->lights[0], torch, -5.0).position, glm::dvec3(10, 0, 2));
+  const PointLight mid = lightAt(w->lights[0], torch, 2.0);
+  EXPECT_EQ(mid.position, glm::dvec3(10, 10, 2));
+  EXPECT_FLOAT_EQ(mid.intensity.r, 2.f);  // halfway from the light's 4 to 0
+  EXPECT_FLOAT_EQ(mid.radius_m, 8.f);
+  EXPECT_EQ(lightAt(w->lights[0], torch, 99.0).position, glm::dvec3(10, 20, 2));
+  const LightPath& fire = w->light_paths[1];
+  EXPECT_TRUE(fire.loop);
+  EXPECT_FLOAT_EQ(lightAt(w->lights[1], fire, 0.25).intensity.g, 2.f);
+  EXPECT_FLOAT_EQ(lightAt(w->lights[1], fire, 10.25).intensity.g, 2.f) << "wrapped by the 1 s period";
+  EXPECT_FLOAT_EQ(lightAt(w->lights[1], fire, -0.75).intensity.g, 2.f);
+}
+
+TEST(WorldJson, RejectsBadLightsAndPathsNamingTheKey) {
+  expectError(R"({"lights": [{"position": [0, 0, "x"]}]})", "key 'lights[0].position': expected array of 3 numbers");
+  expectError(R"({"lights": [{"position": [0, 0, 1], "radius_m": 0}]})", "key 'lights[0].radius_m': 0 out of range");
+  expectError(R"({"lights": [{"position": [0, 0, 1], "radius_m": -2}]})", "key 'lights[0].radius_m'");
+  expectError(R"({"lights": [{"position": [0, 0, 1], "intensity": [1, -1, 1]}]})", "key 'lights[0].intensity[1]'");
+  expectError(R"({"lights": [{"position": [2e7, 0, 1]}]})", "key 'lights[0].position[0]': 2e+07 out of range");
+  expectError(R"({"lights": [{"position": [0, 0, 1], "path": {"keys": [{"t_s": 0, "position": [0, 0, 1]}]}}]})",
+              "key 'lights[0].path.keys': a path needs at least 2 keys");
+  expectError(R"({"lights": [{"position": [0, 0, 1], "path": {"keys": [{"t_s": 1, "position": [0, 0, 1]}, {"t_s": 1, "position": [1, 0, 1]}]}}]})",
+              "key 'lights[0].path.keys[1].t_s': must be greater");
+  expectError(R"({"lights": [{"position": [0, 0, 1], "path": {"keys": [{"t_s": 0, "position": [0, 0, 1]}, {"t_s": 1, "position": [1e8, 0, 1]}]}}]})",
+              "key 'lights[0].path.keys[1].position[0]'");
+  expectError(R"({"lights": [{"position": [0, 0, 1], "path": {"keys": [{"t_s": 0, "position": [0, 0, 1]}, {"t_s": 1, "position": [1, 0, 1], "radius_m": 0}]}}]})",
+              "key 'lights[0].path.keys[1].radius_m'");
+  expectError(R"({"lights": [{"position": [0, 0, 1], "path": {"loop": 1, "keys": []}}]})", "key 'lights[0].path.keys': a path needs");
+  expectError(R"({"lights": [{"position": [0, 0, 1], "path": {"speed": 3}}]})", "key 'lights[0].path.speed': unknown key");
+  // NaN cannot be written in JSON; a library caller's path is checked by validateLightPath.
+  LightPath p{{{0.0, {0, 0, 1}}, {std::nan(""), {0, 0, 1}}}};
+  EXPECT_NE(validateLightPath(p).find("keys[1].t_s: must be finite"), std::string::npos) << validateLightPath(p);
+  p.keys[1].t_s = 1.0;
+  p.keys[1].intensity = glm::vec3(NAN);
+  EXPECT_NE(validateLightPath(p).find("keys[1].intensity"), std::string::npos);
+  p.keys[1].intensity = glm::vec3(1.f);
+  EXPECT_EQ(validateLightPath(p), "");
+}
+
 TEST(WorldJson, DefaultEffectsFollowContentWhenAbsent) {
   const auto without = parse(R"({"primitives": [{"shape": "box"}]})");
   ASSERT_TRUE(without.has_value());

@@ -410,7 +410,7 @@ Ok Parser::lights(const json& j) {
   if (!j.is_array()) return error("lights", std::string("expected array, got ") + j.type_name());
   for (size_t i = 0; i < j.size(); ++i) {
     const std::string path = at("lights", i);
-    DRTV_TRY(object(j[i], path, {"name", "position", "intensity", "radius_m"}));
+    DRTV_TRY(object(j[i], path, {"name", "position", "intensity", "radius_m", "path"}));
     PointLight l;
     DRTV_TRY_DECL(name, optString(j[i], "name", path, path));
     DRTV_TRY_DECL(pos, reqVec<3>(j[i], "position", path, -1e7, 1e7));
@@ -420,7 +420,43 @@ Ok Parser::lights(const json& j) {
     l.position = pos;
     l.intensity = glm::vec3(intensity);
     l.radius_m = float(radius);
+    LightPath motion;
+    if (j[i].contains("path")) {
+      // {"keys": [{"t_s", "position", "intensity"?, "radius_m"?}, ...], "loop": bool}; a key's
+      // intensity and radius default to the light's.
+      const std::string mp = join(path, "path");
+      const json& pj = j[i].at("path");
+      DRTV_TRY(object(pj, mp, {"keys", "loop"}));
+      if (!pj.contains("keys")) return error(join(mp, "keys"), "required");
+      const json& keys = pj.at("keys");
+      if (!keys.is_array()) return error(join(mp, "keys"), std::string("expected array, got ") + keys.type_name());
+      if (keys.size() < 2) return error(join(mp, "keys"), "a path needs at least 2 keys (a light that stays put needs no path)");
+      if (keys.size() > 100000) return error(join(mp, "keys"), "more than 100000 keys");
+      for (size_t k = 0; k < keys.size(); ++k) {
+        const std::string kp = at(join(mp, "keys"), k);
+        DRTV_TRY(object(keys[k], kp, {"t_s", "position", "intensity", "radius_m"}));
+        LightKey key;
+        DRTV_TRY_DECL(t, reqNumber(keys[k], "t_s", kp, -1e9, 1e9));
+        DRTV_TRY_DECL(kpos, reqVec<3>(keys[k], "position", kp, -1e7, 1e7));
+        DRTV_TRY_DECL(kint, optVec<3>(keys[k], "intensity", kp, intensity, 0.0, 1e9));
+        DRTV_TRY_DECL(krad, optNumber(keys[k], "radius_m", kp, radius, 1e-3, 1e5));
+        if (k > 0 && !(t > motion.keys.back().t_s)) return error(join(kp, "t_s"), "must be greater than the previous key's");
+        key.t_s = t;
+        key.position = kpos;
+        key.intensity = glm::vec3(kint);
+        key.radius_m = float(krad);
+        motion.keys.push_back(key);
+      }
+      if (pj.contains("loop")) {
+        if (!pj.at("loop").is_boolean()) return error(join(mp, "loop"), std::string("expected boolean, got ") + pj.at("loop").type_name());
+        motion.loop = pj.at("loop").get<bool>();
+      }
+      // The bake and the manifest keep the light where its path starts.
+      const PointLight first = lightAt(l, motion, motion.keys.front().t_s);
+      l.position = first.position, l.intensity = first.intensity, l.radius_m = first.radius_m;
+    }
     world_.lights.push_back(l);
+    world_.light_paths.push_back(std::move(motion));
   }
   return true;
 }

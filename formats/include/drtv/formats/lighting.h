@@ -62,6 +62,30 @@ struct PointLight {
   float radius_m = 10.f;     // range of influence, > 0
 };
 
+// A light that moves (a carried torch, a vehicle's lamps, a flickering fire): keys in time, the
+// light's state between two keys linear in time. LPRT does not care where a light is (its sources
+// are probes), so a baked world takes moving lights without a rebake; the runtime redistributes
+// them onto source probes each time they are set.
+struct LightKey {
+  double t_s = 0.0;             // seconds from the start of the animation, strictly increasing
+  glm::dvec3 position{0.0};     // world metres
+  glm::vec3 intensity{1.f};     // radiant intensity, linear RGB per sr (>= 0)
+  float radius_m = 10.f;        // range of influence, > 0
+};
+struct LightPath {
+  std::vector<LightKey> keys;   // >= 2 keys
+  bool loop = false;            // after the last key, start again from the first (period: the
+                                // last key's time; the last key should repeat the first's state)
+};
+
+// The light `light` following `path` at time `t_s` (any finite seconds): clamped to the first
+// and last keys, or wrapped with `loop`. Precondition: validateLightPath(path) is "".
+PointLight lightAt(const PointLight& light, const LightPath& path, double t_s);
+// What is wrong with a path ("" if nothing): "keys: a path needs at least 2 keys", "keys[3].t_s:
+// must be finite and greater than keys[2].t_s", positions within 1e7 m, intensities finite and
+// >= 0, radii finite and > 0.
+std::string validateLightPath(const LightPath& path);
+
 // An artist volume whose inside takes ambient from one designated probe (talk slide 55).
 struct InteriorVolume {
   std::string name;

@@ -51,6 +51,11 @@ struct FlyOptions {
   // the area before the player appears), so that the flight's misses are the streamer's, not a
   // cold start's. At most this many warm-up updates, 1/fps apart, before t = 0; 0 = cold start.
   int warmup_frames = 600;
+  // Moving lights: when `lights` is not empty it replaces the archive's lights, and each frame
+  // sets every light with a path (light_paths[i], validateLightPath) to its state at the frame's
+  // flight time (lightAt); the runtime redistributes them onto source probes and relights.
+  std::vector<PointLight> lights;
+  std::vector<LightPath> light_paths;
   // Called every ~1 % of the flight with (frames done, frames total): progress for a terminal.
   std::function<void(int, int)> progress;
 };
@@ -62,7 +67,8 @@ struct FlyFrame {
   double relight_ms = 0.0;      // Runtime::addSector of this frame's loads (0 without runtime)
   double volume_ms = 0.0;       // Runtime::setTime + update: relight if needed, scroll, publish
   bool full_relight = false;    // the runtime relit every resident probe this frame
-  double frame_ms = 0.0;        // stats.update_ms + relight_ms + volume_ms
+  double lights_ms = 0.0;       // Runtime::setLights of this frame's moving lights (0 without)
+  double frame_ms = 0.0;        // stats.update_ms + relight_ms + lights_ms + volume_ms
 };
 
 // A top-down picture of the world at one frame: RGB8, row 0 = north (max y).

@@ -65,6 +65,11 @@ struct World {
   std::vector<Instance> instances;
   Sky sky = Sky::tropicalDefault();
   std::vector<PointLight> lights;
+  // How the lights move: light_paths[i] moves lights[i]; a light without an entry, or whose entry
+  // has no keys, stays put.
+  // The bake ignores them (LPRT's sources are probes, wherever the lights are); `drtv fly --world`
+  // plays them (lightAt).
+  std::vector<LightPath> light_paths;
   std::vector<InteriorVolume> interiors;
   uint32_t effects = 0;            // drtv::Effect mask in force (see defaultEffects)
   bool effects_explicit = false;   // true when the source named them, false when derived

@@ -37,16 +37,22 @@ constexpr double kHour = 15.0;
 
 // The tolerance, per lookup and channel, in 8-bit steps of the volume (HdrScale / 255) times the
 // point's summed basis weights (sum_b w_b <= 2: how far an error of one step in every fetch moves
-// the ambient). A trilinear fetch is three levels of lerps (x, then y, then z). The sampler may
-// quantise each lerp weight to 2^-subTexelPrecisionBits (lavapipe reports 8 bits, i.e. 1/256 of a
-// texel), an error of at most 1/256 of the difference between the two texels mixed, and lavapipe
-// keeps 8-bit texels in 8-bit fixed point through the lerps, rounding each level's result to a
-// step. Summed over the three levels: 3 steps of rounding + 3/256 of the largest neighbour
-// difference along an axis (kWeightStepsPerContrast below, per step of contrast). Float
-// evaluation of the same arithmetic on both sides (frac, the remap, dot products) is ~1e-6 of a
-// step and vanishes in these bounds.
-constexpr double kRoundingSteps = 3.0;
-constexpr double kWeightStepsPerContrast = 3.0 / 256.0;
+// the ambient). A trilinear fetch is three levels of lerps, along x, then y, then z. At each level
+//  - the sampler quantises the lerp weight to 2^-subTexelPrecisionBits (the device's limit; 8 on
+//    lavapipe, 1/256 of a texel), an error of at most 2^-bits of the difference it mixes, and
+//  - an 8-bit filter (lavapipe filters RGBA8 in 8-bit fixed point) rounds the level's result, at
+//    most kRoundingStepsPerLevel; a lerp of equal values is exact in fixed point as in float.
+// The differences a level mixes are at most the largest difference between two texels of the
+// footprint adjacent along that axis (the later levels mix convex combinations of them), c_axis,
+// measured per point from the texels (footprintContrast). So, per lookup:
+//   tolerance = kFloatSteps + sum over axes with c_axis > 0 of (kRoundingStepsPerLevel + c_axis 2^-bits)
+// which is ~0 where the footprint is flat (a wrong basis or weight shows there at once) and at most
+// 3 + 3 * 255 / 256 ~ 6 steps across the sharpest probe boundary. kFloatSteps covers the float
+// arithmetic both sides do in different orders (unorm conversion, frac, the remap, the dot
+// products, about 20 operations): 2.5e-3 steps is 1e-5 of HdrScale, some 80 float ulps (lavapipe
+// stays within 1e-4 steps on flat footprints).
+constexpr double kRoundingStepsPerLevel = 1.0;
+constexpr double kFloatSteps = 2.5e-3;
 
 struct Baked {
   Manifest manifest;
@@ -138,11 +144,11 @@ std::vector<TestPoint> makePoints(const runtime::Volume& volume, float offset_m,
   return points;
 }
 
-// The largest difference, in steps of 8-bit contrast, between texels that one trilinear fetch at
-// the sample point of `p` mixes along one axis (over the 8 texels of the footprint, the 4 bases
-// and the 3 textures): what the sampler's weight quantisation can multiply. Mirrors the footprint
-// of sampleVolume's filter (clamp addressing).
-double footprintContrastSteps(const runtime::Volume& v, const runtime::VolumeShaderConstants& k, const TestPoint& p, float offset_m) {
+// Per axis, the largest difference in 8-bit steps between two texels that are neighbours along
+// that axis in the trilinear footprint of `p`'s sample point (over the 4 bases and 3 textures): what
+// the sampler's weight quantisation multiplies at that level. The footprint as sampleVolume's
+// filter takes it (clamp addressing).
+glm::dvec3 footprintContrast(const runtime::Volume& v, const runtime::VolumeShaderConstants& k, const TestPoint& p, float offset_m) {
   const glm::vec3 ws = glm::vec3(p.position - k.snapped_camera) + p.normal * offset_m;
   const glm::vec3 uv = glm::fract(ws * k.uv_scale + 0.5f + k.wrap_offset) * k.uv_remap_scale + k.uv_remap_bias;
   const glm::ivec3 size = v.size();
@@ -152,7 +158,7 @@ double footprintContrastSteps(const runtime::Volume& v, const runtime::VolumeSha
     lo[a] = std::clamp(i, 0, size[a] - 1);
     hi[a] = std::clamp(i + 1, 0, size[a] - 1);
   }
-  double worst = 0.0;
+  glm::dvec3 worst(0.0);
   for (int c = 0; c < 3; ++c)
     for (int corner = 0; corner < 8; ++corner) {
       const glm::ivec3 q((corner & 1) ? hi[0] : lo[0], (corner & 2) ? hi[1] : lo[1], (corner & 4) ? hi[2] : lo[2]);
@@ -160,7 +166,7 @@ double footprintContrastSteps(const runtime::Volume& v, const runtime::VolumeSha
         glm::ivec3 r = q;
         r[a] = (corner >> a & 1) ? lo[a] : hi[a];
         const uint32_t t0 = v.physicalTexel(c, q), t1 = v.physicalTexel(c, r);
-        for (int b = 0; b < 4; ++b) worst = std::max(worst, std::abs(double(t0 >> (8 * b) & 0xff) - double(t1 >> (8 * b) & 0xff)));
+        for (int b = 0; b < 4; ++b) worst[a] = std::max(worst[a], std::abs(double(t0 >> (8 * b) & 0xff) - double(t1 >> (8 * b) & 0xff)));
       }
     }
   return worst;
@@ -173,6 +179,8 @@ struct Comparison {
   double max_bound_share = 0.0; // largest |difference| / tolerance
   double sum_steps = 0.0;
   double max_contrast_steps = 0.0;  // the largest footprint contrast met (the data is not flat)
+  size_t flat_points = 0;           // points whose footprint is flat (tolerance kFloatSteps)
+  double max_flat_steps = 0.0;      // the largest difference there, steps x weights
   std::string first_failure;
 };
 
@@ -220,14 +228,20 @@ Comparison compareShader(ShaderLanguage language, void (*perturb)(VolumeConstant
       return out;
     }
     const double step = double(k.hdr_scale) / 255.0;
+    const double weight_quantum = std::ldexp(1.0, -int((*vk)->subTexelPrecisionBits()));
     for (size_t i = 0; i < points.size(); ++i) {
       const TestPoint& p = points[i];
       const glm::vec3 cpu = runtime::sampleVolume(volume, p.position, p.normal, offset_m);
       const glm::vec4 w = sh::shadingWeights(p.normal);
       const double weight_sum = std::max(1e-3, double(w.x + w.y + w.z + w.w));
-      const double contrast = footprintContrastSteps(volume, k, p, offset_m);
-      out.max_contrast_steps = std::max(out.max_contrast_steps, contrast);
-      const double tolerance_steps = kRoundingSteps + kWeightStepsPerContrast * contrast;
+      const glm::dvec3 contrast = footprintContrast(volume, k, p, offset_m);
+      double tolerance_steps = kFloatSteps;
+      for (int a = 0; a < 3; ++a) {
+        if (contrast[a] > 0.0) tolerance_steps += kRoundingStepsPerLevel + contrast[a] * weight_quantum;
+        out.max_contrast_steps = std::max(out.max_contrast_steps, contrast[a]);
+      }
+      const bool flat = contrast == glm::dvec3(0.0);
+      out.flat_points += flat;
       const double tolerance = tolerance_steps * step * weight_sum;
       // Where Runtime::ambient is the volume alone (full coverage, no interior), it must agree too.
       const runtime::AmbientSample rs = rt->ambient(p.position, p.normal);
@@ -249,6 +263,7 @@ Comparison compareShader(ShaderLanguage language, void (*perturb)(VolumeConstant
           }
           out.max_abs = std::max(out.max_abs, d);
           out.max_steps = std::max(out.max_steps, d / (step * weight_sum));
+          if (flat) out.max_flat_steps = std::max(out.max_flat_steps, d / (step * weight_sum));
           out.max_bound_share = std::max(out.max_bound_share, d / tolerance);
         }
         out.sum_steps += std::abs(double((*gpu)[i][c]) - double(cpu[c])) / (step * weight_sum);
@@ -258,10 +273,10 @@ Comparison compareShader(ShaderLanguage language, void (*perturb)(VolumeConstant
   }
   std::printf("[ shader ] %s on %s, archive of %zu sectors, %zu probes: %zu lookups (%zu also against Runtime::ambient), "
               "largest |diff| %.3g irradiance = %.3f 8-bit steps x weights (mean %.3f), %.0f%% of the tolerance, %zu over "
-              "(largest texel contrast in a footprint %.0f steps)\n",
+              "(largest texel contrast in a footprint %.0f steps; %zu flat footprints, largest |diff| there %.2g steps)\n",
               shaderLanguageName(language), (*vk)->deviceDescription().c_str(), baked.sectors.size(), probes, out.points,
               out.runtime_points, out.max_abs, out.max_steps, out.sum_steps / double(3 * std::max<size_t>(out.points, 1)),
-              100.0 * out.max_bound_share, out.failures, out.max_contrast_steps);
+              100.0 * out.max_bound_share, out.failures, out.max_contrast_steps, out.flat_points, out.max_flat_steps);
   return out;
 }
 

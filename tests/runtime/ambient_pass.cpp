@@ -42,17 +42,21 @@ Result<std::unique_ptr<AmbientPass>> AmbientPass::create(VulkanCompute& vk, cons
     if (!t) return std::unexpected(t.error());
     textures[c] = *t;
   }
-  auto ubo = vk.addBuffer(sizeof(VolumeConstantsBlock), /*uniform=*/true);
+  auto ubo = vk.addBuffer(sizeof(VolumeConstantsBlock), BufferKind::kUniform);
   if (!ubo) return std::unexpected(ubo.error());
   std::memcpy(vk.bufferMemory(*ubo).data(), &constants, sizeof constants);
-  // Whole workgroups: the entry points do not test the index against a count.
+  // Whole workgroups: the entry points do not test the index against a count. Points and results
+  // live in device memory, copied through one staging buffer (points are the larger).
   pass->max_points_ = (max_points + kWorkgroupSize - 1) / kWorkgroupSize * kWorkgroupSize;
-  auto points = vk.addBuffer(pass->max_points_ * sizeof(AmbientPoint), false);
+  auto points = vk.addBuffer(pass->max_points_ * sizeof(AmbientPoint), BufferKind::kDeviceStorage);
   if (!points) return std::unexpected(points.error());
-  auto results = vk.addBuffer(pass->max_points_ * sizeof(glm::vec4), false);
+  auto results = vk.addBuffer(pass->max_points_ * sizeof(glm::vec4), BufferKind::kDeviceStorage);
   if (!results) return std::unexpected(results.error());
+  auto staging = vk.addBuffer(pass->max_points_ * sizeof(AmbientPoint), BufferKind::kStaging);
+  if (!staging) return std::unexpected(staging.error());
   pass->points_ = *points;
   pass->results_ = *results;
+  pass->staging_ = *staging;
 
   std::vector<PipelineBinding> bindings;
   const BindingKind texture = language == ShaderLanguage::kGlsl ? BindingKind::kTextureAndSampler : BindingKind::kTexture;
@@ -70,16 +74,18 @@ Result<std::unique_ptr<AmbientPass>> AmbientPass::create(VulkanCompute& vk, cons
 Result<std::vector<glm::vec3>> AmbientPass::run(std::span<const AmbientPoint> points, double* seconds) {
   if (points.empty()) return std::vector<glm::vec3>{};
   if (points.size() > max_points_) return fail("ambient pass: " + std::to_string(points.size()) + " points, room for " + std::to_string(max_points_));
-  std::span<std::byte> in = vk_.bufferMemory(points_);
-  std::memcpy(in.data(), points.data(), points.size_bytes());
+  const std::span<std::byte> staging = vk_.bufferMemory(staging_);
+  std::memcpy(staging.data(), points.data(), points.size_bytes());
   // The padding up to a whole workgroup repeats the last point (a finite lookup).
-  const size_t groups = (points.size() + kWorkgroupSize - 1) / kWorkgroupSize;
-  for (size_t i = points.size(); i < groups * kWorkgroupSize; ++i)
-    std::memcpy(in.data() + i * sizeof(AmbientPoint), &points.back(), sizeof(AmbientPoint));
+  const size_t groups = (points.size() + kWorkgroupSize - 1) / kWorkgroupSize, padded = groups * kWorkgroupSize;
+  for (size_t i = points.size(); i < padded; ++i)
+    std::memcpy(staging.data() + i * sizeof(AmbientPoint), &points.back(), sizeof(AmbientPoint));
+  if (auto r = vk_.copyBuffer(staging_, points_, padded * sizeof(AmbientPoint)); !r) return std::unexpected(r.error());
   auto t = vk_.dispatch(pipeline_, uint32_t(groups));
   if (!t) return std::unexpected(t.error());
   if (seconds) *seconds = *t;
-  const std::span<std::byte> out = vk_.bufferMemory(results_);
+  if (auto r = vk_.copyBuffer(results_, staging_, padded * sizeof(glm::vec4)); !r) return std::unexpected(r.error());
+  const std::span<const std::byte> out = staging;
   std::vector<glm::vec3> ambient(points.size());
   for (size_t i = 0; i < points.size(); ++i) {
     glm::vec4 r;

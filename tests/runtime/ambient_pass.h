@@ -76,7 +76,7 @@ class AmbientPass {
  private:
   AmbientPass(VulkanCompute& vk) : vk_(vk) {}
   VulkanCompute& vk_;
-  int pipeline_ = -1, points_ = -1, results_ = -1;
+  int pipeline_ = -1, points_ = -1, results_ = -1, staging_ = -1;
   size_t max_points_ = 0;
 };
 

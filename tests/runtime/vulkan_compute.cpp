@@ -123,7 +123,8 @@ struct VulkanCompute::Impl {
     if (instance) vkDestroyInstance(instance, nullptr);
   }
 
-  // A memory type allowed by `type_bits` with all of `flags`, else one with none required.
+  // A memory type allowed by `type_bits` with all of `flags`, else (device-local asked for, a
+  // device without it) one with none required.
   Result<uint32_t> memoryType(uint32_t type_bits, VkMemoryPropertyFlags flags) const {
     for (VkMemoryPropertyFlags want : {flags, VkMemoryPropertyFlags(0)})
       for (uint32_t i = 0; i < memory_properties.memoryTypeCount; ++i)
@@ -131,7 +132,8 @@ struct VulkanCompute::Impl {
     return fail("vulkan: no memory type for bits " + std::to_string(type_bits));
   }
 
-  Result<Buffer> makeBuffer(size_t bytes, VkBufferUsageFlags usage) const {
+  // A buffer with its own memory: host-visible, coherent and mapped (zeroed), or device-local.
+  Result<Buffer> makeBuffer(size_t bytes, VkBufferUsageFlags usage, bool host_visible = true) const {
     Buffer b;
     b.bytes = bytes;
     auto info = vkStruct<VkBufferCreateInfo>(VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO);
@@ -141,9 +143,9 @@ struct VulkanCompute::Impl {
     VK_TRY(vkCreateBuffer(device, &info, nullptr, &b.buffer));
     VkMemoryRequirements req;
     vkGetBufferMemoryRequirements(device, b.buffer, &req);
-    // Host-visible and coherent: the test writes inputs and reads results through the mapping
-    // without flushes (on a discrete GPU this is slower memory, which only the benchmark sees).
-    auto type = memoryType(req.memoryTypeBits, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT);
+    // Coherent: the host writes and reads through the mapping without flushes.
+    auto type = memoryType(req.memoryTypeBits, host_visible ? VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT
+                                                            : VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
     if (!type) {
       vkDestroyBuffer(device, b.buffer, nullptr);
       return std::unexpected(type.error());
@@ -158,6 +160,7 @@ struct VulkanCompute::Impl {
     };
     if (VkResult r = vkAllocateMemory(device, &alloc, nullptr, &b.memory); r != VK_SUCCESS) return cleanup(r);
     if (VkResult r = vkBindBufferMemory(device, b.buffer, b.memory, 0); r != VK_SUCCESS) return cleanup(r);
+    if (!host_visible) return b;
     void* p = nullptr;
     if (VkResult r = vkMapMemory(device, b.memory, 0, VK_WHOLE_SIZE, 0, &p); r != VK_SUCCESS) return cleanup(r);
     b.mapped = static_cast<std::byte*>(p);
@@ -365,15 +368,37 @@ Result<int> VulkanCompute::addTexture3D(glm::ivec3 size, std::span<const uint32_
   return int(m.textures.size()) - 1;
 }
 
-Result<int> VulkanCompute::addBuffer(size_t bytes, bool uniform) {
-  auto b = impl_->makeBuffer(bytes, uniform ? VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT : VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+Result<int> VulkanCompute::addBuffer(size_t bytes, BufferKind kind) {
+  const VkBufferUsageFlags transfer = VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+  auto b = kind == BufferKind::kUniform   ? impl_->makeBuffer(bytes, VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT)
+           : kind == BufferKind::kStaging ? impl_->makeBuffer(bytes, transfer)
+                                          : impl_->makeBuffer(bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | transfer, false);
   if (!b) return std::unexpected(b.error());
   impl_->buffers.push_back(*b);
   return int(impl_->buffers.size()) - 1;
 }
 
+Result<void> VulkanCompute::copyBuffer(int src, int dst, size_t bytes) {
+  Impl& m = *impl_;
+  const Impl::Buffer &from = m.buffers.at(size_t(src)), &to = m.buffers.at(size_t(dst));
+  if (bytes > from.bytes || bytes > to.bytes) return fail("vulkan: copy of " + std::to_string(bytes) + " bytes overruns a buffer");
+  if (bytes == 0) return {};
+  return m.submitAndWait([&](VkCommandBuffer cmd) {
+    const VkBufferCopy region{0, 0, bytes};
+    vkCmdCopyBuffer(cmd, from.buffer, to.buffer, 1, &region);
+    // Visible to later shader reads and to host reads of the destination (the fence orders
+    // submissions; the barrier makes the writes available).
+    auto b = vkStruct<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
+    b.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+    b.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_HOST_READ_BIT;
+    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_HOST_BIT, 0, 1,
+                         &b, 0, nullptr, 0, nullptr);
+  });
+}
+
 std::span<std::byte> VulkanCompute::bufferMemory(int buffer) const {
   const Impl::Buffer& b = impl_->buffers.at(size_t(buffer));
+  if (!b.mapped) return {};  // device-local
   return {b.mapped, b.bytes};
 }
 
@@ -468,11 +493,12 @@ Result<double> VulkanCompute::dispatch(int pipeline, uint32_t groups_x) {
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, p.layout, 0, 1, &p.set, 0, nullptr);
     vkCmdDispatch(cmd, groups_x, 1, 1);
     if (m.timestamps) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, m.query_pool, 1);
-    // The shader's writes made visible to the host's reads through the mapping.
+    // The shader's writes made available to a later copy or to the host's reads.
     auto b = vkStruct<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
     b.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
-    b.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
-    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &b, 0, nullptr, 0, nullptr);
+    b.dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT | VK_ACCESS_HOST_READ_BIT;
+    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_HOST_BIT, 0, 1,
+                         &b, 0, nullptr, 0, nullptr);
   });
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (!done) return std::unexpected(done.error());

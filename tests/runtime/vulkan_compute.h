@@ -4,8 +4,8 @@
 // It holds one instance, one device (a GPU if the loader offers one, else a CPU device such as
 // lavapipe, Mesa's LLVM-based Vulkan driver, which is what runs on machines without a GPU) and
 // just what an ambient pass needs: 3D RGBA8 textures, one trilinear clamp-to-edge sampler,
-// host-visible uniform and storage buffers, compute pipelines over descriptor set 0, and a
-// dispatch timed with timestamp queries.
+// uniform, staging and device-local storage buffers, compute pipelines over descriptor set 0,
+// and a dispatch timed with timestamp queries.
 //
 // Errors (no device, a failing driver call) come back as Error values naming the call and its
 // VkResult, so that a test fails with the driver's words instead of crashing.
@@ -35,6 +35,13 @@ enum class BindingKind {
   kStorageBuffer,      // buffer block / (RW)StructuredBuffer
 };
 
+enum class BufferKind {
+  kUniform,        // host-visible, coherent, mapped: a uniform block written by the host
+  kStaging,        // host-visible, coherent, mapped: the host's side of copies
+  kDeviceStorage,  // device-local storage buffer, filled and read back through kStaging copies
+                   // (on a discrete GPU, a shader reading host memory would time the bus)
+};
+
 struct PipelineBinding {
   uint32_t binding = 0;  // the shader's binding number in set 0
   BindingKind kind = BindingKind::kUniformBuffer;
@@ -59,11 +66,13 @@ class VulkanCompute {
   // Uploads a size.x x size.y x size.z texture of VK_FORMAT_R8G8B8A8_UNORM texels (texel (x, y, z)
   // at element x + size.x (y + size.y z); R in the low byte). Returns its index.
   Result<int> addTexture3D(glm::ivec3 size, std::span<const uint32_t> texels);
-  // A host-visible, coherent buffer of `bytes`, zeroed. Returns its index.
-  Result<int> addBuffer(size_t bytes, bool uniform);
-  // The buffer's mapped memory (valid for the harness's lifetime). Write before, read after a
-  // dispatch.
+  // A buffer of `bytes` (kUniform and kStaging zeroed). Returns its index.
+  Result<int> addBuffer(size_t bytes, BufferKind kind);
+  // A host-visible buffer's mapped memory (valid for the harness's lifetime); empty for
+  // kDeviceStorage. Write before, read after a dispatch or a copy.
   std::span<std::byte> bufferMemory(int buffer) const;
+  // Copies the first `bytes` of buffer `src` to `dst` (kStaging <-> kDeviceStorage), and waits.
+  Result<void> copyBuffer(int src, int dst, size_t bytes);
 
   // A compute pipeline from SPIR-V words with entry point `entry` and descriptor set 0 as
   // `bindings` (written once, here). Returns its index.

@@ -282,6 +282,7 @@ Comparison compareShader(ShaderLanguage language, void (*perturb)(VolumeConstant
 
 void expectAgreement(ShaderLanguage language) {
   const Comparison c = compareShader(language);
+  if (c.points == 0) return;  // compareShader said why
   EXPECT_GE(c.points, 10000u);
   EXPECT_GE(c.runtime_points, 3000u) << "too few points where Runtime::ambient is the volume alone";
   EXPECT_GT(c.max_contrast_steps, 32.0) << "a nearly flat volume: the comparison would show little";

@@ -16,13 +16,17 @@
 namespace drtv::testing {
 namespace {
 
+constexpr const char* kNoDeviceHint =
+    " (no Vulkan driver found: without a GPU, install Mesa's CPU driver lavapipe, which scripts/bootstrap "
+    "does: mesa-vulkan-drivers)";
+
 std::string resultName(VkResult r) {
   switch (r) {
     case VK_ERROR_OUT_OF_HOST_MEMORY: return "VK_ERROR_OUT_OF_HOST_MEMORY";
     case VK_ERROR_OUT_OF_DEVICE_MEMORY: return "VK_ERROR_OUT_OF_DEVICE_MEMORY";
     case VK_ERROR_INITIALIZATION_FAILED: return "VK_ERROR_INITIALIZATION_FAILED";
     case VK_ERROR_DEVICE_LOST: return "VK_ERROR_DEVICE_LOST";
-    case VK_ERROR_INCOMPATIBLE_DRIVER: return "VK_ERROR_INCOMPATIBLE_DRIVER (no Vulkan driver found)";
+    case VK_ERROR_INCOMPATIBLE_DRIVER: return "VK_ERROR_INCOMPATIBLE_DRIVER";
     case VK_ERROR_FEATURE_NOT_PRESENT: return "VK_ERROR_FEATURE_NOT_PRESENT";
     case VK_ERROR_FORMAT_NOT_SUPPORTED: return "VK_ERROR_FORMAT_NOT_SUPPORTED";
     case VK_ERROR_INVALID_SHADER_NV: return "VK_ERROR_INVALID_SHADER_NV";
@@ -208,15 +212,14 @@ Result<std::unique_ptr<VulkanCompute>> VulkanCompute::create() {
   app.apiVersion = VK_API_VERSION_1_1;
   auto instance_info = vkStruct<VkInstanceCreateInfo>(VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO);
   instance_info.pApplicationInfo = &app;
-  VK_TRY(vkCreateInstance(&instance_info, nullptr, &impl->instance));
+  if (const VkResult r = vkCreateInstance(&instance_info, nullptr, &impl->instance); r != VK_SUCCESS)
+    return fail("vulkan: vkCreateInstance: " + resultName(r) + (r == VK_ERROR_INCOMPATIBLE_DRIVER ? kNoDeviceHint : ""));
 
   uint32_t count = 0;
   VK_TRY(vkEnumeratePhysicalDevices(impl->instance, &count, nullptr));
   std::vector<VkPhysicalDevice> devices(count);
   VK_TRY(vkEnumeratePhysicalDevices(impl->instance, &count, devices.data()));
-  if (count == 0)
-    return fail("vulkan: the loader found no device (install Mesa's CPU driver lavapipe: scripts/bootstrap "
-                "installs mesa-vulkan-drivers)");
+  if (count == 0) return fail(std::string("vulkan: the loader found no device") + kNoDeviceHint);
 
   // The best device that has a compute queue: discrete GPU, integrated GPU, anything else.
   auto rank = [](VkPhysicalDeviceType t) {

@@ -1,7 +1,7 @@
-// The GLSL and HLSL versions of ambient() compile (glslangValidator from Debian's glslang-tools,
-// to SPIR-V; HLSL through its -D front end). There is no GPU in CI and no CPU SPIR-V executor
-// here, so equality with sampleVolume is kept by the A1..A9 line correspondence (docs/runtime.md)
-// and by the check below that both files carry every numbered line in order.
+// The GLSL and HLSL versions of ambient() compile as the fragment shaders an engine uses
+// (glslangValidator from Debian's glslang-tools, to SPIR-V; HLSL through its -D front end), and
+// both files carry the A1..A9 lines of the C++ version in order (docs/runtime.md). That they give
+// what sampleVolume gives is shown by running them: shader_run_test.cpp.
 #include <unistd.h>
 #include <cstdlib>
 #include <filesystem>

@@ -594,12 +594,16 @@ Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::st
                                                                      : "the probes the index grid names around the light"});
     }
     for (size_t keep : {size_t(8), size_t(32), size_t(64), size_t(kMaxLprtSources)}) {
-      const InMemoryBake b = truncateLprt(*base, keep);
-      if (keep == size_t(kMaxLprtSources)) {
-        if (auto r = row("lprt_sources", std::to_string(keep), true, *base, base_rt, "the default bake"); !r) return std::unexpected(r.error());
-      } else if (auto r = row("lprt_sources", std::to_string(keep), false, b, base_rt, "the first sources of the default bake"); !r) {
-        return std::unexpected(r.error());
-      }
+      const bool all = keep == size_t(kMaxLprtSources);
+      const InMemoryBake truncated = all ? InMemoryBake{} : truncateLprt(*base, keep);
+      const InMemoryBake& b = all ? *base : truncated;
+      progress("lprt_sources=" + std::to_string(keep));
+      auto e = partError(b, base_rt, runtime::kComponentLocalLights, 3);
+      if (!e) return std::unexpected(e.error());
+      report.rows.push_back({"lprt_sources", std::to_string(keep), all, e->rel, e->bias, b.bake_s, *base_ms, b.bytes,
+                             volumeBytes(base_rt, 12.0),
+                             std::string(all ? "the default bake" : "the first sources of the default bake") +
+                                 "; local_lights term alone vs the reference's, as a share of the total ambient"});
     }
   } else {
     report.skipped.push_back("lprt_sources: the world has no point lights (no LPRT baked)");

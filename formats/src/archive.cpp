@@ -453,7 +453,10 @@ struct ArchiveWriter::Impl {
     if (cctx) ZSTD_freeCCtx(cctx);
     if (fd >= 0) {
       ::close(fd);
-      if (!finished) std::filesystem::remove(partial);  // no half archive left behind
+      // No half archive left behind. The non-throwing overload: a destructor must not throw, and
+      // a partial file that cannot be removed is only litter (the next create truncates it).
+      std::error_code ignored;
+      if (!finished) std::filesystem::remove(partial, ignored);
     }
   }
   Result<void> writeAt(const void* data, size_t n, uint64_t at) {

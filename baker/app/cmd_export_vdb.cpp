@@ -26,6 +26,7 @@ Command registerExportVdb(CLI::App& app) {
             baker::VdbExportOptions opts;
             opts.hour = *hour;
             opts.voxel_height_m = o->voxel_height_m;
+            if (auto made = createParentFolder(o->output); !made) return std::unexpected(made.error());
             auto stats = baker::exportVdb(o->archive, o->output, opts);
             if (!stats) return std::unexpected(stats.error());
             std::printf("wrote %s: sky_visibility, probe_density, irradiance (%zu sectors, %zu probes, %zu active voxels)\n",

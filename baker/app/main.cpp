@@ -4,6 +4,7 @@
 #include <cstdlib>
 #include <malloc.h>
 #include <cmath>
+#include <filesystem>
 #include <sstream>
 #include <stdexcept>
 #include <unistd.h>
@@ -62,6 +63,46 @@ Result<glm::dvec3> parseVec3(const std::string& text, const std::string& flag) {
       !(std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z)))
     return fail(flag + " '" + text + "': expected three finite numbers x,y,z");
   return v;
+}
+
+Result<void> createParentFolder(const std::string& path) {
+  const std::filesystem::path dir = std::filesystem::path(path).parent_path();
+  if (dir.empty()) return {};
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) return fail(dir.string() + ": cannot create the output folder: " + ec.message());
+  return {};
+}
+
+CLI::Validator finiteRange(double lo, double hi, bool lo_open) {
+  std::ostringstream desc;
+  desc << (lo_open ? "(" : "[") << lo << ", " << hi << "]";
+  return CLI::Validator(
+      [lo, hi, lo_open, text = desc.str()](std::string& value) -> std::string {
+        double v = 0;
+        size_t used = 0;
+        try {
+          v = std::stod(value, &used);
+        } catch (const std::exception&) {
+          return "'" + value + "' is not a number";
+        }
+        if (used != value.size()) return "'" + value + "' is not a number";
+        if (!std::isfinite(v) || (lo_open ? !(v > lo) : !(v >= lo)) || !(v <= hi))
+          return "'" + value + "' must be a finite number in " + text;
+        return {};
+      },
+      "FINITE in " + desc.str());
+}
+
+CLI::Validator nonZeroVec3() {
+  return CLI::Validator(
+      [](std::string& value) -> std::string {
+        auto v = parseVec3(value, "");
+        if (!v) return "'" + value + "': expected three finite numbers x,y,z";
+        if (v->x == 0 && v->y == 0 && v->z == 0) return "'" + value + "': the zero vector has no direction";
+        return {};
+      },
+      "x,y,z != 0");
 }
 
 }  // namespace drtv::app

@@ -51,20 +51,15 @@ struct Truth {
   std::array<std::vector<glm::vec3>, 4> parts;  // sun bounce, sky bounce, direct sky, local lights
 };
 
-struct ErrorStats {
-  double rel = 0, bias = 0;
-};
+using ErrorStats = AmbientError;
 
-ErrorStats compare(const Values& v, const Truth& t) {
-  double abs_sum = 0, sum = 0, ref = 0;
-  for (size_t i = 0; i < v.size(); ++i)
-    for (int c = 0; c < 3; ++c) {
-      abs_sum += std::abs(double(v[i][c]) - t.mean[i][c]);
-      sum += double(v[i][c]) - t.mean[i][c];
-      ref += t.mean[i][c];
-    }
-  ref = std::max(ref, 1e-30);
-  return {abs_sum / ref, sum / ref};
+ErrorStats compare(const Values& v, const Truth& t) { return ambientError(v, t.mean); }
+
+// Appends to a row's note that its relative figures are relative to the floor.
+std::string flooredNote(std::string note, bool floored) {
+  if (!floored) return note;
+  return note + (note.empty() ? "" : "; ") + "reference ambient below the floor (" + std::to_string(kAmbientErrorFloor) +
+         " per channel): errors relative to the floor, see abs_error";
 }
 
 bool inRange(const SectorRange& r, const glm::dvec3& p) { return r.contains(sectorAt(p.x, p.y)); }
@@ -319,7 +314,7 @@ Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::st
     double se = 0, sum = 0;
     for (size_t i = 0; i < truth.mean.size(); ++i)
       for (int c = 0; c < 3; ++c) se += truth.std_error[i][c], sum += truth.mean[i][c];
-    report.reference_noise = se / std::max(sum, 1e-30);
+    report.reference_noise = se / std::max(sum, 3.0 * double(truth.mean.size()) * kAmbientErrorFloor);
     for (const glm::vec3& m : truth.mean) report.reference_mean += glm::dvec3(m);
     report.reference_mean /= double(truth.mean.size());
   }
@@ -342,7 +337,8 @@ Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::st
                   : relightFillMs(bake, rt_options, options.hours, camera, options.timing_repeats);
     if (!ms) return std::unexpected(ms.error());
     const ErrorStats e = compare(*v, truth);
-    report.rows.push_back({knob, value, is_default, e.rel, e.bias, bake.bake_s, *ms, bake.bytes, volumeBytes(rt_options, 12.0), note});
+    report.rows.push_back({knob, value, is_default, e.rel, e.bias, bake.bake_s, *ms, bake.bytes, volumeBytes(rt_options, 12.0),
+                           flooredNote(note, e.floored), e.abs});
     return {};
   };
   auto bakeRow = [&](const std::string& knob, const std::string& value, BakeSettings s) -> Result<void> {
@@ -381,6 +377,9 @@ Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::st
         std::pair{"direct_sky", uint32_t(runtime::kComponentDirectSky)}, std::pair{"local_lights", uint32_t(runtime::kComponentLocalLights)}};
     double total = 0;
     for (const glm::vec3& m : truth.mean) total += double(m.r) + m.g + m.b;
+    const double terms = 3.0 * double(truth.mean.size());
+    const bool floored = total < terms * kAmbientErrorFloor;
+    total = std::max(total, terms * kAmbientErrorFloor);
     for (size_t k = 0; k < parts.size(); ++k) {
       if (!(base_rt.components & parts[k].second)) continue;
       progress(std::string("part=") + parts[k].first);
@@ -394,9 +393,10 @@ Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::st
           abs_sum += std::abs(double((*v)[i][c]) - truth.parts[k][i][c]);
           sum += double((*v)[i][c]) - truth.parts[k][i][c];
         }
-      report.rows.push_back({"part", parts[k].first, false, abs_sum / std::max(total, 1e-30), sum / std::max(total, 1e-30),
-                             base->bake_s, *base_ms, base->bytes, volumeBytes(base_rt, 12.0),
-                             "this term alone vs the reference's, as a share of the total ambient"});
+      report.rows.push_back({"part", parts[k].first, false, abs_sum / total, sum / total, base->bake_s, *base_ms, base->bytes,
+                             volumeBytes(base_rt, 12.0),
+                             flooredNote("this term alone vs the reference's, as a share of the total ambient", floored),
+                             abs_sum / std::max(terms, 1.0)});
     }
   }
 
@@ -478,7 +478,7 @@ Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::st
     auto add = [&](const std::string& value, bool is_default, const Values& v, double bytes_per_texel) {
       const ErrorStats e = compare(v, truth);
       report.rows.push_back({"basis", value, is_default, e.rel, e.bias, probe_ref_s, std::nan(""), base->bytes,
-                             volumeBytes(base_rt, bytes_per_texel), note});
+                             volumeBytes(base_rt, bytes_per_texel), flooredNote(note, e.floored), e.abs});
     };
     add("4-basis", true, four, 12.0);
     add("ambient-cube", false, cube, 18.0);
@@ -518,11 +518,11 @@ Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::st
         double d = 0, s = 0;
         for (size_t i = 0; i < v->size(); ++i)
           for (int c = 0; c < 3; ++c) d += std::abs((*v)[i][c] - (*real)[i][c]), s += (*real)[i][c];
-        report.emulation_check = d / std::max(s, 1e-30);
+        report.emulation_check = d / std::max(s, 3.0 * double(v->size()) * kAmbientErrorFloor);
       }
       const ErrorStats e = compare(*v, truth);
       report.rows.push_back({"storage", k.name, k.levels == 255.0, e.rel, e.bias, base->bake_s, *base_ms, base->bytes,
-                             volumeBytes(o, k.bytes), "emulated: nearest fill, no blur"});
+                             volumeBytes(o, k.bytes), flooredNote("emulated: nearest fill, no blur", e.floored), e.abs});
     }
   }
 
@@ -541,6 +541,25 @@ Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::st
   }
   report.wall_s = since(t_start);
   return report;
+}
+
+AmbientError ambientError(const std::vector<glm::vec3>& values, const std::vector<glm::vec3>& reference) {
+  DRTV_CHECK_EQ(values.size(), reference.size());
+  double abs_sum = 0, sum = 0, ref = 0;
+  for (size_t i = 0; i < values.size(); ++i)
+    for (int c = 0; c < 3; ++c) {
+      abs_sum += std::abs(double(values[i][c]) - reference[i][c]);
+      sum += double(values[i][c]) - reference[i][c];
+      ref += reference[i][c];
+    }
+  const double terms = 3.0 * double(values.size());
+  AmbientError e;
+  e.floored = ref < terms * kAmbientErrorFloor;
+  const double denominator = std::max({ref, terms * kAmbientErrorFloor, 1e-300});
+  e.rel = abs_sum / denominator;
+  e.bias = sum / denominator;
+  e.abs = abs_sum / std::max(terms, 1.0);
+  return e;
 }
 
 }  // namespace drtv::baker

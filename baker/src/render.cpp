@@ -11,6 +11,7 @@
 #include <optional>
 #include <sstream>
 
+#include "drtv/baker/accuracy.h"
 #include "drtv/baker/reference.h"
 #include "render_support.h"
 #include "stopwatch.h"
@@ -232,7 +233,8 @@ Result<RenderResult> render(const worlds::World& world, const std::string& where
   const double hits = std::max<double>(1.0, double(hit_index.size()));
   out.stats.reference_mean_ambient /= hits;
   ref_mean_lum /= hits;
-  const double floor_lum = std::max(1e-12, kErrorFloorFraction * ref_mean_lum);
+  // The absolute floor too: a black reference (nothing to bounce from) must not divide by ~0.
+  const double floor_lum = std::max(kAmbientErrorFloor, kErrorFloorFraction * ref_mean_lum);
   out.error = blankImage(cam.width, cam.height);
   double abs_sum = 0, sum = 0, std_sum = 0;
   for (size_t i : hit_index) {

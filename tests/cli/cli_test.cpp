@@ -5,6 +5,9 @@
 
 #include <array>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -100,6 +103,94 @@ TEST(Cli, ACorruptArchiveIsAnErrorNamingTheFileAndOffset) {
   const Outcome r = drtv("info " + bad);
   EXPECT_EQ(r.status, 1);
   EXPECT_NE(r.out.find("E:drtv: error: " + bad + ": byte 40: "), std::string::npos) << r.out;
+}
+
+// A scratch folder unique to this test and process.
+std::string scratch(const std::string& name) {
+  const ::testing::TestInfo* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  const std::string dir = ::testing::TempDir() + "drtv_cli_" + (info ? info->name() : "none") + "_" + std::to_string(::getpid());
+  std::filesystem::create_directories(dir);
+  return dir + "/" + name;
+}
+
+const std::string kGolden = src("tests/formats/data/golden_v1.drtv");
+
+TEST(Cli, InfoOnAnArchiveTruncatedBeforeItsVersionSaysSoNamingIt) {
+  for (int bytes : {0, 5, 11}) {
+    const std::string bad = scratch("short" + std::to_string(bytes) + ".drtv");
+    ASSERT_EQ(std::system(("head -c " + std::to_string(bytes) + " '" + kGolden + "' > '" + bad + "'").c_str()), 0);
+    const Outcome r = drtv("info " + bad);
+    EXPECT_EQ(r.status, 1);
+    EXPECT_NE(r.out.find("E:drtv: error: " + bad + ": byte "), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("truncated"), std::string::npos) << r.out;
+    EXPECT_EQ(r.out.find("unknown world file type"), std::string::npos) << r.out;
+  }
+}
+
+TEST(Cli, QueryRejectsAZeroOrNonFiniteNormalAsAUsageError) {
+  for (const char* normal : {"0,0,0", "nan,0,1", "0,inf,1", "1,2"}) {
+    const Outcome r = drtv("query " + kGolden + " --at 10,10,2 --normal " + normal);
+    EXPECT_EQ(r.status, 2) << normal << "\n" << r.out;
+    EXPECT_NE(r.out.find("--normal"), std::string::npos) << r.out;
+  }
+  EXPECT_EQ(drtv("query " + kGolden + " --at 10,10,2 --normal 0,0,2").status, 0);
+}
+
+TEST(Cli, FlyRejectsASpeedThatDoesNotMoveAsAUsageError) {
+  for (const char* speed : {"0", "-5", "nan", "inf"}) {
+    const Outcome r = drtv("fly " + kGolden + " --frames 2 --speed " + speed + " -o " + scratch("fly"));
+    EXPECT_EQ(r.status, 2) << speed << "\n" << r.out;
+    EXPECT_NE(r.out.find("--speed"), std::string::npos) << r.out;
+  }
+  EXPECT_EQ(drtv("fly " + kGolden + " --frames 2 --no-runtime --speed 10 -o " + scratch("fly")).status, 0);
+}
+
+TEST(Cli, OutputsCreateTheirParentFolders) {
+  const std::string map = scratch("new/deeper/map.png");
+  const Outcome m = drtv("map " + src("worlds/fc3_testbox.json") + " --size 32 -o " + map);
+  ASSERT_EQ(m.status, 0) << m.out;
+  EXPECT_TRUE(std::filesystem::exists(map));
+  const std::string png = scratch("newdir/x.png");
+  const Outcome r = drtv("render " + kGolden + " --world " + src("worlds/fc3_testbox.json") + " --size 16x8 -o " + png);
+  ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_TRUE(std::filesystem::exists(png));
+  const std::string fly = scratch("a/b/fly");
+  const Outcome f = drtv("fly " + kGolden + " --frames 2 --no-runtime -o " + fly);
+  ASSERT_EQ(f.status, 0) << f.out;
+  EXPECT_TRUE(std::filesystem::exists(fly + "/fly-report.json"));
+}
+
+TEST(Cli, ASmallGltfObjectBakesProbes) {
+  const std::string archive = scratch("box/box.drtv");
+  const Outcome r = drtv("bake " DRTV_SHARED_ASSETS "/draco_box/Box_Draco.glb --quality draft -o " + archive);
+  ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_EQ(r.out.find("E:drtv: warning"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find(" 0 probes"), std::string::npos) << r.out;
+  const Outcome info = drtv("info " + archive + " --json");
+  ASSERT_EQ(info.status, 0) << info.out;
+  EXPECT_EQ(info.out.find("\"total\": 0"), std::string::npos) << info.out;
+}
+
+TEST(Cli, ABakeWithNoProbeWarnsOnStderrAndInTheReport) {
+  // One static triangle facing down (glTF +Y up: its normal -Y becomes -Z): placement finds no
+  // upward surface, so the bake is empty.
+  const std::string world = scratch("down.gltf");
+  {
+    std::ofstream f(world);
+    f << R"({"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+      "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+      "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [4, 0, 4]}],
+      "bufferViews": [{"buffer": 0, "byteLength": 36}],
+      "buffers": [{"byteLength": 36, "uri": "data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAQAAAAAAAAAAAAAAAAAAAAAAAAIBA"}]})";
+  }
+  const std::string archive = scratch("down.drtv");
+  const Outcome r = drtv("bake " + world + " --quality draft -o " + archive);
+  ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_NE(r.out.find("E:drtv: warning: " + world + ": the bake placed no probe"), std::string::npos) << r.out;
+  std::ifstream report(scratch("bake-report.md"));
+  std::stringstream text;
+  text << report.rdbuf();
+  EXPECT_NE(text.str().find("the bake placed no probe"), std::string::npos) << text.str();
 }
 
 }  // namespace

@@ -10,7 +10,9 @@
 #include <fstream>
 #include <initializer_list>
 #include <limits>
+#include <functional>
 #include <optional>
+#include <set>
 #include <sstream>
 
 #include <glm/gtc/matrix_transform.hpp>
@@ -512,9 +514,67 @@ std::string lowerExtension(const std::filesystem::path& p) {
 
 }  // namespace
 
+// The key path of the first key that repeats within one object ("sky.latitude_deg"), found while
+// parsing: nlohmann::json keeps the last of duplicate keys without a word, so a world file with
+// two "terrain" objects would silently bake one of them.
+class DuplicateKeyFinder {
+ public:
+  bool operator()(int /*depth*/, json::parse_event_t event, const json& parsed) {
+    if (!duplicate_.empty()) return true;
+    switch (event) {
+      case json::parse_event_t::object_start:
+      case json::parse_event_t::array_start:
+        countElement();
+        frames_.push_back(Frame{event == json::parse_event_t::array_start, 0, {}, {}});
+        break;
+      case json::parse_event_t::object_end:
+      case json::parse_event_t::array_end:
+        if (!frames_.empty()) frames_.pop_back();
+        break;
+      case json::parse_event_t::key: {
+        if (frames_.empty() || frames_.back().array) break;
+        Frame& f = frames_.back();
+        f.key = parsed.is_string() ? parsed.get<std::string>() : parsed.dump();
+        if (!f.keys.insert(f.key).second) duplicate_ = path();
+        break;
+      }
+      case json::parse_event_t::value:
+        countElement();
+        break;
+    }
+    return true;
+  }
+  // "" when every object's keys were unique.
+  const std::string& duplicate() const { return duplicate_; }
+
+ private:
+  struct Frame {
+    bool array = false;
+    size_t elements = 0;          // arrays: elements seen so far
+    std::set<std::string> keys;   // objects: keys seen so far
+    std::string key;              // objects: the key being read
+  };
+  void countElement() {
+    if (!frames_.empty() && frames_.back().array) ++frames_.back().elements;
+  }
+  std::string path() const {
+    std::string p;
+    for (const Frame& f : frames_) {
+      if (f.array) p += "[" + std::to_string(f.elements - 1) + "]";  // the element being read
+      else p += (p.empty() ? "" : ".") + f.key;
+    }
+    return p;
+  }
+  std::vector<Frame> frames_;
+  std::string duplicate_;
+};
+
 Result<World> parseWorldJson(std::string_view text, const std::filesystem::path& base_dir, const std::string& file_name) {
   try {
-    json root = json::parse(text.begin(), text.end());
+    DuplicateKeyFinder duplicates;
+    json root = json::parse(text.begin(), text.end(), std::ref(duplicates));
+    if (!duplicates.duplicate().empty())
+      return fail(file_name + ": key '" + duplicates.duplicate() + "': duplicate key (JSON objects must not repeat a key)");
     Parser parser(base_dir, file_name);
     return parser.parse(root);
   } catch (const json::parse_error& e) {

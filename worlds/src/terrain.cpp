@@ -72,6 +72,22 @@ Result<Heightfield> loadHeightmapPng(const std::filesystem::path& path, double s
   if (!decodeImage16(bytes.data(), bytes.size(), w, h, channels, pixels, error))
     return fail(file + ": cannot decode heightmap: " + error);
   if (w < 2 || h < 2) return fail(file + ": heightmap must be at least 2x2 texels, is " + std::to_string(w) + "x" + std::to_string(h));
+  // The terrain is a square (docs/world-format.md): a non-square image would have to be
+  // stretched or cropped, and either guess would surprise someone. Say so instead.
+  if (w != h)
+    return fail(file + ": heightmap is " + std::to_string(w) + "x" + std::to_string(h) +
+                " texels: it must be square (the terrain is a square size_m wide)");
+  // Grayscale (with or without alpha) is read as is. An RGB(A) image is accepted only when it is
+  // grey in fact (R = G = B in every texel, as some tools save grayscale); a coloured one would be
+  // taken by its red channel alone, which is never what was meant.
+  if (channels >= 3) {
+    for (size_t t = 0; t < size_t(w) * size_t(h); ++t) {
+      const uint16_t* px = &pixels[t * size_t(channels)];
+      if (px[0] != px[1] || px[0] != px[2])
+        return fail(file + ": heightmap texel (" + std::to_string(t % size_t(w)) + ", " + std::to_string(t / size_t(w)) +
+                    ") is coloured (R, G, B differ): expected a grayscale image");
+    }
+  }
   // Texel (0,0) is the image's top-left: put it at the north-west corner (+y up the image).
   auto texel = [&](double u, double v) {  // u, v in texels, bilinear
     u = std::clamp(u, 0.0, double(w - 1));
@@ -89,7 +105,6 @@ Result<Heightfield> loadHeightmapPng(const std::filesystem::path& path, double s
     const auto cells = static_cast<uint32_t>(std::max(1.0, std::round(size_m / resolution_m)));
     hf.nx = hf.ny = cells + 1;
   }
-  // A non-square image is stretched onto the square; spacing follows x.
   hf.spacing_m = size_m / (hf.nx - 1);
   hf.origin = glm::dvec2(-0.5 * size_m);
   hf.heights_m.resize(size_t(hf.nx) * hf.ny);

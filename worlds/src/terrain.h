@@ -39,7 +39,8 @@ Heightfield noiseHeightfield(double size_m, double resolution_m, double height_m
 
 // A 16-bit (or 8-bit) grayscale PNG heightmap mapped onto a square `size_m` wide centred on
 // (0,0): white = height_m, black = 0. `resolution_m` <= 0 uses one vertex per texel, else the
-// image is resampled bilinearly. Errors name `path`.
+// image is resampled bilinearly. The image must be square; RGB(A) is accepted only when every
+// texel is grey (R = G = B). Errors name `path`.
 Result<Heightfield> loadHeightmapPng(const std::filesystem::path& path, double size_m, double height_m,
                                      double resolution_m);
 

@@ -416,8 +416,8 @@ Ok Parser::lights(const json& j) {
     PointLight l;
     DRTV_TRY_DECL(name, optString(j[i], "name", path, path));
     DRTV_TRY_DECL(pos, reqVec<3>(j[i], "position", path, -1e7, 1e7));
-    DRTV_TRY_DECL(intensity, optVec<3>(j[i], "intensity", path, glm::dvec3(1.0), 0.0, 1e9));
-    DRTV_TRY_DECL(radius, optNumber(j[i], "radius_m", path, 10.0, 1e-3, 1e5));
+    DRTV_TRY_DECL(intensity, optVec<3>(j[i], "intensity", path, glm::dvec3(1.0), 0.0, kMaxColourValue));
+    DRTV_TRY_DECL(radius, optNumber(j[i], "radius_m", path, 10.0, 1e-3, kMaxLightRadiusM));  // 1e-3 rounds up to kMinLightRadiusM
     l.name = name;
     l.position = pos;
     l.intensity = glm::vec3(intensity);
@@ -437,7 +437,7 @@ Ok Parser::interiors(const json& j) {
     DRTV_TRY_DECL(lo, reqVec<3>(j[i], "min", path, -1e7, 1e7));
     DRTV_TRY_DECL(hi, reqVec<3>(j[i], "max", path, -1e7, 1e7));
     DRTV_TRY_DECL(probe, reqVec<3>(j[i], "probe", path, -1e7, 1e7));
-    DRTV_TRY_DECL(blend, optNumber(j[i], "blend_m", path, 1.0, 0.0, 1e4));
+    DRTV_TRY_DECL(blend, optNumber(j[i], "blend_m", path, 1.0, 0.0, kMaxBlendDistanceM));
     if (!(lo.x < hi.x && lo.y < hi.y && lo.z < hi.z)) return error(join(path, "max"), "expected max > min on every axis");
     if (glm::any(glm::lessThan(probe, lo)) || glm::any(glm::greaterThan(probe, hi)))
       return error(join(path, "probe"), "the designated probe must lie inside [min, max]");
@@ -474,7 +474,7 @@ Result<Gradient> Parser::gradient(const json& j, const std::string& path) const 
     DRTV_TRY_DECL(hour, number(j[i][0], at(kpath, 0), 0.0, std::nextafter(24.0, 0.0)));
     glm::vec3 value;
     for (int c = 0; c < 3; ++c) {
-      DRTV_TRY_DECL(x, number(j[i][size_t(c) + 1], at(kpath, size_t(c) + 1), 0.0, 1e9));
+      DRTV_TRY_DECL(x, number(j[i][size_t(c) + 1], at(kpath, size_t(c) + 1), 0.0, kMaxColourValue));
       value[c] = float(x);
     }
     if (!g.keys.empty() && !(hour > g.keys.back().hour)) return error(at(kpath, 0), "hours must increase strictly");

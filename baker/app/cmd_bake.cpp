@@ -117,7 +117,7 @@ Command registerBake(CLI::App& app) {
   sub->add_flag("--fresh", o->fresh, "Discard sector journals left by a different bake");
   sub->add_flag("--keep-sectors", o->keep_sectors, "Keep <archive>.sectors/ after packing");
   sub->add_option("--seed", o->seed, "Seed of every random number (default 1)");
-  return {sub, [o]() { return runBake(*o); }};
+  return {sub, [o]() { return runBake(*o); }, &o->world};
 }
 
 }  // namespace drtv::app

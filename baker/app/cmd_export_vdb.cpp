@@ -32,7 +32,7 @@ Command registerExportVdb(CLI::App& app) {
             std::printf("wrote %s: sky_visibility, probe_density, irradiance (%zu sectors, %zu probes, %zu active voxels)\n",
                         o->output.c_str(), stats->sectors, stats->probes, stats->active_voxels);
             return {};
-          }};
+          }, &o->archive};
 }
 
 }  // namespace drtv::app

@@ -131,7 +131,7 @@ Command registerFly(CLI::App& app) {
   return {sub, [o]() -> Result<void> {
             if (!std::filesystem::exists(o->archive)) return fail(o->archive + ": no such file");
             return runFly(*o);
-          }};
+          }, &o->archive};
 }
 
 }  // namespace drtv::app

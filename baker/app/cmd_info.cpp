@@ -131,7 +131,7 @@ Command registerInfo(CLI::App& app) {
             std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
             if (ext == ".drtv") return std::unexpected(version.error());
             return worldInfo(*o);
-          }};
+          }, &o->path};
 }
 
 }  // namespace drtv::app

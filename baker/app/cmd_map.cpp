@@ -24,7 +24,7 @@ Command registerMap(CLI::App& app) {
             opts.max_size_px = o->size;
             if (auto made = createParentFolder(o->out); !made) return made;
             return worlds::writePng(o->out, worlds::renderTopDown(*world, opts));
-          }};
+          }, &o->world};
 }
 
 }  // namespace drtv::app

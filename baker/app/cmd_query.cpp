@@ -121,7 +121,7 @@ Command registerQuery(CLI::App& app) {
   sub->add_option("--normal", o->normal, "Surface normal x,y,z (normalised here; default 0,0,1)")->check(nonZeroVec3());
   sub->add_option("--time", o->time, "Time of day HH:MM (default 12:00)");
   sub->add_flag("--json", o->json, "Print JSON instead of text");
-  return {sub, [o]() -> Result<void> { return runQuery(*o); }};
+  return {sub, [o]() -> Result<void> { return runQuery(*o); }, &o->path};
 }
 
 }  // namespace drtv::app

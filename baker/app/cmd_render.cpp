@@ -120,7 +120,7 @@ Command registerRender(CLI::App& app) {
   sub->add_flag("--smooth", o->smooth, "Smooth (trilinear over index cells) volume fill instead of nearest probe");
   sub->add_option("--threads", o->threads, "Worker threads (0 = all cores)")->check(CLI::Range(0, 1024));
   sub->add_option("--seed", o->seed, "Seed of the reference's random numbers");
-  return {sub, [o]() -> Result<void> { return run(*o); }};
+  return {sub, [o]() -> Result<void> { return run(*o); }, &o->archive};
 }
 
 }  // namespace drtv::app

@@ -23,6 +23,7 @@ using Action = std::function<Result<void>()>;
 struct Command {
   CLI::App* sub = nullptr;
   Action run;
+  const std::string* input = nullptr;  // the file the subcommand reads, for a last-resort error
 };
 
 Command registerInfo(CLI::App& app);

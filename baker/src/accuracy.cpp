@@ -12,6 +12,7 @@
 
 #include "drtv/baker/reference.h"
 #include "drtv/baker/sampling.h"
+#include "drtv/formats/memory_limit.h"
 #include "drtv/formats/sh.h"
 #include "render_support.h"
 #include "stopwatch.h"
@@ -245,6 +246,16 @@ Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::st
     if (!std::isfinite(h)) return fail("accuracy: hour " + fmt(h) + " is not finite");
   if (options.points < 1) return fail("accuracy: --points must be >= 1");
   if (options.reference_samples < 2 || options.probe_samples < 2) return fail("accuracy: --samples must be >= 2");
+  // Per point and hour: the reference's answer (mean, error and four parts, ~140 B as it is
+  // returned, 72 B kept), each configuration's values (12 B, a few held at once) and the queries.
+  {
+    constexpr uint64_t kBytesPerPointHour = 400;
+    const uint64_t n = uint64_t(options.points) * options.hours.size();
+    if (auto ok = checkMemory(n * kBytesPerPointHour, where + ": --points " + std::to_string(options.points),
+                              std::to_string(n) + " reference points x hours");
+        !ok)
+      return std::unexpected(ok.error());
+  }
   auto progress = [&](const std::string& line) {
     if (options.progress) options.progress(line);
   };

@@ -33,6 +33,10 @@ Result<InMemoryBake> bakeInMemory(const worlds::World& world, const std::string&
 
   InMemoryBake out;
   const uint32_t effects = effectsToBake(world, nullptr);
+  // The sectors bake in parallel, each holding its gather: refused up front where that cannot fit.
+  const int concurrent = threads > 0 ? threads : int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
+  if (auto ok = geometry->checkBakeMemory(range, haloFor(settings, effects), concurrent, where); !ok)
+    return std::unexpected(ok.error());
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<std::optional<Result<Sector>>> baked(keys.size());
   out.stats.resize(keys.size());

@@ -18,6 +18,7 @@
 #include <glm/gtc/matrix_transform.hpp>
 #include <nlohmann/json.hpp>
 
+#include "drtv/formats/memory_limit.h"
 #include "drtv/worlds/gltf.h"
 #include "drtv/worlds/island.h"
 #include "island_detail.h"
@@ -41,6 +42,12 @@ namespace {
 
 using json = nlohmann::json;
 using Ok = Result<bool>;  // a Result with nothing to carry
+
+// Bytes a terrain vertex takes while it loads: heights (4) and mesh positions (12) and indices
+// (24 per cell, ~1 cell per vertex), with the heightfield kept for vegetation beside the mesh.
+constexpr double kTerrainLoadBytesPerVertex = 4 + 12 + 24 + 4;
+// Bytes a vegetation copy takes: its Instance and the heap text of its name ("vegetation[0] 1234567").
+constexpr uint64_t kInstanceLoadBytes = sizeof(Instance) + 32;
 
 std::string join(const std::string& path, const std::string& key) { return path.empty() ? key : path + "." + key; }
 std::string at(const std::string& path, size_t i) { return path + "[" + std::to_string(i) + "]"; }
@@ -180,6 +187,18 @@ class Parser {
     return uint32_t(world_.meshes.size() - 1);
   }
 
+  // Refuses a terrain of `cells` x `cells` whose mesh would not fit in memory (memory_limit.h):
+  // the heightfield (4 B a vertex), the mesh's positions (12 B) and indices (24 B a cell), plus
+  // the copy the bake's geometry makes, are what loading it allocates. Names `key`.
+  Ok terrainMemory(double cells, const std::string& key) const {
+    const double vertices = (cells + 1) * (cells + 1);
+    const auto bytes = uint64_t(vertices * kTerrainLoadBytesPerVertex);
+    const std::string n = std::to_string(uint64_t(cells) + 1);
+    if (auto ok = checkMemory(bytes, file_ + ": key '" + key + "'", "a terrain of " + n + " x " + n + " vertices"); !ok)
+      return std::unexpected(ok.error());
+    return true;
+  }
+
   Ok terrain(const json& j);
   Ok island(const json& j);
   Ok primitives(const json& j);
@@ -226,6 +245,7 @@ Ok Parser::terrain(const json& j) {
     DRTV_TRY_DECL(size, optNumber(j, "size_m", path, 128.0, 1.0, 65536.0));
     DRTV_TRY_DECL(res, optNumber(j, "resolution_m", path, 2.0, 0.25, 1024.0));
     if (size / res > 8192) return error(join(path, "resolution_m"), "too fine for size_m (more than 8192 cells a side)");
+    DRTV_TRY(terrainMemory(std::max(1.0, std::round(size / res)), join(path, "resolution_m")));
     DRTV_TRY_DECL(height, optNumber(j, "height_m", path, 0.0, 0.0, 10000.0));
     DRTV_TRY_DECL(feature, optNumber(j, "feature_m", path, 32.0, 0.01, 1e6));
     DRTV_TRY_DECL(seed, optSeed(j, "seed", path, 1));
@@ -237,6 +257,7 @@ Ok Parser::terrain(const json& j) {
     DRTV_TRY_DECL(height, reqNumber(j, "height_m", path, 0.0, 10000.0));
     DRTV_TRY_DECL(res, optNumber(j, "resolution_m", path, 0.0, 0.0, 1024.0));
     if (res > 0 && size / res > 8192) return error(join(path, "resolution_m"), "too fine for size_m (more than 8192 cells a side)");
+    if (res > 0) DRTV_TRY(terrainMemory(std::max(1.0, std::round(size / res)), join(path, "resolution_m")));
     auto hf = loadHeightmapPng(resolve(rel), size, height, res);
     if (!hf) return error(join(path, "path"), hf.error().message);
     g.hf = std::move(*hf);
@@ -394,6 +415,14 @@ Ok Parser::vegetation(const json& j) {
       DRTV_TRY_DECL(instances, importGltf(rel, join(mpath, "gltf"), cls));
       prototype = std::move(instances);
     }
+    // Every copy is an Instance (its transform and name): refuse a count that cannot fit before
+    // allocating gigabytes one push_back at a time (memory_limit.h).
+    const uint64_t copies = uint64_t(count) * prototype.size();
+    if (auto ok = checkMemory(copies * kInstanceLoadBytes, file_ + ": key '" + join(path, "count") + "'",
+                              std::to_string(copies) + " vegetation instances");
+        !ok)
+      return std::unexpected(ok.error());
+    world_.instances.reserve(world_.instances.size() + copies);
     for (size_t k = 0; k < count; ++k) {
       const double x = noise::uniform(seed, i, k, 0, lo.x, hi.x), y = noise::uniform(seed, i, k, 1, lo.y, hi.y);
       const double s = noise::uniform(seed, i, k, 2, scale.x, scale.y);

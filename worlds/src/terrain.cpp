@@ -6,9 +6,14 @@
 #include <fstream>
 #include <iterator>
 
+#include "drtv/formats/memory_limit.h"
 #include "noise.h"
 
 namespace drtv::worlds {
+namespace {
+// Heights (4 B) kept beside the mesh's positions (12 B) and indices (24 B a cell).
+constexpr double kHeightmapMeshBytesPerVertex = 4 + 12 + 24 + 4;
+}  // namespace
 
 bool Heightfield::contains(double x, double y) const {
   const double u = (x - origin.x) / spacing_m, v = (y - origin.y) / spacing_m;
@@ -69,6 +74,15 @@ Result<Heightfield> loadHeightmapPng(const std::filesystem::path& path, double s
   int w = 0, h = 0, channels = 0;
   std::vector<uint16_t> pixels;
   std::string error;
+  // The decode holds 16-bit channels twice (stb's buffer and our copy); the mesh then takes
+  // kHeightmapMeshBytesPerVertex per vertex. Refuse what cannot fit before decoding a byte.
+  if (peekImageSize(bytes.data(), bytes.size(), w, h, channels)) {
+    const double texels = double(w) * double(h);
+    const double vertices = resolution_m > 0 ? std::pow(std::round(size_m / resolution_m) + 1, 2) : texels;
+    const auto estimate = uint64_t(texels * channels * 4.0 + vertices * kHeightmapMeshBytesPerVertex);
+    if (auto ok = checkMemory(estimate, file, "a " + std::to_string(w) + " x " + std::to_string(h) + " heightmap"); !ok)
+      return std::unexpected(ok.error());
+  }
   if (!decodeImage16(bytes.data(), bytes.size(), w, h, channels, pixels, error))
     return fail(file + ": cannot decode heightmap: " + error);
   if (w < 2 || h < 2) return fail(file + ": heightmap must be at least 2x2 texels, is " + std::to_string(w) + "x" + std::to_string(h));

@@ -46,6 +46,8 @@ Result<Heightfield> loadHeightmapPng(const std::filesystem::path& path, double s
 
 // Decodes a PNG/JPEG/... file in memory to 16-bit channels (implemented beside tinygltf, which
 // owns the stb_image implementation). Returns false with `error` set on failure.
+// Reads an image's size and channel count from its header alone; false if not an image.
+bool peekImageSize(const unsigned char* bytes, size_t size, int& width, int& height, int& channels);
 bool decodeImage16(const unsigned char* bytes, size_t size, int& width, int& height, int& channels,
                    std::vector<uint16_t>& pixels, std::string& error);
 

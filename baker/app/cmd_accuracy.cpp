@@ -73,7 +73,7 @@ Command registerAccuracy(CLI::App& app) {
             std::printf("wrote %s/accuracy.{csv,json,md,png}: %zu rows, %zu points, %.1f s\n", o->output.c_str(),
                         report->rows.size(), report->points, report->wall_s);
             return {};
-          }};
+          }, &o->world};
 }
 
 }  // namespace drtv::app

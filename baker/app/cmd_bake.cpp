@@ -64,9 +64,22 @@ Result<void> runBake(const BakeCliOptions& o) {
 
   auto world = worlds::loadWorld(o.world);
   if (!world) return std::unexpected(world.error());
+  if (auto made = createParentFolder(o.output); !made) return made;
   const std::filesystem::path archive(o.output);
   auto report = baker::bake(*world, o.world, archive, options);
   if (!report) return std::unexpected(report.error());
+
+  // An empty bake is a valid archive but never what was wanted: say so, loudly, in the report
+  // and on stderr (placement needs static geometry under its 4 m columns, or a small object).
+  size_t baked_probes = 0;
+  for (const auto& s : report->sectors) baked_probes += s.probes;
+  if (report->packed && baked_probes == 0) {
+    const std::string why = o.world + ": the bake placed no probe in any of its " + std::to_string(report->sectors.size()) +
+                            " sectors: the archive gives no ambient anywhere (placement puts probes above upward-facing "
+                            "terrain and static surfaces and on vegetation boxes; dynamic objects place none)";
+    report->notes.push_back("warning: " + why);
+    std::fprintf(stderr, "drtv: warning: %s\n", why.c_str());
+  }
 
   std::filesystem::path dir = archive.parent_path();
   std::string stem = "bake-report";
@@ -104,7 +117,7 @@ Command registerBake(CLI::App& app) {
   sub->add_flag("--fresh", o->fresh, "Discard sector journals left by a different bake");
   sub->add_flag("--keep-sectors", o->keep_sectors, "Keep <archive>.sectors/ after packing");
   sub->add_option("--seed", o->seed, "Seed of every random number (default 1)");
-  return {sub, [o]() { return runBake(*o); }};
+  return {sub, [o]() { return runBake(*o); }, &o->world};
 }
 
 }  // namespace drtv::app

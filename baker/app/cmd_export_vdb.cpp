@@ -26,12 +26,13 @@ Command registerExportVdb(CLI::App& app) {
             baker::VdbExportOptions opts;
             opts.hour = *hour;
             opts.voxel_height_m = o->voxel_height_m;
+            if (auto made = createParentFolder(o->output); !made) return std::unexpected(made.error());
             auto stats = baker::exportVdb(o->archive, o->output, opts);
             if (!stats) return std::unexpected(stats.error());
             std::printf("wrote %s: sky_visibility, probe_density, irradiance (%zu sectors, %zu probes, %zu active voxels)\n",
                         o->output.c_str(), stats->sectors, stats->probes, stats->active_voxels);
             return {};
-          }};
+          }, &o->archive};
 }
 
 }  // namespace drtv::app

@@ -95,6 +95,7 @@ Result<void> runFly(const FlyCliOptions& o) {
       std::fprintf(stderr, "\rdrtv fly: frame %d / %d", done, total);
       if (done == total) std::fputc('\n', stderr);
     };
+  if (auto made = createParentFolder((std::filesystem::path(o.outdir) / "fly-report.json").string()); !made) return made;
   auto result = streamer::fly(s, *path, fo, o.archive);
   if (!result) return std::unexpected(result.error());
   if (auto ok = streamer::writeFlyReport(*result, o.outdir); !ok) return ok;
@@ -125,11 +126,12 @@ Command registerFly(CLI::App& app) {
   sub->add_option("archive", o->archive, "Baked archive")->required();
   auto* path = sub->add_option("--path", o->path_file, "Waypoints JSON: {\"loop\": bool, \"waypoints\": [[x,y,z], ...]} (metres)");
   sub->add_flag("--loop", o->loop, "Fly the default closed circuit instead of the default crossing")->excludes(path);
-  sub->add_option("--speed", o->speed_mps, "Camera speed, metres per second")->check(CLI::Range(0.0, 10000.0));
+  sub->add_option("--speed", o->speed_mps, "Camera speed, metres per second")->check(finiteRange(0.0, 10000.0, /*lo_open=*/true));
   sub->add_option("--frames", o->frames, "Frames to fly (0 = the path once)")->check(CLI::NonNegativeNumber);
-  sub->add_option("--time-of-day-rate", o->hours_per_s, "Hours of the day per second of flight");
-  sub->add_option("--start-hour", o->start_hour, "Time of day at the first frame, hours")->check(CLI::Range(0.0, 24.0));
-  sub->add_option("--fps", o->fps, "Fixed frame rate, frames per second")->check(CLI::Range(1.0, 1000.0));
+  sub->add_option("--time-of-day-rate", o->hours_per_s, "Hours of the day per second of flight")
+      ->check(finiteRange(-1e6, 1e6));
+  sub->add_option("--start-hour", o->start_hour, "Time of day at the first frame, hours")->check(finiteRange(0.0, 24.0));
+  sub->add_option("--fps", o->fps, "Fixed frame rate, frames per second")->check(finiteRange(1.0, 1000.0));
   sub->add_option("--io-threads", o->io_threads,
                   "Background I/O threads; 0 (default) = deterministic simulated I/O, reproducible reports")
       ->check(CLI::Range(0, 64));
@@ -142,7 +144,7 @@ Command registerFly(CLI::App& app) {
   return {sub, [o]() -> Result<void> {
             if (!std::filesystem::exists(o->archive)) return fail(o->archive + ": no such file");
             return runFly(*o);
-          }};
+          }, &o->archive};
 }
 
 }  // namespace drtv::app

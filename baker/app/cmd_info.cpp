@@ -1,5 +1,6 @@
 // drtv info <world.json | file.gltf | file.glb | archive> [--json]
 #include <algorithm>
+#include <cctype>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -122,9 +123,15 @@ Command registerInfo(CLI::App& app) {
   sub->add_flag("--json", o->json, "Print JSON instead of text");
   return {sub, [o]() -> Result<void> {
             if (!std::filesystem::exists(o->path)) return fail(o->path + ": no such file");
-            if (peekArchiveVersion(o->path)) return archiveInfo(*o);
+            auto version = peekArchiveVersion(o->path);
+            if (version) return archiveInfo(*o);
+            // A .drtv file is an archive whatever its bytes say: its own error (truncated, bad
+            // magic) tells more than "unknown world file type".
+            std::string ext = std::filesystem::path(o->path).extension().string();
+            std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+            if (ext == ".drtv") return std::unexpected(version.error());
             return worldInfo(*o);
-          }};
+          }, &o->path};
 }
 
 }  // namespace drtv::app

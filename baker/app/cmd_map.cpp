@@ -22,8 +22,9 @@ Command registerMap(CLI::App& app) {
             if (!world) return std::unexpected(world.error());
             worlds::TopDownOptions opts;
             opts.max_size_px = o->size;
+            if (auto made = createParentFolder(o->out); !made) return made;
             return worlds::writePng(o->out, worlds::renderTopDown(*world, opts));
-          }};
+          }, &o->world};
 }
 
 }  // namespace drtv::app

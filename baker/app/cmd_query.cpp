@@ -118,10 +118,10 @@ Command registerQuery(CLI::App& app) {
   CLI::App* sub = app.add_subcommand("query", "Ambient irradiance and its parts at a point of a baked archive");
   sub->add_option("archive", o->path, "Baked archive (.drtv)")->required();
   sub->add_option("--at", o->at, "World position x,y,z in metres")->required();
-  sub->add_option("--normal", o->normal, "Surface normal x,y,z (normalised here; default 0,0,1)");
+  sub->add_option("--normal", o->normal, "Surface normal x,y,z (normalised here; default 0,0,1)")->check(nonZeroVec3());
   sub->add_option("--time", o->time, "Time of day HH:MM (default 12:00)");
   sub->add_flag("--json", o->json, "Print JSON instead of text");
-  return {sub, [o]() -> Result<void> { return runQuery(*o); }};
+  return {sub, [o]() -> Result<void> { return runQuery(*o); }, &o->path};
 }
 
 }  // namespace drtv::app

@@ -58,6 +58,7 @@ Result<void> run(const RenderCliOptions& o) {
   if (!world) return std::unexpected(world.error());
   auto result = baker::render(*world, o.world, o.archive, opts);
   if (!result) return std::unexpected(result.error());
+  if (auto made = createParentFolder(o.output); !made) return std::unexpected(made.error());
   auto written = baker::writeRenderImages(*result, o.output);
   if (!written) return std::unexpected(written.error());
 
@@ -115,11 +116,11 @@ Command registerRender(CLI::App& app) {
   sub->add_flag("--reference", o->reference, "Also path-trace the reference and write the error image");
   sub->add_option("--samples", o->samples, "Reference paths per pixel")->check(CLI::Range(2, 1 << 20))->capture_default_str();
   sub->add_option("--exposure", o->exposure, "Radiance multiplier before tone mapping (0 = automatic)")
-      ->check(CLI::Range(0.f, 1e9f));
+      ->check(finiteRange(0.0, 1e9));
   sub->add_flag("--smooth", o->smooth, "Smooth (trilinear over index cells) volume fill instead of nearest probe");
   sub->add_option("--threads", o->threads, "Worker threads (0 = all cores)")->check(CLI::Range(0, 1024));
   sub->add_option("--seed", o->seed, "Seed of the reference's random numbers");
-  return {sub, [o]() -> Result<void> { return run(*o); }};
+  return {sub, [o]() -> Result<void> { return run(*o); }, &o->archive};
 }
 
 }  // namespace drtv::app

@@ -23,6 +23,7 @@ using Action = std::function<Result<void>()>;
 struct Command {
   CLI::App* sub = nullptr;
   Action run;
+  const std::string* input = nullptr;  // the file the subcommand reads, for a last-resort error
 };
 
 Command registerInfo(CLI::App& app);
@@ -44,6 +45,16 @@ Result<int> parseInt(const std::string& text, const std::string& flag);
 Result<baker::SectorRange> parseSectors(const std::string& text);
 // "x,y,z": three finite numbers; the error names `flag` and the text.
 Result<glm::dvec3> parseVec3(const std::string& text, const std::string& flag);
+
+// Creates the folder that will hold the output file `path` (and its parents), so that
+// `-o newdir/x.png` works; the error names the folder. A bare file name needs nothing.
+Result<void> createParentFolder(const std::string& path);
+
+// CLI11 validators (a rejected value is a usage error, exit 2). A number in [lo, hi], or in
+// (lo, hi] when `lo_open`, and finite: CLI::Range lets NaN through (every comparison is false).
+CLI::Validator finiteRange(double lo, double hi, bool lo_open = false);
+// "x,y,z" as parseVec3 reads it, and not the zero vector (a direction to normalise).
+CLI::Validator nonZeroVec3();
 
 // True when stderr is a terminal and CI is not set: long work may draw progress there.
 bool showProgress();

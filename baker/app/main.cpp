@@ -3,13 +3,16 @@
 #include <cstdio>
 #include <cstdlib>
 #include <malloc.h>
+#include <new>
 #include <cmath>
+#include <filesystem>
 #include <sstream>
 #include <stdexcept>
 #include <unistd.h>
 #include <vector>
 
 #include "commands.h"
+#include "drtv/formats/memory_limit.h"
 
 namespace drtv::app {
 bool showProgress() { return ::isatty(STDERR_FILENO) && std::getenv("CI") == nullptr; }
@@ -64,6 +67,46 @@ Result<glm::dvec3> parseVec3(const std::string& text, const std::string& flag) {
   return v;
 }
 
+Result<void> createParentFolder(const std::string& path) {
+  const std::filesystem::path dir = std::filesystem::path(path).parent_path();
+  if (dir.empty()) return {};
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) return fail(dir.string() + ": cannot create the output folder: " + ec.message());
+  return {};
+}
+
+CLI::Validator finiteRange(double lo, double hi, bool lo_open) {
+  std::ostringstream desc;
+  desc << (lo_open ? "(" : "[") << lo << ", " << hi << "]";
+  return CLI::Validator(
+      [lo, hi, lo_open, text = desc.str()](std::string& value) -> std::string {
+        double v = 0;
+        size_t used = 0;
+        try {
+          v = std::stod(value, &used);
+        } catch (const std::exception&) {
+          return "'" + value + "' is not a number";
+        }
+        if (used != value.size()) return "'" + value + "' is not a number";
+        if (!std::isfinite(v) || (lo_open ? !(v > lo) : !(v >= lo)) || !(v <= hi))
+          return "'" + value + "' must be a finite number in " + text;
+        return {};
+      },
+      "FINITE in " + desc.str());
+}
+
+CLI::Validator nonZeroVec3() {
+  return CLI::Validator(
+      [](std::string& value) -> std::string {
+        auto v = parseVec3(value, "");
+        if (!v) return "'" + value + "': expected three finite numbers x,y,z";
+        if (v->x == 0 && v->y == 0 && v->z == 0) return "'" + value + "': the zero vector has no direction";
+        return {};
+      },
+      "x,y,z != 0");
+}
+
 }  // namespace drtv::app
 
 int main(int argc, char** argv) {
@@ -78,6 +121,18 @@ int main(int argc, char** argv) {
                "(after \"Deferred Radiance Transfer Volumes\", Far Cry 3, GDC 2012)."};
   app.require_subcommand(1);
   app.set_version_flag("--version", "drtv 0.1.0");
+  // Memory as an input limit (drtv/formats/memory_limit.h): also after the subcommand's name,
+  // which fallthrough() lets the subcommands pass up to here.
+  std::string max_memory;
+  app.fallthrough();
+  app.add_option("--max-memory", max_memory,
+                 "Memory this run may use, e.g. 8G or 512M (default: physical memory and rlimits); inputs that need "
+                 "more are refused up front")
+      ->check(CLI::Validator(
+          [](std::string& v) -> std::string {
+            return drtv::parseBytes(v) ? std::string() : "'" + v + "': expected a size such as 8G, 512M or 1000000";
+          },
+          "SIZE"));
   std::vector<drtv::app::Command> commands;
   commands.push_back(drtv::app::registerInfo(app));
   commands.push_back(drtv::app::registerBake(app));
@@ -110,10 +165,21 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "drtv: usage error: %s\nRun 'drtv --help' for the subcommands.\n", e.what());
     return 2;
   }
+  if (!max_memory.empty()) drtv::setMemoryLimit(*drtv::parseBytes(max_memory));
   for (const auto& c : commands) {
     if (!c.sub->parsed()) continue;
-    if (auto r = c.run(); !r) {
-      std::fprintf(stderr, "drtv: error: %s\n", r.error().message.c_str());
+    try {
+      if (auto r = c.run(); !r) {
+        std::fprintf(stderr, "drtv: error: %s\n", r.error().message.c_str());
+        return 1;
+      }
+    } catch (const std::bad_alloc&) {
+      // A last resort: every allocation in proportion to an input is estimated and refused up
+      // front (memory_limit.h). One that escapes still ends as an error naming the input.
+      const std::string input = c.input ? *c.input : std::string("drtv ") + c.sub->get_name();
+      const drtv::MemoryLimit left = drtv::memoryLimit();
+      std::fprintf(stderr, "drtv: error: %s: out of memory (std::bad_alloc) in 'drtv %s', %s left under %s\n", input.c_str(),
+                   c.sub->get_name().c_str(), drtv::formatBytes(left.bytes).c_str(), left.source.c_str());
       return 1;
     }
     return 0;

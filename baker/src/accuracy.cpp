@@ -14,6 +14,7 @@
 #include "drtv/baker/placement.h"
 #include "drtv/baker/reference.h"
 #include "drtv/baker/sampling.h"
+#include "drtv/formats/memory_limit.h"
 #include "drtv/formats/sh.h"
 #include "render_support.h"
 #include "stopwatch.h"
@@ -55,20 +56,15 @@ struct Truth {
   std::array<std::vector<glm::vec3>, 4> parts;  // sun bounce, sky bounce, direct sky, local lights
 };
 
-struct ErrorStats {
-  double rel = 0, bias = 0;
-};
+using ErrorStats = AmbientError;
 
-ErrorStats compare(const Values& v, const Truth& t) {
-  double abs_sum = 0, sum = 0, ref = 0;
-  for (size_t i = 0; i < v.size(); ++i)
-    for (int c = 0; c < 3; ++c) {
-      abs_sum += std::abs(double(v[i][c]) - t.mean[i][c]);
-      sum += double(v[i][c]) - t.mean[i][c];
-      ref += t.mean[i][c];
-    }
-  ref = std::max(ref, 1e-30);
-  return {abs_sum / ref, sum / ref};
+ErrorStats compare(const Values& v, const Truth& t) { return ambientError(v, t.mean); }
+
+// Appends to a row's note that its relative figures are relative to the floor.
+std::string flooredNote(std::string note, bool floored) {
+  if (!floored) return note;
+  return note + (note.empty() ? "" : "; ") + "reference ambient below the floor (" + std::to_string(kAmbientErrorFloor) +
+         " per channel): errors relative to the floor, see abs_error";
 }
 
 bool inRange(const SectorRange& r, const glm::dvec3& p) { return r.contains(sectorAt(p.x, p.y)); }
@@ -279,6 +275,16 @@ Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::st
     if (!std::isfinite(h)) return fail("accuracy: hour " + fmt(h) + " is not finite");
   if (options.points < 1) return fail("accuracy: --points must be >= 1");
   if (options.reference_samples < 2 || options.probe_samples < 2) return fail("accuracy: --samples must be >= 2");
+  // Per point and hour: the reference's answer (mean, error and four parts, ~140 B as it is
+  // returned, 72 B kept), each configuration's values (12 B, a few held at once) and the queries.
+  {
+    constexpr uint64_t kBytesPerPointHour = 400;
+    const uint64_t n = uint64_t(options.points) * options.hours.size();
+    if (auto ok = checkMemory(n * kBytesPerPointHour, where + ": --points " + std::to_string(options.points),
+                              std::to_string(n) + " reference points x hours");
+        !ok)
+      return std::unexpected(ok.error());
+  }
   auto progress = [&](const std::string& line) {
     if (options.progress) options.progress(line);
   };
@@ -348,7 +354,7 @@ Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::st
     double se = 0, sum = 0;
     for (size_t i = 0; i < truth.mean.size(); ++i)
       for (int c = 0; c < 3; ++c) se += truth.std_error[i][c], sum += truth.mean[i][c];
-    report.reference_noise = se / std::max(sum, 1e-30);
+    report.reference_noise = se / std::max(sum, 3.0 * double(truth.mean.size()) * kAmbientErrorFloor);
     for (const glm::vec3& m : truth.mean) report.reference_mean += glm::dvec3(m);
     report.reference_mean /= double(truth.mean.size());
   }
@@ -371,7 +377,8 @@ Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::st
                   : relightFillMs(bake, rt_options, options.hours, camera, options.timing_repeats);
     if (!ms) return std::unexpected(ms.error());
     const ErrorStats e = compare(*v, truth);
-    report.rows.push_back({knob, value, is_default, e.rel, e.bias, bake.bake_s, *ms, bake.bytes, volumeBytes(rt_options, 12.0), note});
+    report.rows.push_back({knob, value, is_default, e.rel, e.bias, bake.bake_s, *ms, bake.bytes, volumeBytes(rt_options, 12.0),
+                           flooredNote(note, e.floored), e.abs});
     return {};
   };
   auto bakeRow = [&](const std::string& knob, const std::string& value, BakeSettings s) -> Result<void> {
@@ -404,11 +411,15 @@ Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::st
 
   // part: the default configuration one relighting term at a time against the reference's part,
   // as a share of the whole reference ambient (so that the rows' biases add up to the total's).
+  // Shares of the whole reference ambient, floored as every row's are (kAmbientErrorFloor).
   double total = 0;
   for (const glm::vec3& m : truth.mean) total += double(m.r) + m.g + m.b;
-  total = std::max(total, 1e-30);
+  const double terms = 3.0 * double(truth.mean.size());
+  const bool floored = total < terms * kAmbientErrorFloor;
+  total = std::max(total, terms * kAmbientErrorFloor);
   struct PartError {
     double rel = 0, bias = 0, share = 0;  // |error|, signed error and the reference's term, / total
+    double abs = 0;                       // mean absolute error per point, hour and channel
   };
   auto partError = [&](const InMemoryBake& bake, runtime::RuntimeOptions o, uint32_t component, size_t k) -> Result<PartError> {
     o.components = component;
@@ -421,6 +432,7 @@ Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::st
         e.bias += double((*v)[i][c]) - truth.parts[k][i][c];
         e.share += truth.parts[k][i][c];
       }
+    e.abs = e.rel / std::max(terms, 1.0);
     e.rel /= total, e.bias /= total, e.share /= total;
     return e;
   };
@@ -438,7 +450,7 @@ Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::st
                     "this term alone vs the reference's, as a share of the total ambient (the reference's term: %.1f%% of it)",
                     100.0 * e->share);
       report.rows.push_back({"part", parts[k].first, false, e->rel, e->bias, base->bake_s, *base_ms, base->bytes,
-                             volumeBytes(base_rt, 12.0), note});
+                             volumeBytes(base_rt, 12.0), flooredNote(note, floored), e->abs});
     }
   }
 
@@ -520,7 +532,7 @@ Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::st
     auto add = [&](const std::string& value, bool is_default, const Values& v, double bytes_per_texel) {
       const ErrorStats e = compare(v, truth);
       report.rows.push_back({"basis", value, is_default, e.rel, e.bias, probe_ref_s, std::nan(""), base->bytes,
-                             volumeBytes(base_rt, bytes_per_texel), note});
+                             volumeBytes(base_rt, bytes_per_texel), flooredNote(note, e.floored), e.abs});
     };
     add("4-basis", true, four, 12.0);
     add("ambient-cube", false, cube, 18.0);
@@ -560,11 +572,11 @@ Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::st
         double d = 0, s = 0;
         for (size_t i = 0; i < v->size(); ++i)
           for (int c = 0; c < 3; ++c) d += std::abs((*v)[i][c] - (*real)[i][c]), s += (*real)[i][c];
-        report.emulation_check = d / std::max(s, 1e-30);
+        report.emulation_check = d / std::max(s, 3.0 * double(v->size()) * kAmbientErrorFloor);
       }
       const ErrorStats e = compare(*v, truth);
       report.rows.push_back({"storage", k.name, k.levels == 255.0, e.rel, e.bias, base->bake_s, *base_ms, base->bytes,
-                             volumeBytes(o, k.bytes), "emulated: nearest fill, no blur"});
+                             volumeBytes(o, k.bytes), flooredNote("emulated: nearest fill, no blur", e.floored), e.abs});
     }
   }
 
@@ -579,7 +591,8 @@ Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::st
       if (!e) return std::unexpected(e.error());
       report.rows.push_back({"sources_per_light", std::to_string(n), n == base_rt.cache.sources_per_light, e->rel, e->bias,
                              base->bake_s, *base_ms, base->bytes, volumeBytes(o, 12.0),
-                             "local_lights term alone vs the reference's, as a share of the total ambient"});
+                             flooredNote("local_lights term alone vs the reference's, as a share of the total ambient", floored),
+                             e->abs});
     }
     for (const auto& [name, mode] : {std::pair{"visible", runtime::LightSources::kVisibleFromLight},
                                      std::pair{"nearest", runtime::LightSources::kNearest}}) {
@@ -590,8 +603,10 @@ Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::st
       if (!e) return std::unexpected(e.error());
       report.rows.push_back({"light_sources", name, mode == base_rt.cache.light_sources, e->rel, e->bias, base->bake_s, *base_ms,
                              base->bytes, volumeBytes(o, 12.0),
-                             mode == runtime::LightSources::kNearest ? "the talk's rule: the nearest source probes"
-                                                                     : "the probes the index grid names around the light"});
+                             flooredNote(mode == runtime::LightSources::kNearest ? "the talk's rule: the nearest source probes"
+                                                                                 : "the probes the index grid names around the light",
+                                         floored),
+                             e->abs});
     }
     for (size_t keep : {size_t(8), size_t(32), size_t(64), size_t(kMaxLprtSources)}) {
       const bool all = keep == size_t(kMaxLprtSources);
@@ -603,13 +618,33 @@ Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::st
       report.rows.push_back({"lprt_sources", std::to_string(keep), all, e->rel, e->bias, b.bake_s, *base_ms, b.bytes,
                              volumeBytes(base_rt, 12.0),
                              std::string(all ? "the default bake" : "the first sources of the default bake") +
-                                 "; local_lights term alone vs the reference's, as a share of the total ambient"});
+                                 "; local_lights term alone vs the reference's, as a share of the total ambient",
+                             e->abs});
     }
   } else {
     report.skipped.push_back("lprt_sources: the world has no point lights (no LPRT baked)");
   }
   report.wall_s = since(t_start);
   return report;
+}
+
+AmbientError ambientError(const std::vector<glm::vec3>& values, const std::vector<glm::vec3>& reference) {
+  DRTV_CHECK_EQ(values.size(), reference.size());
+  double abs_sum = 0, sum = 0, ref = 0;
+  for (size_t i = 0; i < values.size(); ++i)
+    for (int c = 0; c < 3; ++c) {
+      abs_sum += std::abs(double(values[i][c]) - reference[i][c]);
+      sum += double(values[i][c]) - reference[i][c];
+      ref += reference[i][c];
+    }
+  const double terms = 3.0 * double(values.size());
+  AmbientError e;
+  e.floored = ref < terms * kAmbientErrorFloor;
+  const double denominator = std::max({ref, terms * kAmbientErrorFloor, 1e-300});
+  e.rel = abs_sum / denominator;
+  e.bias = sum / denominator;
+  e.abs = abs_sum / std::max(terms, 1.0);
+  return e;
 }
 
 }  // namespace drtv::baker

@@ -34,6 +34,10 @@ Result<InMemoryBake> bakeInMemory(const worlds::World& world, const std::string&
 
   InMemoryBake out;
   const uint32_t effects = effectsToBake(world, nullptr);
+  // The sectors bake in parallel, each holding its gather: refused up front where that cannot fit.
+  const int concurrent = threads > 0 ? threads : int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
+  if (auto ok = geometry->checkBakeMemory(range, haloFor(settings, effects), concurrent, where); !ok)
+    return std::unexpected(ok.error());
   const auto t0 = std::chrono::steady_clock::now();
   // bake()'s two passes: with LPRT every sector's and its neighbours' placement first.
   auto placements = placeSectors(*geometry, world, placementKeys(keys, effects), settings, effects);

@@ -230,10 +230,10 @@ Result<void> writeAccuracyReport(const AccuracyReport& r, const fs::path& dir) {
   if (ec) return fail(dir.string() + ": cannot create: " + ec.message());
 
   // CSV
-  std::string csv = "knob,value,default,rel_error,bias,bake_s,relight_fill_ms,probe_bytes,volume_bytes,note\n";
+  std::string csv = "knob,value,default,rel_error,bias,abs_error,bake_s,relight_fill_ms,probe_bytes,volume_bytes,note\n";
   for (const AccuracyRow& row : r.rows)
     csv += csvField(row.knob) + "," + csvField(row.value) + "," + (row.is_default ? "1" : "0") + "," + num(row.rel_error, 6) + "," +
-           num(row.bias, 6) + "," + num(row.bake_s, 5) + "," + num(row.relight_fill_ms, 5) + "," + std::to_string(row.probe_bytes) +
+           num(row.bias, 6) + "," + num(row.abs_error, 6) + "," + num(row.bake_s, 5) + "," + num(row.relight_fill_ms, 5) + "," + std::to_string(row.probe_bytes) +
            "," + std::to_string(row.volume_bytes) + "," + csvField(row.note) + "\n";
   if (auto w = writeText(dir / "accuracy.csv", csv); !w) return w;
 
@@ -254,7 +254,7 @@ Result<void> writeAccuracyReport(const AccuracyReport& r, const fs::path& dir) {
   auto orNull = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
   for (const AccuracyRow& row : r.rows)
     rows.push_back({{"knob", row.knob}, {"value", row.value}, {"default", row.is_default}, {"rel_error", orNull(row.rel_error)},
-                    {"bias", orNull(row.bias)}, {"bake_s", orNull(row.bake_s)}, {"relight_fill_ms", orNull(row.relight_fill_ms)},
+                    {"bias", orNull(row.bias)}, {"abs_error", orNull(row.abs_error)}, {"bake_s", orNull(row.bake_s)}, {"relight_fill_ms", orNull(row.relight_fill_ms)},
                     {"probe_bytes", row.probe_bytes}, {"volume_bytes", row.volume_bytes}, {"note", row.note}});
   j["rows"] = rows;
   if (auto w = writeText(dir / "accuracy.json", j.dump(2) + "\n"); !w) return w;

@@ -484,7 +484,8 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
     return fail(world_name + ": " + why);
 
   auto t0 = Clock::now();
-  auto geometry = WorldGeometry::build(world, world_name);
+  // With --sectors, only the geometry those sectors gather is binned (not a whole 8192-cell terrain).
+  auto geometry = WorldGeometry::build(world, world_name, options.sectors, haloFor(report.settings, effects));
   if (!geometry) return std::unexpected(geometry.error());
   report.notes = geometry->notes();
   report.triangles = geometry->triangleCount();
@@ -499,6 +500,9 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
     range.y1 = std::min(range.y1, options.sectors->y1);
     if (range.empty()) return fail(world_name + ": --sectors selects no sector of the world");
   }
+  if (!options.merge_only)
+    if (auto ok = geometry->checkBakeMemory(range, haloFor(report.settings, effects), report.threads, world_name); !ok)
+      return std::unexpected(ok.error());
   std::vector<SectorKey> keys;
   for (int32_t x = range.x0; x <= range.x1; ++x)
     for (int32_t y = range.y0; y <= range.y1; ++y) keys.push_back({x, y});

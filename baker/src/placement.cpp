@@ -91,11 +91,8 @@ std::vector<PlacedProbe> placeProbes(const RayScene& scene, const SectorGeometry
   uint32_t order = 0;
 
   // 1. Static pass.
-  const int columns = std::max(1, int(std::lround(kSectorSizeM / s.column_spacing_m)));
-  const float step = float(kSectorSizeM / columns);
-  for (int cy = 0; cy < columns; ++cy)
-    for (int cx = 0; cx < columns; ++cx) {
-      const glm::vec3 origin(base.x + (cx + 0.5f) * step, base.y + (cy + 0.5f) * step, top);
+  auto column = [&](float x, float y) {
+      const glm::vec3 origin(x, y, top);
       float t = 0.f, z_above = INFINITY;
       for (int k = 0; k < kMaxHitsPerColumn; ++k) {
         const Hit h = scene.intersect(Ray{origin, t, glm::vec3(0, 0, -1), ray_len});
@@ -111,7 +108,30 @@ std::vector<PlacedProbe> placeProbes(const RayScene& scene, const SectorGeometry
         }
         z_above = z;
       }
+  };
+  const int columns = std::max(1, int(std::lround(kSectorSizeM / s.column_spacing_m)));
+  const float step = float(kSectorSizeM / columns);
+  for (int cy = 0; cy < columns; ++cy)
+    for (int cx = 0; cx < columns; ++cx) column(base.x + (cx + 0.5f) * step, base.y + (cy + 0.5f) * step);
+  // 1b. Objects smaller than the column spacing (a 1 m glTF box between the 4 m columns) would
+  // leave their sector without a probe and the whole bake empty. When no column found static
+  // geometry but some static triangle overlaps the sector, one more column through the centre of
+  // those triangles' bounds (clipped to the sector) gives them their probe. Sectors that any
+  // column hit are unchanged.
+  if (cands.empty()) {
+    const glm::vec2 lo = base, hi = base + glm::vec2(float(kSectorSizeM));
+    glm::vec2 bmin(INFINITY), bmax(-INFINITY);
+    for (size_t tri = 0; tri < geometry.triangleCount(); ++tri) {
+      if (!isStatic(geometry.cls[tri])) continue;
+      const glm::vec3* v = &geometry.vertices[3 * tri];
+      const glm::vec2 tmin = glm::min(glm::min(glm::vec2(v[0]), glm::vec2(v[1])), glm::vec2(v[2]));
+      const glm::vec2 tmax = glm::max(glm::max(glm::vec2(v[0]), glm::vec2(v[1])), glm::vec2(v[2]));
+      if (tmax.x < lo.x || tmax.y < lo.y || tmin.x >= hi.x || tmin.y >= hi.y) continue;
+      bmin = glm::min(bmin, glm::max(tmin, lo));
+      bmax = glm::max(bmax, glm::min(tmax, hi));
     }
+    if (bmin.x <= bmax.x && bmin.y <= bmax.y) column(0.5f * (bmin.x + bmax.x), 0.5f * (bmin.y + bmax.y));
+  }
 
   // 2. Vegetation pass: the top of every vegetation box under the ray.
   const int veg_columns = std::max(1, int(std::lround(kSectorSizeM / s.vegetation_spacing_m)));

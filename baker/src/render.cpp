@@ -11,7 +11,9 @@
 #include <optional>
 #include <sstream>
 
+#include "drtv/baker/accuracy.h"
 #include "drtv/baker/reference.h"
+#include "drtv/formats/memory_limit.h"
 #include "render_support.h"
 #include "stopwatch.h"
 
@@ -119,6 +121,18 @@ Result<RenderResult> render(const worlds::World& world, const std::string& where
   if (options.reference_samples < 2) return fail("--samples " + std::to_string(options.reference_samples) + ": must be >= 2");
   if (std::string why = validateLighting(baked.sky, baked.lights, baked.interiors); !why.empty())
     return fail(archive + ": lighting: " + why);
+  {
+    // Per pixel: the preview's buffers and images (~110 B); with the reference also its queries,
+    // answers, error statistics and two more images (~400 B in all). 8192 x 8192 with the
+    // reference is ~27 GB: refused up front where it cannot fit (memory_limit.h).
+    const uint64_t pixels = uint64_t(cam.width) * uint64_t(cam.height);
+    const uint64_t per_pixel = options.reference ? 400 : 110;
+    const std::string size = std::to_string(cam.width) + "x" + std::to_string(cam.height);
+    if (auto ok = checkMemory(pixels * per_pixel, archive + ": --size " + size,
+                              std::string("a ") + size + (options.reference ? " render with its reference" : " render"));
+        !ok)
+      return std::unexpected(ok.error());
+  }
 
   std::optional<tbb::global_control> limit;
   if (options.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(options.threads));
@@ -232,7 +246,8 @@ Result<RenderResult> render(const worlds::World& world, const std::string& where
   const double hits = std::max<double>(1.0, double(hit_index.size()));
   out.stats.reference_mean_ambient /= hits;
   ref_mean_lum /= hits;
-  const double floor_lum = std::max(1e-12, kErrorFloorFraction * ref_mean_lum);
+  // The absolute floor too: a black reference (nothing to bounce from) must not divide by ~0.
+  const double floor_lum = std::max(kAmbientErrorFloor, kErrorFloorFraction * ref_mean_lum);
   out.error = blankImage(cam.width, cam.height);
   double abs_sum = 0, sum = 0, std_sum = 0;
   for (size_t i : hit_index) {

@@ -8,6 +8,8 @@
 #include <map>
 #include <tuple>
 
+#include "drtv/formats/memory_limit.h"
+
 namespace drtv::baker {
 namespace {
 
@@ -31,9 +33,21 @@ int32_t floorDiv(double v, double s) { return int32_t(std::floor(v / s)); }
 
 }  // namespace
 
-Result<WorldGeometry> WorldGeometry::build(const worlds::World& world, const std::string& where) {
+Result<WorldGeometry> WorldGeometry::build(const worlds::World& world, const std::string& where, std::optional<SectorRange> only,
+                                           double halo_m) {
   WorldGeometry g;
   g.world_ = &world;
+  g.only_ = only;
+  g.only_halo_m_ = halo_m;
+  // The xy box whose geometry is binned (world metres): the sectors of `only` grown by the halo.
+  glm::dvec2 keep_lo(-INFINITY), keep_hi(INFINITY);
+  if (only) {
+    keep_lo = glm::dvec2(only->x0 * kSectorSizeM - halo_m, only->y0 * kSectorSizeM - halo_m);
+    keep_hi = glm::dvec2((only->x1 + 1) * kSectorSizeM + halo_m, (only->y1 + 1) * kSectorSizeM + halo_m);
+  }
+  auto kept = [&](const glm::dvec3& lo, const glm::dvec3& hi) {
+    return !(hi.x < keep_lo.x || lo.x > keep_hi.x || hi.y < keep_lo.y || lo.y > keep_hi.y);
+  };
   const size_t mesh_count = world.meshes.size();
   g.valid_tris_.resize(mesh_count);
 
@@ -48,6 +62,19 @@ Result<WorldGeometry> WorldGeometry::build(const worlds::World& world, const std
     used[inst.mesh] = 1;
   }
 
+  // Memory as an input limit (memory_limit.h): what the passes below allocate, estimated before
+  // they allocate it. Here the validation's index per triangle of a used mesh (4 B) and each
+  // instance's bounds (Placed, 64 B); the flattening after pass 1.
+  {
+    uint64_t estimate = 64 * uint64_t(world.instances.size());
+    for (size_t m = 0; m < mesh_count; ++m)
+      if (used[m]) estimate += 4 * uint64_t(world.meshes[m].triangleCount());
+    if (auto ok = checkMemory(estimate, where, "validating the bake's geometry (" + std::to_string(world.instances.size()) +
+                                                   " instances of " + std::to_string(mesh_count) + " meshes)");
+        !ok)
+      return std::unexpected(ok.error());
+  }
+
   // Materials: one per distinct albedo, so that a forest of one mesh shares one entry.
   std::map<std::tuple<float, float, float>, uint16_t> material_index;
   std::vector<uint16_t> mesh_material(mesh_count, 0);
@@ -58,6 +85,7 @@ Result<WorldGeometry> WorldGeometry::build(const worlds::World& world, const std
       return fail(where + ": mesh '" + mesh.name + "': " + std::to_string(mesh.indices.size()) + " indices, not a multiple of 3");
     size_t non_finite = 0, degenerate = 0;
     auto& valid = g.valid_tris_[m];
+    valid.reserve(mesh.triangleCount());
     for (size_t t = 0; t < mesh.triangleCount(); ++t) {
       uint32_t idx[3];
       for (int k = 0; k < 3; ++k) {
@@ -98,6 +126,7 @@ Result<WorldGeometry> WorldGeometry::build(const worlds::World& world, const std
     glm::dvec3 min, max;
   };
   std::vector<Placed> placed;
+  placed.reserve(world.instances.size());
   glm::dvec3 bmin(1e300), bmax(-1e300);
   for (size_t i = 0; i < world.instances.size(); ++i) {
     const worlds::Instance& inst = world.instances[i];
@@ -160,7 +189,47 @@ Result<WorldGeometry> WorldGeometry::build(const worlds::World& world, const std
       for (int32_t x = x0; x <= x1; ++x) fn(g.bins_[size_t(y - g.bin_y0_) * g.bin_nx_ + (x - g.bin_x0_)]);
   };
 
-  // Pass 2: flatten large meshes triangle by triangle; bin small instances whole.
+  // Pass 2: flatten large meshes triangle by triangle; bin small instances whole. Its memory
+  // first: per flattened triangle its vertices (36 B), material and class (3 B) and bin entry
+  // (4 B, twice for a vector's growth); per small instance its SmallInstance and bin entries. A
+  // large mesh only partly inside `only` counts the share of its xy bounds inside (terrain is
+  // spread evenly; the estimate's margin covers the rest).
+  {
+    double large = 0;
+    size_t small = 0, biggest = SIZE_MAX;
+    for (const Placed& p : placed) {
+      const uint32_t mesh = world.instances[p.instance].mesh;
+      const size_t n = g.valid_tris_[mesh].size();
+      if (!kept(p.min, p.max)) continue;
+      if (n <= kLargeMeshTriangles) {
+        ++small;
+        continue;
+      }
+      double share = 1.0;
+      if (only) {
+        const glm::dvec2 lo = glm::max(glm::dvec2(p.min), keep_lo), hi = glm::min(glm::dvec2(p.max), keep_hi);
+        const glm::dvec2 size = glm::dvec2(p.max - p.min);
+        if (size.x > 0 && size.y > 0) share = std::clamp((hi.x - lo.x) * (hi.y - lo.y) / (size.x * size.y), 0.0, 1.0);
+      }
+      large += share * double(n);
+      if (biggest == SIZE_MAX || n > g.valid_tris_[biggest].size()) biggest = mesh;
+    }
+    const auto large_tris = uint64_t(std::ceil(large));
+    const uint64_t estimate = large_tris * (36 + 3 + 8) + small * (sizeof(SmallInstance) + 16);
+    std::string what = "binning the bake's geometry (";
+    if (large_tris) what += std::to_string(large_tris) + " triangles of large meshes, the largest '" + world.meshes[biggest].name + "'";
+    if (large_tris && small) what += "; ";
+    if (small) what += std::to_string(small) + " instances of small meshes";
+    what += ")";
+    if (auto ok = checkMemory(estimate, where, what); !ok) return std::unexpected(ok.error());
+    // Reserved exactly where the count is exact, so the vectors do not double past the estimate.
+    if (!only) {
+      g.large_vertices_.reserve(3 * large_tris);
+      g.large_material_.reserve(large_tris);
+      g.large_cls_.reserve(large_tris);
+    }
+    g.small_.reserve(small);
+  }
   size_t large_degenerate = 0;
   for (const Placed& p : placed) {
     const worlds::Instance& inst = world.instances[p.instance];
@@ -174,20 +243,28 @@ Result<WorldGeometry> WorldGeometry::build(const worlds::World& world, const std
           ++large_degenerate;
           continue;
         }
+        if (only && !kept(glm::min(w[0], glm::min(w[1], w[2])), glm::max(w[0], glm::max(w[1], w[2])))) continue;
         const uint32_t index = uint32_t(g.large_material_.size());
         for (int k = 0; k < 3; ++k) g.large_vertices_.push_back(glm::vec3(w[k] - g.anchor_));
         g.large_material_.push_back(mesh_material[inst.mesh]);
         g.large_cls_.push_back(uint8_t(inst.cls));
         binRange(glm::min(w[0], glm::min(w[1], w[2])), glm::max(w[0], glm::max(w[1], w[2])),
-                 [&](Bin& b) { b.large_tris.push_back(index); });
+                 [&](Bin& b) {
+                   b.large_tris.push_back(index);
+                   ++b.triangles;
+                 });
       }
       g.triangle_count_ += valid.size();
       if (inst.cls == worlds::InstanceClass::kVegetation) g.large_vegetation_boxes_.emplace_back(p.min, p.max);
     } else {
+      g.triangle_count_ += valid.size();
+      if (!kept(p.min, p.max)) continue;
       const uint32_t index = uint32_t(g.small_.size());
       g.small_.push_back({inst.mesh, inst.transform, uint8_t(inst.cls), mesh_material[inst.mesh], p.min, p.max});
-      binRange(p.min, p.max, [&](Bin& b) { b.small.push_back(index); });
-      g.triangle_count_ += valid.size();
+      binRange(p.min, p.max, [&](Bin& b) {
+        b.small.push_back(index);
+        b.triangles += valid.size();
+      });
     }
   }
   if (large_degenerate) g.notes_.push_back("skipped: " + std::to_string(large_degenerate) + " triangles degenerate after their instance transform");
@@ -219,7 +296,35 @@ const WorldGeometry::Bin* WorldGeometry::bin(int32_t ix, int32_t iy) const {
   return &bins_[size_t(iy - bin_y0_) * bin_nx_ + (ix - bin_x0_)];
 }
 
+Result<void> WorldGeometry::checkBakeMemory(const SectorRange& range, double halo_m, int concurrent, const std::string& where) const {
+  uint64_t largest = 0;
+  SectorKey at{};
+  const int32_t reach = int32_t(std::ceil(halo_m / kSectorSizeM));
+  // Bins outside the world's are empty: clamp the range to them first (a --sectors range may be
+  // wider than the world, and a 1024 x 1024 world costs 1 M sums of (2 reach + 1)^2 bins).
+  const int32_t x0 = std::max(range.x0, bin_x0_), x1 = std::min(range.x1, bin_x0_ + bin_nx_ - 1);
+  const int32_t y0 = std::max(range.y0, bin_y0_), y1 = std::min(range.y1, bin_y0_ + bin_ny_ - 1);
+  for (int32_t y = y0; y <= y1; ++y)
+    for (int32_t x = x0; x <= x1; ++x) {
+      uint64_t tris = 0;
+      for (int32_t by = y - reach; by <= y + reach; ++by)
+        for (int32_t bx = x - reach; bx <= x + reach; ++bx)
+          if (const Bin* b = bin(bx, by)) tris += b->triangles;
+      if (tris > largest) largest = tris, at = SectorKey{x, y};
+    }
+  const uint64_t sectors = range.count();
+  const uint64_t at_once = std::max<uint64_t>(1, std::min<uint64_t>(uint64_t(std::max(concurrent, 1)), sectors));
+  return checkMemory(at_once * largest * kBakeBytesPerGatheredTriangle, where,
+                     "baking " + std::to_string(at_once) + " sector(s) at once, each gathering up to " + std::to_string(largest) +
+                         " triangles (sector " + toString(at) + " with its " + std::to_string(int(halo_m)) + " m halo)");
+}
+
 SectorGeometry WorldGeometry::gather(SectorKey key, double halo_m) const {
+  // Built for some sectors only: anything else would silently miss geometry.
+  if (only_) {
+    DRTV_CHECK(only_->contains(key));
+    DRTV_CHECK_LE(halo_m, only_halo_m_);
+  }
   SectorGeometry s;
   s.key = key;
   s.halo_m = halo_m;

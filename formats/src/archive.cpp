@@ -216,8 +216,9 @@ Result<Manifest> parseManifest(std::span<const uint8_t> bytes, uint64_t base, ui
   for (int i = 0; i < 3; ++i) rd.get(m.bounds_max[i]);
   if (!rd.ok()) return truncated("the bounds");
   for (int i = 0; i < 3; ++i)
-    if (!std::isfinite(m.bounds_min[i]) || !std::isfinite(m.bounds_max[i]) || m.bounds_min[i] > m.bounds_max[i])
-      return failAt(where, base, "manifest bounds are not finite and ordered");
+    if (!(std::fabs(m.bounds_min[i]) <= kMaxWorldCoordinateM && std::fabs(m.bounds_max[i]) <= kMaxWorldCoordinateM) ||
+        m.bounds_min[i] > m.bounds_max[i])
+      return failAt(where, base + 8 * i, "manifest bounds are not ordered and within [-1e8, 1e8] m");
   const uint64_t size_at = at();
   if (!rd.get(m.sector_size_m)) return truncated("the sector size");
   if (m.sector_size_m != kSectorSizeM)

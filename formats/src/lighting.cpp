@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <sstream>
 
 #include "drtv/formats/error.h"
 
@@ -71,46 +72,66 @@ Sky Sky::tropicalDefault() {
 }
 
 namespace {
+// "x in [lo, hi]" that NaN fails.
+template <class T>
+bool within(T x, T lo, T hi) {
+  return x >= lo && x <= hi;
+}
+std::string range(double lo, double hi) {
+  std::ostringstream s;
+  s << "[" << lo << ", " << hi << "]";
+  return s.str();
+}
 std::string checkGradient(const Gradient& g, const std::string& name) {
   if (g.keys.empty()) return name + ": needs at least one key";
   for (size_t i = 0; i < g.keys.size(); ++i) {
     const ColorKey& k = g.keys[i];
     const std::string at = name + "[" + std::to_string(i) + "]";
-    if (!(k.hour >= 0.f && k.hour < 24.f)) return at + ": hour must be in [0, 24)";
-    if (i > 0 && !(g.keys[i - 1].hour < k.hour)) return at + ": hours must increase";
+    if (!(k.hour >= 0.f && k.hour < 24.f)) return at + ".hour: must be in [0, 24)";
+    if (i > 0 && !(g.keys[i - 1].hour < k.hour)) return at + ".hour: hours must increase";
     for (int c = 0; c < 3; ++c)
-      if (!std::isfinite(k.value[c]) || k.value[c] < 0.f) return at + ": colour must be finite and >= 0";
+      if (!within(k.value[c], 0.f, kMaxColourValue)) return at + ".value: colour must be in " + range(0, kMaxColourValue);
   }
   return {};
 }
-bool finite3(const glm::dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+bool inWorld(const glm::dvec3& v) {
+  for (int a = 0; a < 3; ++a)
+    if (!within(v[a], -kMaxWorldCoordinateM, kMaxWorldCoordinateM)) return false;
+  return true;
+}
 }  // namespace
 
 std::string validateLighting(const Sky& sky, const std::vector<PointLight>& lights,
                              const std::vector<InteriorVolume>& interiors) {
-  if (!std::isfinite(sky.latitude_rad) || !std::isfinite(sky.declination_rad) || !std::isfinite(sky.north_rad))
-    return "sky: angles must be finite";
-  if (!std::isfinite(sky.ground_radiance_scale) || sky.ground_radiance_scale < 0.f)
-    return "sky.ground_radiance_scale: must be finite and >= 0";
+  if (!within(sky.latitude_rad, -kMaxLatitudeRad, kMaxLatitudeRad)) return "sky.latitude_rad: must be in [-pi/2, pi/2]";
+  if (!within(sky.declination_rad, -kMaxDeclinationRad, kMaxDeclinationRad))
+    return "sky.declination_rad: must be in [-23.5, 23.5] degrees";
+  if (!within(sky.north_rad, -kMaxNorthRad, kMaxNorthRad)) return "sky.north_rad: must be in [-2 pi, 2 pi]";
+  if (!within(sky.ground_radiance_scale, 0.f, 1.f)) return "sky.ground_radiance_scale: must be in [0, 1]";
   for (auto [g, name] : {std::pair{&sky.sun_irradiance, "sky.sun_irradiance"}, std::pair{&sky.sky_zenith, "sky.sky_zenith"},
                          std::pair{&sky.sky_horizon, "sky.sky_horizon"}})
     if (std::string e = checkGradient(*g, name); !e.empty()) return e;
+  const std::string world = range(-kMaxWorldCoordinateM, kMaxWorldCoordinateM) + " m";
   for (size_t i = 0; i < lights.size(); ++i) {
     const PointLight& l = lights[i];
     const std::string at = "lights[" + std::to_string(i) + "]";
-    if (!finite3(l.position)) return at + ".position: must be finite";
+    if (!inWorld(l.position)) return at + ".position: must be in " + world;
     for (int c = 0; c < 3; ++c)
-      if (!std::isfinite(l.intensity[c]) || l.intensity[c] < 0.f) return at + ".intensity: must be finite and >= 0";
-    if (!std::isfinite(l.radius_m) || !(l.radius_m > 0.f)) return at + ".radius_m: must be finite and > 0";
+      if (!within(l.intensity[c], 0.f, kMaxColourValue)) return at + ".intensity: must be in " + range(0, kMaxColourValue);
+    if (!within(l.radius_m, kMinLightRadiusM, kMaxLightRadiusM))
+      return at + ".radius_m: must be in " + range(kMinLightRadiusM, kMaxLightRadiusM) + " m";
   }
   for (size_t i = 0; i < interiors.size(); ++i) {
     const InteriorVolume& v = interiors[i];
     const std::string at = "interiors[" + std::to_string(i) + "]";
-    if (!finite3(v.min) || !finite3(v.max) || !finite3(v.probe_position)) return at + ": must be finite";
+    if (!inWorld(v.min)) return at + ".min: must be in " + world;
+    if (!inWorld(v.max)) return at + ".max: must be in " + world;
+    if (!inWorld(v.probe_position)) return at + ".probe: must be in " + world;
     if (!(v.min.x < v.max.x && v.min.y < v.max.y && v.min.z < v.max.z)) return at + ": min must be < max";
     if (glm::any(glm::lessThan(v.probe_position, v.min)) || glm::any(glm::greaterThan(v.probe_position, v.max)))
       return at + ".probe: must lie inside the box";
-    if (!std::isfinite(v.blend_distance_m) || v.blend_distance_m < 0.f) return at + ".blend_distance_m: must be finite and >= 0";
+    if (!within(v.blend_distance_m, 0.f, kMaxBlendDistanceM))
+      return at + ".blend_distance_m: must be in " + range(0, kMaxBlendDistanceM) + " m";
   }
   return {};
 }

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <sstream>
 #include <string>
 
 namespace drtv {
@@ -21,7 +22,7 @@ ProbeRecord packProbe(const ProbeData& p) {
   for (const auto& channel : p.prt)
     for (const auto& t : channel)
       for (int k = 0; k < 4; ++k) range = std::max(range, std::fabs(finiteOrZero(t[k])));
-  r.prt_range = range > 0.f ? range : 1.f;
+  r.prt_range = range > 0.f ? std::clamp(range, kMinQuantizationRange, kMaxPrtRange) : 1.f;
   for (int c = 0; c < 3; ++c)
     for (int b = 0; b < 4; ++b)
       for (int k = 0; k < 4; ++k) r.prt[c][b][k] = quantizeSnorm16(finiteOrZero(p.prt[c][b][k]), r.prt_range);
@@ -57,11 +58,20 @@ std::string validateProbe(const ProbeRecord& r) {
   if (r.position[0] < 0.f || r.position[0] > 64.f || r.position[1] < 0.f || r.position[1] > 64.f)
     return "position (" + std::to_string(r.position[0]) + ", " + std::to_string(r.position[1]) +
            ") outside the sector's [0, 64] m square";
-  if (std::fabs(r.position[2]) >= 1e6f) return "height " + std::to_string(r.position[2]) + " m is absurd";
+  if (!(std::fabs(r.position[2]) < kMaxProbeHeightM)) return "position z " + std::to_string(r.position[2]) + " m is absurd (|z| < 1e6)";
   if (r.flags & ~kProbeKnownFlags) return "unknown flag bits " + std::to_string(r.flags & ~kProbeKnownFlags);
-  if (!std::isfinite(r.prt_range) || r.prt_range <= 0.f) return "prt_range " + std::to_string(r.prt_range) + " is not a finite positive number";
-  if (!std::isfinite(r.lprt_range) || r.lprt_range < 0.f) return "lprt_range " + std::to_string(r.lprt_range) + " is not finite and >= 0";
-  if (!std::isfinite(r.mean_hit_m) || r.mean_hit_m < 0.f) return "mean_hit_m is not finite and >= 0";
+  auto number = [](float v) {
+    std::ostringstream s;
+    s << v;
+    return s.str();
+  };
+  if (!(r.prt_range >= kMinQuantizationRange && r.prt_range <= kMaxPrtRange))
+    return "prt_range " + number(r.prt_range) + " outside [" + number(kMinQuantizationRange) + ", " + number(kMaxPrtRange) + "]";
+  if (!(r.lprt_range == 0.f || (r.lprt_range >= kMinQuantizationRange && r.lprt_range <= kMaxLprtRange)))
+    return "lprt_range " + number(r.lprt_range) + " is neither 0 nor in [" + number(kMinQuantizationRange) + ", " +
+           number(kMaxLprtRange) + "]";
+  if (!(r.mean_hit_m >= 0.f && r.mean_hit_m <= kMaxMeanHitM))
+    return "mean_hit_m " + number(r.mean_hit_m) + " outside [0, " + number(kMaxMeanHitM) + "]";
   // Min and or reductions (every streamed probe passes here): they vectorise, where an early
   // exit per coefficient would not.
   int16_t min_prt = INT16_MAX, min_sh = INT16_MAX;

@@ -186,8 +186,8 @@ Result<Sector> decodeSector(std::span<const uint8_t> bytes, const std::string& w
   if (flags & ~kKnownSectorFlags) return failAt(where, 20, "unknown flag bits " + std::to_string(flags & ~kKnownSectorFlags));
   if (n_sources == 0 && (flags & kSectorLprtOnBases)) return failAt(where, 20, "LPRT flag set without an LPRT block");
   if (!std::isfinite(s.grid.z_min_m) || std::fabs(s.grid.z_min_m) > 1e6f) return failAt(where, 24, "grid z min is not a sane height");
-  if (!std::isfinite(s.grid.cell_height_m) || !(s.grid.cell_height_m > 0.f) || s.grid.cell_height_m > 1e5f)
-    return failAt(where, 28, "grid cell height is not a finite positive length");
+  if (!(s.grid.cell_height_m >= kMinGridCellHeightM && s.grid.cell_height_m <= kMaxGridCellHeightM))
+    return failAt(where, 28, "grid cell height " + std::to_string(s.grid.cell_height_m) + " m outside [0.01, 1e5] m");
   s.has_ground = flags & kSectorHasGround;
   if (s.has_ground && !(std::isfinite(s.ground_z_min_m) && std::isfinite(s.ground_z_max_m) &&
                         s.ground_z_min_m <= s.ground_z_max_m && std::fabs(s.ground_z_min_m) <= 1e6f &&

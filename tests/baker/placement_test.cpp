@@ -40,6 +40,19 @@ TEST(Placement, FlatGroundGetsAnEvenGridOfProbesLiftedAboveIt) {
   }
 }
 
+TEST(Placement, AnObjectBetweenTheColumnsStillGetsAProbeAboveIt) {
+  // A 1 m box whose xy square [1, 2] lies between the 4 m columns (at 2 +- 2): no column hits it.
+  worlds::World w;
+  test::add(w, test::box({0.6f, 0.6f, 0.f}, {1.6f, 1.6f, 1.f}, glm::vec3(0.5f), "small box"), worlds::InstanceClass::kStatic);
+  const Placed p = place(w, {0, 0});
+  ASSERT_EQ(p.probes.size(), 1u);
+  EXPECT_NEAR(p.probes[0].position.x, 1.1f, kHeightTolerance);
+  EXPECT_NEAR(p.probes[0].position.y, 1.1f, kHeightTolerance);
+  EXPECT_NEAR(p.probes[0].position.z, 2.5f, kHeightTolerance) << "lifted 1.5 m above the box's top";
+  // Sectors that a column hits are placed as before: flat ground still gets its 64.
+  EXPECT_EQ(place(test::planeWorld(200.0, glm::vec3(0.5f)), {0, 0}).probes.size(), 64u);
+}
+
 TEST(Placement, EveryStaticHitAlongTheRayGetsAProbeNotOnlyTheFirst) {
   worlds::World w = test::planeWorld(200.0, glm::vec3(0.5f));
   test::add(w, test::box({10, 10, 5}, {40, 40, 5.5f}, glm::vec3(0.5f), "deck"), worlds::InstanceClass::kStatic);

@@ -7,6 +7,7 @@
 #include <glm/gtc/matrix_transform.hpp>
 
 #include "drtv/baker/world_geometry.h"
+#include "drtv/formats/memory_limit.h"
 #include "test_worlds.h"
 
 namespace drtv::baker {
@@ -36,6 +37,55 @@ TEST(WorldGeometry, GathersStaticTerrainAndVegetationButNeverDynamic) {
   EXPECT_EQ(dynamic, 0u);
   EXPECT_GT(vegetation, 0u);
   EXPECT_GT(total, 0u);
+}
+
+TEST(WorldGeometry, BuiltForSomeSectorsItGathersThereExactlyWhatTheWholeBuildGathers) {
+  // A terrain large enough to be flattened triangle by triangle, and small instances.
+  worlds::World w;
+  worlds::Mesh ground;
+  ground.name = "ground";
+  ground.albedo = glm::vec3(0.3f);
+  constexpr int kCells = 100;  // 2 x 100 x 100 triangles, 4 m cells over 400 m
+  for (int j = 0; j <= kCells; ++j)
+    for (int i = 0; i <= kCells; ++i) ground.positions.emplace_back(-200.f + 4.f * i, -200.f + 4.f * j, 0.1f * float((i * 7 + j * 3) % 5));
+  for (int j = 0; j < kCells; ++j)
+    for (int i = 0; i < kCells; ++i) {
+      const uint32_t a = uint32_t(j * (kCells + 1) + i), b = a + 1, c = a + kCells + 2, d = a + kCells + 1;
+      ground.indices.insert(ground.indices.end(), {a, b, c, a, c, d});
+    }
+  test::add(w, std::move(ground), worlds::InstanceClass::kTerrain);
+  for (int k = 0; k < 40; ++k)
+    test::add(w, test::box({-190.f + 9.f * k, -150.f + 7.f * k, 0.f}, {-188.f + 9.f * k, -148.f + 7.f * k, 3.f}, glm::vec3(0.4f), "rock"),
+              worlds::InstanceClass::kStatic);
+  auto whole = WorldGeometry::build(w, "w");
+  const SectorRange only{-1, 0, 0, 1};
+  auto part = WorldGeometry::build(w, "w", only, 80.0);
+  ASSERT_TRUE(whole && part);
+  EXPECT_EQ(part->sectors().count(), whole->sectors().count()) << "bounds and sectors are the whole world's";
+  EXPECT_EQ(part->triangleCount(), whole->triangleCount());
+  EXPECT_EQ(part->fingerprint(), whole->fingerprint());
+  for (int32_t y = only.y0; y <= only.y1; ++y)
+    for (int32_t x = only.x0; x <= only.x1; ++x)
+      for (double halo : {64.0, 80.0}) {
+        const SectorGeometry a = whole->gather({x, y}, halo), b = part->gather({x, y}, halo);
+        ASSERT_GT(a.triangleCount(), 0u);
+        EXPECT_EQ(a.vertices, b.vertices) << "sector " << x << "," << y << " halo " << halo;
+        EXPECT_EQ(a.cls, b.cls);
+        EXPECT_EQ(a.material, b.material);
+      }
+}
+
+TEST(WorldGeometry, ABakeWhoseGatherCannotFitIsRefusedNamingTheSector) {
+  const worlds::World w = test::smallWorld();
+  auto g = WorldGeometry::build(w, "small.json");
+  ASSERT_TRUE(g);
+  EXPECT_TRUE(g->checkBakeMemory(g->sectors(), 64.0, 2, "small.json").has_value());
+  setMemoryLimit(1000);  // bytes: far below any gather
+  const auto r = g->checkBakeMemory(g->sectors(), 64.0, 2, "small.json");
+  setMemoryLimit(0);
+  ASSERT_FALSE(r.has_value());
+  EXPECT_EQ(r.error().message.rfind("small.json: baking 2 sector(s) at once, each gathering up to ", 0), 0u) << r.error().message;
+  EXPECT_NE(r.error().message.find("(--max-memory)"), std::string::npos) << r.error().message;
 }
 
 TEST(WorldGeometry, GatherIsInTheSectorsLocalFrame) {

@@ -3,10 +3,13 @@
 #include <filesystem>
 #include <fstream>
 
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 
 #include "drtv/worlds/load.h"
 #include "drtv/worlds/summary.h"
+#include "drtv/worlds/topdown.h"
 
 namespace drtv::worlds {
 namespace {
@@ -303,6 +306,62 @@ TEST(WorldJson, IslandKeyGeneratesTheIsland) {
   EXPECT_EQ(w->name, "x");
   EXPECT_GT(w->instancesByClass()[size_t(InstanceClass::kVegetation)], 0u);
   EXPECT_EQ(w->effects, uint32_t(kEffectSunBounce));
+}
+
+TEST(WorldJson, RejectsDuplicateKeysNamingTheKeyPath) {
+  expectError(R"({"name": "a", "name": "b"})", "key 'name': duplicate key");
+  expectError(R"({"sky": {"latitude_deg": 10, "north_deg": 0, "latitude_deg": 20}})", "key 'sky.latitude_deg': duplicate key");
+  expectError(R"({"primitives": [{"shape": "box"}, {"shape": "box", "albedo": [1, 1, 1], "albedo": [0, 0, 0]}]})",
+              "key 'primitives[1].albedo': duplicate key");
+  // The same key in different objects is not a duplicate.
+  const auto ok = parse(R"({"primitives": [{"shape": "box", "name": "a"}, {"shape": "box", "name": "b"}]})");
+  EXPECT_TRUE(ok.has_value()) << ok.error().message;
+}
+
+// Writes an 8-bit RGB PNG whose texel (x, y) is colour(x, y); returns its path.
+template <class F>
+std::string writeTestPng(const std::string& stem, int w, int h, F colour) {
+  RgbImage img;
+  img.width = w;
+  img.height = h;
+  img.pixels.resize(size_t(w) * h * 3);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const glm::ivec3 c = colour(x, y);
+      img.set(x, y, uint8_t(c.r), uint8_t(c.g), uint8_t(c.b));
+    }
+  const std::string path = ::testing::TempDir() + "drtv_json_test_" + stem + "_" + std::to_string(::getpid()) + ".png";
+  EXPECT_TRUE(writePng(path, img).has_value());
+  return path;
+}
+
+std::string heightmapWorld(const std::string& png) {
+  return R"({"terrain": {"kind": "heightmap", "path": ")" + png + R"(", "size_m": 100, "height_m": 10}})";
+}
+
+TEST(WorldJson, RejectsANonSquareHeightmapNamingFileAndKey) {
+  const std::string png = writeTestPng("wide", 30, 20, [](int x, int) { return glm::ivec3(x * 8); });
+  expectError(heightmapWorld(png), "key 'terrain.path': " + png + ": heightmap is 30x20 texels: it must be square");
+}
+
+TEST(WorldJson, RejectsAColouredHeightmapNamingTheTexel) {
+  const std::string png = writeTestPng("coloured", 16, 16, [](int x, int y) {
+    return x == 5 && y == 7 ? glm::ivec3(200, 10, 10) : glm::ivec3(x * 16);
+  });
+  expectError(heightmapWorld(png), "key 'terrain.path': " + png + ": heightmap texel (5, 7) is coloured");
+}
+
+TEST(WorldJson, TakesAGreyRgbHeightmapAsGrayscaleCentredAndSquare) {
+  const std::string png = writeTestPng("grey", 16, 16, [](int x, int) { return glm::ivec3(x * 17); });  // 0 .. 255
+  const auto w = parse(heightmapWorld(png));
+  ASSERT_TRUE(w.has_value()) << w.error().message;
+  const Bounds b = w->bounds();
+  EXPECT_NEAR(b.min.x, -50, 1e-3);
+  EXPECT_NEAR(b.max.x, 50, 1e-3);
+  EXPECT_NEAR(b.min.y, -50, 1e-3);
+  EXPECT_NEAR(b.max.y, 50, 1e-3);
+  EXPECT_NEAR(b.min.z, 0.0, 1e-3);   // black
+  EXPECT_NEAR(b.max.z, 10.0, 1e-3);  // white = height_m
 }
 
 TEST(LoadWorld, LoadsTheTestBox) {

@@ -10,12 +10,15 @@
 #include <fstream>
 #include <initializer_list>
 #include <limits>
+#include <functional>
 #include <optional>
+#include <set>
 #include <sstream>
 
 #include <glm/gtc/matrix_transform.hpp>
 #include <nlohmann/json.hpp>
 
+#include "drtv/formats/memory_limit.h"
 #include "drtv/worlds/gltf.h"
 #include "drtv/worlds/island.h"
 #include "island_detail.h"
@@ -39,6 +42,12 @@ namespace {
 
 using json = nlohmann::json;
 using Ok = Result<bool>;  // a Result with nothing to carry
+
+// Bytes a terrain vertex takes while it loads: heights (4) and mesh positions (12) and indices
+// (24 per cell, ~1 cell per vertex), with the heightfield kept for vegetation beside the mesh.
+constexpr double kTerrainLoadBytesPerVertex = 4 + 12 + 24 + 4;
+// Bytes a vegetation copy takes: its Instance and the heap text of its name ("vegetation[0] 1234567").
+constexpr uint64_t kInstanceLoadBytes = sizeof(Instance) + 32;
 
 std::string join(const std::string& path, const std::string& key) { return path.empty() ? key : path + "." + key; }
 std::string at(const std::string& path, size_t i) { return path + "[" + std::to_string(i) + "]"; }
@@ -178,6 +187,18 @@ class Parser {
     return uint32_t(world_.meshes.size() - 1);
   }
 
+  // Refuses a terrain of `cells` x `cells` whose mesh would not fit in memory (memory_limit.h):
+  // the heightfield (4 B a vertex), the mesh's positions (12 B) and indices (24 B a cell), plus
+  // the copy the bake's geometry makes, are what loading it allocates. Names `key`.
+  Ok terrainMemory(double cells, const std::string& key) const {
+    const double vertices = (cells + 1) * (cells + 1);
+    const auto bytes = uint64_t(vertices * kTerrainLoadBytesPerVertex);
+    const std::string n = std::to_string(uint64_t(cells) + 1);
+    if (auto ok = checkMemory(bytes, file_ + ": key '" + key + "'", "a terrain of " + n + " x " + n + " vertices"); !ok)
+      return std::unexpected(ok.error());
+    return true;
+  }
+
   Ok terrain(const json& j);
   Ok island(const json& j);
   Ok primitives(const json& j);
@@ -224,6 +245,7 @@ Ok Parser::terrain(const json& j) {
     DRTV_TRY_DECL(size, optNumber(j, "size_m", path, 128.0, 1.0, 65536.0));
     DRTV_TRY_DECL(res, optNumber(j, "resolution_m", path, 2.0, 0.25, 1024.0));
     if (size / res > 8192) return error(join(path, "resolution_m"), "too fine for size_m (more than 8192 cells a side)");
+    DRTV_TRY(terrainMemory(std::max(1.0, std::round(size / res)), join(path, "resolution_m")));
     DRTV_TRY_DECL(height, optNumber(j, "height_m", path, 0.0, 0.0, 10000.0));
     DRTV_TRY_DECL(feature, optNumber(j, "feature_m", path, 32.0, 0.01, 1e6));
     DRTV_TRY_DECL(seed, optSeed(j, "seed", path, 1));
@@ -235,6 +257,7 @@ Ok Parser::terrain(const json& j) {
     DRTV_TRY_DECL(height, reqNumber(j, "height_m", path, 0.0, 10000.0));
     DRTV_TRY_DECL(res, optNumber(j, "resolution_m", path, 0.0, 0.0, 1024.0));
     if (res > 0 && size / res > 8192) return error(join(path, "resolution_m"), "too fine for size_m (more than 8192 cells a side)");
+    if (res > 0) DRTV_TRY(terrainMemory(std::max(1.0, std::round(size / res)), join(path, "resolution_m")));
     auto hf = loadHeightmapPng(resolve(rel), size, height, res);
     if (!hf) return error(join(path, "path"), hf.error().message);
     g.hf = std::move(*hf);
@@ -392,6 +415,14 @@ Ok Parser::vegetation(const json& j) {
       DRTV_TRY_DECL(instances, importGltf(rel, join(mpath, "gltf"), cls));
       prototype = std::move(instances);
     }
+    // Every copy is an Instance (its transform and name): refuse a count that cannot fit before
+    // allocating gigabytes one push_back at a time (memory_limit.h).
+    const uint64_t copies = uint64_t(count) * prototype.size();
+    if (auto ok = checkMemory(copies * kInstanceLoadBytes, file_ + ": key '" + join(path, "count") + "'",
+                              std::to_string(copies) + " vegetation instances");
+        !ok)
+      return std::unexpected(ok.error());
+    world_.instances.reserve(world_.instances.size() + copies);
     for (size_t k = 0; k < count; ++k) {
       const double x = noise::uniform(seed, i, k, 0, lo.x, hi.x), y = noise::uniform(seed, i, k, 1, lo.y, hi.y);
       const double s = noise::uniform(seed, i, k, 2, scale.x, scale.y);
@@ -414,8 +445,8 @@ Ok Parser::lights(const json& j) {
     PointLight l;
     DRTV_TRY_DECL(name, optString(j[i], "name", path, path));
     DRTV_TRY_DECL(pos, reqVec<3>(j[i], "position", path, -1e7, 1e7));
-    DRTV_TRY_DECL(intensity, optVec<3>(j[i], "intensity", path, glm::dvec3(1.0), 0.0, 1e9));
-    DRTV_TRY_DECL(radius, optNumber(j[i], "radius_m", path, 10.0, 1e-3, 1e5));
+    DRTV_TRY_DECL(intensity, optVec<3>(j[i], "intensity", path, glm::dvec3(1.0), 0.0, kMaxColourValue));
+    DRTV_TRY_DECL(radius, optNumber(j[i], "radius_m", path, 10.0, 1e-3, kMaxLightRadiusM));  // 1e-3 rounds up to kMinLightRadiusM
     l.name = name;
     l.position = pos;
     l.intensity = glm::vec3(intensity);
@@ -471,7 +502,7 @@ Ok Parser::interiors(const json& j) {
     DRTV_TRY_DECL(lo, reqVec<3>(j[i], "min", path, -1e7, 1e7));
     DRTV_TRY_DECL(hi, reqVec<3>(j[i], "max", path, -1e7, 1e7));
     DRTV_TRY_DECL(probe, reqVec<3>(j[i], "probe", path, -1e7, 1e7));
-    DRTV_TRY_DECL(blend, optNumber(j[i], "blend_m", path, 1.0, 0.0, 1e4));
+    DRTV_TRY_DECL(blend, optNumber(j[i], "blend_m", path, 1.0, 0.0, kMaxBlendDistanceM));
     if (!(lo.x < hi.x && lo.y < hi.y && lo.z < hi.z)) return error(join(path, "max"), "expected max > min on every axis");
     if (glm::any(glm::lessThan(probe, lo)) || glm::any(glm::greaterThan(probe, hi)))
       return error(join(path, "probe"), "the designated probe must lie inside [min, max]");
@@ -508,7 +539,7 @@ Result<Gradient> Parser::gradient(const json& j, const std::string& path) const 
     DRTV_TRY_DECL(hour, number(j[i][0], at(kpath, 0), 0.0, std::nextafter(24.0, 0.0)));
     glm::vec3 value;
     for (int c = 0; c < 3; ++c) {
-      DRTV_TRY_DECL(x, number(j[i][size_t(c) + 1], at(kpath, size_t(c) + 1), 0.0, 1e9));
+      DRTV_TRY_DECL(x, number(j[i][size_t(c) + 1], at(kpath, size_t(c) + 1), 0.0, kMaxColourValue));
       value[c] = float(x);
     }
     if (!g.keys.empty() && !(hour > g.keys.back().hour)) return error(at(kpath, 0), "hours must increase strictly");
@@ -548,9 +579,67 @@ std::string lowerExtension(const std::filesystem::path& p) {
 
 }  // namespace
 
+// The key path of the first key that repeats within one object ("sky.latitude_deg"), found while
+// parsing: nlohmann::json keeps the last of duplicate keys without a word, so a world file with
+// two "terrain" objects would silently bake one of them.
+class DuplicateKeyFinder {
+ public:
+  bool operator()(int /*depth*/, json::parse_event_t event, const json& parsed) {
+    if (!duplicate_.empty()) return true;
+    switch (event) {
+      case json::parse_event_t::object_start:
+      case json::parse_event_t::array_start:
+        countElement();
+        frames_.push_back(Frame{event == json::parse_event_t::array_start, 0, {}, {}});
+        break;
+      case json::parse_event_t::object_end:
+      case json::parse_event_t::array_end:
+        if (!frames_.empty()) frames_.pop_back();
+        break;
+      case json::parse_event_t::key: {
+        if (frames_.empty() || frames_.back().array) break;
+        Frame& f = frames_.back();
+        f.key = parsed.is_string() ? parsed.get<std::string>() : parsed.dump();
+        if (!f.keys.insert(f.key).second) duplicate_ = path();
+        break;
+      }
+      case json::parse_event_t::value:
+        countElement();
+        break;
+    }
+    return true;
+  }
+  // "" when every object's keys were unique.
+  const std::string& duplicate() const { return duplicate_; }
+
+ private:
+  struct Frame {
+    bool array = false;
+    size_t elements = 0;          // arrays: elements seen so far
+    std::set<std::string> keys;   // objects: keys seen so far
+    std::string key;              // objects: the key being read
+  };
+  void countElement() {
+    if (!frames_.empty() && frames_.back().array) ++frames_.back().elements;
+  }
+  std::string path() const {
+    std::string p;
+    for (const Frame& f : frames_) {
+      if (f.array) p += "[" + std::to_string(f.elements - 1) + "]";  // the element being read
+      else p += (p.empty() ? "" : ".") + f.key;
+    }
+    return p;
+  }
+  std::vector<Frame> frames_;
+  std::string duplicate_;
+};
+
 Result<World> parseWorldJson(std::string_view text, const std::filesystem::path& base_dir, const std::string& file_name) {
   try {
-    json root = json::parse(text.begin(), text.end());
+    DuplicateKeyFinder duplicates;
+    json root = json::parse(text.begin(), text.end(), std::ref(duplicates));
+    if (!duplicates.duplicate().empty())
+      return fail(file_name + ": key '" + duplicates.duplicate() + "': duplicate key (JSON objects must not repeat a key)");
     Parser parser(base_dir, file_name);
     return parser.parse(root);
   } catch (const json::parse_error& e) {

@@ -6,9 +6,14 @@
 #include <fstream>
 #include <iterator>
 
+#include "drtv/formats/memory_limit.h"
 #include "noise.h"
 
 namespace drtv::worlds {
+namespace {
+// Heights (4 B) kept beside the mesh's positions (12 B) and indices (24 B a cell).
+constexpr double kHeightmapMeshBytesPerVertex = 4 + 12 + 24 + 4;
+}  // namespace
 
 bool Heightfield::contains(double x, double y) const {
   const double u = (x - origin.x) / spacing_m, v = (y - origin.y) / spacing_m;
@@ -69,9 +74,34 @@ Result<Heightfield> loadHeightmapPng(const std::filesystem::path& path, double s
   int w = 0, h = 0, channels = 0;
   std::vector<uint16_t> pixels;
   std::string error;
+  // The decode holds 16-bit channels twice (stb's buffer and our copy); the mesh then takes
+  // kHeightmapMeshBytesPerVertex per vertex. Refuse what cannot fit before decoding a byte.
+  if (peekImageSize(bytes.data(), bytes.size(), w, h, channels)) {
+    const double texels = double(w) * double(h);
+    const double vertices = resolution_m > 0 ? std::pow(std::round(size_m / resolution_m) + 1, 2) : texels;
+    const auto estimate = uint64_t(texels * channels * 4.0 + vertices * kHeightmapMeshBytesPerVertex);
+    if (auto ok = checkMemory(estimate, file, "a " + std::to_string(w) + " x " + std::to_string(h) + " heightmap"); !ok)
+      return std::unexpected(ok.error());
+  }
   if (!decodeImage16(bytes.data(), bytes.size(), w, h, channels, pixels, error))
     return fail(file + ": cannot decode heightmap: " + error);
   if (w < 2 || h < 2) return fail(file + ": heightmap must be at least 2x2 texels, is " + std::to_string(w) + "x" + std::to_string(h));
+  // The terrain is a square (docs/world-format.md): a non-square image would have to be
+  // stretched or cropped, and either guess would surprise someone. Say so instead.
+  if (w != h)
+    return fail(file + ": heightmap is " + std::to_string(w) + "x" + std::to_string(h) +
+                " texels: it must be square (the terrain is a square size_m wide)");
+  // Grayscale (with or without alpha) is read as is. An RGB(A) image is accepted only when it is
+  // grey in fact (R = G = B in every texel, as some tools save grayscale); a coloured one would be
+  // taken by its red channel alone, which is never what was meant.
+  if (channels >= 3) {
+    for (size_t t = 0; t < size_t(w) * size_t(h); ++t) {
+      const uint16_t* px = &pixels[t * size_t(channels)];
+      if (px[0] != px[1] || px[0] != px[2])
+        return fail(file + ": heightmap texel (" + std::to_string(t % size_t(w)) + ", " + std::to_string(t / size_t(w)) +
+                    ") is coloured (R, G, B differ): expected a grayscale image");
+    }
+  }
   // Texel (0,0) is the image's top-left: put it at the north-west corner (+y up the image).
   auto texel = [&](double u, double v) {  // u, v in texels, bilinear
     u = std::clamp(u, 0.0, double(w - 1));
@@ -89,7 +119,6 @@ Result<Heightfield> loadHeightmapPng(const std::filesystem::path& path, double s
     const auto cells = static_cast<uint32_t>(std::max(1.0, std::round(size_m / resolution_m)));
     hf.nx = hf.ny = cells + 1;
   }
-  // A non-square image is stretched onto the square; spacing follows x.
   hf.spacing_m = size_m / (hf.nx - 1);
   hf.origin = glm::dvec2(-0.5 * size_m);
   hf.heights_m.resize(size_t(hf.nx) * hf.ny);

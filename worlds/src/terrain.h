@@ -39,12 +39,15 @@ Heightfield noiseHeightfield(double size_m, double resolution_m, double height_m
 
 // A 16-bit (or 8-bit) grayscale PNG heightmap mapped onto a square `size_m` wide centred on
 // (0,0): white = height_m, black = 0. `resolution_m` <= 0 uses one vertex per texel, else the
-// image is resampled bilinearly. Errors name `path`.
+// image is resampled bilinearly. The image must be square; RGB(A) is accepted only when every
+// texel is grey (R = G = B). Errors name `path`.
 Result<Heightfield> loadHeightmapPng(const std::filesystem::path& path, double size_m, double height_m,
                                      double resolution_m);
 
 // Decodes a PNG/JPEG/... file in memory to 16-bit channels (implemented beside tinygltf, which
 // owns the stb_image implementation). Returns false with `error` set on failure.
+// Reads an image's size and channel count from its header alone; false if not an image.
+bool peekImageSize(const unsigned char* bytes, size_t size, int& width, int& height, int& channels);
 bool decodeImage16(const unsigned char* bytes, size_t size, int& width, int& height, int& channels,
                    std::vector<uint16_t>& pixels, std::string& error);
 

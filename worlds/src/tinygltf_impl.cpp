@@ -16,6 +16,11 @@
 
 namespace drtv::worlds {
 
+bool peekImageSize(const unsigned char* bytes, size_t size, int& width, int& height, int& channels) {
+  if (size > size_t(INT32_MAX)) return false;
+  return stbi_info_from_memory(bytes, int(size), &width, &height, &channels) != 0;
+}
+
 bool decodeImage16(const unsigned char* bytes, size_t size, int& width, int& height, int& channels,
                    std::vector<uint16_t>& pixels, std::string& error) {
   if (size > size_t(INT32_MAX)) {

@@ -19,8 +19,12 @@
 // kept inside the block's centre sector(s) so that every point has baked neighbours. For each
 // point and hour, the reference ambient (sun bounce + sky bounce + direct sky + local lights) is
 // path-traced once; every configuration's ambient at the same points is compared with it:
-//   rel_error = sum over points, hours, channels |E - E_ref| / sum E_ref   (relative L1, RGB)
-//   bias      = sum (E - E_ref) / sum E_ref
+//   rel_error = sum over points, hours, channels |E - E_ref| / max(sum E_ref, N kAmbientErrorFloor)
+//   bias      = sum (E - E_ref) / (the same denominator)
+//   abs_error = sum |E - E_ref| / N       (mean absolute error per point, hour and channel)
+// with N the number of terms. The floor keeps a (nearly) black reference, e.g. a sun-only scene
+// with nothing to bounce from, from dividing by ~0: errors are then relative to the floor and the
+// row's note says so; abs_error is the figure to read there.
 // and the reference's own noise floor, sum of standard errors / sum E_ref, is reported beside.
 // Knobs, one at a time around the default (BakeSettings::forQuality(kDefault), the runtime's
 // defaults: nearest fill, 2 x 2 x 4 m texels, RGBA8):
@@ -98,6 +102,21 @@ struct AccuracyOptions {
   std::function<void(const std::string&)> progress;
 };
 
+// Irradiance per channel below which a reference ambient counts as black for relative errors, in
+// the world's linear RGB units (the tropical noon sun is 3.0, its bounce off grass ~0.3): a
+// thousandth of a lit surface's ambient, and about the smallest step an 8-bit volume texel can
+// show at the runtime's HDR scale, so an error under it is invisible anyway.
+inline constexpr double kAmbientErrorFloor = 1e-3;
+
+// Errors of `values` against `reference` (same size), as defined in the header.
+struct AmbientError {
+  double rel = 0;        // relative L1 error, RGB, denominator floored
+  double bias = 0;       // signed relative error, same denominator
+  double abs = 0;        // mean absolute error per value and channel (irradiance units)
+  bool floored = false;  // the reference's sum was under the floor: rel and bias are relative to it
+};
+AmbientError ambientError(const std::vector<glm::vec3>& values, const std::vector<glm::vec3>& reference);
+
 struct AccuracyRow {
   std::string knob;         // "rays_per_basis", "bounces", "part", "sun_window", "basis", "fill", "texel_m",
                             // "storage", "lprt_sources"
@@ -110,6 +129,7 @@ struct AccuracyRow {
   size_t probe_bytes = 0;   // encoded sectors of the block
   size_t volume_bytes = 0;  // the three volume textures
   std::string note;         // what is special about the row
+  double abs_error = 0;     // mean absolute error per point, hour and channel (see the header)
 };
 
 struct AccuracyReport {

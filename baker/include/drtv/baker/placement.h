@@ -8,6 +8,9 @@
 //     static geometry along the ray — not only the first — is a candidate, lifted by
 //     min(lift_m, half the gap to the static surface above it). Vegetation triangles are passed
 //     through (their leaves give noisy heights [1, slide 16]).
+//     If no column of a sector finds static geometry but static triangles overlap the sector
+//     (an object smaller than the spacing, between columns), one more column is cast through the
+//     centre of their bounds clipped to the sector, so that a lone small object gets a probe.
 //  2. Vegetation pass [1, slide 16]: rays every `vegetation_spacing_m` (8 m) against the bounding
 //     box of each vegetation instance; a candidate on top of every box the ray hits, lifted.
 //  3. Interiors (only when the world asks for them): the designated probe of every interior

@@ -17,6 +17,8 @@
 #include <utility>
 #include <vector>
 
+#include <optional>
+
 #include <glm/glm.hpp>
 
 #include "drtv/formats/error.h"
@@ -74,7 +76,13 @@ class WorldGeometry {
   // is out of range, a mesh index past its positions, geometry wider than kMaxWorldExtentM
   // or beyond kMaxWorldOffsetM / kMaxWorldHeightM.
   // O(triangles of large meshes + instances). Not thread-safe to build; const methods are.
-  static Result<WorldGeometry> build(const worlds::World& world, const std::string& where);
+  // `only`: bin just the geometry that sectors in this range gather with a halo up to `halo_m`
+  // (a bake of --sectors need not flatten a whole 8192-cell terrain); gather() is then valid for
+  // those sectors and halos alone (a bug otherwise, checked). Bounds, sectors(), notes, counts and
+  // the fingerprint are the whole world's either way. The memory the binning needs is estimated
+  // first and refused beyond memoryLimit() (drtv/formats/memory_limit.h), naming the mesh.
+  static Result<WorldGeometry> build(const worlds::World& world, const std::string& where,
+                                     std::optional<SectorRange> only = std::nullopt, double halo_m = 0.0);
 
   // Sectors the contributing geometry touches (xy bounds of terrain, static, vegetation).
   SectorRange sectors() const { return sectors_; }
@@ -93,6 +101,16 @@ class WorldGeometry {
   // sector's local frame, in a deterministic order (independent of threads and of other sectors).
   SectorGeometry gather(SectorKey key, double halo_m) const;
 
+  // Bytes one sector's bake holds per triangle it gathers: the SectorGeometry (39 B), Embree's
+  // vertex and index buffers and BVH and the scene's normals (~120 B). Measured: a bake of one
+  // sector gathering 67.5 M vegetation triangles peaked 11 GB above the world it was given.
+  static constexpr uint64_t kBakeBytesPerGatheredTriangle = 170;
+  // Refuses (memory_limit.h) a bake of the sectors in `range` with `halo_m` when `concurrent`
+  // sectors baked at once, each as large as the largest gather in the range, would not fit;
+  // `where` names the file. The gather's size comes from per-bin triangle counts (instances
+  // that straddle bins count in each: it errs high), without gathering anything.
+  Result<void> checkBakeMemory(const SectorRange& range, double halo_m, int concurrent, const std::string& where) const;
+
  private:
   struct SmallInstance {
     uint32_t mesh;
@@ -104,6 +122,7 @@ class WorldGeometry {
   struct Bin {
     std::vector<uint32_t> large_tris;  // into large_vertices_ / 3
     std::vector<uint32_t> small;       // into small_
+    uint64_t triangles = 0;            // large_tris plus the small instances' triangles
   };
   const Bin* bin(int32_t ix, int32_t iy) const;
 
@@ -117,6 +136,8 @@ class WorldGeometry {
   std::vector<glm::vec3> materials_;
   std::vector<std::pair<glm::dvec3, glm::dvec3>> large_vegetation_boxes_;  // world AABBs
   SectorRange sectors_;
+  std::optional<SectorRange> only_;  // the sectors binned for (all when empty)
+  double only_halo_m_ = 0.0;
   int32_t bin_x0_ = 0, bin_y0_ = 0, bin_nx_ = 0, bin_ny_ = 0;
   std::vector<Bin> bins_;
   glm::dvec3 bounds_min_{0.0}, bounds_max_{0.0};

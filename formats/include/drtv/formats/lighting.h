@@ -18,6 +18,22 @@
 
 namespace drtv {
 
+// The range of every float a lighting description carries, on load and on write (archive
+// manifests, world files; docs/formats.md "Value ranges"). Finite is not enough: a colour of 3e38
+// is finite, but sun plus sky overflows to Inf and the runtime's ambient to NaN. With these bounds
+// the runtime's largest sum (colour x transfer range x terms, probe.h) stays below 1e16, far from
+// FLT_MAX (3.4e38).
+inline constexpr float kMaxColourValue = 1e9f;          // gradient colours, light intensities (linear RGB)
+inline constexpr double kMaxWorldCoordinateM = 1e8;     // |x|, |y|, |z| of positions and boxes, metres
+inline constexpr float kMinLightRadiusM = 1e-3f;        // PointLight::radius_m in [1e-3, 1e5] m
+inline constexpr float kMaxLightRadiusM = 1e5f;
+inline constexpr float kMaxBlendDistanceM = 1e4f;       // InteriorVolume::blend_distance_m in [0, 1e4] m
+// Sun path angles, radians: latitude in [-90, 90] deg, declination in [-23.5, 23.5] deg (the
+// Earth's tilt), north in [-360, 360] deg; each with 1e-9 rad of slack for the degree conversion.
+inline constexpr double kMaxLatitudeRad = 1.5707963267948966 + 1e-9;
+inline constexpr double kMaxDeclinationRad = 0.41015237421866746 + 1e-9;
+inline constexpr double kMaxNorthRad = 6.283185307179586 + 1e-9;
+
 // A key of a piecewise-linear gradient over the day.
 struct ColorKey {
   float hour = 0;        // [0, 24)
@@ -95,9 +111,12 @@ struct InteriorVolume {
 };
 
 // What is wrong with a lighting description, or "" when it is sound: gradients non-empty with
-// sorted hours in [0, 24) and finite non-negative values; finite angles; lights with finite
-// positions, non-negative intensity and positive radius; interiors with min < max, the probe
-// inside and a non-negative blend distance. Names the offending item ("sky.sun_irradiance[2]").
+// sorted hours in [0, 24) and colours in [0, kMaxColourValue]; angles in their ranges above;
+// ground_radiance_scale in [0, 1]; lights with positions within kMaxWorldCoordinateM, intensity
+// in [0, kMaxColourValue] and radius in [kMinLightRadiusM, kMaxLightRadiusM]; interiors within
+// kMaxWorldCoordinateM with min < max, the probe inside and a blend distance in [0,
+// kMaxBlendDistanceM]. NaN fails every check. Names the offending item and field
+// ("sky.sun_irradiance[2].value", "lights[0].intensity").
 std::string validateLighting(const Sky& sky, const std::vector<PointLight>& lights,
                              const std::vector<InteriorVolume>& interiors);
 

@@ -9,18 +9,18 @@
 //                                      (in [0, 64)), z the world height (sectors span all z)
 //    12     2  uint16  flags           ProbeFlag bits; unknown bits are rejected on read
 //    14     2  uint16  interior        0 = outside; k = inside World::interiors[k - 1]
-//    16     4  float32 prt_range       R > 0: dequantisation range of every prt coefficient
+//    16     4  float32 prt_range       R in [1e-30, 1e4]: dequantisation range of every prt coefficient
 //    20    96  int16   prt[3][4][4]    [channel R,G,B][basis B0..B3][SH Y00,Y1-1,Y10,Y11],
 //                                      snorm16 x R. Bounced irradiance at a virtual surface
 //                                      with normal B_b = dot(L_sh[c], T[c][b]) (sun and sky)
 //   116     8  uint16  sky_vis[4]      unorm16: cosine-weighted sky visibility about B0..B3
 //   124     8  int16   sky_vis_sh[4]   snorm16 x 4: SH of the 0/1 sky-visibility function
 //                                      (|c0| <= sqrt(4 pi) = 3.545, so the range 4 suffices)
-//   132     4  float32 lprt_range      dequantisation range of this probe's LPRT row; 0 = none
+//   132     4  float32 lprt_range      dequantisation range of this probe's LPRT row, [1e-30, 1e4]; 0 = none
 //   136     2  uint16  backface_frac   unorm16: fraction of bake rays that hit back faces
 //   138     2  uint16  height_cm       height above the surface below the probe, centimetres
 //                                      (0 .. 655.35 m), for the distant-occlusion tile
-//   140     4  float32 mean_hit_m      mean distance to the first hit of the bake rays that hit
+//   140     4  float32 mean_hit_m      mean distance to the first hit of the bake rays that hit, [0, 1e7] m
 //   144     8  uint8   reserved[8]     zero; rejected when non-zero (room for version 2)
 //   152
 #pragma once
@@ -47,6 +47,21 @@ inline constexpr uint16_t kProbeKnownFlags = 0x000f;
 
 // Snorm range of sky_vis_sh (see the table above).
 inline constexpr float kSkyVisShRange = 4.f;
+
+// Value ranges of the record's floats (docs/formats.md "Value ranges"), checked by validateProbe.
+// Dequantisation ranges: a transfer coefficient is bounced irradiance per unit of lighting; with
+// albedo <= 1 and up to 64 bounces it stays below ~100 (baked worlds: prt_range <= ~2, LPRT
+// <= 1 since the point-light irradiance is clamped at 1 m, kLprtMinDistance2), so 1e4 leaves a
+// wide margin while colour (<= kMaxColourValue, 1e9) x range x 4 x 128 terms stays ~1e16, finite.
+// Below 1e-30 a range is a denormal or corruption: every coefficient would decode to ~0 (a probe
+// silently black), so it is refused too (packProbe never writes one).
+inline constexpr float kMinQuantizationRange = 1e-30f;
+inline constexpr float kMaxPrtRange = 1e4f;
+inline constexpr float kMaxLprtRange = 1e4f;
+// mean_hit_m in [0, 1e7] m (a bake ray is never longer than the world is wide).
+inline constexpr float kMaxMeanHitM = 1e7f;
+// Heights: |position z| < 1e6 m, x and y in [0, 64] (sector-relative).
+inline constexpr float kMaxProbeHeightM = 1e6f;
 
 struct ProbeRecord {
   float position[3];
@@ -80,8 +95,9 @@ struct ProbeData {
   float mean_hit_m = 0.f;
 };
 
-// Packs `p`, choosing prt_range as the largest |coefficient| (or 1 when all are 0). Values are
-// clamped to their documented ranges; NaN becomes 0 (a bug upstream; packing stays total).
+// Packs `p`, choosing prt_range as the largest |coefficient| (or 1 when all are 0), kept in
+// [kMinQuantizationRange, kMaxPrtRange]. Values are clamped to their documented ranges; NaN
+// becomes 0 (a bug upstream; packing stays total).
 // lprt_range is set to 0: the LPRT block's packer fills it.
 ProbeRecord packProbe(const ProbeData& p);
 
@@ -89,9 +105,10 @@ ProbeRecord packProbe(const ProbeData& p);
 ProbeData unpackProbe(const ProbeRecord& r);
 
 // Checks a record read from untrusted bytes: finite position with x, y in [0, 64] and |z| < 1e6,
-// known flags, finite prt_range > 0 (or == 0 with all-zero coefficients), finite lprt_range >= 0,
-// finite mean_hit_m >= 0, zero reserved bytes, and no int16 -32768 (never written). Returns an
-// empty string when valid, else what is wrong (the caller adds file, sector and byte offset).
+// known flags, prt_range in [kMinQuantizationRange, kMaxPrtRange], lprt_range 0 or in
+// [kMinQuantizationRange, kMaxLprtRange], mean_hit_m in [0, kMaxMeanHitM], zero reserved bytes,
+// and no int16 -32768 (never written). NaN fails every range. Returns an empty string when valid,
+// else what is wrong, naming the field (the caller adds file, sector and byte offset).
 std::string validateProbe(const ProbeRecord& r);
 
 }  // namespace drtv

@@ -15,10 +15,10 @@
 //   16   2  uint16  probe count     0..255
 //   18   2  uint16  LPRT sources    0..128; 0 = no LPRT block at all
 //   20   4  uint32  flags           kSectorHasGround | kSectorLprtOnBases; others rejected
-//   24   4  float32 grid z min      world height of the index grid's bottom face, metres
-//   28   4  float32 grid cell height metres, > 0 (horizontal cells are 64/16 = 4 m)
-//   32   4  float32 ground z min    range of the ground-height map, metres
-//   36   4  float32 ground z max
+//   24   4  float32 grid z min      world height of the index grid's bottom face, metres, |z| <= 1e6
+//   28   4  float32 grid cell height metres, in [0.01, 1e5] (horizontal cells are 64/16 = 4 m)
+//   32   4  float32 ground z min    range of the ground-height map, metres: |z| <= 1e6,
+//   36   4  float32 ground z max    min <= max (checked when kSectorHasGround)
 //   40  24  uint8   reserved        zero
 //   64        probes      probe count x 152 bytes (probe.h)
 //   ..  4096  index grid  uint8 cells[z][y][x], 16^3, the index of the nearest probe; 255 = none
@@ -53,6 +53,10 @@ inline constexpr int kGridDim = 16;                    // cells per axis
 inline constexpr int kGridCells = kGridDim * kGridDim * kGridDim;
 inline constexpr double kGridCellSizeM = kSectorSizeM / kGridDim;  // 4 m horizontally
 inline constexpr uint8_t kNoProbe = 255;
+// Grid cell height range, metres (the baker writes >= 1 m): a thinner cell, down to a denormal,
+// would put every height at +-Inf cells; a taller one spans more than any world is high.
+inline constexpr float kMinGridCellHeightM = 0.01f;
+inline constexpr float kMaxGridCellHeightM = 1e5f;
 inline constexpr int kGroundDim = 8;                   // 8 m cells
 inline constexpr uint16_t kSectorVersion = 1;
 inline constexpr size_t kSectorHeaderBytes = 64;

@@ -89,7 +89,7 @@ class Runtime {
   explicit Runtime(RuntimeOptions options = {});
 
   // Sets the sun path, sky gradients, dynamic lights and interior volumes. Errors (nothing
-  // changes): validateLighting's message, e.g. "sky.sky_zenith[1]: colour must be finite and >= 0".
+  // changes): validateLighting's message, e.g. "sky.sky_zenith[1].value: colour must be in [0, 1e+09]".
   Result<void> setLighting(const Sky& sky, std::vector<PointLight> lights, std::vector<InteriorVolume> interiors);
   // Sets the time of day in hours (any finite real, modulo 24). Error if not finite.
   Result<void> setTime(double hour);

@@ -1,0 +1,118 @@
+// Tests of glTF loading from untrusted bytes: loadGltfFromMemory, and KHR_draco_mesh_compression
+// objects that point outside the file (tinygltf 2.7's own Draco path indexed them unchecked;
+// worlds/src/draco_mesh.h), each built by editing the JSON chunk of the shared Draco box.
+// Inputs the fuzzer (fuzz/fuzz_gltf.cpp, docs/fuzzing.md) found are kept here as regressions.
+#include <cstring>
+#include <fstream>
+#include <functional>
+#include <iterator>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "drtv/worlds/gltf.h"
+
+namespace drtv::worlds {
+namespace {
+
+using json = nlohmann::json;
+
+std::vector<uint8_t> readBytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+std::vector<uint8_t> dracoBox() { return readBytes(DRTV_SHARED_ASSETS "/draco_box/Box_Draco.glb"); }
+
+// The GLB `glb` with its JSON chunk replaced by edit(JSON).
+std::vector<uint8_t> editGlbJson(const std::vector<uint8_t>& glb, const std::function<void(json&)>& edit) {
+  uint32_t json_bytes;
+  std::memcpy(&json_bytes, glb.data() + 12, 4);
+  json doc = json::parse(glb.begin() + 20, glb.begin() + 20 + json_bytes);
+  edit(doc);
+  std::string text = doc.dump();
+  while (text.size() % 4) text.push_back(' ');
+  const uint32_t chunk = uint32_t(text.size()), total = uint32_t(glb.size() - json_bytes + text.size());
+  std::vector<uint8_t> out(total);
+  std::memcpy(out.data(), glb.data(), 20);
+  std::memcpy(out.data() + 8, &total, 4);
+  std::memcpy(out.data() + 12, &chunk, 4);
+  std::memcpy(out.data() + 20, text.data(), text.size());
+  std::memcpy(out.data() + 20 + text.size(), glb.data() + 20 + json_bytes, glb.size() - 20 - json_bytes);
+  return out;
+}
+
+json& dracoExtension(json& doc) { return doc["meshes"][0]["primitives"][0]["extensions"]["KHR_draco_mesh_compression"]; }
+
+// Loads `glb` from memory: it must load (bad primitives are skipped, not fatal), and the one
+// primitive must be skipped with a note that names the file and contains `why`.
+void expectDracoPrimitiveSkipped(const std::vector<uint8_t>& glb, const std::string& why) {
+  GltfStats stats;
+  const auto w = loadGltfFromMemory(glb, "edited.glb", "", InstanceClass::kStatic, &stats);
+  ASSERT_TRUE(w.has_value()) << w.error().message;
+  EXPECT_EQ(w->triangleCount(), 0u);
+  EXPECT_EQ(stats.primitives_skipped, 1u);
+  bool found = false;
+  for (const std::string& note : w->notes)
+    found |= note.rfind("skipped: edited.glb: mesh", 0) == 0 && note.find(why) != std::string::npos;
+  EXPECT_TRUE(found) << "no note with '" << why << "'";
+}
+
+TEST(GltfFromMemory, LoadsTheDracoBoxLikeTheFile) {
+  const auto from_file = loadGltf(DRTV_SHARED_ASSETS "/draco_box/Box_Draco.glb");
+  const auto from_memory = loadGltfFromMemory(dracoBox(), "box.glb", "");
+  ASSERT_TRUE(from_file.has_value() && from_memory.has_value());
+  EXPECT_EQ(from_memory->triangleCount(), 12u);
+  EXPECT_EQ(from_memory->meshes.at(0).positions, from_file->meshes.at(0).positions);
+  EXPECT_EQ(from_memory->meshes.at(0).indices, from_file->meshes.at(0).indices);
+}
+
+TEST(GltfFromMemory, TellsGlbFromJsonByTheMagic) {
+  const std::string gltf = R"({"asset": {"version": "2.0"}, "nodes": [{}]})";
+  const auto w = loadGltfFromMemory(std::vector<uint8_t>(gltf.begin(), gltf.end()), "x.gltf", "");
+  ASSERT_TRUE(w.has_value()) << w.error().message;
+  EXPECT_EQ(w->triangleCount(), 0u);
+  const auto bad = loadGltfFromMemory(std::vector<uint8_t>{'g', 'l', 'T', 'F', 2, 0, 0, 0}, "short.glb", "");
+  ASSERT_FALSE(bad.has_value());
+  EXPECT_EQ(bad.error().message.rfind("short.glb: ", 0), 0u) << bad.error().message;
+}
+
+TEST(GltfDraco, SkipsAnExtensionWhoseBufferViewDoesNotExist) {
+  expectDracoPrimitiveSkipped(editGlbJson(dracoBox(), [](json& d) { dracoExtension(d)["bufferView"] = 7; }),
+                              "bufferView 7 does not exist");
+  expectDracoPrimitiveSkipped(editGlbJson(dracoBox(), [](json& d) { dracoExtension(d)["bufferView"] = -1; }),
+                              "bufferView -1 does not exist");
+}
+
+TEST(GltfDraco, SkipsABufferViewPastTheEndOfItsBuffer) {
+  // tinygltf itself checks a view against its buffer only for views that accessors use; the
+  // Draco view is used by no accessor.
+  expectDracoPrimitiveSkipped(editGlbJson(dracoBox(), [](json& d) { d["bufferViews"][0]["byteOffset"] = 100; }),
+                              "exceeds its buffer");
+}
+
+TEST(GltfDraco, SkipsAPositionIdThatTheBitstreamDoesNotHave) {
+  expectDracoPrimitiveSkipped(editGlbJson(dracoBox(), [](json& d) { dracoExtension(d)["attributes"]["POSITION"] = 9; }),
+                              "no Draco attribute with unique id 9");
+  expectDracoPrimitiveSkipped(editGlbJson(dracoBox(), [](json& d) { dracoExtension(d)["attributes"].erase("POSITION"); }),
+                              "no integer attributes.POSITION");
+}
+
+TEST(GltfDraco, SkipsABitstreamThatIsNotDraco) {
+  std::vector<uint8_t> glb = dracoBox();
+  // The BIN chunk's data starts after the JSON chunk and the 8-byte BIN chunk header.
+  uint32_t json_bytes;
+  std::memcpy(&json_bytes, glb.data() + 12, 4);
+  for (size_t i = 20 + json_bytes + 8; i < glb.size(); ++i) glb[i] = 0xAB;
+  expectDracoPrimitiveSkipped(glb, "not a Draco bitstream");
+}
+
+TEST(GltfDraco, SkipsATruncatedBitstream) {
+  expectDracoPrimitiveSkipped(editGlbJson(dracoBox(), [](json& d) { d["bufferViews"][0]["byteLength"] = 40; }),
+                              "Draco decoding failed");
+}
+
+}  // namespace
+}  // namespace drtv::worlds

@@ -114,5 +114,34 @@ TEST(GltfDraco, SkipsATruncatedBitstream) {
                               "Draco decoding failed");
 }
 
+TEST(GltfImages, AnImageInABufferViewGivesTheSameAlbedoAsTheSameImageByUri) {
+  // The same box and texture, the image once in the GLB's BIN chunk and once as a .png file.
+  const auto glb = loadGltf(DRTV_ASSIMP_GLTF2 "/BoxTextured-glTF-Binary/BoxTextured.glb");
+  const auto gltf = loadGltf(DRTV_ASSIMP_GLTF2 "/BoxTextured-glTF/BoxTextured.gltf");
+  ASSERT_TRUE(glb.has_value() && gltf.has_value());
+  EXPECT_EQ(glb->meshes.at(0).albedo, gltf->meshes.at(0).albedo);
+  EXPECT_LT(glb->meshes.at(0).albedo.r, 1.f);  // the texture was decoded, not ignored
+}
+
+TEST(GltfImages, AnImageBufferViewPastItsBufferIsIgnoredNotRead) {
+  // Found by fuzz_gltf (build/fuzz/artifacts/gltf-crash-c86b26dc...): BoxTextured.glb with the
+  // image's bufferView made longer than the BIN chunk; tinygltf passed byteOffset + byteLength to
+  // stb_image unchecked, which read 2187 bytes past the buffer (ASan heap-buffer-overflow).
+  const std::vector<uint8_t> original = readBytes(DRTV_ASSIMP_GLTF2 "/BoxTextured-glTF-Binary/BoxTextured.glb");
+  int view = -1;
+  const auto glb = editGlbJson(original, [&](json& d) {
+    view = d["images"][0]["bufferView"].get<int>();
+    d["bufferViews"][size_t(view)]["byteLength"] = d["bufferViews"][size_t(view)]["byteLength"].get<int>() + 4096;
+  });
+  ASSERT_GE(view, 0);
+  const auto w = loadGltfFromMemory(glb, "long_image_view.glb", "");
+  ASSERT_TRUE(w.has_value()) << w.error().message;
+  EXPECT_EQ(w->triangleCount(), 12u);
+  EXPECT_EQ(w->meshes.at(0).albedo, glm::vec3(1.f));  // baseColorFactor alone (white)
+  bool noted = false;
+  for (const std::string& note : w->notes) noted |= note.find("image 0 not decoded") != std::string::npos;
+  EXPECT_TRUE(noted);
+}
+
 }  // namespace
 }  // namespace drtv::worlds

@@ -115,6 +115,21 @@ struct Loader {
     return true;
   }
 
+  // Decodes image `src`, stored in a bufferView, into `out` after checking the view against its
+  // buffer; false when the view is bad or the bytes are no image stb_image reads.
+  bool bufferViewImage(int src, tinygltf::Image& out) const {
+    const tinygltf::Image& img = model.images[size_t(src)];
+    if (size_t(img.bufferView) >= model.bufferViews.size()) return false;
+    const tinygltf::BufferView& view = model.bufferViews[size_t(img.bufferView)];
+    if (view.buffer < 0 || size_t(view.buffer) >= model.buffers.size()) return false;
+    const std::vector<unsigned char>& data = model.buffers[size_t(view.buffer)].data;
+    if (view.byteOffset > data.size() || view.byteLength > data.size() - view.byteOffset || view.byteLength > INT32_MAX)
+      return false;
+    std::string err, warn;
+    out = img;
+    return tinygltf::LoadImageData(&out, src, &err, &warn, 0, 0, data.data() + view.byteOffset, int(view.byteLength), nullptr);
+  }
+
   glm::vec3 albedoOf(int material_index) {
     if (material_index < 0 || size_t(material_index) >= model.materials.size()) return glm::vec3(1.f);  // spec default
     if (auto it = material_albedo.find(material_index); it != material_albedo.end()) return it->second;
@@ -126,7 +141,9 @@ struct Loader {
     if (tex >= 0 && size_t(tex) < model.textures.size()) {
       const int src = model.textures[size_t(tex)].source;
       if (src >= 0 && size_t(src) < model.images.size()) {
-        const tinygltf::Image& img = model.images[size_t(src)];
+        tinygltf::Image from_view;
+        const bool in_view = model.images[size_t(src)].bufferView >= 0 && bufferViewImage(src, from_view);
+        const tinygltf::Image& img = in_view ? from_view : model.images[size_t(src)];
         const size_t texels = img.width > 0 && img.height > 0 ? size_t(img.width) * size_t(img.height) : 0;
         const size_t bytes_per_channel = img.bits == 16 ? 2 : img.bits == 8 ? 1 : 0;
         if (texels && img.component >= 1 && bytes_per_channel &&
@@ -413,8 +430,15 @@ struct Loader {
 
 // Decodes images with tinygltf's stb_image loader but never fails the file over a texture:
 // the texture only refines the albedo.
+// An image stored in a bufferView is left undecoded here: tinygltf 2.7 hands it over as
+// &buffer.data[byteOffset] with byteLength bytes, never checked against the buffer (a fuzzed GLB
+// made stb_image read 2 KB past its end). Loader::bufferViewImage decodes it once checked.
 bool lenientImageLoader(tinygltf::Image* image, const int image_idx, std::string* err, std::string* warn, int req_w,
                         int req_h, const unsigned char* bytes, int size, void* user) {
+  if (image->bufferView >= 0) {
+    image->image.clear();
+    return true;
+  }
   std::string local_err;
   if (tinygltf::LoadImageData(image, image_idx, &local_err, warn, req_w, req_h, bytes, size, user)) return true;
   if (warn) *warn += "image " + std::to_string(image_idx) + " not decoded: " + local_err + "\n";

@@ -114,6 +114,36 @@ TEST(GltfDraco, SkipsATruncatedBitstream) {
                               "Draco decoding failed");
 }
 
+// A glTF (JSON) with one triangle whose POSITION accessor has byte offset `offset`.
+std::vector<uint8_t> triangleWithAccessorOffset(uint64_t offset) {
+  // 3 float3 positions, as base64 of their 36 little-endian bytes: (0,0,0), (1,0,0), (0,1,0).
+  const std::string positions = "AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA";
+  const std::string text = R"({"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],)"
+                           R"("meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],)"
+                           R"("buffers": [{"byteLength": 36, "uri": "data:application/octet-stream;base64,)" + positions + R"("}],)"
+                           R"("bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 36}],)"
+                           R"("accessors": [{"bufferView": 0, "byteOffset": )" + std::to_string(offset) +
+                           R"(, "componentType": 5126, "count": 3, "type": "VEC3"}]})";
+  return {text.begin(), text.end()};
+}
+
+TEST(GltfAccessors, AnOffsetThatWrapsAroundIsRejectedNotRead) {
+  // 2^64 - 16: added to the view's offset unchecked, the start wrapped around and passed the
+  // end check, and the loader read 16 bytes before the buffer (UBSan: pointer overflow).
+  GltfStats stats;
+  const auto w = loadGltfFromMemory(triangleWithAccessorOffset(18446744073709551600ull), "wrap.gltf", "",
+                                    InstanceClass::kStatic, &stats);
+  ASSERT_TRUE(w.has_value()) << w.error().message;
+  EXPECT_EQ(w->triangleCount(), 0u);
+  EXPECT_EQ(stats.primitives_skipped, 1u);
+  ASSERT_FALSE(w->notes.empty());
+  EXPECT_NE(w->notes.back().find("lies past bufferView 0"), std::string::npos) << w->notes.back();
+  // The same file with offset 0 is a good triangle: only the offset made it bad.
+  const auto good = loadGltfFromMemory(triangleWithAccessorOffset(0), "good.gltf", "");
+  ASSERT_TRUE(good.has_value()) << good.error().message;
+  EXPECT_EQ(good->triangleCount(), 1u);
+}
+
 TEST(GltfImages, AnImageInABufferViewGivesTheSameAlbedoAsTheSameImageByUri) {
   // The same box and texture, the image once in the GLB's BIN chunk and once as a .png file.
   const auto glb = loadGltf(DRTV_ASSIMP_GLTF2 "/BoxTextured-glTF-Binary/BoxTextured.glb");

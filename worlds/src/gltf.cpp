@@ -100,14 +100,22 @@ struct Loader {
       why = "accessor " + std::to_string(accessor_index) + ": byteStride " + std::to_string(stride) + " < element size " + std::to_string(element_size);
       return false;
     }
-    const size_t view_end = view.byteOffset + view.byteLength;
-    const size_t start = view.byteOffset + acc.byteOffset;
-    // Overflow-safe: count <= 2^31 and stride <= 255 in valid files; reject anything larger.
-    if (count > (size_t(1) << 31) || stride > 4096 || view_end < view.byteOffset || view_end > buffer.data.size()) {
+    // Each bound is checked before the sum that relies on it, so nothing below can wrap: the view
+    // lies in its buffer, the accessor's offset in its view, count <= 2^31 and stride <= 4096
+    // (255 in valid files). A file-given offset added unchecked once wrapped to a pointer 16
+    // bytes before the buffer (found by review beside fuzz_gltf).
+    if (count > (size_t(1) << 31) || stride > 4096 || view.byteOffset > buffer.data.size() ||
+        view.byteLength > buffer.data.size() - view.byteOffset) {
       why = "accessor " + std::to_string(accessor_index) + ": bufferView " + std::to_string(acc.bufferView) + " exceeds its buffer";
       return false;
     }
-    if (count > 0 && start + stride * (count - 1) + element_size > view_end) {
+    if (acc.byteOffset > view.byteLength) {
+      why = "accessor " + std::to_string(accessor_index) + ": byteOffset " + std::to_string(acc.byteOffset) +
+            " lies past bufferView " + std::to_string(acc.bufferView);
+      return false;
+    }
+    const size_t start = view.byteOffset + acc.byteOffset, room = view.byteLength - acc.byteOffset;
+    if (count > 0 && stride * (count - 1) + element_size > room) {
       why = "accessor " + std::to_string(accessor_index) + ": " + std::to_string(count) + " elements exceed bufferView " + std::to_string(acc.bufferView);
       return false;
     }

@@ -144,6 +144,52 @@ TEST(GltfAccessors, AnOffsetThatWrapsAroundIsRejectedNotRead) {
   EXPECT_EQ(good->triangleCount(), 1u);
 }
 
+TEST(GltfNodes, AHierarchyAsDeepAsTheFileHasNodesLoadsEveryNode) {
+  // Found by probing the node walk beside fuzz_gltf: a chain of 3,000 nodes, each the child of
+  // the one before, overflowed the stack of the recursive walk under ASan. 100,000 overflow it
+  // in any build; the walk now keeps its own stack.
+  constexpr int kNodes = 100000;
+  json doc = json::parse(triangleWithAccessorOffset(0));
+  json nodes = json::array();
+  for (int i = 0; i < kNodes; ++i) {
+    json node = {{"mesh", 0}};
+    if (i + 1 < kNodes) node["children"] = {i + 1};
+    nodes.push_back(node);
+  }
+  doc["nodes"] = nodes;
+  const std::string text = doc.dump();
+  GltfStats stats;
+  const auto w = loadGltfFromMemory(std::vector<uint8_t>(text.begin(), text.end()), "chain.gltf", "",
+                                    InstanceClass::kStatic, &stats);
+  ASSERT_TRUE(w.has_value()) << w.error().message;
+  EXPECT_EQ(w->instances.size(), size_t(kNodes));
+  EXPECT_EQ(stats.cycles_skipped, 0u);
+  EXPECT_EQ(w->instances.back().name, "chain.gltf: node " + std::to_string(kNodes - 1));
+}
+
+// The one-triangle glTF with "extras" nested `depth` arrays deep.
+std::vector<uint8_t> triangleWithExtrasDepth(int depth) {
+  json doc = json::parse(triangleWithAccessorOffset(0));
+  doc["extras"] = "@";
+  std::string text = doc.dump();
+  const size_t at = text.find("\"@\"");
+  text.replace(at, 3, std::string(size_t(depth), '[') + std::string(size_t(depth), ']'));
+  return {text.begin(), text.end()};
+}
+
+TEST(GltfJson, NestingDeeperThan256LevelsIsAnErrorNamingTheByte) {
+  // Found by probing tinygltf beside fuzz_gltf: "extras" 20,000 arrays deep overflowed the stack
+  // in tinygltf's recursive conversion to its Value type (ASan stack-overflow).
+  const auto deep = loadGltfFromMemory(triangleWithExtrasDepth(20000), "deep.gltf", "");
+  ASSERT_FALSE(deep.has_value());
+  EXPECT_EQ(deep.error().message.rfind("deep.gltf: byte ", 0), 0u) << deep.error().message;
+  EXPECT_NE(deep.error().message.find("JSON nested deeper than 256 levels"), std::string::npos) << deep.error().message;
+  // 255 arrays inside the top-level object: 256 levels, still a file.
+  const auto fine = loadGltfFromMemory(triangleWithExtrasDepth(255), "fine.gltf", "");
+  ASSERT_TRUE(fine.has_value()) << fine.error().message;
+  EXPECT_EQ(fine->triangleCount(), 1u);
+}
+
 TEST(GltfImages, AnImageInABufferViewGivesTheSameAlbedoAsTheSameImageByUri) {
   // The same box and texture, the image once in the GLB's BIN chunk and once as a .png file.
   const auto glb = loadGltf(DRTV_ASSIMP_GLTF2 "/BoxTextured-glTF-Binary/BoxTextured.glb");

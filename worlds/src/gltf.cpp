@@ -368,7 +368,16 @@ struct Loader {
     return true;
   }
 
-  void visit(int node_index, const glm::dmat4& parent, std::vector<bool>& on_path) {
+  // A node on the walk's stack: its world matrix and the next of its children to enter.
+  struct Frame {
+    int node;
+    glm::dmat4 world;
+    size_t next_child;
+  };
+
+  // Adds node `node_index`'s instances under `parent` and pushes it onto `stack`, or notes why it
+  // is skipped (missing, a cycle, past the visit bound, a non-finite transform).
+  void enter(int node_index, const glm::dmat4& parent, std::vector<bool>& on_path, std::vector<Frame>& stack) {
     if (node_index < 0 || size_t(node_index) >= model.nodes.size()) {
       note("skipped: " + file + ": node " + std::to_string(node_index) + " does not exist");
       return;
@@ -412,8 +421,27 @@ struct Loader {
       }
     }
     on_path[size_t(node_index)] = true;
-    for (int child : node.children) visit(child, m, on_path);
-    on_path[size_t(node_index)] = false;
+    stack.push_back(Frame{node_index, m, 0});
+  }
+
+  // Depth-first, parents before children, from `root`. An explicit stack, not recursion: a
+  // hierarchy may be as deep as the file has nodes (a chain of 3,000 overflowed the stack of the
+  // recursive walk this replaces, under ASan).
+  void visit(int root, std::vector<bool>& on_path) {
+    std::vector<Frame> stack;
+    enter(root, glm::dmat4(1.0), on_path, stack);
+    while (!stack.empty()) {
+      Frame& top = stack.back();
+      const std::vector<int>& children = model.nodes[size_t(top.node)].children;
+      if (top.next_child < children.size()) {
+        const int child = children[top.next_child++];
+        const glm::dmat4 parent = top.world;  // `top` dies if enter() grows the stack
+        enter(child, parent, on_path, stack);
+      } else {
+        on_path[size_t(top.node)] = false;
+        stack.pop_back();
+      }
+    }
   }
 
   void run() {
@@ -432,7 +460,7 @@ struct Loader {
       note("note: " + file + ": no scene; loaded " + std::to_string(roots.size()) + " root nodes");
     }
     std::vector<bool> on_path(model.nodes.size(), false);
-    for (int r : roots) visit(r, glm::dmat4(1.0), on_path);
+    for (int r : roots) visit(r, on_path);
   }
 };
 
@@ -458,6 +486,32 @@ std::string oneLine(std::string s) {
   while (!s.empty() && (s.back() == '\n' || s.back() == ' ')) s.pop_back();
   std::replace(s.begin(), s.end(), '\n', ';');
   return s;
+}
+
+// tinygltf converts "extras" and "extensions" into its Value type recursively, a stack frame per
+// level: a fuzzed "extras" 20,000 arrays deep overflowed the stack (ASan). glTF's own structure
+// is a few levels deep, so text nested deeper than this is refused before tinygltf sees it.
+constexpr int kMaxJsonDepth = 256;
+
+// The byte offset in `text` where JSON arrays and objects first nest deeper than kMaxJsonDepth,
+// or npos. Brackets inside strings do not count.
+size_t jsonTooDeepAt(std::string_view text) {
+  int depth = 0;
+  bool in_string = false;
+  for (size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (in_string) {
+      if (c == '\\') ++i;
+      else if (c == '"') in_string = false;
+    } else if (c == '"') {
+      in_string = true;
+    } else if (c == '[' || c == '{') {
+      if (++depth > kMaxJsonDepth) return i;
+    } else if (c == ']' || c == '}') {
+      --depth;
+    }
+  }
+  return std::string_view::npos;
 }
 
 // tinygltf 2.7 built without its own Draco path (tinygltf_impl.cpp) rejects a Draco primitive
@@ -524,6 +578,21 @@ Result<World> loadGltfBytes(std::span<const uint8_t> bytes, bool binary, const s
   std::string err, warn;
   bool ok = false;
   const std::string base = base_dir.string();
+  {
+    // The JSON: all of a .gltf; a .glb's first chunk [4], when its header says where (if it does
+    // not, tinygltf reports the container as broken).
+    std::string_view json_text(reinterpret_cast<const char*>(bytes.data()), bytes.size());
+    size_t json_at = 0;
+    if (binary) {
+      uint32_t json_bytes = 0;
+      if (bytes.size() >= 20) std::memcpy(&json_bytes, bytes.data() + 12, 4);
+      json_at = 20;
+      json_text = bytes.size() >= 20 && json_bytes <= bytes.size() - 20 ? json_text.substr(20, json_bytes) : std::string_view();
+    }
+    if (const size_t deep = jsonTooDeepAt(json_text); deep != std::string_view::npos)
+      return fail(file + ": byte " + std::to_string(json_at + deep) + ": JSON nested deeper than " +
+                  std::to_string(kMaxJsonDepth) + " levels");
+  }
   try {
     if (binary) {
       const auto rewritten = glbWithoutDracoIndices(bytes);

@@ -7,16 +7,21 @@
 // target writes the true file size, manifest size (to the end of the file, where the manifest
 // must end) and manifest hash into a copy of the header before decoding. Those checks are
 // covered by tests/formats (every truncated prefix, every flipped byte). The same is done for
-// each payload's hash. ArchiveReader::open runs the same parseHeader and parseManifest on a file.
-// Properties: never an abort, an out-of-bounds read or a leak; an accepted manifest's entries
-// lie inside the file, sorted and unique.
+// each payload's hash. The fixed-up bytes are also written to an in-memory file (memfd) and read
+// back through ArchiveReader, the file reader that drtv and the streamer use.
+// Properties: never an abort, an out-of-bounds read or a leak; ArchiveReader::open accepts
+// exactly what decodeArchiveHeaderAndManifest accepts; an accepted manifest's entries lie
+// inside the file, sorted and unique.
 // After meshoptimizer's tools/codecfuzz.cpp. Run: docs/fuzzing.md.
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
 #include <span>
+#include <string>
 #include <vector>
 
+#include <sys/mman.h>
+#include <unistd.h>
 #include <xxhash.h>
 
 #include "drtv/formats/archive.h"
@@ -36,6 +41,16 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     }
   }
   const auto manifest = drtv::decodeArchiveHeaderAndManifest(file, "fuzz.drtv");
+
+  // The same bytes through the file reader.
+  const int fd = memfd_create("fuzz.drtv", MFD_CLOEXEC);
+  DRTV_CHECK(fd >= 0);
+  DRTV_CHECK_EQ(write(fd, file.data(), file.size()), ssize_t(file.size()));
+  const auto reader = drtv::ArchiveReader::open("/proc/self/fd/" + std::to_string(fd));
+  DRTV_CHECK_EQ(reader.has_value(), manifest.has_value());
+  if (reader)
+    for (const drtv::SectorEntry& e : reader->manifest().sectors) (void)reader->readSector(e.key);
+  close(fd);
   if (!manifest) return 0;
   const drtv::SectorEntry* previous = nullptr;
   for (const drtv::SectorEntry& e : manifest->sectors) {

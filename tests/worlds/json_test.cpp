@@ -94,6 +94,13 @@ TEST(WorldJson, RejectsBadNamesAndCombinations) {
   expectError(R"({"terrain": {"kind": "heightmap", "path": "nope.png", "size_m": 10, "height_m": 1}})", "key 'terrain.path'");
 }
 
+TEST(WorldJson, AHeightmapThatIsNoRegularFileIsAnErrorNotAnEndlessRead) {
+  // /dev/zero never ends: read whole, as the heightmap loader reads files, it would exhaust memory.
+  expectError(R"({"terrain": {"kind": "heightmap", "path": "/dev/zero", "size_m": 10, "height_m": 1}})",
+              "key 'terrain.path': /dev/zero: cannot open heightmap: not a regular file");
+  expectError(R"({"terrain": {"kind": "heightmap", "path": ".", "size_m": 10, "height_m": 1}})", "not a regular file");
+}
+
 TEST(WorldJson, RejectsSyntaxErrorsWithFileName) {
   expectError(R"({"name": )", "JSON syntax error");
   expectError("", "JSON syntax error");

@@ -5,21 +5,29 @@
 //      and byteStride, 3.7.2.1 primitive topologies, 3.9.2 base colour.
 //  [2] KHR_draco_mesh_compression extension specification.
 //  [3] IEC 61966-2-1 (sRGB transfer function).
+//  [4] glTF 2.0 specification 2.0.1, 4.4 (GLB file format: header, JSON chunk, BIN chunk).
 #include "drtv/worlds/gltf.h"
 
 #include <algorithm>
 #include <cmath>
-#include <exception>
 #include <cstring>
+#include <exception>
+#include <fstream>
+#include <iterator>
 #include <map>
+#include <optional>
 #include <string>
+#include <string_view>
 
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/quaternion.hpp>
 #include <glm/gtc/type_ptr.hpp>
+#include <nlohmann/json.hpp>
 // Must match tinygltf_impl.cpp: the TinyGLTF constructor refers to the image writer otherwise.
 #define TINYGLTF_NO_STB_IMAGE_WRITE
 #include <tiny_gltf.h>
+
+#include "draco_mesh.h"
 
 namespace drtv::worlds {
 
@@ -92,19 +100,42 @@ struct Loader {
       why = "accessor " + std::to_string(accessor_index) + ": byteStride " + std::to_string(stride) + " < element size " + std::to_string(element_size);
       return false;
     }
-    const size_t view_end = view.byteOffset + view.byteLength;
-    const size_t start = view.byteOffset + acc.byteOffset;
-    // Overflow-safe: count <= 2^31 and stride <= 255 in valid files; reject anything larger.
-    if (count > (size_t(1) << 31) || stride > 4096 || view_end < view.byteOffset || view_end > buffer.data.size()) {
+    // Each bound is checked before the sum that relies on it, so nothing below can wrap: the view
+    // lies in its buffer, the accessor's offset in its view, count <= 2^31 and stride <= 4096
+    // (255 in valid files). A file-given offset added unchecked once wrapped to a pointer 16
+    // bytes before the buffer (found by review beside fuzz_gltf).
+    if (count > (size_t(1) << 31) || stride > 4096 || view.byteOffset > buffer.data.size() ||
+        view.byteLength > buffer.data.size() - view.byteOffset) {
       why = "accessor " + std::to_string(accessor_index) + ": bufferView " + std::to_string(acc.bufferView) + " exceeds its buffer";
       return false;
     }
-    if (count > 0 && start + stride * (count - 1) + element_size > view_end) {
+    if (acc.byteOffset > view.byteLength) {
+      why = "accessor " + std::to_string(accessor_index) + ": byteOffset " + std::to_string(acc.byteOffset) +
+            " lies past bufferView " + std::to_string(acc.bufferView);
+      return false;
+    }
+    const size_t start = view.byteOffset + acc.byteOffset, room = view.byteLength - acc.byteOffset;
+    if (count > 0 && stride * (count - 1) + element_size > room) {
       why = "accessor " + std::to_string(accessor_index) + ": " + std::to_string(count) + " elements exceed bufferView " + std::to_string(acc.bufferView);
       return false;
     }
     first = buffer.data.data() + start;
     return true;
+  }
+
+  // Decodes image `src`, stored in a bufferView, into `out` after checking the view against its
+  // buffer; false when the view is bad or the bytes are no image stb_image reads.
+  bool bufferViewImage(int src, tinygltf::Image& out) const {
+    const tinygltf::Image& img = model.images[size_t(src)];
+    if (size_t(img.bufferView) >= model.bufferViews.size()) return false;
+    const tinygltf::BufferView& view = model.bufferViews[size_t(img.bufferView)];
+    if (view.buffer < 0 || size_t(view.buffer) >= model.buffers.size()) return false;
+    const std::vector<unsigned char>& data = model.buffers[size_t(view.buffer)].data;
+    if (view.byteOffset > data.size() || view.byteLength > data.size() - view.byteOffset || view.byteLength > INT32_MAX)
+      return false;
+    std::string err, warn;
+    out = img;
+    return tinygltf::LoadImageData(&out, src, &err, &warn, 0, 0, data.data() + view.byteOffset, int(view.byteLength), nullptr);
   }
 
   glm::vec3 albedoOf(int material_index) {
@@ -118,7 +149,9 @@ struct Loader {
     if (tex >= 0 && size_t(tex) < model.textures.size()) {
       const int src = model.textures[size_t(tex)].source;
       if (src >= 0 && size_t(src) < model.images.size()) {
-        const tinygltf::Image& img = model.images[size_t(src)];
+        tinygltf::Image from_view;
+        const bool in_view = model.images[size_t(src)].bufferView >= 0 && bufferViewImage(src, from_view);
+        const tinygltf::Image& img = in_view ? from_view : model.images[size_t(src)];
         const size_t texels = img.width > 0 && img.height > 0 ? size_t(img.width) * size_t(img.height) : 0;
         const size_t bytes_per_channel = img.bits == 16 ? 2 : img.bits == 8 ? 1 : 0;
         if (texels && img.component >= 1 && bytes_per_channel &&
@@ -157,6 +190,89 @@ struct Loader {
     return result;
   }
 
+  // Decodes a KHR_draco_mesh_compression extension object [2] into Z-up positions and a
+  // triangle list; false (with `why`) when the object, its bufferView or the bitstream is bad.
+  bool dracoPrimitive(const tinygltf::Value& ext, std::vector<glm::vec3>& positions, std::vector<uint32_t>& indices,
+                      std::string& why) const {
+    const tinygltf::Value& view_value = ext.Get("bufferView");
+    const tinygltf::Value& position_value = ext.Get("attributes").Get("POSITION");
+    if (!view_value.IsInt()) return why = "no integer bufferView", false;
+    if (!position_value.IsInt()) return why = "no integer attributes.POSITION", false;
+    const int view_index = view_value.GetNumberAsInt();
+    if (view_index < 0 || size_t(view_index) >= model.bufferViews.size())
+      return why = "bufferView " + std::to_string(view_index) + " does not exist", false;
+    const tinygltf::BufferView& view = model.bufferViews[size_t(view_index)];
+    if (view.buffer < 0 || size_t(view.buffer) >= model.buffers.size())
+      return why = "bufferView " + std::to_string(view_index) + ": buffer " + std::to_string(view.buffer) + " does not exist", false;
+    const std::vector<unsigned char>& data = model.buffers[size_t(view.buffer)].data;
+    if (view.byteOffset > data.size() || view.byteLength > data.size() - view.byteOffset)
+      return why = "bufferView " + std::to_string(view_index) + " exceeds its buffer", false;
+    DracoMesh mesh;
+    char error[160];
+    if (!decodeDracoMesh(data.data() + view.byteOffset, view.byteLength, position_value.GetNumberAsInt(), &mesh, error,
+                         sizeof error))
+      return why = error, false;
+    positions.resize(mesh.vertex_count);
+    for (size_t v = 0; v < mesh.vertex_count; ++v)
+      positions[v] = yUpToZup(glm::vec3(mesh.positions[3 * v], mesh.positions[3 * v + 1], mesh.positions[3 * v + 2]));
+    indices.assign(mesh.indices, mesh.indices + mesh.index_count);
+    freeDracoMesh(&mesh);
+    return true;
+  }
+
+  // Positions (Z-up) and triangle-list indices of a primitive stored in plain accessors; false
+  // (with `why`) when an accessor is missing, out of its buffer or an index out of range.
+  bool accessorPrimitive(const tinygltf::Primitive& prim, int pos_acc, std::vector<glm::vec3>& positions,
+                         std::vector<uint32_t>& indices, std::string& why) const {
+    auto fail_with = [&](std::string reason) {
+      why = std::move(reason);
+      return false;
+    };
+    const unsigned char* pos_data = nullptr;
+    size_t pos_stride = 0, vertex_count = 0;
+    if (!accessorSpan(pos_acc, 12, pos_data, pos_stride, vertex_count, why)) return fail_with("POSITION " + why);
+    positions.resize(vertex_count);
+    for (size_t v = 0; v < vertex_count; ++v) {
+      glm::vec3 p;
+      std::memcpy(&p, pos_data + v * pos_stride, 12);
+      positions[v] = yUpToZup(p);
+    }
+
+    if (prim.indices >= 0) {
+      if (size_t(prim.indices) >= model.accessors.size()) return fail_with("indices accessor does not exist");
+      const tinygltf::Accessor& ia = model.accessors[size_t(prim.indices)];
+      size_t size = 0;
+      switch (ia.componentType) {
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: size = 1; break;
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: size = 2; break;
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: size = 4; break;
+        default: return fail_with("indices component type " + std::to_string(ia.componentType) + " is not u8/u16/u32");
+      }
+      if (ia.type != TINYGLTF_TYPE_SCALAR) return fail_with("indices are not SCALAR");
+      const unsigned char* idx_data = nullptr;
+      size_t idx_stride = 0, idx_count = 0;
+      if (!accessorSpan(prim.indices, size, idx_data, idx_stride, idx_count, why)) return fail_with("indices " + why);
+      indices.resize(idx_count);
+      for (size_t i = 0; i < idx_count; ++i) {
+        const unsigned char* at = idx_data + i * idx_stride;
+        uint32_t value = 0;
+        if (size == 1) value = at[0];
+        else if (size == 2) { uint16_t v; std::memcpy(&v, at, 2); value = v; }
+        else std::memcpy(&value, at, 4);
+        if (value >= vertex_count)
+          return fail_with("index " + std::to_string(value) + " at " + std::to_string(i) + " out of range (" +
+                           std::to_string(vertex_count) + " vertices)");
+        indices[i] = value;
+      }
+    } else {
+      indices.resize(vertex_count);
+      for (size_t v = 0; v < vertex_count; ++v) indices[v] = uint32_t(v);
+    }
+    if (prim.mode == TINYGLTF_MODE_TRIANGLE_STRIP) indices = gltfStripToList(indices);
+    else if (prim.mode == TINYGLTF_MODE_TRIANGLE_FAN) indices = gltfFanToList(indices);
+    return true;
+  }
+
   int buildPrimitive(int mesh_index, int prim_index) {
     const tinygltf::Mesh& gm = model.meshes[size_t(mesh_index)];
     const tinygltf::Primitive& prim = gm.primitives[size_t(prim_index)];
@@ -180,50 +296,17 @@ struct Loader {
     const tinygltf::Accessor& pa = model.accessors[size_t(pos_acc)];
     if (pa.type != TINYGLTF_TYPE_VEC3 || pa.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT)
       return skip("POSITION is not VEC3 of FLOAT");
-    const unsigned char* pos_data = nullptr;
-    size_t pos_stride = 0, vertex_count = 0;
-    std::string why;
-    if (!accessorSpan(pos_acc, 12, pos_data, pos_stride, vertex_count, why)) return skip("POSITION " + why);
-    std::vector<glm::vec3> positions(vertex_count);
-    for (size_t v = 0; v < vertex_count; ++v) {
-      glm::vec3 p;
-      std::memcpy(&p, pos_data + v * pos_stride, 12);
-      positions[v] = yUpToZup(p);
-    }
-
+    std::vector<glm::vec3> positions;
     std::vector<uint32_t> indices;
-    if (prim.indices >= 0) {
-      if (size_t(prim.indices) >= model.accessors.size()) return skip("indices accessor does not exist");
-      const tinygltf::Accessor& ia = model.accessors[size_t(prim.indices)];
-      size_t size = 0;
-      switch (ia.componentType) {
-        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: size = 1; break;
-        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: size = 2; break;
-        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: size = 4; break;
-        default: return skip("indices component type " + std::to_string(ia.componentType) + " is not u8/u16/u32");
-      }
-      if (ia.type != TINYGLTF_TYPE_SCALAR) return skip("indices are not SCALAR");
-      const unsigned char* idx_data = nullptr;
-      size_t idx_stride = 0, idx_count = 0;
-      if (!accessorSpan(prim.indices, size, idx_data, idx_stride, idx_count, why)) return skip("indices " + why);
-      indices.resize(idx_count);
-      for (size_t i = 0; i < idx_count; ++i) {
-        const unsigned char* at = idx_data + i * idx_stride;
-        uint32_t value = 0;
-        if (size == 1) value = at[0];
-        else if (size == 2) { uint16_t v; std::memcpy(&v, at, 2); value = v; }
-        else std::memcpy(&value, at, 4);
-        if (value >= vertex_count)
-          return skip("index " + std::to_string(value) + " at " + std::to_string(i) + " out of range (" +
-                      std::to_string(vertex_count) + " vertices)");
-        indices[i] = value;
-      }
-    } else {
-      indices.resize(vertex_count);
-      for (size_t v = 0; v < vertex_count; ++v) indices[v] = uint32_t(v);
+    std::string why;
+    if (const auto draco = prim.extensions.find("KHR_draco_mesh_compression"); draco != prim.extensions.end()) {
+      // [2]: the positions and the triangle list come from the Draco bitstream, not from the
+      // accessors' bufferViews (which a Draco file leaves out); it is a list whatever the mode.
+      if (!dracoPrimitive(draco->second, positions, indices, why)) return skip("KHR_draco_mesh_compression: " + why);
+    } else if (!accessorPrimitive(prim, pos_acc, positions, indices, why)) {
+      return skip(why);
     }
-    if (prim.mode == TINYGLTF_MODE_TRIANGLE_STRIP) indices = gltfStripToList(indices);
-    else if (prim.mode == TINYGLTF_MODE_TRIANGLE_FAN) indices = gltfFanToList(indices);
+    const size_t vertex_count = positions.size();
     if (indices.size() % 3 != 0) {
       note("ignored: " + what + ": " + std::to_string(indices.size() % 3) + " trailing indices");
       indices.resize(indices.size() - indices.size() % 3);
@@ -285,7 +368,16 @@ struct Loader {
     return true;
   }
 
-  void visit(int node_index, const glm::dmat4& parent, std::vector<bool>& on_path) {
+  // A node on the walk's stack: its world matrix and the next of its children to enter.
+  struct Frame {
+    int node;
+    glm::dmat4 world;
+    size_t next_child;
+  };
+
+  // Adds node `node_index`'s instances under `parent` and pushes it onto `stack`, or notes why it
+  // is skipped (missing, a cycle, past the visit bound, a non-finite transform).
+  void enter(int node_index, const glm::dmat4& parent, std::vector<bool>& on_path, std::vector<Frame>& stack) {
     if (node_index < 0 || size_t(node_index) >= model.nodes.size()) {
       note("skipped: " + file + ": node " + std::to_string(node_index) + " does not exist");
       return;
@@ -329,8 +421,27 @@ struct Loader {
       }
     }
     on_path[size_t(node_index)] = true;
-    for (int child : node.children) visit(child, m, on_path);
-    on_path[size_t(node_index)] = false;
+    stack.push_back(Frame{node_index, m, 0});
+  }
+
+  // Depth-first, parents before children, from `root`. An explicit stack, not recursion: a
+  // hierarchy may be as deep as the file has nodes (a chain of 3,000 overflowed the stack of the
+  // recursive walk this replaces, under ASan).
+  void visit(int root, std::vector<bool>& on_path) {
+    std::vector<Frame> stack;
+    enter(root, glm::dmat4(1.0), on_path, stack);
+    while (!stack.empty()) {
+      Frame& top = stack.back();
+      const std::vector<int>& children = model.nodes[size_t(top.node)].children;
+      if (top.next_child < children.size()) {
+        const int child = children[top.next_child++];
+        const glm::dmat4 parent = top.world;  // `top` dies if enter() grows the stack
+        enter(child, parent, on_path, stack);
+      } else {
+        on_path[size_t(top.node)] = false;
+        stack.pop_back();
+      }
+    }
   }
 
   void run() {
@@ -349,14 +460,21 @@ struct Loader {
       note("note: " + file + ": no scene; loaded " + std::to_string(roots.size()) + " root nodes");
     }
     std::vector<bool> on_path(model.nodes.size(), false);
-    for (int r : roots) visit(r, glm::dmat4(1.0), on_path);
+    for (int r : roots) visit(r, on_path);
   }
 };
 
 // Decodes images with tinygltf's stb_image loader but never fails the file over a texture:
 // the texture only refines the albedo.
+// An image stored in a bufferView is left undecoded here: tinygltf 2.7 hands it over as
+// &buffer.data[byteOffset] with byteLength bytes, never checked against the buffer (a fuzzed GLB
+// made stb_image read 2 KB past its end). Loader::bufferViewImage decodes it once checked.
 bool lenientImageLoader(tinygltf::Image* image, const int image_idx, std::string* err, std::string* warn, int req_w,
                         int req_h, const unsigned char* bytes, int size, void* user) {
+  if (image->bufferView >= 0) {
+    image->image.clear();
+    return true;
+  }
   std::string local_err;
   if (tinygltf::LoadImageData(image, image_idx, &local_err, warn, req_w, req_h, bytes, size, user)) return true;
   if (warn) *warn += "image " + std::to_string(image_idx) + " not decoded: " + local_err + "\n";
@@ -370,31 +488,131 @@ std::string oneLine(std::string s) {
   return s;
 }
 
-}  // namespace
+// tinygltf converts "extras" and "extensions" into its Value type recursively, a stack frame per
+// level: a fuzzed "extras" 20,000 arrays deep overflowed the stack (ASan). glTF's own structure
+// is a few levels deep, so text nested deeper than this is refused before tinygltf sees it.
+constexpr int kMaxJsonDepth = 256;
 
-Result<World> loadGltf(const std::filesystem::path& path, InstanceClass cls, GltfStats* stats_out) {
-  const std::string file = path.string();
-  std::string ext = path.extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-  if (ext != ".gltf" && ext != ".glb") return fail(file + ": not a .gltf or .glb file");
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) return fail(file + ": no such file");
+// The byte offset in `text` where JSON arrays and objects first nest deeper than kMaxJsonDepth,
+// or npos. Brackets inside strings do not count.
+size_t jsonTooDeepAt(std::string_view text) {
+  int depth = 0;
+  bool in_string = false;
+  for (size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (in_string) {
+      if (c == '\\') ++i;
+      else if (c == '"') in_string = false;
+    } else if (c == '"') {
+      in_string = true;
+    } else if (c == '[' || c == '{') {
+      if (++depth > kMaxJsonDepth) return i;
+    } else if (c == ']' || c == '}') {
+      --depth;
+    }
+  }
+  return std::string_view::npos;
+}
 
+// tinygltf 2.7 built without its own Draco path (tinygltf_impl.cpp) rejects a Draco primitive
+// whose indices accessor has no bufferView, which the extension prescribes [2]. The loader takes a
+// Draco primitive's triangles from the bitstream and never reads that accessor, so "indices" is
+// removed from such primitives before tinygltf sees the JSON. Returns the rewritten JSON, or
+// nothing when there is nothing to remove or the JSON does not parse (tinygltf reports that).
+std::optional<std::string> withoutDracoIndices(std::string_view text) {
+  if (text.find("KHR_draco_mesh_compression") == std::string_view::npos) return std::nullopt;
+  nlohmann::json doc = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
+  if (doc.is_discarded() || !doc.is_object()) return std::nullopt;
+  bool changed = false;
+  const auto meshes = doc.find("meshes");
+  if (meshes == doc.end() || !meshes->is_array()) return std::nullopt;
+  for (auto& mesh : *meshes) {
+    if (!mesh.is_object() || !mesh.contains("primitives") || !mesh["primitives"].is_array()) continue;
+    for (auto& prim : mesh["primitives"]) {
+      if (!prim.is_object() || !prim.contains("indices")) continue;
+      const auto ext = prim.find("extensions");
+      if (ext != prim.end() && ext->is_object() && ext->contains("KHR_draco_mesh_compression")) {
+        prim.erase("indices");
+        changed = true;
+      }
+    }
+  }
+  if (!changed) return std::nullopt;
+  return doc.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
+// The same for a GLB container [4]: a new JSON chunk (padded with spaces to 4 bytes), the
+// chunks after it unchanged. Nothing when the container is malformed (tinygltf reports that).
+std::optional<std::vector<uint8_t>> glbWithoutDracoIndices(std::span<const uint8_t> glb) {
+  auto u32 = [&](size_t at) {
+    uint32_t v;
+    std::memcpy(&v, glb.data() + at, 4);
+    return v;
+  };
+  constexpr uint32_t kJsonChunk = 0x4E4F534A;  // "JSON"
+  if (glb.size() < 20 || u32(12) > glb.size() - 20 || u32(16) != kJsonChunk) return std::nullopt;
+  const size_t json_bytes = u32(12);
+  auto text = withoutDracoIndices(std::string_view(reinterpret_cast<const char*>(glb.data() + 20), json_bytes));
+  if (!text) return std::nullopt;
+  while (text->size() % 4) text->push_back(' ');
+  if (text->size() > UINT32_MAX - 20 - (glb.size() - 20 - json_bytes)) return std::nullopt;
+  std::vector<uint8_t> out(glb.begin(), glb.begin() + 12);
+  const uint32_t chunk = uint32_t(text->size()), total = uint32_t(20 + text->size() + (glb.size() - 20 - json_bytes));
+  std::memcpy(out.data() + 8, &total, 4);
+  out.resize(20);
+  std::memcpy(out.data() + 12, &chunk, 4);
+  std::memcpy(out.data() + 16, &kJsonChunk, 4);
+  out.insert(out.end(), text->begin(), text->end());
+  out.insert(out.end(), glb.begin() + 20 + std::ptrdiff_t(json_bytes), glb.end());
+  return out;
+}
+
+// Parses `bytes` as GLB (binary) or glTF JSON and builds the World; `file` names it in messages.
+Result<World> loadGltfBytes(std::span<const uint8_t> bytes, bool binary, const std::string& file, const std::string& world_name,
+                            const std::filesystem::path& base_dir, InstanceClass cls, GltfStats* stats_out) {
+  // tinygltf takes the size as unsigned int.
+  if (bytes.size() > UINT32_MAX) return fail(file + ": " + std::to_string(bytes.size()) + " bytes, more than glTF's 4 GiB");
   tinygltf::Model model;
   tinygltf::TinyGLTF loader;
   loader.SetImageLoader(lenientImageLoader, nullptr);
   std::string err, warn;
   bool ok = false;
+  const std::string base = base_dir.string();
+  {
+    // The JSON: all of a .gltf; a .glb's first chunk [4], when its header says where (if it does
+    // not, tinygltf reports the container as broken).
+    std::string_view json_text(reinterpret_cast<const char*>(bytes.data()), bytes.size());
+    size_t json_at = 0;
+    if (binary) {
+      uint32_t json_bytes = 0;
+      if (bytes.size() >= 20) std::memcpy(&json_bytes, bytes.data() + 12, 4);
+      json_at = 20;
+      json_text = bytes.size() >= 20 && json_bytes <= bytes.size() - 20 ? json_text.substr(20, json_bytes) : std::string_view();
+    }
+    if (const size_t deep = jsonTooDeepAt(json_text); deep != std::string_view::npos)
+      return fail(file + ": byte " + std::to_string(json_at + deep) + ": JSON nested deeper than " +
+                  std::to_string(kMaxJsonDepth) + " levels");
+  }
   try {
-    ok = ext == ".glb" ? loader.LoadBinaryFromFile(&model, &err, &warn, file)
-                       : loader.LoadASCIIFromFile(&model, &err, &warn, file);
+    if (binary) {
+      const auto rewritten = glbWithoutDracoIndices(bytes);
+      const std::span<const uint8_t> glb = rewritten ? std::span<const uint8_t>(*rewritten) : bytes;
+      if (glb.size() > UINT32_MAX) return fail(file + ": more than glTF's 4 GiB");
+      ok = loader.LoadBinaryFromMemory(&model, &err, &warn, glb.data(), unsigned(glb.size()), base);
+    } else {
+      const std::string_view original(reinterpret_cast<const char*>(bytes.data()), bytes.size());
+      const auto rewritten = withoutDracoIndices(original);
+      const std::string_view text = rewritten ? std::string_view(*rewritten) : original;
+      if (text.size() > UINT32_MAX) return fail(file + ": more than glTF's 4 GiB");
+      ok = loader.LoadASCIIFromString(&model, &err, &warn, text.data(), unsigned(text.size()), base);
+    }
   } catch (const std::exception& e) {  // tinygltf's JSON parser may throw on malformed input
     return fail(file + ": glTF parse error: " + e.what());
   }
   if (!ok) return fail(file + ": glTF error: " + oneLine(err.empty() ? std::string("tinygltf failed without a message") : err));
 
   World world;
-  world.name = path.filename().string();
+  world.name = world_name;
   GltfStats stats;
   if (!warn.empty()) world.notes.push_back("warning: " + file + ": " + oneLine(warn));
   for (const std::string& e : model.extensionsRequired)
@@ -405,6 +623,28 @@ Result<World> loadGltf(const std::filesystem::path& path, InstanceClass cls, Glt
   world.effects = defaultEffects(world);
   if (stats_out) *stats_out = stats;
   return world;
+}
+
+}  // namespace
+
+Result<World> loadGltf(const std::filesystem::path& path, InstanceClass cls, GltfStats* stats_out) {
+  const std::string file = path.string();
+  std::string ext = path.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  if (ext != ".gltf" && ext != ".glb") return fail(file + ": not a .gltf or .glb file");
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) return fail(file + ": no such file");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return fail(file + ": cannot open");
+  const std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (in.bad()) return fail(file + ": read error");
+  return loadGltfBytes(bytes, ext == ".glb", file, path.filename().string(), path.parent_path(), cls, stats_out);
+}
+
+Result<World> loadGltfFromMemory(std::span<const uint8_t> bytes, const std::string& name,
+                                 const std::filesystem::path& base_dir, InstanceClass cls, GltfStats* stats) {
+  const bool binary = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
+  return loadGltfBytes(bytes, binary, name, name, base_dir, cls, stats);
 }
 
 }  // namespace drtv::worlds

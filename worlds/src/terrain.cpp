@@ -68,6 +68,9 @@ Heightfield noiseHeightfield(double size_m, double resolution_m, double height_m
 Result<Heightfield> loadHeightmapPng(const std::filesystem::path& path, double size_m, double height_m,
                                      double resolution_m) {
   const std::string file = path.string();
+  // Only a regular file has an end: a world naming /dev/zero or a FIFO would read forever.
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) return fail(file + ": cannot open heightmap: not a regular file");
   std::ifstream in(path, std::ios::binary);
   if (!in) return fail(file + ": cannot open heightmap");
   const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());

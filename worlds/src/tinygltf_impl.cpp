@@ -1,12 +1,11 @@
 // tinygltf_impl.cpp — the one translation unit that compiles tinygltf and stb_image.
 //
-// Debian's libtinygltf is built without Draco, so drtv compiles its own copy with
-// TINYGLTF_ENABLE_DRACO (tinygltf 2.7 decodes KHR_draco_mesh_compression at parse time into new
-// buffers and repoints the primitive's accessors at them). stb_image is compiled static
+// Without TINYGLTF_ENABLE_DRACO: tinygltf 2.7's Draco path trusts every index in the file (it
+// read out of bounds on fuzzed input), so gltf.cpp decodes KHR_draco_mesh_compression itself,
+// with checks, through draco_mesh.h. stb_image is compiled static
 // (STB_IMAGE_STATIC) so that its symbols cannot clash with another library's copy; the
 // heightmap loader reaches it through decodeImage16() below.
 #define TINYGLTF_IMPLEMENTATION
-#define TINYGLTF_ENABLE_DRACO
 #define TINYGLTF_NO_STB_IMAGE_WRITE
 #define STB_IMAGE_IMPLEMENTATION
 #define STB_IMAGE_STATIC

@@ -21,6 +21,8 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <span>
+#include <string>
 #include <vector>
 
 #include "drtv/formats/error.h"
@@ -50,6 +52,14 @@ struct GltfStats {
 // skipped with a note instead. `stats` may be null.
 Result<World> loadGltf(const std::filesystem::path& path, InstanceClass cls = InstanceClass::kStatic,
                        GltfStats* stats = nullptr);
+
+// Loads glTF from bytes in memory, as loadGltf does from a file: GLB when the bytes start with
+// the magic "glTF", glTF JSON otherwise. `name` prefixes every message and names the World;
+// relative buffer and image URIs resolve against `base_dir`. For untrusted bytes (the fuzz
+// target, docs/fuzzing.md) as for files: bad input is an Error or a note, never an abort.
+Result<World> loadGltfFromMemory(std::span<const uint8_t> bytes, const std::string& name,
+                                 const std::filesystem::path& base_dir, InstanceClass cls = InstanceClass::kStatic,
+                                 GltfStats* stats = nullptr);
 
 // Triangle strip -> triangle list, glTF 2.0 spec 3.7.2.1: triangle i of the strip is
 // (v[i], v[i+1+i%2], v[i+2-i%2]). Fewer than 3 vertices give no triangles.

@@ -1,0 +1,223 @@
+// Tests of glTF loading from untrusted bytes: loadGltfFromMemory, and KHR_draco_mesh_compression
+// objects that point outside the file (tinygltf 2.7's own Draco path indexed them unchecked;
+// worlds/src/draco_mesh.h), each built by editing the JSON chunk of the shared Draco box.
+// Inputs the fuzzer (fuzz/fuzz_gltf.cpp, docs/fuzzing.md) found are kept here as regressions.
+#include <cstring>
+#include <fstream>
+#include <functional>
+#include <iterator>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "drtv/worlds/gltf.h"
+
+namespace drtv::worlds {
+namespace {
+
+using json = nlohmann::json;
+
+std::vector<uint8_t> readBytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+std::vector<uint8_t> dracoBox() { return readBytes(DRTV_SHARED_ASSETS "/draco_box/Box_Draco.glb"); }
+
+// The GLB `glb` with its JSON chunk replaced by edit(JSON).
+std::vector<uint8_t> editGlbJson(const std::vector<uint8_t>& glb, const std::function<void(json&)>& edit) {
+  uint32_t json_bytes;
+  std::memcpy(&json_bytes, glb.data() + 12, 4);
+  json doc = json::parse(glb.begin() + 20, glb.begin() + 20 + json_bytes);
+  edit(doc);
+  std::string text = doc.dump();
+  while (text.size() % 4) text.push_back(' ');
+  const uint32_t chunk = uint32_t(text.size()), total = uint32_t(glb.size() - json_bytes + text.size());
+  std::vector<uint8_t> out(total);
+  std::memcpy(out.data(), glb.data(), 20);
+  std::memcpy(out.data() + 8, &total, 4);
+  std::memcpy(out.data() + 12, &chunk, 4);
+  std::memcpy(out.data() + 20, text.data(), text.size());
+  std::memcpy(out.data() + 20 + text.size(), glb.data() + 20 + json_bytes, glb.size() - 20 - json_bytes);
+  return out;
+}
+
+json& dracoExtension(json& doc) { return doc["meshes"][0]["primitives"][0]["extensions"]["KHR_draco_mesh_compression"]; }
+
+// Loads `glb` from memory: it must load (bad primitives are skipped, not fatal), and the one
+// primitive must be skipped with a note that names the file and contains `why`.
+void expectDracoPrimitiveSkipped(const std::vector<uint8_t>& glb, const std::string& why) {
+  GltfStats stats;
+  const auto w = loadGltfFromMemory(glb, "edited.glb", "", InstanceClass::kStatic, &stats);
+  ASSERT_TRUE(w.has_value()) << w.error().message;
+  EXPECT_EQ(w->triangleCount(), 0u);
+  EXPECT_EQ(stats.primitives_skipped, 1u);
+  bool found = false;
+  for (const std::string& note : w->notes)
+    found |= note.rfind("skipped: edited.glb: mesh", 0) == 0 && note.find(why) != std::string::npos;
+  EXPECT_TRUE(found) << "no note with '" << why << "'";
+}
+
+TEST(GltfFromMemory, LoadsTheDracoBoxLikeTheFile) {
+  const auto from_file = loadGltf(DRTV_SHARED_ASSETS "/draco_box/Box_Draco.glb");
+  const auto from_memory = loadGltfFromMemory(dracoBox(), "box.glb", "");
+  ASSERT_TRUE(from_file.has_value() && from_memory.has_value());
+  EXPECT_EQ(from_memory->triangleCount(), 12u);
+  EXPECT_EQ(from_memory->meshes.at(0).positions, from_file->meshes.at(0).positions);
+  EXPECT_EQ(from_memory->meshes.at(0).indices, from_file->meshes.at(0).indices);
+}
+
+TEST(GltfFromMemory, TellsGlbFromJsonByTheMagic) {
+  const std::string gltf = R"({"asset": {"version": "2.0"}, "nodes": [{}]})";
+  const auto w = loadGltfFromMemory(std::vector<uint8_t>(gltf.begin(), gltf.end()), "x.gltf", "");
+  ASSERT_TRUE(w.has_value()) << w.error().message;
+  EXPECT_EQ(w->triangleCount(), 0u);
+  const auto bad = loadGltfFromMemory(std::vector<uint8_t>{'g', 'l', 'T', 'F', 2, 0, 0, 0}, "short.glb", "");
+  ASSERT_FALSE(bad.has_value());
+  EXPECT_EQ(bad.error().message.rfind("short.glb: ", 0), 0u) << bad.error().message;
+}
+
+TEST(GltfDraco, SkipsAnExtensionWhoseBufferViewDoesNotExist) {
+  expectDracoPrimitiveSkipped(editGlbJson(dracoBox(), [](json& d) { dracoExtension(d)["bufferView"] = 7; }),
+                              "bufferView 7 does not exist");
+  expectDracoPrimitiveSkipped(editGlbJson(dracoBox(), [](json& d) { dracoExtension(d)["bufferView"] = -1; }),
+                              "bufferView -1 does not exist");
+}
+
+TEST(GltfDraco, SkipsABufferViewPastTheEndOfItsBuffer) {
+  // tinygltf itself checks a view against its buffer only for views that accessors use; the
+  // Draco view is used by no accessor.
+  expectDracoPrimitiveSkipped(editGlbJson(dracoBox(), [](json& d) { d["bufferViews"][0]["byteOffset"] = 100; }),
+                              "exceeds its buffer");
+}
+
+TEST(GltfDraco, SkipsAPositionIdThatTheBitstreamDoesNotHave) {
+  expectDracoPrimitiveSkipped(editGlbJson(dracoBox(), [](json& d) { dracoExtension(d)["attributes"]["POSITION"] = 9; }),
+                              "no Draco attribute with unique id 9");
+  expectDracoPrimitiveSkipped(editGlbJson(dracoBox(), [](json& d) { dracoExtension(d)["attributes"].erase("POSITION"); }),
+                              "no integer attributes.POSITION");
+}
+
+TEST(GltfDraco, SkipsABitstreamThatIsNotDraco) {
+  std::vector<uint8_t> glb = dracoBox();
+  // The BIN chunk's data starts after the JSON chunk and the 8-byte BIN chunk header.
+  uint32_t json_bytes;
+  std::memcpy(&json_bytes, glb.data() + 12, 4);
+  for (size_t i = 20 + json_bytes + 8; i < glb.size(); ++i) glb[i] = 0xAB;
+  expectDracoPrimitiveSkipped(glb, "not a Draco bitstream");
+}
+
+TEST(GltfDraco, SkipsATruncatedBitstream) {
+  expectDracoPrimitiveSkipped(editGlbJson(dracoBox(), [](json& d) { d["bufferViews"][0]["byteLength"] = 40; }),
+                              "Draco decoding failed");
+}
+
+// A glTF (JSON) with one triangle whose POSITION accessor has byte offset `offset`.
+std::vector<uint8_t> triangleWithAccessorOffset(uint64_t offset) {
+  // 3 float3 positions, as base64 of their 36 little-endian bytes: (0,0,0), (1,0,0), (0,1,0).
+  const std::string positions = "AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA";
+  const std::string text = R"({"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],)"
+                           R"("meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],)"
+                           R"("buffers": [{"byteLength": 36, "uri": "data:application/octet-stream;base64,)" + positions + R"("}],)"
+                           R"("bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 36}],)"
+                           R"("accessors": [{"bufferView": 0, "byteOffset": )" + std::to_string(offset) +
+                           R"(, "componentType": 5126, "count": 3, "type": "VEC3"}]})";
+  return {text.begin(), text.end()};
+}
+
+TEST(GltfAccessors, AnOffsetThatWrapsAroundIsRejectedNotRead) {
+  // 2^64 - 16: added to the view's offset unchecked, the start wrapped around and passed the
+  // end check, and the loader read 16 bytes before the buffer (UBSan: pointer overflow).
+  GltfStats stats;
+  const auto w = loadGltfFromMemory(triangleWithAccessorOffset(18446744073709551600ull), "wrap.gltf", "",
+                                    InstanceClass::kStatic, &stats);
+  ASSERT_TRUE(w.has_value()) << w.error().message;
+  EXPECT_EQ(w->triangleCount(), 0u);
+  EXPECT_EQ(stats.primitives_skipped, 1u);
+  ASSERT_FALSE(w->notes.empty());
+  EXPECT_NE(w->notes.back().find("lies past bufferView 0"), std::string::npos) << w->notes.back();
+  // The same file with offset 0 is a good triangle: only the offset made it bad.
+  const auto good = loadGltfFromMemory(triangleWithAccessorOffset(0), "good.gltf", "");
+  ASSERT_TRUE(good.has_value()) << good.error().message;
+  EXPECT_EQ(good->triangleCount(), 1u);
+}
+
+TEST(GltfNodes, AHierarchyAsDeepAsTheFileHasNodesLoadsEveryNode) {
+  // Found by probing the node walk beside fuzz_gltf: a chain of 3,000 nodes, each the child of
+  // the one before, overflowed the stack of the recursive walk under ASan. 100,000 overflow it
+  // in any build; the walk now keeps its own stack.
+  constexpr int kNodes = 100000;
+  json doc = json::parse(triangleWithAccessorOffset(0));
+  json nodes = json::array();
+  for (int i = 0; i < kNodes; ++i) {
+    json node = {{"mesh", 0}};
+    if (i + 1 < kNodes) node["children"] = {i + 1};
+    nodes.push_back(node);
+  }
+  doc["nodes"] = nodes;
+  const std::string text = doc.dump();
+  GltfStats stats;
+  const auto w = loadGltfFromMemory(std::vector<uint8_t>(text.begin(), text.end()), "chain.gltf", "",
+                                    InstanceClass::kStatic, &stats);
+  ASSERT_TRUE(w.has_value()) << w.error().message;
+  EXPECT_EQ(w->instances.size(), size_t(kNodes));
+  EXPECT_EQ(stats.cycles_skipped, 0u);
+  EXPECT_EQ(w->instances.back().name, "chain.gltf: node " + std::to_string(kNodes - 1));
+}
+
+// The one-triangle glTF with "extras" nested `depth` arrays deep.
+std::vector<uint8_t> triangleWithExtrasDepth(int depth) {
+  json doc = json::parse(triangleWithAccessorOffset(0));
+  doc["extras"] = "@";
+  std::string text = doc.dump();
+  const size_t at = text.find("\"@\"");
+  text.replace(at, 3, std::string(size_t(depth), '[') + std::string(size_t(depth), ']'));
+  return {text.begin(), text.end()};
+}
+
+TEST(GltfJson, NestingDeeperThan256LevelsIsAnErrorNamingTheByte) {
+  // Found by probing tinygltf beside fuzz_gltf: "extras" 20,000 arrays deep overflowed the stack
+  // in tinygltf's recursive conversion to its Value type (ASan stack-overflow).
+  const auto deep = loadGltfFromMemory(triangleWithExtrasDepth(20000), "deep.gltf", "");
+  ASSERT_FALSE(deep.has_value());
+  EXPECT_EQ(deep.error().message.rfind("deep.gltf: byte ", 0), 0u) << deep.error().message;
+  EXPECT_NE(deep.error().message.find("JSON nested deeper than 256 levels"), std::string::npos) << deep.error().message;
+  // 255 arrays inside the top-level object: 256 levels, still a file.
+  const auto fine = loadGltfFromMemory(triangleWithExtrasDepth(255), "fine.gltf", "");
+  ASSERT_TRUE(fine.has_value()) << fine.error().message;
+  EXPECT_EQ(fine->triangleCount(), 1u);
+}
+
+TEST(GltfImages, AnImageInABufferViewGivesTheSameAlbedoAsTheSameImageByUri) {
+  // The same box and texture, the image once in the GLB's BIN chunk and once as a .png file.
+  const auto glb = loadGltf(DRTV_ASSIMP_GLTF2 "/BoxTextured-glTF-Binary/BoxTextured.glb");
+  const auto gltf = loadGltf(DRTV_ASSIMP_GLTF2 "/BoxTextured-glTF/BoxTextured.gltf");
+  ASSERT_TRUE(glb.has_value() && gltf.has_value());
+  EXPECT_EQ(glb->meshes.at(0).albedo, gltf->meshes.at(0).albedo);
+  EXPECT_LT(glb->meshes.at(0).albedo.r, 1.f);  // the texture was decoded, not ignored
+}
+
+TEST(GltfImages, AnImageBufferViewPastItsBufferIsIgnoredNotRead) {
+  // Found by fuzz_gltf (build/fuzz/artifacts/gltf-crash-c86b26dc...): BoxTextured.glb with the
+  // image's bufferView made longer than the BIN chunk; tinygltf passed byteOffset + byteLength to
+  // stb_image unchecked, which read 2187 bytes past the buffer (ASan heap-buffer-overflow).
+  const std::vector<uint8_t> original = readBytes(DRTV_ASSIMP_GLTF2 "/BoxTextured-glTF-Binary/BoxTextured.glb");
+  int view = -1;
+  const auto glb = editGlbJson(original, [&](json& d) {
+    view = d["images"][0]["bufferView"].get<int>();
+    d["bufferViews"][size_t(view)]["byteLength"] = d["bufferViews"][size_t(view)]["byteLength"].get<int>() + 4096;
+  });
+  ASSERT_GE(view, 0);
+  const auto w = loadGltfFromMemory(glb, "long_image_view.glb", "");
+  ASSERT_TRUE(w.has_value()) << w.error().message;
+  EXPECT_EQ(w->triangleCount(), 12u);
+  EXPECT_EQ(w->meshes.at(0).albedo, glm::vec3(1.f));  // baseColorFactor alone (white)
+  bool noted = false;
+  for (const std::string& note : w->notes) noted |= note.find("image 0 not decoded") != std::string::npos;
+  EXPECT_TRUE(noted);
+}
+
+}  // namespace
+}  // namespace drtv::worlds

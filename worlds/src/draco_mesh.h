@@ -1,0 +1,38 @@
+// draco_mesh.h — KHR_draco_mesh_compression decoding behind a plain-data interface.
+//
+// Only built-in types cross this header, never a std:: type: Debian's libdraco is built against
+// libstdc++, and the fuzz tree (docs/fuzzing.md) builds drtv against libc++; draco_mesh.cpp is
+// the one translation unit that includes Draco's headers, and the fuzz tree compiles it against
+// libstdc++ like Draco itself. In the normal g++ build everything uses libstdc++ and nothing
+// differs. It also replaces tinygltf 2.7's own Draco path, which indexes bufferViews, buffers,
+// accessors and attributes without checking them (any glTF could make it read out of bounds).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+namespace drtv::worlds {
+
+// A decoded Draco mesh: positions (3 floats per point, glTF space, as Draco returns them after
+// dequantisation) and a triangle list of point indices, all < vertex_count. Owns its arrays
+// (malloc'd): release with freeDracoMesh.
+struct DracoMesh {
+  float* positions = nullptr;   // vertex_count x 3
+  uint32_t* indices = nullptr;  // index_count = 3 x faces
+  size_t vertex_count = 0;
+  size_t index_count = 0;
+};
+
+// Decodes the Draco bitstream `bytes[0, size)` as a triangle mesh and reads the attribute whose
+// unique id is `position_id` (the glTF extension's attributes.POSITION) as 3 floats per point.
+// On success fills `out` and returns true. On failure (not a Draco mesh, no such attribute,
+// an index or value out of range, out of memory) returns false, leaves `out` empty and writes a
+// NUL-terminated reason into error[0, error_size) (truncated). Never aborts, never throws.
+// Thread-safe.
+bool decodeDracoMesh(const unsigned char* bytes, size_t size, int position_id, DracoMesh* out, char* error,
+                     size_t error_size) noexcept;
+
+// Frees what decodeDracoMesh allocated and empties `mesh`. Null arrays are fine.
+void freeDracoMesh(DracoMesh* mesh) noexcept;
+
+}  // namespace drtv::worlds

@@ -14,6 +14,7 @@
 #include <cstring>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <set>
@@ -166,6 +167,12 @@ Result<SectorPlacement> decodePlacement(std::span<const uint8_t> bytes, const st
       return fail(where + ": placement record holds a non-finite probe position");
   }
   return out;
+}
+
+// `r` and the ring of sectors around it (saturating at the key range's ends).
+SectorRange grownByOne(SectorRange r) {
+  constexpr int32_t lo = std::numeric_limits<int32_t>::min(), hi = std::numeric_limits<int32_t>::max();
+  return {r.x0 > lo ? r.x0 - 1 : lo, r.x1 < hi ? r.x1 + 1 : hi, r.y0 > lo ? r.y0 - 1 : lo, r.y1 < hi ? r.y1 + 1 : hi};
 }
 
 }  // namespace
@@ -484,8 +491,11 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
     return fail(world_name + ": " + why);
 
   auto t0 = Clock::now();
-  // With --sectors, only the geometry those sectors gather is binned (not a whole 8192-cell terrain).
-  auto geometry = WorldGeometry::build(world, world_name, options.sectors, haloFor(report.settings, effects));
+  // With --sectors, only the geometry those sectors gather is binned (not a whole 8192-cell terrain);
+  // with LPRT that includes the ring of neighbours the placement pass places (placementKeys).
+  std::optional<SectorRange> binned = options.sectors;
+  if (binned && (effects & kEffectLocalLights)) *binned = grownByOne(*binned);
+  auto geometry = WorldGeometry::build(world, world_name, binned, haloFor(report.settings, effects));
   if (!geometry) return std::unexpected(geometry.error());
   report.notes = geometry->notes();
   report.triangles = geometry->triangleCount();

@@ -138,16 +138,17 @@ std::string validateLighting(const Sky& sky, const std::vector<PointLight>& ligh
 
 std::string validateLightPath(const LightPath& path) {
   if (path.keys.size() < 2) return "keys: a path needs at least 2 keys (a light that stays put needs no path)";
+  const std::string world = range(-kMaxWorldCoordinateM, kMaxWorldCoordinateM) + " m";
   for (size_t i = 0; i < path.keys.size(); ++i) {
     const LightKey& k = path.keys[i];
     const std::string at = "keys[" + std::to_string(i) + "]";
     if (!std::isfinite(k.t_s) || (i > 0 && !(k.t_s > path.keys[i - 1].t_s)))
       return at + ".t_s: must be finite" + (i > 0 ? " and greater than keys[" + std::to_string(i - 1) + "].t_s" : std::string());
-    if (!finite3(k.position) || glm::any(glm::greaterThan(glm::abs(k.position), glm::dvec3(1e7))))
-      return at + ".position: must be finite and within 1e7 m";
+    if (!inWorld(k.position)) return at + ".position: must be in " + world;
     for (int c = 0; c < 3; ++c)
-      if (!std::isfinite(k.intensity[c]) || k.intensity[c] < 0.f) return at + ".intensity: must be finite and >= 0";
-    if (!std::isfinite(k.radius_m) || !(k.radius_m > 0.f)) return at + ".radius_m: must be finite and > 0";
+      if (!within(k.intensity[c], 0.f, kMaxColourValue)) return at + ".intensity: must be in " + range(0, kMaxColourValue);
+    if (!within(k.radius_m, kMinLightRadiusM, kMaxLightRadiusM))
+      return at + ".radius_m: must be in " + range(kMinLightRadiusM, kMaxLightRadiusM) + " m";
   }
   return {};
 }

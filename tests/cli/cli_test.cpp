@@ -131,6 +131,8 @@ TEST(Cli, ALitGltfWorldBakesAndEveryWayOfBakingItAgrees) {
   ASSERT_EQ(info.status, 0) << info.out;
   EXPECT_NE(info.out.find("with LPRT"), std::string::npos) << info.out;
   std::system(("rm -rf '" + dir + "'").c_str());
+}
+
 // A scratch folder unique to this test and process.
 std::string scratch(const std::string& name) {
   const ::testing::TestInfo* info = ::testing::UnitTest::GetInstance()->current_test_info();

@@ -98,8 +98,8 @@ struct LightPath {
 // and last keys, or wrapped with `loop`. Precondition: validateLightPath(path) is "".
 PointLight lightAt(const PointLight& light, const LightPath& path, double t_s);
 // What is wrong with a path ("" if nothing): "keys: a path needs at least 2 keys", "keys[3].t_s:
-// must be finite and greater than keys[2].t_s", positions within 1e7 m, intensities finite and
-// >= 0, radii finite and > 0.
+// must be finite and greater than keys[2].t_s", and every key's position, intensity and radius in
+// the ranges validateLighting holds a light to.
 std::string validateLightPath(const LightPath& path);
 
 // An artist volume whose inside takes ambient from one designated probe (talk slide 55).

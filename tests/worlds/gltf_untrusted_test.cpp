@@ -190,6 +190,39 @@ TEST(GltfJson, NestingDeeperThan256LevelsIsAnErrorNamingTheByte) {
   EXPECT_EQ(fine->triangleCount(), 1u);
 }
 
+TEST(GltfContainer, ABinChunkLongerThanTheFileIsAnErrorNamingItsByte) {
+  // Found by fuzz_gltf (build/fuzz/artifacts/gltf-crash-6bdc8c11...): a GLB whose BIN chunk length
+  // claims 8 bytes more than the file holds passed tinygltf's check, which forgets the chunk's
+  // own 8-byte header, and tinygltf copied the buffer from past the end (ASan
+  // container-overflow). Here: BoxTextured.glb with its BIN length grown by 4 (still aligned).
+  std::vector<uint8_t> glb = readBytes(DRTV_ASSIMP_GLTF2 "/BoxTextured-glTF-Binary/BoxTextured.glb");
+  uint32_t json_bytes, bin_bytes;
+  std::memcpy(&json_bytes, glb.data() + 12, 4);
+  const size_t bin_at = 20 + json_bytes;
+  std::memcpy(&bin_bytes, glb.data() + bin_at, 4);
+  ASSERT_EQ(bin_at + 8 + bin_bytes, glb.size());  // the untouched file is exact
+  ASSERT_TRUE(loadGltfFromMemory(glb, "box.glb", "").has_value());
+  bin_bytes += 4;
+  std::memcpy(glb.data() + bin_at, &bin_bytes, 4);
+  const auto w = loadGltfFromMemory(glb, "long_bin.glb", "");
+  ASSERT_FALSE(w.has_value());
+  EXPECT_EQ(w.error().message, "long_bin.glb: byte " + std::to_string(bin_at) + ": BIN chunk of " +
+                                   std::to_string(bin_bytes) + " bytes runs past the " + std::to_string(glb.size()) +
+                                   "-byte GLB");
+}
+
+TEST(GltfContainer, ATruncatedDracoGlbStaysTruncated) {
+  // Found by fuzz_gltf (build/fuzz/artifacts/gltf-crash-6bdc8c11...): Box_Draco.glb cut 8 bytes
+  // short, its header still claiming the full length. Dropping the Draco primitives' "indices"
+  // rewrote the header with the true size, which made the cut file look whole to tinygltf, and it
+  // copied the BIN chunk from past the end (ASan container-overflow). It must be refused.
+  std::vector<uint8_t> glb = dracoBox();
+  glb.resize(glb.size() - 8);
+  const auto w = loadGltfFromMemory(glb, "short_draco.glb", "");
+  ASSERT_FALSE(w.has_value());
+  EXPECT_EQ(w.error().message.rfind("short_draco.glb: glTF error: ", 0), 0u) << w.error().message;
+}
+
 TEST(GltfImages, AnImageInABufferViewGivesTheSameAlbedoAsTheSameImageByUri) {
   // The same box and texture, the image once in the GLB's BIN chunk and once as a .png file.
   const auto glb = loadGltf(DRTV_ASSIMP_GLTF2 "/BoxTextured-glTF-Binary/BoxTextured.glb");

@@ -550,14 +550,18 @@ std::optional<std::vector<uint8_t>> glbWithoutDracoIndices(std::span<const uint8
     return v;
   };
   constexpr uint32_t kJsonChunk = 0x4E4F534A;  // "JSON"
-  if (glb.size() < 20 || u32(12) > glb.size() - 20 || u32(16) != kJsonChunk) return std::nullopt;
+  // Only a container whose declared length fits the bytes and holds the JSON chunk: the rewrite
+  // keeps that length's relation to the chunks (it once wrote the true size instead, which made a
+  // truncated GLB look whole to tinygltf, found by fuzz_gltf).
+  if (glb.size() < 20 || u32(16) != kJsonChunk || u32(8) < 20 || u32(8) > glb.size() || u32(12) > u32(8) - 20)
+    return std::nullopt;
   const size_t json_bytes = u32(12);
   auto text = withoutDracoIndices(std::string_view(reinterpret_cast<const char*>(glb.data() + 20), json_bytes));
   if (!text) return std::nullopt;
   while (text->size() % 4) text->push_back(' ');
-  if (text->size() > UINT32_MAX - 20 - (glb.size() - 20 - json_bytes)) return std::nullopt;
+  if (text->size() > UINT32_MAX - (u32(8) - json_bytes)) return std::nullopt;
   std::vector<uint8_t> out(glb.begin(), glb.begin() + 12);
-  const uint32_t chunk = uint32_t(text->size()), total = uint32_t(20 + text->size() + (glb.size() - 20 - json_bytes));
+  const uint32_t chunk = uint32_t(text->size()), total = uint32_t(u32(8) - json_bytes + text->size());
   std::memcpy(out.data() + 8, &total, 4);
   out.resize(20);
   std::memcpy(out.data() + 12, &chunk, 4);
@@ -565,6 +569,24 @@ std::optional<std::vector<uint8_t>> glbWithoutDracoIndices(std::span<const uint8
   out.insert(out.end(), text->begin(), text->end());
   out.insert(out.end(), glb.begin() + 20 + std::ptrdiff_t(json_bytes), glb.end());
   return out;
+}
+
+// What is wrong with a GLB's BIN chunk bound [4], or "" when it fits. tinygltf 2.7 checks the
+// chunk's length against the file as if the chunk had no 8-byte header, then reads the length
+// from after the header: a fuzzed GLB with the BIN length 8 too large made it read past the end
+// (ASan). Only that bound is checked here; tinygltf checks the rest of the container.
+std::string glbBinChunkError(std::span<const uint8_t> glb) {
+  if (glb.size() < 20) return "";
+  uint32_t length, json_bytes;
+  std::memcpy(&length, glb.data() + 8, 4);
+  std::memcpy(&json_bytes, glb.data() + 12, 4);
+  const uint64_t bin_at = 20ull + json_bytes;
+  if (length > glb.size() || bin_at + 8 > length) return "";  // tinygltf refuses these itself
+  uint32_t bin_bytes;
+  std::memcpy(&bin_bytes, glb.data() + bin_at, 4);
+  if (bin_at + 8 + bin_bytes <= length) return "";
+  return "byte " + std::to_string(bin_at) + ": BIN chunk of " + std::to_string(bin_bytes) + " bytes runs past the " +
+         std::to_string(length) + "-byte GLB";
 }
 
 // Parses `bytes` as GLB (binary) or glTF JSON and builds the World; `file` names it in messages.
@@ -595,8 +617,10 @@ Result<World> loadGltfBytes(std::span<const uint8_t> bytes, bool binary, const s
   }
   try {
     if (binary) {
+      if (const std::string bad = glbBinChunkError(bytes); !bad.empty()) return fail(file + ": " + bad);
       const auto rewritten = glbWithoutDracoIndices(bytes);
       const std::span<const uint8_t> glb = rewritten ? std::span<const uint8_t>(*rewritten) : bytes;
+      DRTV_CHECK(glbBinChunkError(glb).empty());  // the rewrite moves the chunks, never their bounds
       if (glb.size() > UINT32_MAX) return fail(file + ": more than glTF's 4 GiB");
       ok = loader.LoadBinaryFromMemory(&model, &err, &warn, glb.data(), unsigned(glb.size()), base);
     } else {

@@ -223,6 +223,25 @@ TEST(GltfContainer, ATruncatedDracoGlbStaysTruncated) {
   EXPECT_EQ(w.error().message.rfind("short_draco.glb: glTF error: ", 0), 0u) << w.error().message;
 }
 
+TEST(GltfImages, APngWithAnEmptyIdatChunkIsIgnoredNotDecoded) {
+  // Found by fuzz_gltf (build/fuzz/artifacts/gltf-crash-30740ce7...): stb_image copies an empty
+  // IDAT chunk with memcpy(NULL, src, 0) (UBSan: null pointer passed as argument 1). A 1x1 grey
+  // PNG whose first IDAT chunk is empty, the data in a second one, as the box's texture.
+  const std::string png = "iVBORw0KGgoAAAANSUhEUgAAAAEAAAABCAIAAACQd1PeAAAAAElEQVQ1rwYeAAAADElEQVR4nGNoaGgAAAMEAYFL09IQAAAAAElFTkSuQmCC";
+  json doc = json::parse(triangleWithAccessorOffset(0));
+  doc["meshes"][0]["primitives"][0]["material"] = 0;
+  doc["materials"] = {{{"pbrMetallicRoughness", {{"baseColorFactor", {0.5, 0.5, 0.5, 1}}, {"baseColorTexture", {{"index", 0}}}}}}};
+  doc["textures"] = {{{"source", 0}}};
+  doc["images"] = {{{"uri", "data:image/png;base64," + png}}};
+  const std::string text = doc.dump();
+  const auto w = loadGltfFromMemory(std::vector<uint8_t>(text.begin(), text.end()), "empty_idat.gltf", "");
+  ASSERT_TRUE(w.has_value()) << w.error().message;
+  EXPECT_EQ(w->meshes.at(0).albedo, glm::vec3(0.5f));  // baseColorFactor alone
+  bool noted = false;
+  for (const std::string& note : w->notes) noted |= note.find("empty IDAT chunk") != std::string::npos;
+  EXPECT_TRUE(noted);
+}
+
 TEST(GltfImages, AnImageInABufferViewGivesTheSameAlbedoAsTheSameImageByUri) {
   // The same box and texture, the image once in the GLB's BIN chunk and once as a .png file.
   const auto glb = loadGltf(DRTV_ASSIMP_GLTF2 "/BoxTextured-glTF-Binary/BoxTextured.glb");

@@ -28,6 +28,7 @@
 #include <tiny_gltf.h>
 
 #include "draco_mesh.h"
+#include "terrain.h"
 
 namespace drtv::worlds {
 
@@ -135,7 +136,9 @@ struct Loader {
       return false;
     std::string err, warn;
     out = img;
-    return tinygltf::LoadImageData(&out, src, &err, &warn, 0, 0, data.data() + view.byteOffset, int(view.byteLength), nullptr);
+    const unsigned char* bytes = data.data() + view.byteOffset;
+    if (stbImageRefusal(bytes, view.byteLength)) return false;
+    return tinygltf::LoadImageData(&out, src, &err, &warn, 0, 0, bytes, int(view.byteLength), nullptr);
   }
 
   glm::vec3 albedoOf(int material_index) {
@@ -476,6 +479,11 @@ bool lenientImageLoader(tinygltf::Image* image, const int image_idx, std::string
     return true;
   }
   std::string local_err;
+  if (const char* why = stbImageRefusal(bytes, size_t(std::max(size, 0)))) {
+    if (warn) *warn += "image " + std::to_string(image_idx) + " not decoded: " + why + "\n";
+    image->image.clear();
+    return true;
+  }
   if (tinygltf::LoadImageData(image, image_idx, &local_err, warn, req_w, req_h, bytes, size, user)) return true;
   if (warn) *warn += "image " + std::to_string(image_idx) + " not decoded: " + local_err + "\n";
   image->image.clear();

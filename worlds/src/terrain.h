@@ -44,6 +44,11 @@ Heightfield noiseHeightfield(double size_m, double resolution_m, double height_m
 Result<Heightfield> loadHeightmapPng(const std::filesystem::path& path, double size_m, double height_m,
                                      double resolution_m);
 
+// Why stb_image must not be given `bytes`, or nullptr. Debian's stb_image copies an empty PNG
+// IDAT chunk with memcpy(NULL, src, 0), undefined behaviour (UBSan, found by fuzz_gltf); such a
+// PNG is refused before stb_image sees it. Every stb_image call in drtv asks this first.
+const char* stbImageRefusal(const unsigned char* bytes, size_t size);
+
 // Decodes a PNG/JPEG/... file in memory to 16-bit channels (implemented beside tinygltf, which
 // owns the stb_image implementation). Returns false with `error` set on failure.
 // Reads an image's size and channel count from its header alone; false if not an image.

@@ -11,6 +11,8 @@
 #define STB_IMAGE_STATIC
 #include <tiny_gltf.h>  // includes <stb_image.h> with its implementation
 
+#include <cstring>
+
 #include "terrain.h"
 
 namespace drtv::worlds {
@@ -20,8 +22,25 @@ bool peekImageSize(const unsigned char* bytes, size_t size, int& width, int& hei
   return stbi_info_from_memory(bytes, int(size), &width, &height, &channels) != 0;
 }
 
+const char* stbImageRefusal(const unsigned char* bytes, size_t size) {
+  static const unsigned char kPngSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  if (size < 8 || std::memcmp(bytes, kPngSignature, 8) != 0) return nullptr;
+  // PNG chunks: u32 big-endian length, 4-byte type, data, u32 CRC (PNG spec, 5.3).
+  for (size_t at = 8; at + 8 <= size;) {
+    const uint32_t length = uint32_t(bytes[at]) << 24 | uint32_t(bytes[at + 1]) << 16 | uint32_t(bytes[at + 2]) << 8 | bytes[at + 3];
+    if (length == 0 && std::memcmp(bytes + at + 4, "IDAT", 4) == 0) return "PNG with an empty IDAT chunk";
+    if (length > size - at - 8 || size - at - 8 - length < 4) return nullptr;  // stb_image reports it
+    at += 12 + size_t(length);
+  }
+  return nullptr;
+}
+
 bool decodeImage16(const unsigned char* bytes, size_t size, int& width, int& height, int& channels,
                    std::vector<uint16_t>& pixels, std::string& error) {
+  if (const char* why = stbImageRefusal(bytes, size)) {
+    error = why;
+    return false;
+  }
   if (size > size_t(INT32_MAX)) {
     error = "file too large";
     return false;

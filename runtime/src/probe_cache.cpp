@@ -163,6 +163,17 @@ struct ProbeCache::Impl {
     return -1;
   }
 
+  // The probe the index grid of resident slot `s` names for world position `pos` (cell z clamped
+  // into the grid; 255 resolved to the sector's nearest probe). Precondition: the slot has probes.
+  int namedProbe(int s, const glm::dvec3& pos) const {
+    const Slot& sl = slots[s];
+    auto cell = [](double v) { return int(std::clamp(std::floor(v), 0.0, double(kGridDim - 1))); };
+    const int x = cell((pos.x - sl.origin.x) / kGridCellSizeM);
+    const int y = cell((pos.y - sl.origin.y) / kGridCellSizeM);
+    const int z = cell((pos.z - sl.z_min) / sl.cell_h);
+    return sl.nearest[IndexGrid::cellIndex(x, y, z)];
+  }
+
   void resolveSources() {
     std::fill(is_source.begin(), is_source.end(), 0);
     for (Slot& sl : slots) {
@@ -362,12 +373,8 @@ std::vector<LightShare> ProbeCache::Impl::distribute(std::span<const PointLight>
         if (!(std::fabs(at.x) < kMaxWorldM && std::fabs(at.y) < kMaxWorldM && std::isfinite(at.z))) continue;
         const int s = slotOf(sectorAt(at.x, at.y));
         if (s < 0 || slots[s].count == 0) continue;
-        const Slot& sl = slots[s];
-        auto cell = [](double v) { return int(std::clamp(std::floor(v), 0.0, double(kGridDim - 1))); };
-        const int cx = cell((at.x - sl.origin.x) / kGridCellSizeM), cy = cell((at.y - sl.origin.y) / kGridCellSizeM);
-        const int cz = cell((at.z - sl.z_min) / sl.cell_h);
-        const int i = sl.nearest[IndexGrid::cellIndex(cx, cy, cz)];
-        if (i >= sl.count || !is_source[s * kSlotProbes + i]) continue;
+        const int i = namedProbe(s, at);
+        if (i >= slots[s].count || !is_source[s * kSlotProbes + i]) continue;
         const glm::dvec3 d = world(s, i) - light.position;
         if (glm::dot(d, d) < r2) consider({s, i}, glm::dot(d, d));
       }
@@ -579,11 +586,7 @@ ProbeRef ProbeCache::probeAt(const glm::dvec3& pos) const {
   if (s < 0) return {};
   const Slot& sl = impl_->slots[s];
   if (sl.count == 0) return {};
-  auto cell = [](double v) { return int(std::clamp(std::floor(v), 0.0, double(kGridDim - 1))); };
-  const int x = cell((pos.x - sl.origin.x) / kGridCellSizeM);
-  const int y = cell((pos.y - sl.origin.y) / kGridCellSizeM);
-  const int z = cell((pos.z - sl.z_min) / sl.cell_h);
-  return {s, sl.nearest[IndexGrid::cellIndex(x, y, z)]};
+  return {s, impl_->namedProbe(s, pos)};
 }
 
 ProbeRef ProbeCache::interiorProbe(uint16_t index, const glm::dvec3& designated, const glm::dvec3& lo,

@@ -45,6 +45,23 @@ BakeOptions draft(int threads = 0) {
   return o;
 }
 
+// Bakes `w` in `count` shards, then merges them into `archive` (expects every step to succeed).
+void bakeShardedAndMerge(const worlds::World& w, const std::string& name, const fs::path& archive, int count) {
+  for (int k = 0; k < count; ++k) {
+    BakeOptions o = draft();
+    o.shard_index = k;
+    o.shard_count = count;
+    auto r = bake(w, name, archive, o);
+    ASSERT_TRUE(r) << r.error().message;
+    EXPECT_FALSE(r->packed);
+  }
+  BakeOptions merge = draft();
+  merge.merge_only = true;
+  auto m = bake(w, name, archive, merge);
+  ASSERT_TRUE(m) << m.error().message;
+  EXPECT_TRUE(m->packed);
+}
+
 worlds::World litWorld() {
   worlds::World w = test::smallWorld();
   w.lights.push_back({"lamp", {10.0, 10.0, 2.0}, glm::vec3(5.f), 12.f});
@@ -303,19 +320,7 @@ TEST(Bake, ShardsMergeIntoTheSameArchiveAsOneBake) {
   TempDir dir;
   const worlds::World w = test::smallWorld();
   ASSERT_TRUE(bake(w, "small", dir.path / "one.drtv", draft()));
-  for (int k = 0; k < 3; ++k) {
-    BakeOptions o = draft();
-    o.shard_index = k;
-    o.shard_count = 3;
-    auto r = bake(w, "small", dir.path / "sharded.drtv", o);
-    ASSERT_TRUE(r) << r.error().message;
-    EXPECT_FALSE(r->packed);
-  }
-  BakeOptions merge = draft();
-  merge.merge_only = true;
-  auto m = bake(w, "small", dir.path / "sharded.drtv", merge);
-  ASSERT_TRUE(m) << m.error().message;
-  EXPECT_TRUE(m->packed);
+  bakeShardedAndMerge(w, "small", dir.path / "sharded.drtv", 3);
   EXPECT_TRUE(readBytes(dir.path / "one.drtv") == readBytes(dir.path / "sharded.drtv"));
 }
 
@@ -438,17 +443,7 @@ TEST(Bake, ALitIslandWithLightsEverywhereBakesTheSameEveryWay) {
   EXPECT_GT(one->sectors.size() - one->sectors_empty, 40u);
   auto two = bake(w, "island", dir.path / "two.drtv", draft(2));
   ASSERT_TRUE(two) << two.error().message;
-  for (int k = 0; k < 2; ++k) {
-    BakeOptions o = draft();
-    o.shard_index = k;
-    o.shard_count = 2;
-    auto s = bake(w, "island", dir.path / "merged.drtv", o);
-    ASSERT_TRUE(s) << s.error().message;
-  }
-  BakeOptions merge = draft();
-  merge.merge_only = true;
-  auto m = bake(w, "island", dir.path / "merged.drtv", merge);
-  ASSERT_TRUE(m) << m.error().message;
+  bakeShardedAndMerge(w, "island", dir.path / "merged.drtv", 2);
   const auto bytes = readBytes(dir.path / "one.drtv");
   EXPECT_EQ(bytes, readBytes(dir.path / "two.drtv"));
   EXPECT_EQ(bytes, readBytes(dir.path / "merged.drtv"));

@@ -4,6 +4,7 @@
 #include <embree3/rtcore.h>
 
 #include <algorithm>
+#include <cstdlib>
 #include <atomic>
 #include <mutex>
 #include <string>
@@ -22,7 +23,7 @@ void onEmbreeError(void*, RTCError code, const char* str) {
 // One device per process: Embree devices are heavy and thread-safe.
 RTCDevice sharedDevice() {
   static RTCDevice device = [] {
-    RTCDevice d = rtcNewDevice(nullptr);
+    RTCDevice d = rtcNewDevice(std::getenv("DRTV_EMBREE_CONFIG"));
     if (d) rtcSetDeviceErrorFunction(d, onEmbreeError, nullptr);
     return d;
   }();

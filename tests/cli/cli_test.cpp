@@ -11,6 +11,7 @@
 #include <string>
 
 #include <gtest/gtest.h>
+#include <xxhash.h>
 
 namespace {
 
@@ -331,3 +332,36 @@ TEST(Cli, AMemoryLimitThatIsNotASizeIsAUsageError) {
 }
 
 }  // namespace
+
+// The island's archive bytes are pinned: a change that moves code around (issue 12's
+// reorganisation) or makes it faster must bake the same archive, bit for bit. A change meant to
+// alter the bake updates these hashes in the same commit and says why. Embree's kernels differ in
+// their last bits between instruction sets (its AVX2 ones use FMA), so the bakes here pin Embree
+// to SSE2, the x86-64 baseline, through DRTV_EMBREE_CONFIG (docs/baker.md): the hashes are then
+// the same on every x86-64 machine. The island with its lamps covers the placement pass and LPRT.
+TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
+#if !defined(__x86_64__)
+  GTEST_SKIP() << "the golden hashes are of SSE2 bakes (x86-64)";
+#endif
+  struct Golden {
+    const char* world;
+    const char* threads;
+    uint64_t xxh3;
+  };
+  const Golden goldens[] = {
+      {"worlds/island.json", "2", 0x9f12aa6b1feef2a0ull},
+      {"worlds/island.json", "1", 0x9f12aa6b1feef2a0ull},
+      {"worlds/island_lit.json", "2", 0x47cab651cb0bf0cdull},
+  };
+  for (const Golden& g : goldens) {
+    const std::string out = scratch("golden.drtv");
+    const Outcome r = drtv("bake " + src(g.world) + " -o " + out + " --quality draft --threads " + g.threads,
+                           "DRTV_EMBREE_CONFIG=isa=sse2");
+    ASSERT_EQ(r.status, 0) << r.out;
+    const std::string bytes = slurp(out);
+    char hex[32];
+    std::snprintf(hex, sizeof hex, "0x%016llxull", (unsigned long long)XXH3_64bits(bytes.data(), bytes.size()));
+    EXPECT_EQ(XXH3_64bits(bytes.data(), bytes.size()), g.xxh3)
+        << g.world << " --threads " << g.threads << " baked " << bytes.size() << " bytes hashing " << hex;
+  }
+}

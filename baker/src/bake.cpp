@@ -20,10 +20,10 @@
 #include <set>
 #include <sstream>
 
-#include "drtv/baker/sampling.h"
+#include "drtv/raytrace/sampling.h"
 #include "sector_journal.h"
 #include "stats_json.h"
-#include "stopwatch.h"
+#include "drtv/baker/stopwatch.h"
 
 namespace drtv::baker {
 namespace fs = std::filesystem;
@@ -52,12 +52,12 @@ bool isStatic(uint8_t cls) {
 }
 
 // Highest terrain/static surface under (x, y), local frame; NaN if none.
-float groundAt(const RayScene& scene, const SectorGeometry& g, float x, float y, uint64_t& rays) {
+float groundAt(const raytrace::RayScene& scene, const raytrace::SectorGeometry& g, float x, float y, uint64_t& rays) {
   const glm::vec3 origin(x, y, g.z_max + kGroundRayMarginM);
   const float len = g.z_max - g.z_min + 2.f * kGroundRayMarginM;
   float t = 0.f;
   for (int k = 0; k < kMaxGroundHits; ++k) {
-    const Hit h = scene.intersect(Ray{origin, t, glm::vec3(0, 0, -1), len});
+    const raytrace::Hit h = scene.intersect(raytrace::Ray{origin, t, glm::vec3(0, 0, -1), len});
     ++rays;
     if (!h.hit()) break;
     if (isStatic(g.cls[h.prim])) return origin.z - h.t;
@@ -170,7 +170,7 @@ Result<SectorPlacement> decodePlacement(std::span<const uint8_t> bytes, const st
 }
 
 // `r` and the ring of sectors around it (saturating at the key range's ends).
-SectorRange grownByOne(SectorRange r) {
+raytrace::SectorRange grownByOne(raytrace::SectorRange r) {
   constexpr int32_t lo = std::numeric_limits<int32_t>::min(), hi = std::numeric_limits<int32_t>::max();
   return {r.x0 > lo ? r.x0 - 1 : lo, r.x1 < hi ? r.x1 + 1 : hi, r.y0 > lo ? r.y0 - 1 : lo, r.y1 < hi ? r.y1 + 1 : hi};
 }
@@ -196,7 +196,7 @@ std::string validateSettings(const BakeSettings& s) {
   return {};
 }
 
-Manifest manifestFor(const WorldGeometry& geometry, const worlds::World& world, const std::string& world_name,
+Manifest manifestFor(const raytrace::WorldGeometry& geometry, const worlds::World& world, const std::string& world_name,
                      const BakeSettings& settings, uint32_t effects) {
   Manifest m;
   m.bounds_min = geometry.boundsMin();
@@ -298,11 +298,11 @@ double haloFor(const BakeSettings& settings, uint32_t effects) {
   return (effects & kEffectLocalLights) ? settings.lprt_halo_m : settings.halo_m;
 }
 
-Result<SectorPlacement> placeSector(const WorldGeometry& geometry, const worlds::World& world, SectorKey key,
+Result<SectorPlacement> placeSector(const raytrace::WorldGeometry& geometry, const worlds::World& world, SectorKey key,
                                     const BakeSettings& settings, uint32_t effects) {
   const auto t0 = Clock::now();
-  const SectorGeometry g = geometry.gather(key, haloFor(settings, effects));
-  auto scene = RayScene::build(g.vertices);
+  const raytrace::SectorGeometry g = geometry.gather(key, haloFor(settings, effects));
+  auto scene = raytrace::RayScene::build(g.vertices);
   if (!scene) return std::unexpected(scene.error().context("sector " + toString(key)));
   SectorPlacement out;
   out.probes = placeProbes(*scene, g, {0, 0}, localInteriors(world, key, effects), settings.placement, out.stats);
@@ -321,7 +321,7 @@ std::vector<SectorKey> placementKeys(std::span<const SectorKey> keys, uint32_t e
   return out;
 }
 
-Result<SectorPlacements> placeSectors(const WorldGeometry& geometry, const worlds::World& world,
+Result<SectorPlacements> placeSectors(const raytrace::WorldGeometry& geometry, const worlds::World& world,
                                       std::span<const SectorKey> keys, const BakeSettings& settings, uint32_t effects) {
   std::vector<std::optional<Result<SectorPlacement>>> placed(keys.size());
   tbb::parallel_for(size_t(0), keys.size(), [&](size_t i) { placed[i] = placeSector(geometry, world, keys[i], settings, effects); });
@@ -333,7 +333,7 @@ Result<SectorPlacements> placeSectors(const WorldGeometry& geometry, const world
   return out;
 }
 
-Result<Sector> bakeSector(const WorldGeometry& geometry, const worlds::World& world, SectorKey key,
+Result<Sector> bakeSector(const raytrace::WorldGeometry& geometry, const worlds::World& world, SectorKey key,
                           const BakeSettings& settings, uint32_t effects, const SectorPlacements& placements,
                           SectorStats& stats) {
   const auto t_start = Clock::now();
@@ -345,11 +345,11 @@ Result<Sector> bakeSector(const WorldGeometry& geometry, const worlds::World& wo
   ts.sky_visibility = (effects & kEffectDirectSky) != 0;
 
   auto t0 = Clock::now();
-  const SectorGeometry g = geometry.gather(key, haloFor(settings, effects));
+  const raytrace::SectorGeometry g = geometry.gather(key, haloFor(settings, effects));
   stats.triangles = g.triangleCount();
   stats.gather_s = since(t0);
   t0 = Clock::now();
-  auto scene = RayScene::build(g.vertices);
+  auto scene = raytrace::RayScene::build(g.vertices);
   if (!scene) return std::unexpected(scene.error().context("sector " + toString(key)));
   stats.build_s = since(t0);
 
@@ -493,16 +493,16 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
   auto t0 = Clock::now();
   // With --sectors, only the geometry those sectors gather is binned (not a whole 8192-cell terrain);
   // with LPRT that includes the ring of neighbours the placement pass places (placementKeys).
-  std::optional<SectorRange> binned = options.sectors;
+  std::optional<raytrace::SectorRange> binned = options.sectors;
   if (binned && (effects & kEffectLocalLights)) *binned = grownByOne(*binned);
-  auto geometry = WorldGeometry::build(world, world_name, binned, haloFor(report.settings, effects));
+  auto geometry = raytrace::WorldGeometry::build(world, world_name, binned, haloFor(report.settings, effects));
   if (!geometry) return std::unexpected(geometry.error());
   report.notes = geometry->notes();
   report.triangles = geometry->triangleCount();
   report.geometry_s = since(t0);
 
   // The sectors of this bake, in key order (ix, iy) as the manifest keeps them.
-  SectorRange range = geometry->sectors();
+  raytrace::SectorRange range = geometry->sectors();
   if (options.sectors) {
     range.x0 = std::max(range.x0, options.sectors->x0);
     range.x1 = std::min(range.x1, options.sectors->x1);
@@ -519,17 +519,17 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
 
   // The sector directory and its fingerprint: a resumed bake must be the same bake.
   const fs::path dir = sectorDirectory(archive);
-  uint64_t fingerprint = hashKey(geometry->fingerprint(), effects, kBakeFormat);
+  uint64_t fingerprint = raytrace::hashKey(geometry->fingerprint(), effects, kBakeFormat);
   // Text hashed with XXH3, not std::hash: the stamp outlives the build (std::hash may change with
   // the standard library, and a rebuilt drtv would then refuse to resume its own bake).
   auto textHash = [](const std::string& t) { return uint64_t(XXH3_64bits(t.data(), t.size())); };
-  for (const auto& [k, v] : report.settings.describe()) fingerprint = hashKey(fingerprint, textHash(k + "=" + v));
+  for (const auto& [k, v] : report.settings.describe()) fingerprint = raytrace::hashKey(fingerprint, textHash(k + "=" + v));
   // Interiors decide probe flags and indices: every field, exactly (bit patterns, not text).
   for (const InteriorVolume& v : world.interiors) {
-    fingerprint = hashKey(fingerprint, textHash(v.name));
+    fingerprint = raytrace::hashKey(fingerprint, textHash(v.name));
     for (const glm::dvec3& p : {v.probe_position, v.min, v.max})
-      for (int a = 0; a < 3; ++a) fingerprint = hashKey(fingerprint, std::bit_cast<uint64_t>(p[a]));
-    fingerprint = hashKey(fingerprint, uint64_t(std::bit_cast<uint32_t>(v.blend_distance_m)));
+      for (int a = 0; a < 3; ++a) fingerprint = raytrace::hashKey(fingerprint, std::bit_cast<uint64_t>(p[a]));
+    fingerprint = raytrace::hashKey(fingerprint, uint64_t(std::bit_cast<uint32_t>(v.blend_distance_m)));
   }
   char fp_text[32];
   std::snprintf(fp_text, sizeof fp_text, "%016llx", static_cast<unsigned long long>(fingerprint));

@@ -31,7 +31,7 @@ void chooseGridExtent(std::span<const glm::vec3> probes, float ground_min_z, Ind
   grid.cell_height_m = std::max(kMinCellHeightM, (hi - grid.z_min_m) / float(kGridDim));
 }
 
-void fillIndexGrid(const RayScene& scene, std::span<const glm::vec3> probes, const IndexGridSettings& settings,
+void fillIndexGrid(const raytrace::RayScene& scene, std::span<const glm::vec3> probes, const IndexGridSettings& settings,
                    IndexGrid& grid, IndexGridStats& stats) {
   DRTV_CHECK_LE(probes.size(), size_t(kMaxProbesPerSector));
   grid.cells.fill(kNoProbe);
@@ -82,8 +82,8 @@ void fillIndexGrid(const RayScene& scene, std::span<const glm::vec3> probes, con
               j == 0 ? ++n_nearest : ++n_farther;
               break;
             }
-            const Ray ray{c, 0.f, to / dist, dist - kProbeClearanceM};
-            const Hit h = scene.intersect(ray);
+            const raytrace::Ray ray{c, 0.f, to / dist, dist - kProbeClearanceM};
+            const raytrace::Hit h = scene.intersect(ray);
             ++n_rays;
             if (!h.hit()) {
               chosen = order[j].second;

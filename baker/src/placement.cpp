@@ -4,7 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "drtv/baker/sampling.h"
+#include "drtv/raytrace/sampling.h"
 #include "drtv/formats/probe.h"
 #include "drtv/formats/sector.h"
 
@@ -42,12 +42,12 @@ bool isStatic(uint8_t cls) {
 }
 
 // True when `p` is inside geometry (step 4 of placement.h).
-bool inside(const RayScene& scene, const glm::vec3& p, const PlacementSettings& s, uint64_t key, PlacementStats& stats) {
+bool inside(const raytrace::RayScene& scene, const glm::vec3& p, const PlacementSettings& s, uint64_t key, PlacementStats& stats) {
   const int n = s.inside_test_rays;
-  std::vector<Ray> rays(static_cast<size_t>(n));
-  std::vector<Hit> hits(static_cast<size_t>(n));
-  const glm::vec2 shift(unitFloat(hashKey(key, 1)), unitFloat(hashKey(key, 2)));
-  for (int i = 0; i < n; ++i) rays[i] = Ray{p, 0.f, uniformSphere(r2Point(uint32_t(i), shift)), float(s.inside_test_range_m)};
+  std::vector<raytrace::Ray> rays(static_cast<size_t>(n));
+  std::vector<raytrace::Hit> hits(static_cast<size_t>(n));
+  const glm::vec2 shift(raytrace::unitFloat(raytrace::hashKey(key, 1)), raytrace::unitFloat(raytrace::hashKey(key, 2)));
+  for (int i = 0; i < n; ++i) rays[i] = raytrace::Ray{p, 0.f, raytrace::uniformSphere(raytrace::r2Point(uint32_t(i), shift)), float(s.inside_test_range_m)};
   scene.intersect(rays, hits);
   stats.rays += uint64_t(n);
   int hit = 0, back = 0;
@@ -79,12 +79,12 @@ std::vector<Candidate> greedy(const std::vector<Candidate>& sorted, double min_h
 
 }  // namespace
 
-std::vector<PlacedProbe> placeProbes(const RayScene& scene, const SectorGeometry& geometry, glm::ivec2 offset,
+std::vector<PlacedProbe> placeProbes(const raytrace::RayScene& scene, const raytrace::SectorGeometry& geometry, glm::ivec2 offset,
                                      std::span<const LocalInterior> interiors, const PlacementSettings& s,
                                      PlacementStats& stats) {
   const glm::vec2 base(float(offset.x * kSectorSizeM), float(offset.y * kSectorSizeM));
   const int32_t key_x = geometry.key.ix + offset.x, key_y = geometry.key.iy + offset.y;
-  const uint64_t sector_key = hashKey(s.seed, uint64_t(uint32_t(key_x)), uint64_t(uint32_t(key_y)), 0x706c6163ull);
+  const uint64_t sector_key = raytrace::hashKey(s.seed, uint64_t(uint32_t(key_x)), uint64_t(uint32_t(key_y)), 0x706c6163ull);
   const float top = geometry.z_max + kRayTopMarginM;
   const float ray_len = geometry.z_max - geometry.z_min + 2.f * kRayTopMarginM;
   std::vector<Candidate> cands;
@@ -95,7 +95,7 @@ std::vector<PlacedProbe> placeProbes(const RayScene& scene, const SectorGeometry
       const glm::vec3 origin(x, y, top);
       float t = 0.f, z_above = INFINITY;
       for (int k = 0; k < kMaxHitsPerColumn; ++k) {
-        const Hit h = scene.intersect(Ray{origin, t, glm::vec3(0, 0, -1), ray_len});
+        const raytrace::Hit h = scene.intersect(raytrace::Ray{origin, t, glm::vec3(0, 0, -1), ray_len});
         ++stats.rays;
         if (!h.hit()) break;
         t = nextRayStart(h.t);
@@ -139,7 +139,7 @@ std::vector<PlacedProbe> placeProbes(const RayScene& scene, const SectorGeometry
   for (int cy = 0; cy < veg_columns; ++cy)
     for (int cx = 0; cx < veg_columns; ++cx) {
       const float x = base.x + (cx + 0.5f) * veg_step, y = base.y + (cy + 0.5f) * veg_step;
-      for (const Box& b : geometry.vegetation_boxes) {
+      for (const raytrace::Box& b : geometry.vegetation_boxes) {
         if (x < b.min.x || x > b.max.x || y < b.min.y || y > b.max.y) continue;
         cands.push_back({glm::vec3(x, y, b.max.z + float(s.lift_m)), kVegetation, order++, kProbeVegetation});
         ++stats.vegetation_candidates;
@@ -150,7 +150,7 @@ std::vector<PlacedProbe> placeProbes(const RayScene& scene, const SectorGeometry
   std::vector<Candidate> kept;
   kept.reserve(cands.size());
   for (Candidate& c : cands) {
-    const uint64_t key = hashKey(sector_key, c.order);
+    const uint64_t key = raytrace::hashKey(sector_key, c.order);
     if (!inside(scene, c.position, s, key, stats)) {
       kept.push_back(c);
       continue;
@@ -159,7 +159,7 @@ std::vector<PlacedProbe> placeProbes(const RayScene& scene, const SectorGeometry
     for (size_t o = 0; o < std::size(kRelocationOffsets) && !moved; ++o) {
       const glm::vec3 p = c.position + kRelocationOffsets[o];
       if (p.x < base.x || p.y < base.y || p.x >= base.x + float(kSectorSizeM) || p.y >= base.y + float(kSectorSizeM)) continue;
-      if (!inside(scene, p, s, hashKey(key, o + 1), stats)) {
+      if (!inside(scene, p, s, raytrace::hashKey(key, o + 1), stats)) {
         c.position = p;
         c.flags |= kProbeRelocated;
         kept.push_back(c);

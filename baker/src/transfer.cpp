@@ -10,9 +10,9 @@
 #include <chrono>
 #include <cmath>
 
-#include "drtv/baker/sampling.h"
+#include "drtv/raytrace/sampling.h"
 #include "drtv/formats/sh.h"
-#include "stopwatch.h"
+#include "drtv/baker/stopwatch.h"
 
 namespace drtv::baker {
 namespace {
@@ -57,7 +57,7 @@ class CellMap {
  public:
   CellMap() { rehash(1 << 12); }
   uint32_t find(uint64_t key) const {
-    for (size_t i = mix64(key) & mask_;; i = (i + 1) & mask_) {
+    for (size_t i = raytrace::mix64(key) & mask_;; i = (i + 1) & mask_) {
       if (keys_[i] == key) return vals_[i];
       if (keys_[i] == kEscaped) return kNoSurfel;
     }
@@ -65,7 +65,7 @@ class CellMap {
   // Inserts (key, value) if absent; returns the value stored.
   uint32_t insert(uint64_t key, uint32_t value) {
     if (2 * (size_ + 1) > keys_.size()) rehash(keys_.size() * 2);
-    for (size_t i = mix64(key) & mask_;; i = (i + 1) & mask_) {
+    for (size_t i = raytrace::mix64(key) & mask_;; i = (i + 1) & mask_) {
       if (keys_[i] == key) return vals_[i];
       if (keys_[i] == kEscaped) {
         keys_[i] = key;
@@ -96,7 +96,7 @@ class CellMap {
 struct RayResult {
   uint64_t key = kEscaped;
   float t = 0.f;
-  uint32_t prim = kNoPrim;
+  uint32_t prim = raytrace::kNoPrim;
   glm::vec3 position{0.f};  // of the hit: kept so that linking needs no second sin/cos
 };
 
@@ -112,11 +112,11 @@ struct Edge {
 
 using Sh4Rgb = std::array<sh::Sh4, 3>;
 
-glm::vec2 shiftFor(uint64_t key) { return {unitFloat(hashKey(key, 1)), unitFloat(hashKey(key, 2))}; }
+glm::vec2 shiftFor(uint64_t key) { return {raytrace::unitFloat(raytrace::hashKey(key, 1)), raytrace::unitFloat(raytrace::hashKey(key, 2))}; }
 
 // Ray i of a probe's basis b, or of a surfel: cosine-weighted about `n`.
 
-RayResult classify(const RayScene& scene, const Ray& ray, const Hit& h, float inv_cell) {
+RayResult classify(const raytrace::RayScene& scene, const raytrace::Ray& ray, const raytrace::Hit& h, float inv_cell) {
   RayResult r;
   if (!h.hit()) return r;
   r.t = h.t;
@@ -132,7 +132,7 @@ RayResult classify(const RayScene& scene, const Ray& ray, const Hit& h, float in
 
 }  // namespace
 
-std::vector<ProbeData> bakeTransfer(const RayScene& scene, const SectorGeometry& geometry,
+std::vector<ProbeData> bakeTransfer(const raytrace::RayScene& scene, const raytrace::SectorGeometry& geometry,
                                     std::span<const glm::vec3> probes, const TransferSettings& s,
                                     TransferStats& stats, std::span<const glm::vec3> lprt_sources,
                                     std::vector<float>* lprt) {
@@ -141,17 +141,17 @@ std::vector<ProbeData> bakeTransfer(const RayScene& scene, const SectorGeometry&
   const size_t S = lprt_sources.size();
   const bool want_lprt = S > 0 && lprt != nullptr;
   const float inv_cell = 1.f / s.surfel_cell_m;
-  const uint64_t sector_key = hashKey(s.seed, uint64_t(uint32_t(geometry.key.ix)), uint64_t(uint32_t(geometry.key.iy)), 0x7472616eull);
+  const uint64_t sector_key = raytrace::hashKey(s.seed, uint64_t(uint32_t(geometry.key.ix)), uint64_t(uint32_t(geometry.key.iy)), 0x7472616eull);
   auto albedo = [&](uint32_t prim) -> const glm::vec3& { return geometry.materials[geometry.material[prim]]; };
 
   // ---- Probe rays: 4 bases x N cosine-weighted rays, plus one straight down for height_m.
   auto t0 = Clock::now();
   std::vector<ProbeData> out(P);
   std::vector<RayResult> probe_res(P * 4 * N);
-  const CosineSampler probe_sampler{static_cast<uint32_t>(N)}, surfel_sampler{static_cast<uint32_t>(M)};
+  const raytrace::CosineSampler probe_sampler{static_cast<uint32_t>(N)}, surfel_sampler{static_cast<uint32_t>(M)};
   tbb::parallel_for(tbb::blocked_range<size_t>(0, P, 1), [&](const tbb::blocked_range<size_t>& range) {
-    std::vector<Ray> rays(N);
-    std::vector<Hit> hits(N);
+    std::vector<raytrace::Ray> rays(N);
+    std::vector<raytrace::Hit> hits(N);
     std::vector<glm::vec3> dirs(N);
     for (size_t p = range.begin(); p < range.end(); ++p) {
       ProbeData& d = out[p];
@@ -160,10 +160,10 @@ std::vector<ProbeData> bakeTransfer(const RayScene& scene, const SectorGeometry&
       double hit_t = 0.0;
       glm::dvec4 vis_sh(0.0);
       for (int b = 0; b < 4; ++b) {
-        const Frame frame(sh::kBasis[b]);
-        const glm::vec2 shift = shiftFor(hashKey(sector_key, p * 4 + b));
+        const raytrace::Frame frame(sh::kBasis[b]);
+        const glm::vec2 shift = shiftFor(raytrace::hashKey(sector_key, p * 4 + b));
         probe_sampler.generate(frame, shift, dirs);
-        for (size_t i = 0; i < N; ++i) rays[i] = Ray{probes[p], 0.f, dirs[i], INFINITY};
+        for (size_t i = 0; i < N; ++i) rays[i] = raytrace::Ray{probes[p], 0.f, dirs[i], INFINITY};
         scene.intersect(rays, hits);
         size_t escaped = 0;
         for (size_t i = 0; i < N; ++i) {
@@ -188,7 +188,7 @@ std::vector<ProbeData> bakeTransfer(const RayScene& scene, const SectorGeometry&
       if (s.sky_visibility) d.sky_vis_sh = glm::vec4(vis_sh / double(4 * N));
       d.backface_frac = float(double(back) / double(4 * N));
       d.mean_hit_m = hit ? float(hit_t / double(hit)) : 0.f;
-      const Hit down = scene.intersect(Ray{probes[p], 0.f, glm::vec3(0, 0, -1), INFINITY});
+      const raytrace::Hit down = scene.intersect(raytrace::Ray{probes[p], 0.f, glm::vec3(0, 0, -1), INFINITY});
       d.height_m = down.hit() ? std::min(down.t, 655.35f) : 0.f;
     }
   });
@@ -266,16 +266,16 @@ std::vector<ProbeData> bakeTransfer(const RayScene& scene, const SectorGeometry&
       // stay unlinked) are left for the serial pass below, which creates them in (surfel, ray)
       // order: the ids are those a serial insert of every hit would give.
       tbb::parallel_for(tbb::blocked_range<size_t>(lo, hi, 16), [&](const tbb::blocked_range<size_t>& range) {
-        std::vector<Ray> rays(M);
-        std::vector<Hit> hits(M);
+        std::vector<raytrace::Ray> rays(M);
+        std::vector<raytrace::Hit> hits(M);
         std::vector<glm::vec3> dirs(M);
         for (size_t si = range.begin(); si < range.end(); ++si) {
           const Surfel& sf = surfels[si];
-          const Frame frame(sf.normal);
-          const glm::vec2 shift = shiftFor(hashKey(sector_key, (1ull << 40) | si));
+          const raytrace::Frame frame(sf.normal);
+          const glm::vec2 shift = shiftFor(raytrace::hashKey(sector_key, (1ull << 40) | si));
           const glm::vec3 origin = sf.position + kRayOffsetM * sf.normal;
           surfel_sampler.generate(frame, shift, dirs);
-          for (size_t i = 0; i < M; ++i) rays[i] = Ray{origin, 0.f, dirs[i], INFINITY};
+          for (size_t i = 0; i < M; ++i) rays[i] = raytrace::Ray{origin, 0.f, dirs[i], INFINITY};
           scene.intersect(rays, hits);
           sh::Sh4 d(0.f);
           for (size_t i = 0; i < M; ++i) {
@@ -353,7 +353,7 @@ std::vector<ProbeData> bakeTransfer(const RayScene& scene, const SectorGeometry&
   std::atomic<uint64_t> lprt_rays{0};
   tbb::parallel_for(tbb::blocked_range<size_t>(0, level1, 16), [&](const tbb::blocked_range<size_t>& range) {
     uint64_t cast = 0;
-    std::vector<Ray> rays;
+    std::vector<raytrace::Ray> rays;
     std::vector<uint32_t> which;
     std::vector<float> value;
     std::vector<uint8_t> blocked;
@@ -371,7 +371,7 @@ std::vector<ProbeData> bakeTransfer(const RayScene& scene, const SectorGeometry&
         const glm::vec3 l = to / d;
         const float cos = glm::dot(sf.normal, l);
         if (cos <= 0.f) continue;
-        rays.push_back(Ray{origin, 0.f, l, std::max(0.f, d - kSourceClearanceM)});
+        rays.push_back(raytrace::Ray{origin, 0.f, l, std::max(0.f, d - kSourceClearanceM)});
         which.push_back(uint32_t(j));
         value.push_back(cos / std::max(d2, kLprtMinDistance2));
       }

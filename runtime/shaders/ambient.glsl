@@ -4,7 +4,7 @@
 //   glslangValidator -V -S frag runtime/shaders/ambient.glsl -o ambient.glsl.spv
 // The tests run drtvAmbient as Vulkan compute, this file linked with a compute entry point:
 //   glslangValidator -V -S comp -DDRTV_AMBIENT_NO_ENTRY runtime/shaders/ambient.glsl
-//     tests/runtime/shaders/ambient_compute.comp -o ambient_compute.spv      (one line)
+//     bench/common/shaders/ambient_compute.comp -o ambient_compute.spv      (one line)
 //  [1] Gilabert & Stefanov, "Deferred Radiance Transfer Volumes", GDC 2012.
 #version 450
 
@@ -47,7 +47,7 @@ vec3 drtvAmbient(vec3 posWS, vec3 normalWS) {
 
 // The fragment entry point. DRTV_AMBIENT_NO_ENTRY leaves it out, so that another entry point can
 // be linked with this file as a second compilation unit of its stage (the tests' compute pass,
-// tests/runtime/shaders/ambient_compute.comp).
+// bench/common/shaders/ambient_compute.comp).
 #ifndef DRTV_AMBIENT_NO_ENTRY
 layout(location = 0) in vec3 inPositionWS;
 layout(location = 1) in vec3 inNormalWS;

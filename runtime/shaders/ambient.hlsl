@@ -3,7 +3,7 @@
 // docs/runtime.md). Compile check:
 //   glslangValidator -D -V -e main -S frag runtime/shaders/ambient.hlsl -o ambient.hlsl.spv
 // The tests #include this file from a compute entry point and run it as Vulkan compute
-// (tests/runtime/shaders/ambient_compute.hlsl, which gives the command).
+// (bench/common/shaders/ambient_compute.hlsl, which gives the command).
 //  [1] Gilabert & Stefanov, "Deferred Radiance Transfer Volumes", GDC 2012.
 
 Texture3D<float4> VolumeTexture_R : register(t0);

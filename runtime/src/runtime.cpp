@@ -174,4 +174,13 @@ std::optional<BasisColours> Runtime::nearestProbeColours(const glm::dvec3& posit
   return cache_.colours(p);
 }
 
+Result<std::unique_ptr<Runtime>> runtimeForArchive(const Manifest& manifest, const RuntimeOptions& options, double hour,
+                                                   const std::vector<PointLight>* lights) {
+  auto rt = std::make_unique<Runtime>(options);
+  if (auto r = rt->setLighting(manifest.sky, lights ? *lights : manifest.lights, manifest.interiors); !r)
+    return std::unexpected(r.error());
+  if (auto r = rt->setTime(hour); !r) return std::unexpected(r.error());
+  return rt;
+}
+
 }  // namespace drtv::runtime

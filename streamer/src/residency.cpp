@@ -70,9 +70,10 @@ int32_t floorKey(double v_m) { return sectorAt(v_m, 0.0).ix; }
 }  // namespace
 
 Footprint volumeFootprint(const glm::dvec3& position_m, const ResidencyOptions& o) {
-  const double half = 0.5 * kVolumeTexelsXY * o.volume_texel_m;
+  const glm::dvec2 half = 0.5 * glm::dvec2(o.volume.size.x, o.volume.size.y) *
+                          glm::dvec2(o.volume.texel_size_m.x, o.volume.texel_size_m.y);
   const glm::dvec2 c{position_m.x, position_m.y};
-  return {c - glm::dvec2(half), c + glm::dvec2(half)};
+  return {c - half, c + half};
 }
 
 bool overlaps(SectorKey key, const Footprint& f) {

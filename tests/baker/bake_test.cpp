@@ -9,11 +9,11 @@
 #include <limits>
 #include <map>
 
-#include "drtv/baker/accuracy.h"
 #include "drtv/baker/bake.h"
 #include "drtv/baker/placement.h"
-#include "drtv/baker/ray_scene.h"
-#include "drtv/baker/world_geometry.h"
+#include "drtv/raytrace/ray_log.h"
+#include "drtv/raytrace/ray_scene.h"
+#include "drtv/raytrace/world_geometry.h"
 #include "drtv/formats/archive.h"
 #include "drtv/worlds/island.h"
 #include "test_worlds.h"
@@ -166,7 +166,7 @@ TEST(Bake, LprtSourcesNameTheNeighboursOwnProbes) {
   ASSERT_TRUE(r) << r.error().message;
   auto reader = ArchiveReader::open(dir.path / "a.drtv");
   ASSERT_TRUE(reader);
-  auto geometry = WorldGeometry::build(world, "lit");
+  auto geometry = raytrace::WorldGeometry::build(world, "lit");
   ASSERT_TRUE(geometry);
   const BakeSettings settings = BakeSettings::forQuality(Quality::kDraft);
   const uint32_t effects = reader->manifest().effects;
@@ -227,7 +227,7 @@ TEST(Bake, AnInterruptedBakeResumesAndGivesTheSameArchive) {
   ASSERT_TRUE(bake(w, "small", dir.path / "fresh.drtv", draft()));
   // "Interrupted": only one sector done, its files kept.
   BakeOptions part = draft();
-  part.sectors = SectorRange{-1, -1, -1, -1};
+  part.sectors = raytrace::SectorRange{-1, -1, -1, -1};
   part.keep_sector_files = true;
   part.shard_count = 2;  // a shard never packs
   part.shard_index = 0;
@@ -386,7 +386,7 @@ TEST(Bake, AbsurdSettingsAreAnErrorNotALoop) {
   }
   for (Quality q : {Quality::kDraft, Quality::kDefault, Quality::kHigh}) {
     o.settings = BakeSettings::forQuality(q);
-    o.sectors = SectorRange{0, 0, 0, 0};
+    o.sectors = raytrace::SectorRange{0, 0, 0, 0};
     EXPECT_TRUE(bake(test::smallWorld(), "small", dir.path / "b.drtv", o)) << "every preset is valid";
   }
 }
@@ -428,7 +428,7 @@ TEST(Bake, ALitIslandWithLightsEverywhereBakesTheSameEveryWay) {
   for (int i = 0; i < 4; ++i) light("high " + std::to_string(i), {-200.0 + 130 * i, 100.0 - 70 * i, 120.0});
   light("under the terrain", {10.0, 20.0, -30.0});
   // Exactly on probes of two sectors, as an unlit bake places them.
-  auto geometry = WorldGeometry::build(w, "island");
+  auto geometry = raytrace::WorldGeometry::build(w, "island");
   ASSERT_TRUE(geometry);
   for (const SectorKey k : {SectorKey{0, 0}, SectorKey{-2, 1}}) {
     auto p = placeSector(*geometry, w, k, BakeSettings::forQuality(Quality::kDraft), w.effects);
@@ -454,7 +454,7 @@ TEST(Bake, ALitIslandWithLightsEverywhereBakesTheSameEveryWay) {
 TEST(Bake, ALitWorldBakedInPartGivesTheWholeBakesSector) {
   TempDir dir;
   BakeOptions o = draft();
-  o.sectors = SectorRange{0, 0, 0, 0};
+  o.sectors = raytrace::SectorRange{0, 0, 0, 0};
   auto r = bake(litWorld(), "lit", dir.path / "part.drtv", o);
   ASSERT_TRUE(r) << r.error().message;
   EXPECT_TRUE(r->packed);
@@ -501,17 +501,17 @@ TEST(Bake, ReportCountsEveryRayTheBakeCasts) {
   TempDir dir;
   for (const bool lit : {false, true}) {
     SCOPED_TRACE(lit ? "with LPRT" : "without LPRT");
-    RayLog log;
-    setRayLog(&log);
+    raytrace::RayLog log;
+    raytrace::setRayLog(&log);
     auto r = bake(lit ? litWorld() : test::smallWorld(), "small", dir.path / (lit ? "lit.drtv" : "a.drtv"), draft());
-    setRayLog(nullptr);
+    raytrace::setRayLog(nullptr);
     ASSERT_TRUE(r) << r.error().message;
     uint64_t counted = r->placement_pass.outside_rays;
     for (const auto& s : r->sectors) counted += s.rays();
     EXPECT_GT(counted, 0u);
     EXPECT_EQ(counted, log.rays.size());
     size_t in_calls = 0;
-    for (const RayLog::Call& c : log.calls) in_calls += c.count;
+    for (const raytrace::RayLog::Call& c : log.calls) in_calls += c.count;
     EXPECT_EQ(in_calls, log.rays.size());
   }
 }

@@ -2,24 +2,24 @@
 #include <gtest/gtest.h>
 
 #include "drtv/baker/index_grid.h"
-#include "drtv/baker/world_geometry.h"
+#include "drtv/raytrace/world_geometry.h"
 #include "test_worlds.h"
 
 namespace drtv::baker {
 namespace {
 
 struct HouseScene {
-  SectorGeometry geometry;
-  std::optional<RayScene> scene;
+  raytrace::SectorGeometry geometry;
+  std::optional<raytrace::RayScene> scene;
   // Room inside [15.4, 24.6] x [16.4, 23.6] x [0, 3]; the north wall is y in [23.6, 24].
   std::vector<glm::vec3> probes = {{20.f, 17.f, 1.5f}, {20.f, 26.f, 1.5f}};
   HouseScene() {
     worlds::World w = test::planeWorld(200.0, glm::vec3(0.5f));
     test::addHouse(w, {20.f, 20.f, 0.f});
-    auto g = WorldGeometry::build(w, "house");
+    auto g = raytrace::WorldGeometry::build(w, "house");
     EXPECT_TRUE(g);
     geometry = g->gather({0, 0}, 64.0);
-    auto s = RayScene::build(geometry.vertices);
+    auto s = raytrace::RayScene::build(geometry.vertices);
     EXPECT_TRUE(s);
     scene.emplace(std::move(*s));
   }

@@ -17,10 +17,10 @@ struct Placed {
 };
 
 Placed place(const worlds::World& w, SectorKey key, PlacementSettings settings = {}, std::vector<LocalInterior> interiors = {}) {
-  auto g = WorldGeometry::build(w, "test");
+  auto g = raytrace::WorldGeometry::build(w, "test");
   EXPECT_TRUE(g) << g.error().message;
-  const SectorGeometry s = g->gather(key, 64.0);
-  auto scene = RayScene::build(s.vertices);
+  const raytrace::SectorGeometry s = g->gather(key, 64.0);
+  auto scene = raytrace::RayScene::build(s.vertices);
   EXPECT_TRUE(scene);
   Placed p;
   p.probes = placeProbes(*scene, s, {0, 0}, interiors, settings, p.stats);

@@ -3,7 +3,7 @@
 
 #include <cmath>
 
-#include "drtv/baker/sampling.h"
+#include "drtv/raytrace/sampling.h"
 #include "drtv/baker/transfer.h"
 #include "drtv/formats/sh.h"
 #include "test_worlds.h"
@@ -12,16 +12,16 @@ namespace drtv::baker {
 namespace {
 
 struct Baked {
-  SectorGeometry geometry;
-  std::optional<RayScene> scene;
+  raytrace::SectorGeometry geometry;
+  std::optional<raytrace::RayScene> scene;
 };
 
 Baked prepare(const worlds::World& w, SectorKey key = {0, 0}) {
-  auto g = WorldGeometry::build(w, "test");
+  auto g = raytrace::WorldGeometry::build(w, "test");
   EXPECT_TRUE(g) << g.error().message;
   Baked b;
   b.geometry = g->gather(key, 64.0);
-  auto scene = RayScene::build(b.geometry.vertices);
+  auto scene = raytrace::RayScene::build(b.geometry.vertices);
   EXPECT_TRUE(scene);
   b.scene.emplace(std::move(*scene));
   return b;
@@ -78,8 +78,8 @@ TEST(Transfer, DownBasisBounceOverAPlaneIsRhoPiL) {
 // ---- The slow reference: an uncached path tracer with the same estimator, two bounces.
 
 struct Reference {
-  const RayScene& scene;
-  const SectorGeometry& g;
+  const raytrace::RayScene& scene;
+  const raytrace::SectorGeometry& g;
   uint64_t key = 0;
 
   glm::vec3 albedo(uint32_t prim) const { return g.materials[g.material[prim]]; }
@@ -87,17 +87,17 @@ struct Reference {
   // T_x for a surface point (position, normal) with `depth` bounces left, per channel.
   std::array<sh::Sh4, 3> surface(const glm::vec3& p, const glm::vec3& n, int depth, int rays, uint64_t k) const {
     std::array<sh::Sh4, 3> t{sh::Sh4(0.f), sh::Sh4(0.f), sh::Sh4(0.f)};
-    const Frame f(n);
+    const raytrace::Frame f(n);
     for (int i = 0; i < rays; ++i) {
-      const glm::vec3 d = f.toWorld(cosineHemisphere({unitFloat(hashKey(k, i, 1)), unitFloat(hashKey(k, i, 2))}));
-      const Ray ray{p + 1e-3f * n, 0.f, d, INFINITY};
-      const Hit h = scene.intersect(ray);
+      const glm::vec3 d = f.toWorld(raytrace::cosineHemisphere({raytrace::unitFloat(raytrace::hashKey(k, i, 1)), raytrace::unitFloat(raytrace::hashKey(k, i, 2))}));
+      const raytrace::Ray ray{p + 1e-3f * n, 0.f, d, INFINITY};
+      const raytrace::Hit h = scene.intersect(ray);
       if (!h.hit()) {
         for (int c = 0; c < 3; ++c) t[c] += sh::evaluate(d) * (sh::kPi / float(rays));
         continue;
       }
       if (depth <= 1 || !scene.frontFace(ray, h.prim)) continue;
-      const auto child = surface(ray.origin + h.t * d, scene.normal(h.prim), depth - 1, rays / 2, hashKey(k, i, 3));
+      const auto child = surface(ray.origin + h.t * d, scene.normal(h.prim), depth - 1, rays / 2, raytrace::hashKey(k, i, 3));
       const glm::vec3 rho = albedo(h.prim);
       for (int c = 0; c < 3; ++c) t[c] += child[c] * (rho[c] / float(rays));
     }
@@ -106,15 +106,15 @@ struct Reference {
 
   std::array<sh::Sh4, 3> probe(const glm::vec3& p, int basis, int rays, int surface_rays, int bounces) const {
     std::array<sh::Sh4, 3> t{sh::Sh4(0.f), sh::Sh4(0.f), sh::Sh4(0.f)};
-    const Frame f(sh::kBasis[basis]);
+    const raytrace::Frame f(sh::kBasis[basis]);
     for (int i = 0; i < rays; ++i) {
       // Stratified (R2) at the probe, as the bake: plain random here would need 100x the rays
       // for the same noise. Deeper levels are plain random.
-      const glm::vec3 d = f.toWorld(cosineHemisphere(r2Point(uint32_t(i), {0.5f, 0.25f})));
-      const Ray ray{p, 0.f, d, INFINITY};
-      const Hit h = scene.intersect(ray);
+      const glm::vec3 d = f.toWorld(raytrace::cosineHemisphere(raytrace::r2Point(uint32_t(i), {0.5f, 0.25f})));
+      const raytrace::Ray ray{p, 0.f, d, INFINITY};
+      const raytrace::Hit h = scene.intersect(ray);
       if (!h.hit() || !scene.frontFace(ray, h.prim)) continue;
-      const auto tx = surface(p + h.t * d, scene.normal(h.prim), bounces, surface_rays, hashKey(key, basis, i, 3));
+      const auto tx = surface(p + h.t * d, scene.normal(h.prim), bounces, surface_rays, raytrace::hashKey(key, basis, i, 3));
       const glm::vec3 rho = albedo(h.prim);
       for (int c = 0; c < 3; ++c) t[c] += tx[c] * (rho[c] / float(rays));
     }

@@ -6,9 +6,11 @@
 
 #include <gtest/gtest.h>
 
-#include "drtv/baker/accuracy.h"
+#include "drtv/eval/accuracy.h"
 
 namespace drtv::baker {
+using namespace raytrace;
+using namespace eval;
 namespace {
 
 // Sums of a few float values: double accumulation, float inputs.

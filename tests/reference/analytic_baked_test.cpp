@@ -5,12 +5,14 @@
 #include <cmath>
 
 #include "drtv/baker/bake.h"
-#include "drtv/baker/reference.h"
+#include "drtv/reference/reference.h"
 #include "drtv/formats/sh.h"
 #include "drtv/runtime/runtime.h"
 #include "test_scenes.h"
 
 namespace drtv::baker {
+using namespace raytrace;
+using namespace reference;
 namespace {
 
 using testing::kPi;
@@ -34,7 +36,7 @@ struct Baked {
 
 // Bakes sector (0, 0) of `world` and relights it under `sky` at `hour`.
 std::unique_ptr<Baked> bakeAndRelight(const worlds::World& world, const Sky& sky, double hour) {
-  auto geometry = WorldGeometry::build(world, "test");
+  auto geometry = raytrace::WorldGeometry::build(world, "test");
   EXPECT_TRUE(geometry.has_value());
   BakeSettings settings = BakeSettings::forQuality(Quality::kDefault, 1);
   settings.transfer.probe_rays_per_basis = kRaysPerBasis;

@@ -22,7 +22,7 @@
 #include <xxhash.h>
 #include <zstd.h>
 
-#include "drtv/baker/accuracy.h"
+#include "drtv/eval/accuracy.h"
 #include "drtv/formats/archive.h"
 #include "drtv/runtime/runtime.h"
 #include "drtv/worlds/load.h"
@@ -55,7 +55,7 @@ const Baked& baked() {
     auto world = worlds::parseWorldJson(kWorld, ".", "values.json");
     EXPECT_TRUE(world.has_value()) << world.error().message;
     auto bake = baker::bakeInMemory(*world, "values.json", baker::BakeSettings::forQuality(baker::Quality::kDraft, 1),
-                                    baker::SectorRange{0, 0, 0, 0});
+                                    raytrace::SectorRange{0, 0, 0, 0});
     EXPECT_TRUE(bake.has_value()) << bake.error().message;
     out.manifest = bake->manifest;
     out.sectors = bake->sectors;

@@ -6,10 +6,11 @@
 
 #include <memory>
 
-#include "drtv/baker/accuracy.h"
+#include "drtv/eval/accuracy.h"
 #include "drtv/runtime/runtime.h"
 
 namespace drtv::testing {
+using namespace raytrace;
 
 struct BakedWorld {
   std::vector<Sector> sectors;
@@ -17,7 +18,7 @@ struct BakedWorld {
 };
 
 inline BakedWorld bakeWorld(const worlds::World& world, baker::Quality quality,
-                            std::optional<baker::SectorRange> range = std::nullopt) {
+                            std::optional<raytrace::SectorRange> range = std::nullopt) {
   auto b = baker::bakeInMemory(world, world.name, baker::BakeSettings::forQuality(quality, 1), range);
   EXPECT_TRUE(b.has_value()) << (b ? "" : b.error().message);
   if (!b) return {};

@@ -5,9 +5,12 @@
 
 #include "../baker/test_worlds.h"
 #include "baked_world.h"
-#include "drtv/baker/reference.h"
+#include "drtv/reference/reference.h"
 
 namespace drtv::testing {
+using namespace raytrace;
+using namespace reference;
+using namespace eval;
 namespace {
 
 using baker::test::add;
@@ -59,15 +62,15 @@ TEST(LocalLights, ALampInAClosedRoomLendsItsLightOnlyToProbesInTheRoom) {
   }
 
   // The reference: the roof's top and the ground outside get nothing of the lamp.
-  auto scene = baker::ReferenceScene::build(w, "closed room");
+  auto scene = reference::ReferenceScene::build(w, "closed room");
   ASSERT_TRUE(scene);
-  baker::ReferenceLighting lighting{w.sky, 23.0, w.lights};
-  baker::ReferenceSettings settings;
+  reference::ReferenceLighting lighting{w.sky, 23.0, w.lights};
+  reference::ReferenceSettings settings;
   settings.samples = 256;
-  const double floor = baker::referenceIrradiance(*scene, lighting, {{31.0, 31.0, 0.0}, {0, 0, 1}}, settings).parts[baker::kRefLocalLights].mean.g;
+  const double floor = reference::referenceIrradiance(*scene, lighting, {{31.0, 31.0, 0.0}, {0, 0, 1}}, settings).parts[reference::kRefLocalLights].mean.g;
   EXPECT_GT(floor, 0.1);
   for (const glm::dvec3 at : {glm::dvec3(31.0, 31.0, 3.3), glm::dvec3(40.0, 31.0, 0.0)})
-    EXPECT_LT(baker::referenceIrradiance(*scene, lighting, {at, {0, 0, 1}}, settings).parts[baker::kRefLocalLights].mean.g, 0.01 * floor);
+    EXPECT_LT(reference::referenceIrradiance(*scene, lighting, {at, {0, 0, 1}}, settings).parts[reference::kRefLocalLights].mean.g, 0.01 * floor);
 }
 
 }  // namespace

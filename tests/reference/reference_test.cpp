@@ -3,11 +3,13 @@
 
 #include <cmath>
 
-#include "drtv/baker/reference.h"
+#include "drtv/reference/reference.h"
 #include "drtv/formats/sh.h"
 #include "test_scenes.h"
 
 namespace drtv::baker {
+using namespace raytrace;
+using namespace reference;
 namespace {
 
 using testing::kPi;

@@ -9,14 +9,16 @@
 #include <glm/gtc/matrix_transform.hpp>
 
 #include "baked_world.h"
-#include "drtv/baker/reference.h"
-#include "drtv/baker/render.h"
+#include "drtv/reference/reference.h"
+#include "drtv/eval/render.h"
 #include "drtv/baker/transfer.h"
 #include "drtv/formats/sh.h"
 #include "drtv/worlds/load.h"
 #include "test_scenes.h"
 
 namespace drtv::baker {
+using namespace reference;
+using namespace eval;
 namespace {
 
 // Small reference runs: the cases test finiteness and bounds, not convergence.
@@ -134,7 +136,7 @@ TEST(StabilityOfAlbedo, ZeroKillsEveryBounceAndOneConvergesOnAnOpenPlane) {
     expectSound(r, "reference");
     // Over an open plane every bounce path escapes after one hit: exactly rho pi L.
     EXPECT_NEAR(r.parts[kRefSkyBounce].mean.x, rho * testing::kPi, 1e-4);
-    const testing::BakedWorld b = testing::bakeWorld(w, Quality::kDraft, SectorRange{0, 0, 0, 0});
+    const testing::BakedWorld b = testing::bakeWorld(w, Quality::kDraft, raytrace::SectorRange{0, 0, 0, 0});
     auto rt = testing::relit(b, 12.0, glm::dvec3(32, 32, 2));
     const glm::vec3 a = rt->ambient(glm::dvec3(32, 32, 1), glm::vec3(0, 0, -1)).irradiance;
     EXPECT_TRUE(finiteNonNegative(a));
@@ -189,10 +191,10 @@ TEST(StabilityInsideGeometry, AProbeInsideASolidBakesToNoLightAndIsNoticed) {
   inst.mesh = 1;
   inst.transform = glm::translate(glm::dmat4(1.0), glm::dvec3(20, 20, 0));
   w.instances.push_back(inst);
-  auto geometry = WorldGeometry::build(w, "block");
+  auto geometry = raytrace::WorldGeometry::build(w, "block");
   ASSERT_TRUE(geometry.has_value());
-  const SectorGeometry g = geometry->gather({0, 0}, 64.0);
-  auto rays = RayScene::build(g.vertices);
+  const raytrace::SectorGeometry g = geometry->gather({0, 0}, 64.0);
+  auto rays = raytrace::RayScene::build(g.vertices);
   ASSERT_TRUE(rays.has_value());
   TransferStats stats;
   const std::vector<glm::vec3> probes = {{20, 20, 3}, {40, 40, 1.5f}};
@@ -213,7 +215,7 @@ TEST(StabilityInsideGeometry, AProbeInsideASolidBakesToNoLightAndIsNoticed) {
   expectSound(r, "reference");
   EXPECT_EQ(r.ambient.mean, glm::vec3(0.f));
   // And the baked, relit world answers finite light there (placement moved or dropped it).
-  const testing::BakedWorld b = testing::bakeWorld(w, Quality::kDraft, SectorRange{0, 0, 0, 0});
+  const testing::BakedWorld b = testing::bakeWorld(w, Quality::kDraft, raytrace::SectorRange{0, 0, 0, 0});
   auto rt = testing::relit(b, 10.0, glm::dvec3(20, 20, 2));
   EXPECT_TRUE(finiteNonNegative(rt->ambient(glm::dvec3(20, 20, 3), glm::vec3(0, 0, 1)).irradiance));
 }
@@ -324,7 +326,7 @@ TEST(StabilityOfGeometry, DegenerateAndNonFiniteTrianglesAreSkippedNotFatal) {
   ReferenceSettings s;
   s.samples = kSamples;
   expectSound(referenceIrradiance(*scene, ReferenceLighting{}, {glm::dvec3(10.5, 10.2, 1.2), glm::vec3(0, 0, -1), 0}, s), "reference");
-  const testing::BakedWorld b = testing::bakeWorld(w, Quality::kDraft, SectorRange{0, 0, 0, 0});
+  const testing::BakedWorld b = testing::bakeWorld(w, Quality::kDraft, raytrace::SectorRange{0, 0, 0, 0});
   EXPECT_FALSE(b.sectors.empty());
   // A dynamic instance naming a mesh that does not exist is noted, not fatal, for the view.
   w.instances.back().mesh = 99;

@@ -6,12 +6,14 @@
 
 #include <cstdio>
 
-#include "drtv/baker/reference.h"
-#include "drtv/baker/render.h"
+#include "drtv/reference/reference.h"
+#include "drtv/eval/render.h"
 #include "drtv/worlds/load.h"
 #include "baked_world.h"
 
 namespace drtv::baker {
+using namespace reference;
+using namespace eval;
 namespace {
 
 constexpr double kMorning = 8.0, kAfternoon = 16.0;

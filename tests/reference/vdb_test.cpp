@@ -8,10 +8,11 @@
 #include <filesystem>
 
 #include "baked_world.h"
-#include "drtv/baker/vdb.h"
+#include "drtv/eval/vdb.h"
 #include "drtv/worlds/load.h"
 
 namespace drtv::baker {
+using namespace eval;
 namespace {
 
 TEST(ExportVdb, WritesGridsThatReadBackWithTheArchivesProbesAndFiniteLight) {

@@ -3,7 +3,7 @@
 
 #include <gtest/gtest.h>
 
-#include "../formats/test_sectors.h"
+#include "test_sectors.h"
 #include "drtv/formats/quantize.h"
 #include "drtv/runtime/occlusion.h"
 

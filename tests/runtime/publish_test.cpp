@@ -7,7 +7,7 @@
 
 #include "drtv/runtime/lighting_sh.h"
 #include "drtv/runtime/publish.h"
-#include "test_world.h"
+#include "runtime_world.h"
 
 namespace drtv::runtime {
 namespace {

@@ -7,7 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "drtv/runtime/runtime.h"
-#include "test_world.h"
+#include "runtime_world.h"
 
 namespace drtv::runtime {
 namespace {

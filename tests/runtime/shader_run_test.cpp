@@ -73,7 +73,7 @@ const Baked& bakedIsland() {
     fs::create_directories(dir);
     baker::BakeOptions options;
     options.quality = baker::Quality::kDraft;
-    options.sectors = baker::SectorRange{-1, 1, -1, 1};
+    options.sectors = raytrace::SectorRange{-1, 1, -1, 1};
     auto report = baker::bake(*world, "island", dir / "island.drtv", options);
     EXPECT_TRUE(report.has_value()) << (report ? "" : report.error().message);
     if (report) {

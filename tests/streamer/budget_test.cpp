@@ -3,7 +3,7 @@
 
 #include "alloc_counter.h"
 #include "drtv/streamer/streamer.h"
-#include "test_world.h"
+#include "streamer_world.h"
 
 namespace drtv::streamer {
 namespace {

@@ -5,7 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "drtv/streamer/streamer.h"
-#include "test_world.h"
+#include "streamer_world.h"
 
 namespace drtv::streamer {
 namespace {

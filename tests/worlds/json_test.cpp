@@ -7,9 +7,11 @@
 
 #include <gtest/gtest.h>
 
+#include "drtv/image/image.h"
+
 #include "drtv/worlds/load.h"
 #include "drtv/worlds/summary.h"
-#include "drtv/worlds/topdown.h"
+
 
 namespace drtv::worlds {
 namespace {
@@ -328,7 +330,7 @@ TEST(WorldJson, RejectsDuplicateKeysNamingTheKeyPath) {
 // Writes an 8-bit RGB PNG whose texel (x, y) is colour(x, y); returns its path.
 template <class F>
 std::string writeTestPng(const std::string& stem, int w, int h, F colour) {
-  RgbImage img;
+  drtv::image::RgbImage img;
   img.width = w;
   img.height = h;
   img.pixels.resize(size_t(w) * h * 3);
@@ -338,7 +340,7 @@ std::string writeTestPng(const std::string& stem, int w, int h, F colour) {
       img.set(x, y, uint8_t(c.r), uint8_t(c.g), uint8_t(c.b));
     }
   const std::string path = ::testing::TempDir() + "drtv_json_test_" + stem + "_" + std::to_string(::getpid()) + ".png";
-  EXPECT_TRUE(writePng(path, img).has_value());
+  EXPECT_TRUE(drtv::image::writePng(path, img).has_value());
   return path;
 }
 

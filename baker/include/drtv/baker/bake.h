@@ -41,7 +41,7 @@
 #include "drtv/baker/index_grid.h"
 #include "drtv/baker/placement.h"
 #include "drtv/baker/transfer.h"
-#include "drtv/baker/world_geometry.h"
+#include "drtv/raytrace/world_geometry.h"
 #include "drtv/formats/archive.h"
 #include "drtv/formats/error.h"
 #include "drtv/formats/sector.h"
@@ -101,7 +101,7 @@ struct BakeOptions {
   Quality quality = Quality::kDefault;
   uint64_t seed = 1;                     // keys every random number
   int threads = 0;                       // worker threads; 0 = all hardware threads
-  std::optional<SectorRange> sectors;    // bake only these sector keys (inclusive)
+  std::optional<raytrace::SectorRange> sectors;    // bake only these sector keys (inclusive)
   int shard_index = 0, shard_count = 1;  // bake sectors i with i % count == index; no archive
                                          // unless count == 1 (then merge with merge_only)
   bool merge_only = false;               // bake nothing: pack the sectors the shards journaled
@@ -153,7 +153,7 @@ std::string validateSettings(const BakeSettings& settings);
 
 // The manifest of a bake of `world` (bounds, sector size, effects baked, settings and the world's
 // name, sky, lights and interiors): what bake() packs and bakeInMemory() returns.
-Manifest manifestFor(const WorldGeometry& geometry, const worlds::World& world, const std::string& world_name,
+Manifest manifestFor(const raytrace::WorldGeometry& geometry, const worlds::World& world, const std::string& world_name,
                      const BakeSettings& settings, uint32_t effects);
 
 // The halo of geometry a sector is baked with: lprt_halo_m when local lights are baked (LPRT
@@ -164,7 +164,7 @@ double haloFor(const BakeSettings& settings, uint32_t effects);
 // sector bakes and what its neighbours' LPRT sources name. Deterministic: the same world, key and
 // settings give the same bits in any process. Thread-safe; uses TBB. Errors: the scene cannot be
 // built (names the sector).
-Result<SectorPlacement> placeSector(const WorldGeometry& geometry, const worlds::World& world, SectorKey key,
+Result<SectorPlacement> placeSector(const raytrace::WorldGeometry& geometry, const worlds::World& world, SectorKey key,
                                     const BakeSettings& settings, uint32_t effects);
 
 // The sectors whose placement a bake of `keys` needs before its transfer: with LPRT the keys and
@@ -172,14 +172,14 @@ Result<SectorPlacement> placeSector(const WorldGeometry& geometry, const worlds:
 std::vector<SectorKey> placementKeys(std::span<const SectorKey> keys, uint32_t effects);
 
 // placeSector for every key, in parallel, into a map. Errors: the first sector's, in key order.
-Result<SectorPlacements> placeSectors(const WorldGeometry& geometry, const worlds::World& world,
+Result<SectorPlacements> placeSectors(const raytrace::WorldGeometry& geometry, const worlds::World& world,
                                       std::span<const SectorKey> keys, const BakeSettings& settings, uint32_t effects);
 
 // Bakes one sector in memory (no files). `effects` from effectsToBake. `placements` must hold the
 // sector's 8 neighbours when LPRT is baked (placementKeys; a missing one is a bug and aborts); the
 // sector's own placement is taken from it when present and placed here otherwise (the same bits).
 // Thread-safe; uses TBB.
-Result<Sector> bakeSector(const WorldGeometry& geometry, const worlds::World& world, SectorKey key,
+Result<Sector> bakeSector(const raytrace::WorldGeometry& geometry, const worlds::World& world, SectorKey key,
                           const BakeSettings& settings, uint32_t effects, const SectorPlacements& placements,
                           SectorStats& stats);
 
@@ -198,5 +198,22 @@ Result<void> writeReports(const BakeReport& report, const std::filesystem::path&
 
 // "<archive>.sectors" — where the sector journals live while a bake runs.
 std::filesystem::path sectorDirectory(const std::filesystem::path& archive);
+
+// A bake held in memory: what `drtv bake` would write, without files.
+struct InMemoryBake {
+  Manifest manifest;             // bounds, effects, settings, sky, lights, interiors (sector list empty)
+  std::vector<Sector> sectors;   // sectors with at least one probe, in key order
+  std::vector<SectorStats> stats;  // per sector baked (empty ones included)
+  double bake_s = 0;             // wall seconds (geometry excluded)
+  size_t probes = 0;
+  uint64_t rays = 0;
+  size_t bytes = 0;              // sum of encodedSectorBytes of `sectors`
+};
+
+// Bakes the sectors of `world` in `sectors` (default: all its sectors) with `settings` and the
+// effects effectsToBake gives, on `threads` TBB threads (0 = all). Deterministic like bake().
+// Errors: those of bake() (bad lighting, geometry), an empty selection.
+Result<InMemoryBake> bakeInMemory(const worlds::World& world, const std::string& where, const BakeSettings& settings,
+                                  std::optional<raytrace::SectorRange> sectors = std::nullopt, int threads = 0);
 
 }  // namespace drtv::baker

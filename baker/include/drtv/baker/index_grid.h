@@ -21,7 +21,7 @@
 
 #include <glm/glm.hpp>
 
-#include "drtv/baker/ray_scene.h"
+#include "drtv/raytrace/ray_scene.h"
 #include "drtv/formats/sector.h"
 
 namespace drtv::baker {
@@ -47,7 +47,7 @@ void chooseGridExtent(std::span<const glm::vec3> probes, float ground_min_z, Ind
 
 // Fills grid.cells for `probes` (sector-relative positions; index = position in the span, at most
 // 255) using grid.z_min_m / cell_height_m. Thread-safe; uses TBB inside; deterministic.
-void fillIndexGrid(const RayScene& scene, std::span<const glm::vec3> probes, const IndexGridSettings& settings,
+void fillIndexGrid(const raytrace::RayScene& scene, std::span<const glm::vec3> probes, const IndexGridSettings& settings,
                    IndexGrid& grid, IndexGridStats& stats);
 
 }  // namespace drtv::baker

@@ -36,8 +36,8 @@
 
 #include <glm/glm.hpp>
 
-#include "drtv/baker/ray_scene.h"
-#include "drtv/baker/world_geometry.h"
+#include "drtv/raytrace/ray_scene.h"
+#include "drtv/raytrace/world_geometry.h"
 
 namespace drtv::baker {
 
@@ -64,7 +64,7 @@ struct PlacementSettings {
 
 // An interior volume in the gather's local frame.
 struct LocalInterior {
-  Box box;
+  raytrace::Box box;
   glm::vec3 probe_position{0.f};
   uint16_t index = 0;  // 1-based: World::interiors[index - 1]
 };
@@ -90,7 +90,7 @@ struct PlacementStats {
 // the geometry's own sector, neighbours for LPRT sources) using `scene` built over `geometry`.
 // Positions are in the geometry's local frame. `interiors` empty unless the world asks for them.
 // Thread-safe (reads only). Returns at most 255 probes.
-std::vector<PlacedProbe> placeProbes(const RayScene& scene, const SectorGeometry& geometry, glm::ivec2 offset,
+std::vector<PlacedProbe> placeProbes(const raytrace::RayScene& scene, const raytrace::SectorGeometry& geometry, glm::ivec2 offset,
                                      std::span<const LocalInterior> interiors, const PlacementSettings& settings,
                                      PlacementStats& stats);
 

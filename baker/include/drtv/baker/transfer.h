@@ -54,8 +54,8 @@
 
 #include <glm/glm.hpp>
 
-#include "drtv/baker/ray_scene.h"
-#include "drtv/baker/world_geometry.h"
+#include "drtv/raytrace/ray_scene.h"
+#include "drtv/raytrace/world_geometry.h"
 #include "drtv/formats/probe.h"
 
 namespace drtv::baker {
@@ -89,7 +89,7 @@ struct TransferStats {
 // When `lprt_sources` is non-empty, `lprt` receives probes.size() x sources x 3 x 4 floats in
 // LprtBlock order ([probe][source][channel][basis]). Uses TBB inside; the result does not depend
 // on the number of threads. Thread-safe (reads only its arguments).
-std::vector<ProbeData> bakeTransfer(const RayScene& scene, const SectorGeometry& geometry,
+std::vector<ProbeData> bakeTransfer(const raytrace::RayScene& scene, const raytrace::SectorGeometry& geometry,
                                     std::span<const glm::vec3> probes, const TransferSettings& settings,
                                     TransferStats& stats, std::span<const glm::vec3> lprt_sources = {},
                                     std::vector<float>* lprt = nullptr);

@@ -29,11 +29,14 @@
 // any thread may use at any time (publish.h).
 #pragma once
 
+#include <memory>
 #include <optional>
+#include <span>
 #include <vector>
 
 #include <glm/glm.hpp>
 
+#include "drtv/formats/archive.h"
 #include "drtv/formats/effects.h"
 #include "drtv/formats/error.h"
 #include "drtv/formats/lighting.h"
@@ -140,5 +143,12 @@ class Runtime {
   OcclusionMap occlusion_;
   uint64_t relights_ = 0;
 };
+
+// The one way a runtime is set up from an archive (the engine's, `drtv query`'s, the fly-through's,
+// the evaluation's): `options` (optionsForEffects(manifest.effects) for what an engine picks), lit
+// by the manifest's sky, its lights (or `lights` instead when given) and its interiors at `hour`.
+// The caller then adds the sectors it holds. Errors: unsound lighting, a non-finite hour.
+Result<std::unique_ptr<Runtime>> runtimeForArchive(const Manifest& manifest, const RuntimeOptions& options, double hour,
+                                                   const std::vector<PointLight>* lights = nullptr);
 
 }  // namespace drtv::runtime

@@ -27,14 +27,13 @@
 
 #include "drtv/formats/archive.h"
 #include "drtv/formats/sector.h"
+#include "drtv/runtime/probe_cache.h"
+#include "drtv/runtime/volume.h"
 
 namespace drtv::streamer {
 
-// The talk's residency limit [1].
-inline constexpr int kMaxResidentSectors = 51;
-// The volume: 96 x 96 x 16 texels per colour channel [2].
-inline constexpr int kVolumeTexelsXY = 96;
-inline constexpr int kVolumeTexelsZ = 16;
+// The talk's residency limit [1], the runtime's one definition (its cache has that many slots).
+using runtime::kMaxResidentSectors;
 
 // What the streamer needs to know about the viewer.
 struct Camera {
@@ -44,9 +43,9 @@ struct Camera {
 
 struct ResidencyOptions {
   int max_sectors = kMaxResidentSectors;  // sectors resident or in flight, at most [1]
-  // Horizontal size of one volume texel, metres. 96 texels x 2 m = a 192 m square about the
-  // camera; the runtime's volume may be configured otherwise, then pass its texel size here.
-  double volume_texel_m = 2.0;
+  // The runtime's volume [2], whose horizontal footprint about the camera (size x texel size:
+  // 96 x 2 m = a 192 m square by default) is tier 0. Pass the runtime's own options here.
+  runtime::VolumeOptions volume;
   // The footprint is also held at camera + velocity * guard_s: loads take a few frames and the
   // footprint must be complete when the camera gets there. 0.5 s at 100 m/s is 50 m, more than
   // the simulated I/O latency (2 frames) and a thread pool's queueing under a sector-row crossing.

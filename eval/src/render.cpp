@@ -1,0 +1,300 @@
+// Preview renders. See render.h for the per-pixel model and the references [1]-[4].
+#include "drtv/eval/render.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <optional>
+#include <sstream>
+
+#include "drtv/eval/accuracy.h"
+#include "drtv/reference/reference.h"
+#include "drtv/formats/memory_limit.h"
+#include "render_support.h"
+#include "drtv/baker/stopwatch.h"
+
+namespace drtv::eval {
+using namespace baker;
+using namespace reference;
+namespace {
+
+using baker::detail::Clock;
+using baker::detail::since;
+
+constexpr double kPi = 3.14159265358979323846;
+// Reinhard's middle grey [3]: the log-average luminance is mapped here.
+constexpr double kExposureKey = 0.18;
+// Added to luminance before the log so that black pixels do not send the average to -inf [3].
+constexpr double kLogDelta = 1e-4;
+// The error image's relative error saturates at +-100%.
+constexpr double kErrorRange = 1.0;
+// A reference ambient below this fraction of the image's mean is treated as this (dark corners
+// would otherwise show any absolute difference as a huge relative one).
+constexpr double kErrorFloorFraction = 0.02;
+// Height of the error image's colour bar, pixels.
+constexpr int kBarHeight = 8;
+
+Result<glm::dvec3> parseTriple(std::string_view text) {
+  std::istringstream s{std::string(text)};
+  glm::dvec3 v;
+  char c1 = 0, c2 = 0;
+  if (!(s >> v.x >> c1 >> v.y >> c2 >> v.z) || c1 != ',' || c2 != ',' || !s.eof() || !std::isfinite(v.x) ||
+      !std::isfinite(v.y) || !std::isfinite(v.z))
+    return fail("bad triple");
+  return v;
+}
+
+// Diverging blue - white - red for e in [-1, 1].
+glm::u8vec3 diverging(double e) {
+  e = std::clamp(e, -1.0, 1.0);
+  const glm::dvec3 white(1.0), blue(0.12, 0.28, 0.85), red(0.85, 0.12, 0.1);
+  const glm::dvec3 c = e < 0 ? glm::mix(white, blue, -e) : glm::mix(white, red, e);
+  return glm::u8vec3(glm::clamp(c * 255.0 + 0.5, 0.0, 255.0));
+}
+
+float srgbEncode(float x) {
+  x = std::clamp(x, 0.f, 1.f);
+  return x <= 0.0031308f ? 12.92f * x : 1.055f * std::pow(x, 1.f / 2.4f) - 0.055f;
+}
+
+void put(image::RgbImage& img, size_t i, glm::u8vec3 c) {
+  img.pixels[3 * i] = c.r, img.pixels[3 * i + 1] = c.g, img.pixels[3 * i + 2] = c.b;
+}
+
+}  // namespace
+
+Result<RenderCamera> parseCamera(std::string_view text, RenderCamera camera) {
+  auto bad = [&]() { return fail("--camera '" + std::string(text) + "': expected px,py,pz:tx,ty,tz[:fov_deg]"); };
+  const size_t c1 = text.find(':');
+  if (c1 == std::string_view::npos) return bad();
+  const size_t c2 = text.find(':', c1 + 1);
+  auto pos = parseTriple(text.substr(0, c1));
+  auto tgt = parseTriple(text.substr(c1 + 1, c2 == std::string_view::npos ? std::string_view::npos : c2 - c1 - 1));
+  if (!pos || !tgt) return bad();
+  camera.position = *pos;
+  camera.target = *tgt;
+  if (c2 != std::string_view::npos) {
+    std::istringstream s{std::string(text.substr(c2 + 1))};
+    double fov = 0;
+    if (!(s >> fov) || !s.eof()) return bad();
+    camera.vertical_fov_deg = fov;
+  }
+  return camera;
+}
+
+glm::u8vec3 toneMap(const glm::vec3& radiance, float exposure) {
+  glm::u8vec3 out;
+  for (int c = 0; c < 3; ++c) {
+    float x = radiance[c] * exposure;
+    if (!std::isfinite(x) || x < 0.f) x = std::isinf(x) && x > 0.f ? 1e30f : 0.f;
+    x = std::min(x, 1e30f);
+    // ACES fit [2]: (x (a x + b)) / (x (c x + d) + e).
+    const float y = (x * (2.51f * x + 0.03f)) / (x * (2.43f * x + 0.59f) + 0.14f);
+    out[c] = uint8_t(std::lround(255.f * srgbEncode(y)));
+  }
+  return out;
+}
+
+Result<RenderResult> render(const worlds::World& world, const std::string& where, const Manifest& baked,
+                            std::span<const Sector> sectors, const RenderOptions& options, const std::string& baked_where) {
+  const std::string& archive = baked_where.empty() ? where : baked_where;
+  const RenderCamera& cam = options.camera;
+  if (cam.width < 1 || cam.height < 1 || cam.width > 8192 || cam.height > 8192)
+    return fail("--size " + std::to_string(cam.width) + "x" + std::to_string(cam.height) + ": each side must be in [1, 8192]");
+  const glm::dvec3 forward_d = cam.target - cam.position;
+  if (!std::isfinite(glm::dot(forward_d, forward_d)) || !(glm::dot(forward_d, forward_d) > 0.0) ||
+      !std::isfinite(glm::dot(cam.position, cam.position)))
+    return fail("--camera: position and target must be finite and distinct");
+  if (!(cam.vertical_fov_deg > 0.0 && cam.vertical_fov_deg < 170.0))
+    return fail("--camera: field of view " + std::to_string(cam.vertical_fov_deg) + " deg must be in (0, 170)");
+  if (!std::isfinite(options.hour)) return fail("--time: not a finite hour");
+  if (options.reference_samples < 2) return fail("--samples " + std::to_string(options.reference_samples) + ": must be >= 2");
+  if (std::string why = validateLighting(baked.sky, baked.lights, baked.interiors); !why.empty())
+    return fail(archive + ": lighting: " + why);
+  {
+    // Per pixel: the preview's buffers and images (~110 B); with the reference also its queries,
+    // answers, error statistics and two more images (~400 B in all). 8192 x 8192 with the
+    // reference is ~27 GB: refused up front where it cannot fit (memory_limit.h).
+    const uint64_t pixels = uint64_t(cam.width) * uint64_t(cam.height);
+    const uint64_t per_pixel = options.reference ? 400 : 110;
+    const std::string size = std::to_string(cam.width) + "x" + std::to_string(cam.height);
+    if (auto ok = checkMemory(pixels * per_pixel, archive + ": --size " + size,
+                              std::string("a ") + size + (options.reference ? " render with its reference" : " render"));
+        !ok)
+      return std::unexpected(ok.error());
+  }
+
+  std::optional<tbb::global_control> limit;
+  if (options.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(options.threads));
+
+  ReferenceRegion region;
+  region.camera_view = true;
+  auto scene = ReferenceScene::build(world, where, region);
+  if (!scene) return std::unexpected(scene.error());
+
+  RenderResult out;
+  const auto t_preview = Clock::now();
+  size_t loaded = 0;
+  auto rt = detail::makeRuntime(baked, sectors, options.hour, detail::runtimeOptionsFor(baked.effects, options.smooth_fill),
+                                cam.position, [&](SectorKey k) { return detail::inStreamingBlock(k, cam.position); }, &loaded);
+  if (!rt) return std::unexpected(rt.error().context(archive));
+  out.stats.sectors_loaded = loaded;
+
+  // Camera frame: Z up; looking straight up or down picks +Y as the image's up.
+  const glm::dvec3 fwd = glm::normalize(forward_d);
+  glm::dvec3 right = glm::cross(fwd, glm::dvec3(0, 0, 1));
+  if (glm::dot(right, right) < 1e-12) right = glm::cross(fwd, glm::dvec3(0, 1, 0));
+  right = glm::normalize(right);
+  const glm::dvec3 up = glm::cross(right, fwd);
+  const double tan_half = std::tan(cam.vertical_fov_deg * kPi / 360.0);
+  const double aspect = double(cam.width) / double(cam.height);
+  const size_t n = size_t(cam.width) * size_t(cam.height);
+  out.stats.pixels = n;
+
+  const ReferenceLighting lighting{baked.sky, options.hour, baked.lights};
+  const raytrace::RayScene& view = scene->viewRays();
+  const glm::vec3 eye = scene->toLocal(cam.position);
+
+  struct Pixel {
+    glm::vec3 albedo{0.f}, direct{0.f}, sky{0.f};
+  };
+  std::vector<Pixel> px(n);
+  out.preview_ambient.assign(n, glm::vec3(0.f));
+  out.hit.assign(n, 0);
+  std::vector<ReferenceQuery> queries(n);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 256), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i != r.end(); ++i) {
+      const int x = int(i % size_t(cam.width)), y = int(i / size_t(cam.width));
+      const double sx = (2.0 * (x + 0.5) / cam.width - 1.0) * tan_half * aspect;
+      const double sy = (1.0 - 2.0 * (y + 0.5) / cam.height) * tan_half;
+      const glm::vec3 dir = glm::vec3(glm::normalize(fwd + sx * right + sy * up));
+      const raytrace::Hit h = view.intersect(raytrace::Ray{eye, 0.f, dir, std::numeric_limits<float>::infinity()});
+      if (!h.hit()) {
+        px[i].sky = baked.sky.skyRadiance(glm::dvec3(dir), options.hour);
+        continue;
+      }
+      glm::vec3 nrm = view.normal(h.prim);
+      if (glm::dot(nrm, dir) > 0.f) nrm = -nrm;  // seen from behind: shade the side in view
+      const glm::dvec3 pos = scene->toWorld(eye + dir * h.t);
+      out.hit[i] = 1;
+      px[i].albedo = scene->viewAlbedo(h.prim);
+      const DirectIrradiance d = directIrradiance(view, scene->origin(), lighting, pos, nrm);
+      px[i].direct = d.sun + d.lights;
+      out.preview_ambient[i] = (*rt)->ambient(pos, nrm).irradiance;
+      queries[i] = {pos, nrm, uint64_t(i)};
+    }
+  });
+  auto radiance = [&](size_t i, const glm::vec3& ambient) {
+    return out.hit[i] ? px[i].albedo * float(1.0 / kPi) * (ambient + px[i].direct) : px[i].sky;
+  };
+  out.stats.preview_s = since(t_preview);
+
+  // Automatic exposure over the preview [3].
+  double log_sum = 0;
+  for (size_t i = 0; i < n; ++i) log_sum += std::log(kLogDelta + std::max(0.0, detail::luminance(radiance(i, out.preview_ambient[i]))));
+  const double log_avg = std::exp(log_sum / double(n));
+  out.stats.exposure = options.exposure > 0.f ? options.exposure : float(kExposureKey / std::max(log_avg, kLogDelta));
+  if (!std::isfinite(out.stats.exposure)) out.stats.exposure = 1.f;
+
+  out.preview = image::blankImage(cam.width, cam.height);
+  for (size_t i = 0; i < n; ++i) put(out.preview, i, toneMap(radiance(i, out.preview_ambient[i]), out.stats.exposure));
+  for (size_t i = 0; i < n; ++i) {
+    if (!out.hit[i]) continue;
+    ++out.stats.pixels_hit;
+    out.stats.preview_mean_ambient += glm::dvec3(out.preview_ambient[i]);
+  }
+  if (out.stats.pixels_hit) out.stats.preview_mean_ambient /= double(out.stats.pixels_hit);
+  out.stats.mean_abs_rel_error = out.stats.mean_rel_error = out.stats.reference_rel_std_error = std::nan("");
+  if (!options.reference) return out;
+
+  // The reference: path-trace only the pixels that hit geometry.
+  const auto t_ref = Clock::now();
+  std::vector<ReferenceQuery> hit_queries;
+  std::vector<size_t> hit_index;
+  for (size_t i = 0; i < n; ++i)
+    if (out.hit[i]) hit_queries.push_back(queries[i]), hit_index.push_back(i);
+  ReferenceSettings rs;
+  rs.samples = options.reference_samples;
+  rs.seed = options.seed;
+  const std::vector<ReferenceIrradiance> ref = referenceIrradiance(*scene, lighting, hit_queries, rs, options.threads);
+  out.stats.reference_s = since(t_ref);
+  out.reference_ambient.assign(n, glm::vec3(0.f));
+  std::vector<double> ref_std(n, 0.0);
+  for (size_t k = 0; k < hit_index.size(); ++k) {
+    out.reference_ambient[hit_index[k]] = ref[k].ambient.mean;
+    ref_std[hit_index[k]] = detail::luminance(ref[k].ambient.std_error);
+  }
+  out.reference = image::blankImage(cam.width, cam.height);
+  for (size_t i = 0; i < n; ++i) put(out.reference, i, toneMap(radiance(i, out.reference_ambient[i]), out.stats.exposure));
+
+  // Error image and statistics.
+  double ref_mean_lum = 0;
+  for (size_t i : hit_index) {
+    out.stats.reference_mean_ambient += glm::dvec3(out.reference_ambient[i]);
+    ref_mean_lum += detail::luminance(out.reference_ambient[i]);
+  }
+  const double hits = std::max<double>(1.0, double(hit_index.size()));
+  out.stats.reference_mean_ambient /= hits;
+  ref_mean_lum /= hits;
+  // The absolute floor too: a black reference (nothing to bounce from) must not divide by ~0.
+  const double floor_lum = std::max(kAmbientErrorFloor, kErrorFloorFraction * ref_mean_lum);
+  out.error = image::blankImage(cam.width, cam.height);
+  double abs_sum = 0, sum = 0, std_sum = 0;
+  for (size_t i : hit_index) {
+    const double r = std::max(detail::luminance(out.reference_ambient[i]), floor_lum);
+    const double e = (detail::luminance(out.preview_ambient[i]) - detail::luminance(out.reference_ambient[i])) / r;
+    abs_sum += std::abs(e);
+    sum += e;
+    std_sum += ref_std[i] / r;
+    put(out.error, i, diverging(e / kErrorRange));
+  }
+  out.stats.mean_abs_rel_error = abs_sum / hits;
+  out.stats.mean_rel_error = sum / hits;
+  out.stats.reference_rel_std_error = std_sum / hits;
+  // Colour bar: -100% .. +100% across the width, ticks at -50%, 0, +50%.
+  if (cam.height > 2 * kBarHeight)
+    for (int y = cam.height - kBarHeight; y < cam.height; ++y)
+      for (int x = 0; x < cam.width; ++x) {
+        const double e = (2.0 * (x + 0.5) / cam.width - 1.0) * kErrorRange;
+        glm::u8vec3 c = diverging(e / kErrorRange);
+        for (double tick : {-0.5, 0.0, 0.5})
+          if (std::abs(x - (tick / kErrorRange + 1.0) * 0.5 * cam.width) < 1.0 && y < cam.height - kBarHeight / 2) c = glm::u8vec3(0);
+        put(out.error, size_t(y) * cam.width + x, c);
+      }
+  return out;
+}
+
+Result<RenderResult> render(const worlds::World& world, const std::string& where, const std::filesystem::path& archive,
+                            const RenderOptions& options) {
+  auto reader = ArchiveReader::open(archive);
+  if (!reader) return std::unexpected(reader.error());
+  std::vector<Sector> sectors;
+  for (const SectorEntry& e : reader->manifest().sectors) {
+    if (!detail::inStreamingBlock(e.key, options.camera.position)) continue;
+    auto s = reader->readSector(e.key);
+    if (!s) return std::unexpected(s.error());
+    sectors.push_back(std::move(*s));
+  }
+  return render(world, where, reader->manifest(), sectors, options, archive.string());
+}
+
+Result<std::vector<std::filesystem::path>> writeRenderImages(const RenderResult& result, const std::filesystem::path& path) {
+  std::vector<std::filesystem::path> written;
+  if (auto r = image::writePng(path, result.preview); !r) return std::unexpected(r.error());
+  written.push_back(path);
+  if (result.reference.width > 0) {
+    const std::filesystem::path dir = path.parent_path(), stem = path.stem();
+    const std::filesystem::path ref = dir / (stem.string() + "_reference.png"), err = dir / (stem.string() + "_error.png");
+    if (auto r = image::writePng(ref, result.reference); !r) return std::unexpected(r.error());
+    if (auto r = image::writePng(err, result.error); !r) return std::unexpected(r.error());
+    written.push_back(ref);
+    written.push_back(err);
+  }
+  return written;
+}
+
+}  // namespace drtv::eval

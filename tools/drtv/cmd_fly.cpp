@@ -1,0 +1,150 @@
+// drtv fly <archive> [--path path.json | --loop] [--speed m/s] [--frames N]
+//          [--time-of-day-rate h/s] [--json] [-o outdir]
+// A deterministic fly-through of a baked archive (drtv/streamer/fly.h): streaming, relighting and
+// volume updates per frame, written as frames.csv, fly-report.json, fly-report.md and PNGs.
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "commands.h"
+#include "drtv/worlds/load.h"
+#include "drtv/fly/fly.h"
+
+namespace drtv::app {
+namespace {
+
+struct FlyCliOptions {
+  std::string archive;
+  std::string path_file;
+  bool loop = false;
+  double speed_mps = 100.0;
+  int frames = 0;
+  double hours_per_s = 0.1;
+  double start_hour = 7.0;
+  double fps = 60.0;
+  bool json = false;
+  std::string outdir = "fly-report";
+  int io_threads = 0;  // 0 = deterministic I/O
+  bool no_runtime = false;
+  std::vector<std::string> faults;  // "ix,iy:kind"
+  std::string world;                // world file whose lights (and their paths) to fly with
+};
+
+// "3,-1:corrupt" -> key and fault.
+Result<std::pair<SectorKey, streamer::Fault>> parseFault(const std::string& text) {
+  const auto colon = text.find(':');
+  int ix = 0, iy = 0;
+  char comma = 0;
+  std::istringstream in(text.substr(0, colon));
+  if (colon == std::string::npos || !(in >> ix >> comma >> iy) || comma != ',')
+    return fail("--fault " + text + ": expected IX,IY:KIND (kind missing, truncated, corrupt or slow)");
+  const std::string kind = text.substr(colon + 1);
+  for (auto f : {streamer::Fault::kMissing, streamer::Fault::kTruncated, streamer::Fault::kCorrupt, streamer::Fault::kSlow})
+    if (kind == streamer::faultName(f)) return std::pair{SectorKey{ix, iy}, f};
+  return fail("--fault " + text + ": unknown kind '" + kind + "' (missing, truncated, corrupt or slow)");
+}
+
+Result<void> runFly(const FlyCliOptions& o) {
+  auto reader = ArchiveReader::open(o.archive);
+  if (!reader) return std::unexpected(reader.error());
+  auto file = streamer::FileSectorSource::open(o.archive);
+  if (!file) return std::unexpected(file.error());
+  std::shared_ptr<streamer::SectorSource> source(std::move(*file));
+  if (!o.faults.empty()) {
+    auto faults = std::make_shared<streamer::FaultInjectingSource>(
+        source, o.io_threads ? streamer::FaultInjectingSource::SlowReads::kSleep : streamer::FaultInjectingSource::SlowReads::kSimulated);
+    for (const std::string& text : o.faults) {
+      auto f = parseFault(text);
+      if (!f) return std::unexpected(f.error());
+      // A slow read takes half a second: long enough to show in the report at 100 m/s.
+      faults->inject(f->first, f->second, streamer::FaultInjectingSource::kForever, 0.5);
+    }
+    source = faults;
+  }
+  streamer::StreamerOptions so;
+  so.io_mode = o.io_threads ? streamer::IoMode::kThreads : streamer::IoMode::kDeterministic;
+  so.io_threads = std::max(1, o.io_threads);
+  streamer::Streamer s(reader->manifest(), source, so);
+
+  auto path = o.path_file.empty() ? Result<fly::CatmullRomPath>(fly::defaultFlightPath(reader->manifest(), o.loop))
+                                  : fly::loadFlightPath(o.path_file);
+  if (!path) return std::unexpected(path.error());
+
+  fly::FlyOptions fo;
+  fo.speed_mps = o.speed_mps;
+  fo.fps = o.fps;
+  fo.frames = o.frames;
+  fo.start_hour = o.start_hour;
+  fo.hours_per_s = o.hours_per_s;
+  fo.runtime = !o.no_runtime;
+  if (!o.world.empty()) {
+    auto world = worlds::loadWorld(o.world);
+    if (!world) return std::unexpected(world.error());
+    if (world->lights.empty()) return fail(o.world + ": --world gives the flight its lights, and this world has none");
+    if (!(reader->manifest().effects & kEffectLocalLights))
+      return fail(o.archive + ": baked without local lights (LPRT), so the lights of " + o.world + " would not show; bake a world with lights");
+    fo.lights = world->lights;
+    fo.light_paths = world->light_paths;
+  }
+  if (showProgress())
+    fo.progress = [](int done, int total) {
+      std::fprintf(stderr, "\rdrtv fly: frame %d / %d", done, total);
+      if (done == total) std::fputc('\n', stderr);
+    };
+  if (auto made = createParentFolder((std::filesystem::path(o.outdir) / "fly-report.json").string()); !made) return made;
+  auto result = fly::fly(s, *path, fo, o.archive);
+  if (!result) return std::unexpected(result.error());
+  if (auto ok = fly::writeFlyReport(*result, o.outdir); !ok) return ok;
+
+  const fly::FlySummary sum = fly::summarize(*result);
+  if (o.json) {
+    std::ifstream f(std::filesystem::path(o.outdir) / "fly-report.json");
+    std::stringstream text;
+    text << f.rdbuf();
+    std::fputs(text.str().c_str(), stdout);
+    return {};
+  }
+  std::printf("flew %d frames (%.0f m at %.0f m/s) over %s\n", sum.frames, result->path_length_m, o.speed_mps, o.archive.c_str());
+  std::printf("resident: max %d sectors, %zu B (budget %zu B); volume %zu B on top\n", sum.max_resident, sum.max_resident_bytes,
+              result->max_bytes, result->volume_bytes);
+  std::printf("loads %lld, evictions %lld, failures %lld, misses %lld (in %lld frames)\n", (long long)sum.loads,
+              (long long)sum.evictions, (long long)sum.failures, (long long)sum.misses, (long long)sum.frames_with_misses);
+  std::printf("frame CPU ms: p50 %.4f, p99 %.4f, max %.4f\n", sum.frame_ms_p50, sum.frame_ms_p99, sum.frame_ms_max);
+  std::printf("report: %s/fly-report.md\n", o.outdir.c_str());
+  return {};
+}
+
+}  // namespace
+
+Command registerFly(CLI::App& app) {
+  auto o = std::make_shared<FlyCliOptions>();
+  CLI::App* sub = app.add_subcommand("fly", "Fly a camera through a baked archive: streaming, relighting, volume updates, report");
+  sub->add_option("archive", o->archive, "Baked archive")->required();
+  auto* path = sub->add_option("--path", o->path_file, "Waypoints JSON: {\"loop\": bool, \"waypoints\": [[x,y,z], ...]} (metres)");
+  sub->add_flag("--loop", o->loop, "Fly the default closed circuit instead of the default crossing")->excludes(path);
+  sub->add_option("--speed", o->speed_mps, "Camera speed, metres per second")->check(finiteRange(0.0, 10000.0, /*lo_open=*/true));
+  sub->add_option("--frames", o->frames, "Frames to fly (0 = the path once)")->check(CLI::NonNegativeNumber);
+  sub->add_option("--time-of-day-rate", o->hours_per_s, "Hours of the day per second of flight")
+      ->check(finiteRange(-1e6, 1e6));
+  sub->add_option("--start-hour", o->start_hour, "Time of day at the first frame, hours")->check(finiteRange(0.0, 24.0));
+  sub->add_option("--fps", o->fps, "Fixed frame rate, frames per second")->check(finiteRange(1.0, 1000.0));
+  sub->add_option("--io-threads", o->io_threads,
+                  "Background I/O threads; 0 (default) = deterministic simulated I/O, reproducible reports")
+      ->check(CLI::Range(0, 64));
+  sub->add_option("--world", o->world,
+                  "World file whose lights fly with the camera; lights with a path move along it (docs/world-format.md)");
+  sub->add_option("--fault", o->faults, "Inject a fault on a sector: IX,IY:missing|truncated|corrupt|slow (repeatable)");
+  sub->add_flag("--no-runtime", o->no_runtime, "Stream only: no relighting or volume updates");
+  sub->add_flag("--json", o->json, "Print fly-report.json on stdout instead of the text summary");
+  sub->add_option("-o,--output", o->outdir, "Output directory (created)");
+  return {sub, [o]() -> Result<void> {
+            if (!std::filesystem::exists(o->archive)) return fail(o->archive + ": no such file");
+            return runFly(*o);
+          }, &o->archive};
+}
+
+}  // namespace drtv::app

@@ -1,0 +1,120 @@
+// drtv/fly/fly.h — a deterministic fly-through: a camera on a spline at a fixed frame rate,
+// the streamer feeding drtv::runtime (relight, volumes, occlusion), the time of day advancing,
+// and per-frame measurements written as CSV, JSON, Markdown and PNG (`drtv fly`).
+//
+//  [1] Gilabert & Stefanov, "Deferred Radiance Transfer Volumes", GDC 2012, slides 24 (51
+//      sectors, 760 KB / 11.5 MB), 34-36 (volume scrolling), 58 (occlusion tiles).
+//
+// Warm-up: before frame 0 the camera is held at the start until the streamer is idle (not
+// measured; FlyResult::warmup_frames says how many updates it took).
+// Per frame (frame's thread, in this order):
+//   1. Streamer::update(camera, t, sink): loads handed to the runtime (Runtime::addSector relights
+//      the sector with the current lighting and marks its volume footprint; timed as relight_ms),
+//      evictions (Runtime::removeSector);
+//   2. Runtime::setTime(hour) and Runtime::update(camera): a full relight when the time of day
+//      moved the lighting past the runtime's threshold, the volume scroll and slab fills, publish
+//      (timed as volume_ms; full_relight says whether this frame relit everything).
+// frame_ms = update_ms + relight_ms + volume_ms: the frame thread's CPU time for GI. I/O is not
+// in it: threads do it (kThreads), or it is simulated and reported apart (kDeterministic).
+//
+// Determinism: with StreamerOptions::io_mode = kDeterministic (the default here) the loads,
+// evictions, misses and bytes of every frame depend only on the archive and the options; the
+// times (ms) are measurements and vary from run to run.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "drtv/formats/error.h"
+#include "drtv/image/image.h"
+#include "drtv/fly/flight_path.h"
+#include "drtv/streamer/streamer.h"
+
+namespace drtv::fly {
+
+// At most this many frames per flight (~3 days at 60 Hz; the per-frame records take ~170 B each).
+inline constexpr int kMaxFlyFrames = 10'000'000;
+
+struct FlyOptions {
+  double speed_mps = 100.0;     // camera speed along the path, metres per second
+  double fps = 60.0;            // fixed frame rate, frames per second
+  int frames = 0;               // frames to fly; 0 = the path once (one lap of a loop)
+  double start_hour = 7.0;      // time of day at frame 0, hours
+  double hours_per_s = 0.1;     // time-of-day rate: hours per second of flight
+  bool runtime = true;          // relight and fill the volumes with drtv::runtime
+  int snapshots = 4;            // top-down PNGs at evenly spaced frames (the last included)
+  // Before frame 0, load the start position's sectors with the camera held there (a game loads
+  // the area before the player appears), so that the flight's misses are the streamer's, not a
+  // cold start's. At most this many warm-up updates, 1/fps apart, before t = 0; 0 = cold start.
+  int warmup_frames = 600;
+  // Moving lights: when `lights` is not empty it replaces the archive's lights, and each frame
+  // sets every light with a path (light_paths[i], validateLightPath) to its state at the frame's
+  // flight time (lightAt); the runtime redistributes them onto source probes and relights.
+  std::vector<PointLight> lights;
+  std::vector<LightPath> light_paths;
+  // Called every ~1 % of the flight with (frames done, frames total): progress for a terminal.
+  std::function<void(int, int)> progress;
+};
+
+struct FlyFrame {
+  streamer::FrameStats stats;             // the streamer's view of the frame
+  glm::dvec3 position_m{0.0};   // camera
+  double hour = 0.0;            // time of day
+  double relight_ms = 0.0;      // Runtime::addSector of this frame's loads (0 without runtime)
+  double volume_ms = 0.0;       // Runtime::setTime + update: relight if needed, scroll, publish
+  bool full_relight = false;    // the runtime relit every resident probe this frame
+  double lights_ms = 0.0;       // Runtime::setLights of this frame's moving lights (0 without)
+  double frame_ms = 0.0;        // stats.update_ms + relight_ms + lights_ms + volume_ms
+};
+
+// A top-down picture of the world at one frame: RGB8, row 0 = north (max y).
+struct FlySnapshot {
+  int frame = 0;
+  image::RgbImage image;
+};
+
+struct FlyResult {
+  std::string archive;              // path as given, for the report
+  std::string runtime_note;         // what the runtime did, or why it did not run
+  FlyOptions options;
+  streamer::StreamerOptions streamer;
+  double path_length_m = 0.0;
+  bool loop = false;
+  std::vector<glm::dvec3> waypoints;
+  int warmup_frames = 0;            // warm-up updates run before frame 0
+  std::vector<FlyFrame> frames;
+  std::vector<FlySnapshot> snapshots;
+  std::vector<streamer::SectorFailure> failures;
+  size_t max_bytes = 0;             // the streamer's byte budget
+  size_t volume_bytes = 0;          // the runtime's 3 RGBA8 textures (0 without runtime)
+  size_t io_working_bytes = 0;      // the loads' working memory at most (streamer::Streamer::ioWorkingBytes)
+  uint64_t total_loads = 0, total_evictions = 0;
+};
+
+// Flies `path` with `streamer` (fresh: nothing resident). Errors: the runtime rejected the
+// archive's lighting or a sector (the message says which). Frame's thread; not reentrant.
+Result<FlyResult> fly(streamer::Streamer& streamer, const CatmullRomPath& path, const FlyOptions& options, std::string archive_name);
+
+// Summary figures of a flight (also in fly-report.json).
+struct FlySummary {
+  int frames = 0;
+  int max_resident = 0;
+  size_t max_resident_bytes = 0, max_reserved_bytes = 0;
+  int64_t loads = 0, evictions = 0, failures = 0, misses = 0, frames_with_misses = 0;
+  double frame_ms_p50 = 0, frame_ms_p99 = 0, frame_ms_max = 0;
+  double update_ms_p99 = 0, relight_ms_p99 = 0, volume_ms_p99 = 0;
+  double inline_io_ms_mean_per_load = 0;  // kDeterministic: the I/O threads' work per sector
+  int full_relights = 0;
+};
+FlySummary summarize(const FlyResult& result);
+
+// Writes frames.csv, fly-report.json, fly-report.md, resident-bytes.png, frame-time.png and
+// topdown-<frame>.png into `outdir` (created). Error names the file that could not be written.
+Result<void> writeFlyReport(const FlyResult& result, const std::filesystem::path& outdir);
+
+}  // namespace drtv::fly

@@ -1,0 +1,448 @@
+// The fly-through and its report (fly.h).
+#include "drtv/fly/fly.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <set>
+
+#include <nlohmann/json.hpp>
+
+#include "drtv/image/image.h"
+#include "drtv/runtime/runtime.h"
+
+namespace drtv::fly {
+using namespace streamer;
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+// Hands the streamer's sectors to the runtime and remembers what was ever loaded (for pictures).
+class FlySink final : public SectorSink {
+ public:
+  explicit FlySink(runtime::Runtime* rt) : rt_(rt) {}
+  void onSectorLoaded(const Sector& sector, const OcclusionTile& tile) override {
+    ever_loaded.insert(sector.key);
+    if (!rt_) return;
+    const auto t0 = Clock::now();
+    if (auto ok = rt_->addSector(sector, &tile); !ok) {
+      ++runtime_errors;
+      if (first_error.empty()) first_error = ok.error().message;
+    }
+    relight_ms += msSince(t0);
+  }
+  void onSectorEvicted(SectorKey key) override {
+    if (rt_) rt_->removeSector(key);
+  }
+  std::set<SectorKey> ever_loaded;
+  double relight_ms = 0.0;
+  int runtime_errors = 0;
+  std::string first_error;
+
+ private:
+  runtime::Runtime* rt_;
+};
+
+struct KeyRange {
+  int32_t x0, y0, x1, y1;
+};
+KeyRange keyRange(const Manifest& m) {
+  KeyRange r{0, 0, 0, 0};
+  if (m.sectors.empty()) return r;
+  r = {INT32_MAX, INT32_MAX, INT32_MIN, INT32_MIN};
+  for (const SectorEntry& e : m.sectors) {
+    r.x0 = std::min(r.x0, e.key.ix);
+    r.y0 = std::min(r.y0, e.key.iy);
+    r.x1 = std::max(r.x1, e.key.ix);
+    r.y1 = std::max(r.y1, e.key.iy);
+  }
+  return r;
+}
+
+// Widest archive, in sectors, that gets top-down pictures (8 px per sector at least: 4096 px).
+constexpr int64_t kMaxPictureSectors = 512;
+
+// Top-down picture: one block per sector (its occlusion tile when resident), the volume's
+// footprint, the path and the camera.
+FlySnapshot snapshot(const Streamer& s, const FlySink& sink, const CatmullRomPath& path, const Camera& cam, int frame) {
+  const Manifest& m = s.manifest();
+  const KeyRange kr = keyRange(m);
+  const int nx = kr.x1 - kr.x0 + 3, ny = kr.y1 - kr.y0 + 3;  // one sector of margin each side
+  const int ps = std::clamp(8 * int(std::lround(640.0 / (8.0 * std::max(nx, ny)))), 8, 64);  // pixels per sector
+  image::Canvas c(nx * ps, ny * ps, {18, 28, 56});
+  const double x0_m = (kr.x0 - 1) * kSectorSizeM, y0_m = (kr.y0 - 1) * kSectorSizeM;
+  auto px = [&](double wx) { return (wx - x0_m) / kSectorSizeM * ps; };
+  auto py = [&](double wy) { return c.height() - (wy - y0_m) / kSectorSizeM * ps; };
+  const int tp = ps / runtime::kOcclusionTileDim;
+  for (const SectorEntry& e : m.sectors) {
+    const int sx = int(px(e.key.ix * kSectorSizeM)), sy = int(py((e.key.iy + 1) * kSectorSizeM));
+    const SectorState st = s.state(e.key);
+    image::Rgb col{72, 72, 72};  // in the archive, never loaded
+    if (st == SectorState::kQueued || st == SectorState::kLoading) col = {215, 175, 40};
+    else if (st == SectorState::kBackingOff) col = {205, 40, 205};
+    else if (sink.ever_loaded.count(e.key)) col = {120, 52, 52};  // evicted
+    if (const OcclusionTile* t = s.occlusionTile(e.key)) {
+      for (int ty = 0; ty < runtime::kOcclusionTileDim; ++ty)
+        for (int tx = 0; tx < runtime::kOcclusionTileDim; ++tx) {
+          const float v = t->visibility(tx, ty);
+          const image::Rgb g{uint8_t(30 + 90 * v), uint8_t(90 + 165 * v), uint8_t(30 + 90 * v)};
+          const int y = sy + (runtime::kOcclusionTileDim - 1 - ty) * tp;  // tile row 0 is south
+          c.fill(sx + tx * tp, y, sx + (tx + 1) * tp, y + tp, g);
+        }
+    } else {
+      c.fill(sx, sy, sx + ps, sy + ps, col);
+    }
+    if (ps >= 16) c.rect(sx, sy, sx + ps - 1, sy + ps - 1, {40, 40, 40});
+  }
+  const Footprint f = volumeFootprint(cam.position_m, s.options().residency);
+  c.rect(int(px(f.min.x)), int(py(f.max.y)), int(px(f.max.x)), int(py(f.min.y)), {255, 255, 255});
+  const double step = std::max(1.0, path.lengthM() / 2000.0);
+  for (double a = 0; a + step <= path.lengthM(); a += step) {
+    const glm::dvec3 p = path.position(a), q = path.position(a + step);
+    c.line(px(p.x), py(p.y), px(q.x), py(q.y), {90, 150, 255});
+  }
+  c.fill(int(px(cam.position_m.x)) - 3, int(py(cam.position_m.y)) - 3, int(px(cam.position_m.x)) + 4,
+         int(py(cam.position_m.y)) + 4, {255, 60, 40});
+  c.digits(6, 6, std::to_string(frame), {255, 255, 255}, 3);
+  return {frame, c.take()};
+}
+
+double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  const size_t i = std::min(v.size() - 1, size_t(std::ceil(p * double(v.size()))) - (p > 0 ? 1 : 0));
+  return v[i];
+}
+
+}  // namespace
+
+Result<FlyResult> fly(Streamer& streamer, const CatmullRomPath& path, const FlyOptions& o, std::string archive_name) {
+  // Options come from the command line: bad values are errors, not bugs.
+  if (!(std::isfinite(o.fps) && o.fps > 0.0)) return fail("fly: fps must be a finite number > 0");
+  if (!(std::isfinite(o.speed_mps) && o.speed_mps >= 0.0)) return fail("fly: speed must be a finite number >= 0");
+  if (!std::isfinite(o.start_hour) || !std::isfinite(o.hours_per_s)) return fail("fly: start hour and time-of-day rate must be finite");
+  if (o.frames < 0 || o.frames > kMaxFlyFrames) return fail("fly: frames must be in [0, " + std::to_string(kMaxFlyFrames) + "]");
+  const Manifest& m = streamer.manifest();
+  FlyResult r;
+  r.archive = std::move(archive_name);
+  r.options = o;
+  r.streamer = streamer.options();
+  r.path_length_m = path.lengthM();
+  r.loop = path.closed();
+  r.waypoints = path.waypoints();
+  r.max_bytes = streamer.maxBytes();
+  r.io_working_bytes = streamer.ioWorkingBytes();
+
+  std::unique_ptr<runtime::Runtime> rt;
+  if (o.runtime) {
+    runtime::RuntimeOptions ro = runtime::optionsForEffects(m.effects);
+    // The volume the streamer holds the sectors of (its residency's tier 0); fill and blur stay
+    // what the archive's effects ask for.
+    ro.volume.size = streamer.options().residency.volume.size;
+    ro.volume.texel_size_m = streamer.options().residency.volume.texel_size_m;
+    for (size_t i = 0; i < o.light_paths.size(); ++i)
+      if (!o.light_paths[i].keys.empty())
+        if (std::string e = validateLightPath(o.light_paths[i]); !e.empty())
+          return fail("fly: lights[" + std::to_string(i) + "].path." + e);
+    if (o.light_paths.size() > o.lights.size()) return fail("fly: more light paths than lights");
+    const std::vector<PointLight>& lights = o.lights.empty() ? m.lights : o.lights;
+    auto made = runtime::runtimeForArchive(m, ro, o.start_hour, &lights);
+    if (!made) return std::unexpected(made.error().context(r.archive));
+    rt = std::move(*made);
+    r.runtime_note = "drtv::runtime: Runtime::addSector per load, setTime + update per frame (" +
+                     effectsToString(m.effects) + ")";
+    const size_t movers = size_t(std::count_if(o.light_paths.begin(), o.light_paths.end(), [](const LightPath& p) { return !p.keys.empty(); }));
+    if (movers > 0)
+      r.runtime_note += "; " + std::to_string(movers) + " of " + std::to_string(lights.size()) +
+                        " lights move (Runtime::setLights every frame, in the frame time)";
+  } else {
+    r.runtime_note = "runtime off (--no-runtime): streaming only; relight and volume times are 0";
+  }
+  FlySink sink(rt.get());
+
+  const double dt = 1.0 / o.fps;
+  const double travel_s = o.speed_mps > 0 ? path.lengthM() / o.speed_mps : 0.0;
+  const double path_frames = std::ceil(travel_s * o.fps) + 1.0;
+  if (o.frames == 0 && (o.speed_mps <= 0.0 || !(path_frames <= double(kMaxFlyFrames))))
+    return fail("fly: flying the " + std::to_string(int64_t(path.lengthM())) + " m path once at " + std::to_string(o.speed_mps) +
+                " m/s takes more than " + std::to_string(kMaxFlyFrames) + " frames: raise the speed or give the frame count");
+  const int frames = o.frames > 0 ? o.frames : std::max(1, int(path_frames));
+  if (o.warmup_frames > 0) {
+    const Camera start{path.position(0.0), path.direction(0.0) * o.speed_mps};
+    // Warm-up time runs up to t = 0 so that back-off and simulated latency stay consistent.
+    for (int i = 0; i < o.warmup_frames; ++i) {
+      streamer.update(start, double(i - o.warmup_frames) * dt, sink);
+      ++r.warmup_frames;
+      if (streamer.idle() && i > 0) break;
+    }
+    if (rt) rt->update(start.position_m);
+  }
+  std::vector<int> snap_at;
+  // Top-down pictures cost 8 px per sector at least: a world wider than kMaxPictureSectors gets none.
+  const KeyRange kr = keyRange(m);
+  const bool pictures = int64_t(kr.x1) - kr.x0 + 3 <= kMaxPictureSectors && int64_t(kr.y1) - kr.y0 + 3 <= kMaxPictureSectors;
+  if (!pictures) r.runtime_note += "; no top-down pictures: the archive spans more than " + std::to_string(kMaxPictureSectors) + " sectors";
+  for (int k = 1; pictures && k <= o.snapshots; ++k) snap_at.push_back(std::min(frames - 1, int(std::lround(double(frames - 1) * k / o.snapshots))));
+  r.frames.reserve(size_t(frames));
+  const bool moving = std::any_of(o.light_paths.begin(), o.light_paths.end(), [](const LightPath& p) { return !p.keys.empty(); });
+  std::vector<PointLight> lights_now = o.lights;
+  for (int f = 0; f < frames; ++f) {
+    const double t = f * dt;
+    const double s_m = o.speed_mps * t;
+    Camera cam{path.position(s_m), path.direction(s_m) * o.speed_mps};
+    if (!path.closed() && s_m >= path.lengthM()) cam.velocity_mps = glm::dvec3(0.0);
+    FlyFrame ff;
+    ff.position_m = cam.position_m;
+    ff.hour = std::fmod(o.start_hour + o.hours_per_s * t, 24.0);
+    sink.relight_ms = 0.0;
+    ff.stats = streamer.update(cam, t, sink);
+    ff.relight_ms = sink.relight_ms;
+    if (rt && moving) {
+      const auto t0 = Clock::now();
+      for (size_t i = 0; i < o.light_paths.size(); ++i)
+        if (!o.light_paths[i].keys.empty()) lights_now[i] = lightAt(o.lights[i], o.light_paths[i], t);
+      (void)rt->setLights(lights_now);  // validated paths give valid lights
+      ff.lights_ms = msSince(t0);
+    }
+    if (rt) {
+      const uint64_t relights = rt->relightCount();
+      const auto t0 = Clock::now();
+      (void)rt->setTime(ff.hour);  // finite by construction
+      rt->update(cam.position_m);
+      ff.volume_ms = msSince(t0);
+      ff.full_relight = rt->relightCount() != relights;
+    }
+    ff.frame_ms = ff.stats.update_ms + ff.relight_ms + ff.lights_ms + ff.volume_ms;
+    r.frames.push_back(ff);
+    if (std::find(snap_at.begin(), snap_at.end(), f) != snap_at.end()) r.snapshots.push_back(snapshot(streamer, sink, path, cam, f));
+    if (o.progress && (f % std::max(1, frames / 100) == 0 || f == frames - 1)) o.progress(f + 1, frames);
+  }
+  if (rt) {
+    const auto view = rt->volume().read();
+    size_t bytes = 0;
+    for (int c = 0; c < 3; ++c) bytes += view->texture(c).size_bytes();
+    r.volume_bytes = 2 * bytes;  // PublishedVolume double-buffers (publish.h)
+    r.runtime_note += "; volume " + std::to_string(bytes) + " B per buffer x 2 buffers (double-buffered)";
+    if (sink.runtime_errors)
+      r.runtime_note += "; " + std::to_string(sink.runtime_errors) + " sectors rejected by the runtime, first: " + sink.first_error;
+  }
+  r.failures.assign(streamer.failures().begin(), streamer.failures().end());
+  r.total_loads = streamer.totalLoads();
+  r.total_evictions = streamer.totalEvictions();
+  return r;
+}
+
+FlySummary summarize(const FlyResult& r) {
+  FlySummary s;
+  s.frames = int(r.frames.size());
+  std::vector<double> frame_ms, update_ms, relight_ms, volume_ms;
+  double io_ms = 0;
+  for (const FlyFrame& f : r.frames) {
+    s.max_resident = std::max(s.max_resident, f.stats.resident);
+    s.max_resident_bytes = std::max(s.max_resident_bytes, f.stats.resident_bytes);
+    s.max_reserved_bytes = std::max(s.max_reserved_bytes, f.stats.reserved_bytes);
+    s.loads += f.stats.loads;
+    s.evictions += f.stats.evictions;
+    s.failures += f.stats.failures;
+    s.misses += f.stats.misses;
+    s.frames_with_misses += f.stats.misses > 0;
+    s.full_relights += f.full_relight;
+    io_ms += f.stats.inline_io_ms;
+    frame_ms.push_back(f.frame_ms);
+    update_ms.push_back(f.stats.update_ms);
+    relight_ms.push_back(f.relight_ms);
+    volume_ms.push_back(f.volume_ms);
+  }
+  s.frame_ms_p50 = percentile(frame_ms, 0.5);
+  s.frame_ms_p99 = percentile(frame_ms, 0.99);
+  s.frame_ms_max = frame_ms.empty() ? 0 : *std::max_element(frame_ms.begin(), frame_ms.end());
+  s.update_ms_p99 = percentile(update_ms, 0.99);
+  s.relight_ms_p99 = percentile(relight_ms, 0.99);
+  s.volume_ms_p99 = percentile(volume_ms, 0.99);
+  const int64_t started = [&] {
+    int64_t n = 0;
+    for (const FlyFrame& f : r.frames) n += f.stats.started;
+    return n;
+  }();
+  s.inline_io_ms_mean_per_load = started ? io_ms / double(started) : 0.0;
+  return s;
+}
+
+Result<void> writeFlyReport(const FlyResult& r, const std::filesystem::path& dir) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) return fail(dir.string() + ": cannot create: " + ec.message());
+  const FlySummary s = summarize(r);
+  const bool deterministic = r.streamer.io_mode == IoMode::kDeterministic;
+
+  {  // frames.csv
+    const auto p = dir / "frames.csv";
+    std::ofstream f(p);
+    if (!f) return fail(p.string() + ": cannot write");
+    f << "frame,time_s,x_m,y_m,z_m,hour,resident,in_flight,wanted,loads,evictions,cancels,failures,misses,fallback,"
+         "resident_bytes,reserved_bytes,update_ms,relight_ms,volume_ms,frame_ms,full_relight,inline_io_ms\n";
+    char line[512];
+    for (const FlyFrame& x : r.frames) {
+      const FrameStats& st = x.stats;
+      std::snprintf(line, sizeof line, "%llu,%.6f,%.3f,%.3f,%.3f,%.5f,%d,%d,%d,%d,%d,%d,%d,%d,%d,%zu,%zu,%.5f,%.5f,%.5f,%.5f,%d,%.5f\n",
+                    (unsigned long long)st.frame, st.time_s, x.position_m.x, x.position_m.y, x.position_m.z, x.hour, st.resident,
+                    st.in_flight, st.wanted, st.loads, st.evictions, st.cancels, st.failures, st.misses, st.fallback,
+                    st.resident_bytes, st.reserved_bytes, st.update_ms, x.relight_ms, x.volume_ms, x.frame_ms, int(x.full_relight),
+                    st.inline_io_ms);
+      f << line;
+    }
+    if (!f) return fail(p.string() + ": write failed");
+  }
+
+  std::vector<double> bytes_kib, frame_ms;
+  for (const FlyFrame& x : r.frames) {
+    bytes_kib.push_back(double(x.stats.resident_bytes) / 1024.0);
+    frame_ms.push_back(x.frame_ms);
+  }
+  const double budget_kib = double(r.max_bytes) / 1024.0;
+  {
+    auto c = image::linePlot(bytes_kib, {30, 90, 200}, {{budget_kib, {220, 40, 40}}}, budget_kib * 1.1);
+    if (auto ok = image::writePng(dir / "resident-bytes.png", c.image()); !ok) return ok;
+  }
+  {
+    const double y_max = std::max({1.2, s.frame_ms_p99 * 1.5, 0.0});
+    auto c = image::linePlot(frame_ms, {30, 140, 60}, {{1.0, {220, 40, 40}}, {s.frame_ms_p99, {240, 150, 20}}}, y_max);
+    if (auto ok = image::writePng(dir / "frame-time.png", c.image()); !ok) return ok;
+  }
+  std::vector<std::string> snaps;
+  for (const FlySnapshot& sn : r.snapshots) {
+    char name[64];
+    std::snprintf(name, sizeof name, "topdown-%05d.png", sn.frame);
+    if (auto ok = image::writePng(dir / name, sn.image); !ok) return ok;
+    snaps.push_back(name);
+  }
+
+  nlohmann::json j;
+  j["archive"] = r.archive;
+  j["runtime"] = r.runtime_note;
+  j["io_mode"] = deterministic ? "deterministic" : "threads";
+  j["deterministic"] = deterministic;
+  j["warmup_frames"] = r.warmup_frames;
+  j["options"] = {{"speed_mps", r.options.speed_mps}, {"fps", r.options.fps}, {"frames", s.frames},
+                  {"start_hour", r.options.start_hour}, {"hours_per_s", r.options.hours_per_s},
+                  {"max_sectors", r.streamer.residency.max_sectors}, {"volume_texel_m", r.streamer.residency.volume.texel_size_m.x},
+                  {"lookahead_s", r.streamer.residency.lookahead_s}, {"guard_s", r.streamer.residency.guard_s},
+                  {"io_threads", r.streamer.io_threads}, {"simulated_latency_s", r.streamer.simulated_latency_s},
+                  {"max_in_flight", r.streamer.max_in_flight}};
+  nlohmann::json wps = nlohmann::json::array();
+  for (const auto& w : r.waypoints) wps.push_back({w.x, w.y, w.z});
+  j["path"] = {{"length_m", r.path_length_m}, {"loop", r.loop}, {"waypoints", wps}};
+  j["budget"] = {{"max_sectors", r.streamer.residency.max_sectors}, {"max_bytes", r.max_bytes},
+                 {"volume_bytes", r.volume_bytes}, {"io_working_bytes", r.io_working_bytes}};
+  j["summary"] = {{"frames", s.frames},
+                  {"max_resident", s.max_resident},
+                  {"max_resident_bytes", s.max_resident_bytes},
+                  {"max_reserved_bytes", s.max_reserved_bytes},
+                  {"loads", s.loads},
+                  {"evictions", s.evictions},
+                  {"failures", s.failures},
+                  {"misses", s.misses},
+                  {"frames_with_misses", s.frames_with_misses},
+                  {"frame_ms_p50", s.frame_ms_p50},
+                  {"frame_ms_p99", s.frame_ms_p99},
+                  {"frame_ms_max", s.frame_ms_max},
+                  {"update_ms_p99", s.update_ms_p99},
+                  {"relight_ms_p99", s.relight_ms_p99},
+                  {"volume_ms_p99", s.volume_ms_p99},
+                  {"full_relights", s.full_relights},
+                  {"inline_io_ms_per_load", s.inline_io_ms_mean_per_load}};
+  j["goals"] = {{"zero_misses", s.misses == 0}, {"p99_frame_ms_le_1", s.frame_ms_p99 <= 1.0},
+                {"within_sector_budget", s.max_resident <= r.streamer.residency.max_sectors},
+                {"within_byte_budget", s.max_reserved_bytes <= r.max_bytes}};
+  nlohmann::json fails = nlohmann::json::array();
+  for (const SectorFailure& f : r.failures)
+    fails.push_back({{"sector", toString(f.key)}, {"attempt", f.attempt}, {"time_s", f.time_s}, {"retry_at_s", f.retry_at_s},
+                     {"message", f.message}});
+  j["failures"] = fails;
+  j["snapshots"] = snaps;
+  {
+    const auto p = dir / "fly-report.json";
+    std::ofstream f(p);
+    if (!f) return fail(p.string() + ": cannot write");
+    f << j.dump(2) << "\n";
+  }
+
+  const auto p = dir / "fly-report.md";
+  std::ofstream md(p);
+  if (!md) return fail(p.string() + ": cannot write");
+  char buf[1024];
+  md << "# drtv fly: " << r.archive << "\n\n";
+  std::snprintf(buf, sizeof buf,
+                "%d frames at %.0f Hz, %.0f m/s along %s Catmull-Rom path of %.0f m (%zu waypoints); time of day "
+                "%.2f h + %.3f h/s.\n\n",
+                s.frames, r.options.fps, r.options.speed_mps, r.loop ? "a closed" : "an open", r.path_length_m, r.waypoints.size(),
+                r.options.start_hour, r.options.hours_per_s);
+  md << buf;
+  md << "Runtime: " << r.runtime_note << ".\n\n";
+  md << "Warm-up: " << r.warmup_frames << " streamer updates with the camera held at the start before frame 0 (not "
+        "in the figures below).\n\n";
+  if (deterministic)
+    md << "I/O: **deterministic** — reads run inline and complete " << r.streamer.simulated_latency_s * 1000.0
+       << " ms later in flight time, so loads, evictions, misses and bytes are the same on every run; the "
+          "times below are measurements and vary.\n\n";
+  else
+    md << "I/O: **" << r.streamer.io_threads << " background threads** — the frame in which a load arrives depends on "
+          "the OS, so loads, evictions and misses per frame are not reproducible.\n\n";
+  md << "| figure | value | goal |\n|---|---|---|\n";
+  std::snprintf(buf, sizeof buf, "| resident sectors, max | %d | <= %d |\n", s.max_resident, r.streamer.residency.max_sectors);
+  md << buf;
+  std::snprintf(buf, sizeof buf, "| resident bytes, max | %zu (%.1f KiB) | <= %zu (%.1f KiB) |\n", s.max_resident_bytes,
+                s.max_resident_bytes / 1024.0, r.max_bytes, r.max_bytes / 1024.0);
+  md << buf;
+  std::snprintf(buf, sizeof buf, "| resident + in-flight bytes, max | %zu | <= %zu |\n", s.max_reserved_bytes, r.max_bytes);
+  md << buf;
+  std::snprintf(buf, sizeof buf, "| volume textures (runtime) | %zu B | on top |\n", r.volume_bytes);
+  md << buf;
+  std::snprintf(buf, sizeof buf, "| loads' working memory, at most | %zu B (readers x (largest compressed + raw sector + zstd context)) | on top |\n",
+                r.io_working_bytes);
+  md << buf;
+  std::snprintf(buf, sizeof buf, "| misses (sector-frames) | %lld in %lld frames | 0 |\n", (long long)s.misses,
+                (long long)s.frames_with_misses);
+  md << buf;
+  std::snprintf(buf, sizeof buf, "| loads / evictions / failures | %lld / %lld / %lld | |\n", (long long)s.loads,
+                (long long)s.evictions, (long long)s.failures);
+  md << buf;
+  std::snprintf(buf, sizeof buf, "| frame CPU ms p50 / p99 / max | %.4f / %.4f / %.4f | p99 <= 1 |\n", s.frame_ms_p50,
+                s.frame_ms_p99, s.frame_ms_max);
+  md << buf;
+  std::snprintf(buf, sizeof buf, "| p99 ms: streamer update / relight of loads / volume update | %.4f / %.4f / %.4f | |\n",
+                s.update_ms_p99, s.relight_ms_p99, s.volume_ms_p99);
+  md << buf;
+  std::snprintf(buf, sizeof buf, "| full relights (time of day) | %d | |\n", s.full_relights);
+  md << buf;
+  if (deterministic) {
+    std::snprintf(buf, sizeof buf, "| I/O work per load (read+hash+zstd+decode+tile), inline | %.4f ms | off the frame |\n",
+                  s.inline_io_ms_mean_per_load);
+    md << buf;
+  }
+  md << "\nFrame CPU = streamer update + the runtime's relight of loaded sectors + Runtime::update (time-of-day "
+        "relight when needed, volume scroll, publish). I/O is not in it.\n\n";
+  md << "## Resident bytes per frame\n\nBlue: bytes of resident sectors (Sector::memoryBytes + tile); red dashed: "
+        "the byte budget. y in KiB, x in frames.\n\n![resident bytes](resident-bytes.png)\n\n";
+  md << "## Frame CPU time per frame\n\nGreen: frame CPU ms; red dashed: the 1 ms goal; orange dashed: p99. x in "
+        "frames.\n\n![frame time](frame-time.png)\n\n";
+  md << "## Top-down views\n\nGreen shades: resident sectors drawn as their occlusion tiles (brighter = more open "
+        "sky); yellow: loading; dark red: evicted; magenta: failed, backing off (distant ambient); grey: not loaded "
+        "yet; blue: sea (no sector). White square: the volume's footprint; blue line: the path; red dot: the "
+        "camera.\n\n";
+  for (const auto& n : snaps) md << "![" << n << "](" << n << ")\n";
+  md << "\n## Failures\n\n";
+  if (r.failures.empty()) md << "None.\n";
+  for (const SectorFailure& f : r.failures) {
+    std::snprintf(buf, sizeof buf, "- t = %.3f s, sector %s, attempt %d, retry at %.3f s: %s\n", f.time_s, toString(f.key).c_str(),
+                  f.attempt, f.retry_at_s, f.message.c_str());
+    md << buf;
+  }
+  if (!md) return fail(p.string() + ": write failed");
+  return {};
+}
+
+}  // namespace drtv::fly

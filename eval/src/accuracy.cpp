@@ -1,5 +1,6 @@
 // The accuracy sweep. See accuracy.h for the method, the knobs and the references [1]-[3].
 #include "drtv/eval/accuracy.h"
+#include "drtv/eval/technique.h"
 
 #include <tbb/global_control.h>
 
@@ -184,6 +185,21 @@ Result<Values> runtimeValues(const InMemoryBake& bake, runtime::RuntimeOptions o
     for (const Point& p : points) {
       (*rt)->update(p.position);
       v.push_back((*rt)->ambient(p.position, p.normal).irradiance);
+    }
+  }
+  return v;
+}
+
+// A technique's ambient at every (hour, point), the camera at each point in turn (as runtimeValues).
+Result<Values> techniqueValues(Technique& t, const worlds::World& world, const std::vector<double>& hours,
+                               const std::vector<Point>& points) {
+  Values v;
+  v.reserve(hours.size() * points.size());
+  for (double hour : hours) {
+    if (auto r = t.setLighting(hour, world.lights); !r) return std::unexpected(r.error());
+    for (const Point& p : points) {
+      if (auto r = t.update(p.position); !r) return std::unexpected(r.error());
+      v.push_back(t.ambient(p.position, p.normal));
     }
   }
   return v;
@@ -626,6 +642,33 @@ Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::st
   } else {
     report.skipped.push_back("lprt_sources: the world has no point lights (no LPRT baked)");
   }
+  // technique: each registered technique (or those asked for) prepared for the block and
+  // evaluated through the Technique interface (technique.h) at the same points and hours, with
+  // the same comparison as every row; its costs are its own.
+  for (const TechniqueInfo& info : registeredTechniques()) {
+    if (!options.techniques.empty() &&
+        std::find(options.techniques.begin(), options.techniques.end(), info.name) == options.techniques.end())
+      continue;
+    progress("technique=" + info.name);
+    auto t = makeTechnique(info.name);
+    if (!t) return std::unexpected(t.error());
+    if (auto r = (*t)->prepare({world, where, block, options.seed, options.threads}); !r) return std::unexpected(r.error());
+    auto v = techniqueValues(**t, world, options.hours, points);
+    if (!v) return std::unexpected(v.error());
+    std::vector<double> ms;
+    for (int r = 0; r < options.timing_repeats; ++r) {
+      // Alternate between two times far enough apart that the runtime relights (as relightFillMs).
+      if (auto l = (*t)->setLighting(options.hours.front() + (r % 2 ? 0.0 : 3.0), world.lights); !l) return std::unexpected(l.error());
+      if (auto u = (*t)->update(camera); !u) return std::unexpected(u.error());
+      ms.push_back((*t)->costs().update_ms);
+    }
+    std::sort(ms.begin(), ms.end());
+    const TechniqueCosts c = (*t)->costs();
+    const ErrorStats e = compare(*v, truth);
+    report.rows.push_back({"technique", info.name, info.name == "drtv", e.rel, e.bias, c.prepare_s, ms.empty() ? 0.0 : ms[ms.size() / 2],
+                           c.stored_bytes, c.runtime_bytes, flooredNote(info.description, e.floored), e.abs});
+  }
+
   report.wall_s = since(t_start);
   return report;
 }

@@ -1,5 +1,6 @@
 // Preview renders. See render.h for the per-pixel model and the references [1]-[4].
 #include "drtv/eval/render.h"
+#include "drtv/eval/technique.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/global_control.h>
@@ -138,11 +139,18 @@ Result<RenderResult> render(const worlds::World& world, const std::string& where
 
   RenderResult out;
   const auto t_preview = Clock::now();
-  size_t loaded = 0;
-  auto rt = detail::makeRuntime(baked, sectors, options.hour, detail::runtimeOptionsFor(baked.effects, options.smooth_fill),
-                                cam.position, [&](SectorKey k) { return detail::inStreamingBlock(k, cam.position); }, &loaded);
-  if (!rt) return std::unexpected(rt.error().context(archive));
-  out.stats.sectors_loaded = loaded;
+  // The technique, prepared from the sectors a streamer would hold around the camera.
+  auto technique = makeTechnique(options.technique.empty() ? (options.smooth_fill ? "drtv-smooth" : "drtv-nearest") : options.technique,
+                                 options.technique_params);
+  if (!technique) return std::unexpected(technique.error());
+  std::vector<Sector> held;
+  for (const Sector& s : sectors)
+    if (detail::inStreamingBlock(s.key, cam.position) && held.size() < size_t(runtime::kMaxResidentSectors)) held.push_back(s);
+  if (auto r = (*technique)->prepareBaked(baked, held); !r) return std::unexpected(r.error().context(archive));
+  if (auto r = (*technique)->setLighting(options.hour, baked.lights); !r) return std::unexpected(r.error().context(archive));
+  if (auto r = (*technique)->update(cam.position); !r) return std::unexpected(r.error().context(archive));
+  const Technique& gi = **technique;
+  out.stats.sectors_loaded = held.size();
 
   // Camera frame: Z up; looking straight up or down picks +Y as the image's up.
   const glm::dvec3 fwd = glm::normalize(forward_d);
@@ -184,7 +192,7 @@ Result<RenderResult> render(const worlds::World& world, const std::string& where
       px[i].albedo = scene->viewAlbedo(h.prim);
       const DirectIrradiance d = directIrradiance(view, scene->origin(), lighting, pos, nrm);
       px[i].direct = d.sun + d.lights;
-      out.preview_ambient[i] = (*rt)->ambient(pos, nrm).irradiance;
+      out.preview_ambient[i] = gi.ambient(pos, nrm);
       queries[i] = {pos, nrm, uint64_t(i)};
     }
   });

@@ -8,6 +8,7 @@
 
 #include "commands.h"
 #include "drtv/eval/accuracy.h"
+#include "drtv/eval/technique.h"
 #include "drtv/worlds/load.h"
 
 namespace drtv::app {
@@ -17,6 +18,7 @@ struct AccuracyCliOptions {
   std::string world, output = "accuracy", times = "09:00,16:00", sectors;
   int points = 240, samples = 512, probe_samples = 256, threads = 0;
   uint64_t seed = 1;
+  std::vector<std::string> techniques;
 };
 
 Result<std::vector<double>> parseHours(const std::string& text) {
@@ -49,6 +51,10 @@ Command registerAccuracy(CLI::App& app) {
   sub->add_option("--sectors", o->sectors, "Sector block to bake x0:x1,y0:y1 (default: 3x3 around the centre)");
   sub->add_option("--seed", o->seed, "Seed of every random number")->capture_default_str();
   sub->add_option("--threads", o->threads, "Worker threads (0 = all cores)")->check(CLI::Range(0, 1024));
+  std::string names;
+  for (const eval::TechniqueInfo& t : eval::registeredTechniques()) names += (names.empty() ? "" : ", ") + t.name;
+  sub->add_option("--techniques", o->techniques, "The techniques of the \"technique\" rows, comma-separated (default all: " + names + ")")
+      ->delimiter(',');
   return {sub, [o]() -> Result<void> {
             eval::AccuracyOptions opts;
             auto hours = parseHours(o->times);
@@ -64,6 +70,11 @@ Command registerAccuracy(CLI::App& app) {
             opts.probe_samples = o->probe_samples;
             opts.seed = o->seed;
             opts.threads = o->threads;
+            for (const std::string& name : o->techniques) {
+              auto t = eval::makeTechnique(name);
+              if (!t) return std::unexpected(t.error().context("--techniques"));
+            }
+            opts.techniques = o->techniques;
             if (showProgress()) opts.progress = [](const std::string& line) { std::fprintf(stderr, "accuracy: %s\n", line.c_str()); };
             auto world = worlds::loadWorld(o->world);
             if (!world) return std::unexpected(world.error());

@@ -12,6 +12,7 @@
 
 #include "commands.h"
 #include "drtv/eval/render.h"
+#include "drtv/eval/technique.h"
 #include "drtv/worlds/load.h"
 
 namespace drtv::app {
@@ -19,6 +20,7 @@ namespace {
 
 struct RenderCliOptions {
   std::string archive, world, camera = "0,-30,8:0,0,1.5", size = "480x270", time = "09:00", output = "render.png";
+  std::string technique, params;
   bool reference = false, smooth = false;
   int samples = 64, threads = 0;
   float exposure = 0.f;
@@ -52,6 +54,11 @@ Result<void> run(const RenderCliOptions& o) {
   opts.reference_samples = o.samples;
   opts.exposure = o.exposure;
   opts.smooth_fill = o.smooth;
+  if (o.smooth && !o.technique.empty()) return fail("--smooth and --technique: give one (--technique drtv-smooth is --smooth)");
+  opts.technique = o.technique;
+  auto params = eval::parseTechniqueParams(o.params);
+  if (!params) return std::unexpected(params.error().context("--params"));
+  opts.technique_params = *params;
   opts.threads = o.threads;
   opts.seed = o.seed;
   auto world = worlds::loadWorld(o.world);
@@ -118,6 +125,10 @@ Command registerRender(CLI::App& app) {
   sub->add_option("--exposure", o->exposure, "Radiance multiplier before tone mapping (0 = automatic)")
       ->check(finiteRange(0.0, 1e9));
   sub->add_flag("--smooth", o->smooth, "Smooth (trilinear over index cells) volume fill instead of nearest probe");
+  std::string names;
+  for (const eval::TechniqueInfo& t : eval::registeredTechniques()) names += (names.empty() ? "" : ", ") + t.name;
+  sub->add_option("--technique", o->technique, "The GI technique that shades the preview: " + names + " (default drtv-nearest)");
+  sub->add_option("--params", o->params, "The technique's parameters, name=value,... (e.g. fill=smooth,texel_m=1)");
   sub->add_option("--threads", o->threads, "Worker threads (0 = all cores)")->check(CLI::Range(0, 1024));
   sub->add_option("--seed", o->seed, "Seed of the reference's random numbers");
   return {sub, [o]() -> Result<void> { return run(*o); }, &o->archive};

@@ -81,6 +81,8 @@ struct AccuracyOptions {
   uint64_t seed = 1;
   int threads = 0;                       // 0 = all hardware threads
   int timing_repeats = 5;                // relight + fill timings per row (median)
+  // The "technique" rows: these registered techniques (technique.h); empty = every one.
+  std::vector<std::string> techniques;
   // Progress lines ("bake rays_per_basis=32 ...") for a terminal; may be empty.
   std::function<void(const std::string&)> progress;
 };
@@ -102,7 +104,8 @@ AmbientError ambientError(const std::vector<glm::vec3>& values, const std::vecto
 
 struct AccuracyRow {
   std::string knob;         // "rays_per_basis", "bounces", "part", "sun_window", "basis", "fill", "texel_m",
-                            // "storage", "lprt_sources"
+                            // "storage", "lprt_sources", "sources_per_light", "light_sources",
+                            // "technique" (value: a registered technique's name)
   std::string value;        // "128", "ambient-cube", ...
   bool is_default = false;  // the talk's / drtv's default setting of this knob
   double rel_error = 0;     // relative L1 error, RGB (see the header)

@@ -31,6 +31,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <map>
 #include <span>
 #include <string>
 #include <string_view>
@@ -65,6 +66,10 @@ struct RenderOptions {
   uint64_t seed = 1;            // keys the reference's random numbers
   float exposure = 0.f;         // radiance multiplier before tone mapping; 0 = automatic
   bool smooth_fill = false;     // the runtime's smooth volume fill instead of nearest probe
+  // The registered technique that shades the preview (technique.h), prepared from the archive's
+  // sectors; "" = drtv-nearest (drtv-smooth with smooth_fill).
+  std::string technique;
+  std::map<std::string, std::string> technique_params;
   int threads = 0;              // 0 = all hardware threads
 };
 

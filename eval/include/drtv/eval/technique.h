@@ -1,0 +1,97 @@
+// drtv/eval/technique.h — one interface for every GI technique drtv compares on the same worlds
+// against the same path tracer, in the spirit of pbrt-v4's Integrator and its factory.
+//
+// A technique is prepared for a world and a block of sectors (baked, or set up), then lit (time
+// of day, point lights), then asked for the ambient irradiance at a point with a normal, the way a
+// deferred renderer shades a pixel. It reports what that cost: prepare time, update time per
+// frame, bytes. Techniques are made by name from a registry, with name=value parameters:
+//
+//   auto t = makeTechnique("drtv-smooth");                      // a registered variant
+//   auto u = makeTechnique("drtv", parseTechniqueParams("fill=smooth,quality=draft").value());
+//
+// Adding a technique (README, "Layout"): a folder under eval/techniques/ with its class and a
+// register function, one line in builtinTechniques() (eval/src/technique.cpp), and it gets its rows
+// in `drtv accuracy` (knob "technique") and a `--technique` name in `drtv render`.
+//
+// Threading: prepare, setLighting and update from one thread; ambient() is const and may run from
+// any number of threads at once between updates.
+#pragma once
+
+#include <cstddef>
+#include <functional>
+#include <map>
+#include <memory>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "drtv/formats/archive.h"
+#include "drtv/formats/error.h"
+#include "drtv/formats/lighting.h"
+#include "drtv/formats/sector.h"
+#include "drtv/raytrace/world_geometry.h"
+#include "drtv/worlds/world.h"
+
+namespace drtv::eval {
+
+// What a technique costs, as measured by the technique itself.
+struct TechniqueCosts {
+  double prepare_s = 0;       // wall seconds of the last prepare() (a bake, or a set-up)
+  double update_ms = 0;       // wall milliseconds of the last update(): a frame's relight and fill
+  size_t stored_bytes = 0;    // what prepare() keeps for the runtime (DRTV: encoded sectors)
+  size_t runtime_bytes = 0;   // what the runtime adds to shade with (DRTV: the volume textures)
+};
+
+// The world and block of sectors to prepare for.
+struct PrepareInput {
+  const worlds::World& world;
+  std::string where;                 // names the world in errors
+  raytrace::SectorRange block;       // the sectors, inclusive
+  uint64_t seed = 1;
+  int threads = 0;                   // 0 = all hardware threads
+};
+
+class Technique {
+ public:
+  virtual ~Technique() = default;
+  // Bakes or sets up for `input`'s block. Errors: the world's (bad lighting, no geometry).
+  virtual Result<void> prepare(const PrepareInput& input) = 0;
+  // Prepares from what a bake already wrote (an archive's manifest and sectors). Techniques that
+  // do not bake into drtv archives return an error naming themselves (the default).
+  virtual Result<void> prepareBaked(const Manifest& manifest, std::span<const Sector> sectors);
+  // The lighting: the prepared world's sky at `hour` (any finite real, modulo 24) and `lights`.
+  virtual Result<void> setLighting(double hour, const std::vector<PointLight>& lights) = 0;
+  // Brings the technique's state up to date for a camera at `camera` (world metres).
+  virtual Result<void> update(const glm::dvec3& camera) = 0;
+  // Ambient irradiance (linear RGB, W/m^2-like units of the sky) at world `position` on a surface
+  // with unit normal `normal`.
+  virtual glm::vec3 ambient(const glm::dvec3& position, const glm::vec3& normal) const = 0;
+  virtual TechniqueCosts costs() const = 0;
+  // The registered name it was made under, and its parameters as text ("fill=smooth").
+  virtual std::string describe() const = 0;
+};
+
+using TechniqueParams = std::map<std::string, std::string>;
+
+// Parses "name=value,name=value" ("" gives none). Errors name the piece: "'fill': expected name=value".
+Result<TechniqueParams> parseTechniqueParams(std::string_view text);
+
+struct TechniqueInfo {
+  std::string name;
+  std::string description;
+  TechniqueParams preset;  // parameters the name stands for (a variant); given ones override them
+};
+using TechniqueFactory = std::function<Result<std::unique_ptr<Technique>>(const TechniqueParams&)>;
+
+// Registers `info.name` (a name already taken is an error). Thread-safe.
+Result<void> registerTechnique(TechniqueInfo info, TechniqueFactory factory);
+// Every registered technique, in registration order (the built-in ones first).
+std::vector<TechniqueInfo> registeredTechniques();
+// Makes the technique `name` with its preset overridden by `params`. Errors: an unknown name
+// (listing the known ones), a parameter the technique does not take or a bad value.
+Result<std::unique_ptr<Technique>> makeTechnique(std::string_view name, const TechniqueParams& params = {});
+
+}  // namespace drtv::eval

@@ -1,0 +1,17 @@
+// The built-in techniques' registrations, one function per folder under eval/techniques/
+// (technique.cpp calls each on first use of the registry).
+#pragma once
+
+#include <utility>
+#include <vector>
+
+#include "drtv/eval/technique.h"
+
+namespace drtv::eval {
+
+using TechniqueRegistration = std::pair<TechniqueInfo, TechniqueFactory>;
+
+// eval/techniques/drtv: Deferred Radiance Transfer Volumes (the talk's), nearest and smooth fills.
+std::vector<TechniqueRegistration> drtvTechniques();
+
+}  // namespace drtv::eval

@@ -1,0 +1,148 @@
+// The technique interface (eval/technique.h): the registry, DRTV through it against physics, and
+// the accuracy table's "technique" rows against the rows the same configuration gets directly.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "drtv/eval/accuracy.h"
+#include "drtv/eval/technique.h"
+#include "test_scenes.h"
+
+namespace drtv::eval {
+namespace {
+
+TEST(Techniques, DrtvAndItsTwoFillsAreRegistered) {
+  std::vector<std::string> names;
+  for (const TechniqueInfo& t : registeredTechniques()) names.push_back(t.name);
+  for (const char* want : {"drtv", "drtv-nearest", "drtv-smooth"})
+    EXPECT_NE(std::find(names.begin(), names.end(), want), names.end()) << want;
+  for (const std::string& n : names) {
+    auto t = makeTechnique(n);
+    ASSERT_TRUE(t.has_value()) << n << ": " << t.error().message;
+    EXPECT_EQ((*t)->describe().substr(0, n.size()), n);
+  }
+}
+
+TEST(Techniques, AnUnknownNameOrParameterIsAnErrorNamingIt) {
+  auto u = makeTechnique("lpv-9000");
+  ASSERT_FALSE(u.has_value());
+  EXPECT_NE(u.error().message.find("unknown technique 'lpv-9000'"), std::string::npos) << u.error().message;
+  EXPECT_NE(u.error().message.find("drtv-smooth"), std::string::npos) << "the known names are listed: " << u.error().message;
+  for (const auto& [params, what] : std::vector<std::pair<TechniqueParams, std::string>>{
+           {{{"fill", "blurry"}}, "fill=blurry"},
+           {{{"rays_per_basis", "0"}}, "rays_per_basis=0"},
+           {{{"bounces", "2x"}}, "bounces=2x"},
+           {{{"texel_m", "-1"}}, "texel_m=-1"},
+           {{{"quality", "ultra"}}, "quality=ultra"},
+           {{{"colour", "red"}}, "no parameter 'colour'"}}) {
+    auto t = makeTechnique("drtv", params);
+    ASSERT_FALSE(t.has_value()) << what;
+    EXPECT_NE(t.error().message.find(what), std::string::npos) << t.error().message;
+  }
+  EXPECT_FALSE(parseTechniqueParams("fill").has_value());
+  EXPECT_FALSE(parseTechniqueParams("=x").has_value());
+  auto p = parseTechniqueParams("fill=smooth,texel_m=1");
+  ASSERT_TRUE(p.has_value());
+  EXPECT_EQ(p->at("fill"), "smooth");
+  EXPECT_EQ(p->at("texel_m"), "1");
+  EXPECT_TRUE(parseTechniqueParams("")->empty());
+}
+
+// A technique of its own, registered from outside the library: adding one is a registration.
+class ConstantTechnique final : public Technique {
+ public:
+  Result<void> prepare(const PrepareInput&) override { return {}; }
+  Result<void> setLighting(double, const std::vector<PointLight>&) override { return {}; }
+  Result<void> update(const glm::dvec3&) override { return {}; }
+  glm::vec3 ambient(const glm::dvec3&, const glm::vec3&) const override { return glm::vec3(1.f); }
+  TechniqueCosts costs() const override { return {}; }
+  std::string describe() const override { return "constant"; }
+};
+
+TEST(Techniques, ARegisteredTechniqueIsMadeByNameAndANameIsTakenOnce) {
+  auto factory = [](const TechniqueParams&) -> Result<std::unique_ptr<Technique>> { return std::make_unique<ConstantTechnique>(); };
+  ASSERT_TRUE(registerTechnique({"test-constant", "ambient 1 everywhere", {}}, factory).has_value());
+  EXPECT_FALSE(registerTechnique({"test-constant", "again", {}}, factory).has_value());
+  EXPECT_FALSE(registerTechnique({"drtv", "a second drtv", {}}, factory).has_value());
+  auto t = makeTechnique("test-constant");
+  ASSERT_TRUE(t.has_value());
+  EXPECT_EQ((*t)->ambient(glm::dvec3(0.0), glm::vec3(0, 0, 1)), glm::vec3(1.f));
+  // A technique that does not bake into drtv archives says so.
+  auto baked = (*t)->prepareBaked(Manifest{}, {});
+  ASSERT_FALSE(baked.has_value());
+  EXPECT_NE(baked.error().message.find("constant"), std::string::npos);
+}
+
+// A white plane under a uniform sky of radiance L: the ground reflects L (rho E / pi with E = pi L),
+// so the radiance is L from every direction and every surface receives E = pi L exactly. DRTV
+// through the interface, both fills, at points on and above the plane, facing up and down.
+// Sideways normals are left out on purpose, and that is a finding, not a tolerance: the talk's
+// shading weights (sh::shadingWeights) sum to 1.167 for a horizontal normal and 1.10 at 37 deg,
+// so in this uniform field DRTV gives 1.167 pi L and 1.10 pi L there (measured here). Issue 13
+// (the lighting model against physics) owns that error.
+TEST(Techniques, DrtvOverAWhitePlaneUnderAUniformSkyGivesPiLFacingUpAndDown) {
+  const float L = 1.5f;
+  worlds::World world = testing::planeWorld(2000.0, glm::vec3(1.f));
+  world.sky = testing::uniformSky(L, 1.f);
+  const raytrace::SectorRange block{-1, 0, -1, 0};
+  const double want = testing::kPi * L;
+  for (const char* name : {"drtv-nearest", "drtv-smooth"}) {
+    auto t = makeTechnique(name, {{"quality", "draft"}});
+    ASSERT_TRUE(t.has_value()) << t.error().message;
+    ASSERT_TRUE((*t)->prepare({world, "white plane", block, 1, 0}).has_value());
+    ASSERT_TRUE((*t)->setLighting(12.0, {}).has_value());
+    const TechniqueCosts c = (*t)->costs();
+    EXPECT_GT(c.stored_bytes, 0u);
+    EXPECT_EQ(c.runtime_bytes, size_t(96 * 96 * 16 * 12));
+    for (const glm::dvec3 at : {glm::dvec3(-20, -30, 0.01), glm::dvec3(-40, -10, 2), glm::dvec3(-5, -5, 6)}) {
+      ASSERT_TRUE((*t)->update(at).has_value());
+      for (const glm::vec3 n : {glm::vec3(0, 0, 1), glm::vec3(0, 0, -1)}) {
+        if (at.z < 1 && n.z < 0) continue;  // below the surface
+        const glm::vec3 e = (*t)->ambient(at, n);
+        for (int ch = 0; ch < 3; ++ch)
+          EXPECT_NEAR(e[ch], want, 0.02 * want) << name << " at (" << at.x << ", " << at.y << ", " << at.z << ") normal (" << n.x
+                                                << ", " << n.y << ", " << n.z << ") channel " << ch;
+      }
+    }
+  }
+}
+
+// The accuracy table's technique rows go through the interface; DRTV's two fills must give there
+// exactly what the table's own fill rows give for the same bake and runtime options.
+TEST(Techniques, TheAccuracyTablesTechniqueRowsMatchItsFillRows) {
+  worlds::World world = testing::planeWorld(400.0, glm::vec3(0.4f, 0.5f, 0.3f));
+  world.sky = testing::uniformSky(1.f, 0.f);
+  AccuracyOptions o;
+  o.hours = {10.0};
+  o.points = 24;
+  o.reference_samples = 16;
+  o.probe_samples = 8;
+  o.timing_repeats = 1;
+  auto r = measureAccuracy(world, "plane", o);
+  ASSERT_TRUE(r.has_value()) << r.error().message;
+  auto find = [&](const std::string& knob, const std::string& value) -> const AccuracyRow* {
+    for (const AccuracyRow& row : r->rows)
+      if (row.knob == knob && row.value == value) return &row;
+    return nullptr;
+  };
+  for (const TechniqueInfo& t : registeredTechniques()) {
+    if (t.name.rfind("drtv", 0) == 0) {
+      EXPECT_NE(find("technique", t.name), nullptr) << t.name;
+    }
+  }
+  for (const auto& [technique, fill] : {std::pair{"drtv", "nearest"}, std::pair{"drtv-nearest", "nearest"}, std::pair{"drtv-smooth", "smooth"}}) {
+    const AccuracyRow* a = find("technique", technique);
+    const AccuracyRow* b = find("fill", fill);
+    ASSERT_NE(a, nullptr) << technique;
+    ASSERT_NE(b, nullptr) << fill;
+    EXPECT_EQ(a->rel_error, b->rel_error) << technique;
+    EXPECT_EQ(a->bias, b->bias) << technique;
+    EXPECT_EQ(a->abs_error, b->abs_error) << technique;
+    EXPECT_EQ(a->probe_bytes, b->probe_bytes) << technique;
+    EXPECT_EQ(a->volume_bytes, b->volume_bytes) << technique;
+    EXPECT_GT(a->bake_s, 0.0) << technique;
+  }
+}
+
+}  // namespace
+}  // namespace drtv::eval

@@ -30,6 +30,7 @@ Result<void> add(Registry& r, TechniqueInfo info, TechniqueFactory factory) {
 // files nothing references, so self-registering globals would silently vanish).
 void builtinTechniques(Registry& r) {
   for (auto& [info, factory] : drtvTechniques()) (void)add(r, std::move(info), std::move(factory));
+  for (auto& [info, factory] : probeReferenceTechniques()) (void)add(r, std::move(info), std::move(factory));
 }
 
 Registry& registry() {
@@ -45,6 +46,21 @@ Registry& registry() {
 
 Result<void> Technique::prepareBaked(const Manifest&, std::span<const Sector>) {
   return fail("technique " + describe() + " does not prepare from a drtv archive: give it the world");
+}
+
+Result<std::vector<glm::vec3>> Technique::evaluate(std::span<const SurfacePoint> points) {
+  std::vector<glm::vec3> out;
+  out.reserve(points.size());
+  for (const SurfacePoint& p : points) {
+    if (auto r = update(p.position); !r) return std::unexpected(r.error());
+    out.push_back(ambient(p.position, p.normal));
+  }
+  return out;
+}
+
+Result<void> Technique::setParams(const TechniqueParams& params) {
+  if (params.empty()) return {};
+  return fail("technique " + describe() + " takes no parameters after prepare (" + params.begin()->first + ")");
 }
 
 Result<TechniqueParams> parseTechniqueParams(std::string_view text) {

@@ -13,5 +13,7 @@ using TechniqueRegistration = std::pair<TechniqueInfo, TechniqueFactory>;
 
 // eval/techniques/drtv: Deferred Radiance Transfer Volumes (the talk's), nearest and smooth fills.
 std::vector<TechniqueRegistration> drtvTechniques();
+// eval/techniques/probe_reference: DRTV's probes with path-traced values, no volume (basis rows).
+std::vector<TechniqueRegistration> probeReferenceTechniques();
 
 }  // namespace drtv::eval

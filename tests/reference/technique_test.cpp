@@ -14,7 +14,7 @@ namespace {
 TEST(Techniques, DrtvAndItsTwoFillsAreRegistered) {
   std::vector<std::string> names;
   for (const TechniqueInfo& t : registeredTechniques()) names.push_back(t.name);
-  for (const char* want : {"drtv", "drtv-nearest", "drtv-smooth"})
+  for (const char* want : {"drtv", "drtv-nearest", "drtv-smooth", "probe-reference"})
     EXPECT_NE(std::find(names.begin(), names.end(), want), names.end()) << want;
   for (const std::string& n : names) {
     auto t = makeTechnique(n);
@@ -107,6 +107,41 @@ TEST(Techniques, DrtvOverAWhitePlaneUnderAUniformSkyGivesPiLFacingUpAndDown) {
   }
 }
 
+// Runtime parameters change on a prepared technique; bake parameters need another prepare.
+TEST(Techniques, DrtvTakesRuntimeParametersAfterPrepareAndRefusesBakeOnes) {
+  worlds::World world = testing::planeWorld(200.0, glm::vec3(0.5f));
+  world.sky = testing::uniformSky(1.f, 0.f);
+  auto t = makeTechnique("drtv", {{"quality", "draft"}});
+  ASSERT_TRUE(t.has_value());
+  ASSERT_TRUE((*t)->prepare({world, "plane", {-1, 0, -1, 0}, 1, 0}).has_value());
+  const double bake_s = (*t)->costs().prepare_s;
+  auto shade = [&]() {
+    EXPECT_TRUE((*t)->setLighting(12.0, {}).has_value());
+    const std::vector<SurfacePoint> pts = {{glm::dvec3(-30, -30, 0.01), glm::vec3(0, 0, 1)}};
+    auto v = (*t)->evaluate(pts);
+    EXPECT_TRUE(v.has_value());
+    return v ? v->front() : glm::vec3(-1.f);
+  };
+  const glm::vec3 all = shade();
+  ASSERT_TRUE((*t)->setParams({{"quality", "draft"}, {"part", "direct_sky"}}).has_value());
+  const glm::vec3 sky = shade();
+  ASSERT_TRUE((*t)->setParams({{"quality", "draft"}, {"part", "sky_bounce"}}).has_value());
+  const glm::vec3 bounce = shade();
+  EXPECT_EQ((*t)->costs().prepare_s, bake_s) << "no second bake";
+  // Under a sky with no sun the whole ambient is the direct sky and its bounce, up to the 8-bit
+  // volume's steps (each run fills the volume at its own HDR scale: 0.36 % apart here).
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(all[c], sky[c] + bounce[c], 0.01f * all[c]) << c;
+  EXPECT_GT(sky.x, 0.f);
+  ASSERT_TRUE((*t)->setParams({{"quality", "draft"}, {"storage", "float"}}).has_value());
+  shade();
+  EXPECT_EQ((*t)->costs().runtime_bytes, size_t(96 * 96 * 16 * 48));
+  auto bake = (*t)->setParams({{"quality", "high"}});
+  ASSERT_FALSE(bake.has_value());
+  EXPECT_NE(bake.error().message.find("new prepare"), std::string::npos) << bake.error().message;
+  EXPECT_FALSE((*t)->setParams({{"quality", "draft"}, {"rays_per_basis", "7"}}).has_value());
+  EXPECT_FALSE((*t)->setParams({{"quality", "draft"}, {"shininess", "7"}}).has_value());
+}
+
 // The accuracy table's technique rows go through the interface; DRTV's two fills must give there
 // exactly what the table's own fill rows give for the same bake and runtime options.
 TEST(Techniques, TheAccuracyTablesTechniqueRowsMatchItsFillRows) {
@@ -142,6 +177,16 @@ TEST(Techniques, TheAccuracyTablesTechniqueRowsMatchItsFillRows) {
     EXPECT_EQ(a->volume_bytes, b->volume_bytes) << technique;
     EXPECT_GT(a->bake_s, 0.0) << technique;
   }
+  // The part rows are shares of the whole reference ambient: the runtime's terms add up to its
+  // total and the reference's parts to its ambient, so their biases add up to the total's.
+  const AccuracyRow* total = find("rays_per_basis", "128");
+  ASSERT_NE(total, nullptr);
+  double parts = 0;
+  int n = 0;
+  for (const AccuracyRow& row : r->rows)
+    if (row.knob == "part") parts += row.bias, ++n;
+  EXPECT_EQ(n, 3) << "sun bounce, sky bounce, direct sky";
+  EXPECT_NEAR(parts, total->bias, 1e-4);
 }
 
 }  // namespace

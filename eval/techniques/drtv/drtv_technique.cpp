@@ -1,19 +1,34 @@
 // DRTV as a technique (technique.h): the baker's transfer bake in memory, then drtv::runtime set up
 // as an engine sets it up from an archive (runtime::runtimeForArchive) holding every sector of the
-// block. Its knobs are parameters:
-//   quality         draft | default | high        the bake preset (BakeSettings::forQuality)
-//   rays_per_basis  integer >= 1                  overrides the preset's transfer rays
-//   bounces         integer >= 1                  overrides the preset's bounces
-//   fill            nearest | smooth              the volume fill (runtime FillMode)
-//   texel_m         metres > 0                    the volume's horizontal texel size
+// block. Its knobs are parameters; the first three need a bake, the others only a new runtime:
+//   quality            draft | default | high       the bake preset (BakeSettings::forQuality)
+//   rays_per_basis     integer >= 1                 overrides the preset's transfer rays
+//   bounces            integer >= 1                 overrides the preset's bounces
+//   fill               nearest | smooth             the volume fill (runtime FillMode)
+//   texel_m            metres in (0, 1e4]           the volume's horizontal texel size (the
+//                                                   vertical one twice it, as the default 2 x 4 m)
+//   sun_window         hanning | lanczos | none     the band-1 window on the sun's SH
+//   part               all | sun_bounce | sky_bounce | direct_sky | local_lights
+//                                                   one relighting term alone (the reference's
+//                                                   parts of the same names)
+//   sources_per_light  1..64                        LPRT source probes one light is spread onto
+//   light_sources      visible | nearest            which probes those are (probe_cache.h)
+//   lprt_sources       integer >= 1                 keep the first N LPRT sources of each sector
+//                                                   (they are sorted nearest first, bake.cpp)
+//   storage            runtime | 8-bit | 16-bit | float
+//                                                   the volume's precision, emulated outside the
+//                                                   runtime (nearest fill, no blur, trilinear over
+//                                                   texels, the talk's shading weights)
 // Registered as "drtv" and as the variants "drtv-nearest" and "drtv-smooth".
 #include <algorithm>
+#include <array>
 #include <charconv>
 #include <chrono>
 #include <cmath>
 #include <optional>
 
 #include "drtv/baker/bake.h"
+#include "drtv/formats/sh.h"
 #include "drtv/runtime/runtime.h"
 #include "techniques.h"
 
@@ -22,96 +37,180 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-struct DrtvParams {
+struct BakeParams {
   baker::Quality quality = baker::Quality::kDefault;
   std::optional<int> rays_per_basis, bounces;
+  bool operator==(const BakeParams&) const = default;
+};
+
+struct RuntimeParams {
   runtime::FillMode fill = runtime::FillMode::kNearest;
   std::optional<float> texel_m;
+  std::optional<float> sun_window;
+  std::optional<uint32_t> part;  // a runtime component
+  std::optional<int> sources_per_light;
+  std::optional<runtime::LightSources> light_sources;
+  std::optional<size_t> lprt_sources;
+  double storage_levels = -1;  // < 0: the runtime's volume; 0: float; else steps per HDR unit
+  double storage_bytes = 12;   // per texel, the three textures together
+};
+
+struct Params {
+  BakeParams bake;
+  RuntimeParams runtime;
   TechniqueParams given;
 };
 
-Result<int> positiveInt(const std::string& key, const std::string& v) {
+Result<int> intIn(const std::string& key, const std::string& v, int lo, int hi) {
   int x = 0;
   const auto [end, ec] = std::from_chars(v.data(), v.data() + v.size(), x);
-  if (ec != std::errc() || end != v.data() + v.size() || x < 1) return fail(key + "=" + v + ": expected an integer >= 1");
+  if (ec != std::errc() || end != v.data() + v.size() || x < lo || x > hi)
+    return fail(key + "=" + v + ": expected an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
   return x;
 }
 
-Result<DrtvParams> parseParams(const TechniqueParams& p) {
-  DrtvParams out;
+Result<Params> parseParams(const TechniqueParams& p) {
+  Params out;
   out.given = p;
-  if (auto it = p.find("quality"); it != p.end()) {
-    auto parsed = baker::parseQuality(it->second);
-    if (!parsed) return fail("quality=" + it->second + ": expected draft, default or high");
-    out.quality = *parsed;
-  }
   for (const auto& [k, v] : p) {
-    if (k == "quality") continue;
-    if (k == "rays_per_basis") {
-      auto x = positiveInt(k, v);
+    if (k == "quality") {
+      auto q = baker::parseQuality(v);
+      if (!q) return fail("quality=" + v + ": expected draft, default or high");
+      out.bake.quality = *q;
+    } else if (k == "rays_per_basis" || k == "bounces") {
+      auto x = intIn(k, v, 1, 1 << 20);
       if (!x) return std::unexpected(x.error());
-      out.rays_per_basis = *x;
-    } else if (k == "bounces") {
-      auto x = positiveInt(k, v);
-      if (!x) return std::unexpected(x.error());
-      out.bounces = *x;
+      (k == "bounces" ? out.bake.bounces : out.bake.rays_per_basis) = *x;
     } else if (k == "fill") {
-      if (v == "nearest") out.fill = runtime::FillMode::kNearest;
-      else if (v == "smooth") out.fill = runtime::FillMode::kSmooth;
+      if (v == "nearest") out.runtime.fill = runtime::FillMode::kNearest;
+      else if (v == "smooth") out.runtime.fill = runtime::FillMode::kSmooth;
       else return fail("fill=" + v + ": expected nearest or smooth");
     } else if (k == "texel_m") {
       char* end = nullptr;
       const double x = std::strtod(v.c_str(), &end);
       if (end != v.c_str() + v.size() || !(x > 0.0) || !std::isfinite(x) || x > 1e4) return fail("texel_m=" + v + ": expected metres in (0, 1e4]");
-      out.texel_m = float(x);
+      out.runtime.texel_m = float(x);
+    } else if (k == "sun_window") {
+      if (v == "hanning") out.runtime.sun_window = runtime::kHanningBand1;
+      else if (v == "lanczos") out.runtime.sun_window = runtime::kLanczosBand1;
+      else if (v == "none") out.runtime.sun_window = runtime::kNoWindowBand1;
+      else return fail("sun_window=" + v + ": expected hanning, lanczos or none");
+    } else if (k == "part") {
+      if (v == "all") out.runtime.part.reset();
+      else if (v == "sun_bounce") out.runtime.part = runtime::kComponentSunBounce;
+      else if (v == "sky_bounce") out.runtime.part = runtime::kComponentSkyBounce;
+      else if (v == "direct_sky") out.runtime.part = runtime::kComponentDirectSky;
+      else if (v == "local_lights") out.runtime.part = runtime::kComponentLocalLights;
+      else return fail("part=" + v + ": expected all, sun_bounce, sky_bounce, direct_sky or local_lights");
+    } else if (k == "sources_per_light") {
+      auto x = intIn(k, v, 1, 64);
+      if (!x) return std::unexpected(x.error());
+      out.runtime.sources_per_light = *x;
+    } else if (k == "light_sources") {
+      if (v == "visible") out.runtime.light_sources = runtime::LightSources::kVisibleFromLight;
+      else if (v == "nearest") out.runtime.light_sources = runtime::LightSources::kNearest;
+      else return fail("light_sources=" + v + ": expected visible or nearest");
+    } else if (k == "lprt_sources") {
+      auto x = intIn(k, v, 1, 1 << 16);
+      if (!x) return std::unexpected(x.error());
+      out.runtime.lprt_sources = size_t(*x);
+    } else if (k == "storage") {
+      if (v == "runtime") out.runtime.storage_levels = -1, out.runtime.storage_bytes = 12;
+      else if (v == "8-bit") out.runtime.storage_levels = 255.0, out.runtime.storage_bytes = 12;
+      else if (v == "16-bit") out.runtime.storage_levels = 65535.0, out.runtime.storage_bytes = 24;
+      else if (v == "float") out.runtime.storage_levels = 0.0, out.runtime.storage_bytes = 48;
+      else return fail("storage=" + v + ": expected runtime, 8-bit, 16-bit or float");
     } else {
-      return fail("no parameter '" + k + "' (drtv takes quality, rays_per_basis, bounces, fill, texel_m)");
+      return fail("no parameter '" + k +
+                  "' (drtv takes quality, rays_per_basis, bounces, fill, texel_m, sun_window, part, sources_per_light, "
+                  "light_sources, lprt_sources, storage)");
     }
   }
   return out;
 }
 
+baker::BakeSettings bakeSettings(const BakeParams& p, uint64_t seed) {
+  baker::BakeSettings s = baker::BakeSettings::forQuality(p.quality, seed);
+  if (p.rays_per_basis) s.transfer.probe_rays_per_basis = *p.rays_per_basis;
+  if (p.bounces) s.transfer.bounces = *p.bounces;
+  return s;
+}
+
+// Keeps the first `keep` LPRT sources of every sector.
+std::vector<Sector> truncateLprt(const std::vector<Sector>& sectors, size_t keep) {
+  std::vector<Sector> out = sectors;
+  for (Sector& s : out) {
+    const size_t S = s.lprt.sources.size();
+    if (S <= keep) continue;
+    std::vector<int16_t> coeffs(s.probes.size() * keep * 12);
+    for (size_t p = 0; p < s.probes.size(); ++p)
+      for (size_t j = 0; j < keep; ++j)
+        for (int k = 0; k < 12; ++k) coeffs[(p * keep + j) * 12 + k] = s.lprt.coeffs[(p * S + j) * 12 + k];
+    s.lprt.coeffs = std::move(coeffs);
+    s.lprt.sources.resize(keep);
+  }
+  return out;
+}
+
+size_t storedBytes(const std::vector<Sector>& sectors) {
+  size_t n = 0;
+  for (const Sector& s : sectors) n += encodedSectorBytes(s.probes.size(), s.lprt.sources.size(), s.has_ground);
+  return n;
+}
+
 class DrtvTechnique final : public Technique {
  public:
-  DrtvTechnique(std::string name, DrtvParams params) : name_(std::move(name)), params_(std::move(params)) {}
+  DrtvTechnique(std::string name, Params params) : name_(std::move(name)), params_(std::move(params)) {}
 
   Result<void> prepare(const PrepareInput& in) override {
-    baker::BakeSettings s = baker::BakeSettings::forQuality(params_.quality, in.seed);
-    if (params_.rays_per_basis) s.transfer.probe_rays_per_basis = *params_.rays_per_basis;
-    if (params_.bounces) s.transfer.bounces = *params_.bounces;
+    const baker::BakeSettings s = bakeSettings(params_.bake, in.seed);
+    if (in.baked && in.baked->manifest.settings == s.describe()) {
+      adopt(in.baked->manifest, in.baked->sectors, in.baked->bake_s);
+      return {};
+    }
     auto b = baker::bakeInMemory(in.world, in.where, s, in.block, in.threads);
     if (!b) return std::unexpected(b.error());
-    costs_.prepare_s = b->bake_s;
-    costs_.stored_bytes = b->bytes;
-    manifest_ = std::move(b->manifest);
-    sectors_ = std::move(b->sectors);
-    rt_.reset();
+    adopt(std::move(b->manifest), std::move(b->sectors), b->bake_s);
     return {};
   }
 
   Result<void> prepareBaked(const Manifest& manifest, std::span<const Sector> sectors) override {
-    manifest_ = manifest;
-    sectors_.assign(sectors.begin(), sectors.end());
-    costs_.prepare_s = 0;
-    costs_.stored_bytes = 0;
-    for (const Sector& s : sectors_) costs_.stored_bytes += encodedSectorBytes(s.probes.size(), s.lprt.sources.size(), s.has_ground);
+    adopt(manifest, std::vector<Sector>(sectors.begin(), sectors.end()), 0.0);
+    return {};
+  }
+
+  Result<void> setParams(const TechniqueParams& params) override {
+    auto p = parseParams(params);
+    if (!p) return std::unexpected(p.error());
+    if (!(p->bake == params_.bake)) return fail("technique " + describe() + ": bake parameters change only with a new prepare");
+    const bool lprt_changed = p->runtime.lprt_sources != params_.runtime.lprt_sources;
+    TechniqueParams given = params;
+    params_ = std::move(*p);
+    params_.given = std::move(given);
+    if (lprt_changed) resetSectors();
     rt_.reset();
     return {};
   }
 
   Result<void> setLighting(double hour, const std::vector<PointLight>& lights) override {
     if (!rt_) {
-      runtime::RuntimeOptions o = runtime::optionsForEffects(manifest_.effects);
-      o.volume.fill = params_.fill;
-      if (params_.texel_m) o.volume.texel_size_m.x = o.volume.texel_size_m.y = *params_.texel_m;
-      o.cache.max_sectors = std::max<int>(o.cache.max_sectors, int(sectors_.size()));
-      auto rt = runtime::runtimeForArchive(manifest_, o, hour, &lights);
+      options_ = runtime::optionsForEffects(manifest_.effects);
+      const RuntimeParams& p = params_.runtime;
+      options_.volume.fill = p.fill;
+      if (p.texel_m) options_.volume.texel_size_m = glm::vec3(*p.texel_m, *p.texel_m, 2.f * *p.texel_m);
+      if (p.sun_window) options_.sun_band1_window = *p.sun_window;
+      if (p.part) options_.components = *p.part;
+      if (p.sources_per_light) options_.cache.sources_per_light = *p.sources_per_light;
+      if (p.light_sources) options_.cache.light_sources = *p.light_sources;
+      if (p.storage_levels >= 0) options_.volume.blur = false;
+      options_.cache.max_sectors = std::max<int>(options_.cache.max_sectors, int(active().size()));
+      auto rt = runtime::runtimeForArchive(manifest_, options_, hour, &lights);
       if (!rt) return std::unexpected(rt.error());
-      for (const Sector& s : sectors_)
+      for (const Sector& s : active())
         if (auto r = (*rt)->addSector(s); !r) return std::unexpected(r.error().context("sector " + toString(s.key)));
       rt_ = std::move(*rt);
-      const glm::ivec3 n = o.volume.size;
-      costs_.runtime_bytes = size_t(n.x) * size_t(n.y) * size_t(n.z) * 12;  // 3 RGBA8 textures
+      const glm::ivec3 n = options_.volume.size;
+      costs_.runtime_bytes = size_t(double(n.x) * n.y * n.z * p.storage_bytes);
       return {};
     }
     if (auto r = rt_->setLights(lights); !r) return std::unexpected(r.error());
@@ -127,7 +226,9 @@ class DrtvTechnique final : public Technique {
   }
 
   glm::vec3 ambient(const glm::dvec3& position, const glm::vec3& normal) const override {
-    return rt_ ? rt_->ambient(position, normal).irradiance : glm::vec3(0.f);
+    if (!rt_) return glm::vec3(0.f);
+    if (params_.runtime.storage_levels >= 0) return emulated(position, normal);
+    return rt_->ambient(position, normal).irradiance;
   }
 
   TechniqueCosts costs() const override { return costs_; }
@@ -140,10 +241,55 @@ class DrtvTechnique final : public Technique {
   }
 
  private:
+  void adopt(Manifest manifest, std::vector<Sector> sectors, double bake_s) {
+    manifest_ = std::move(manifest);
+    baked_ = std::move(sectors);
+    costs_.prepare_s = bake_s;
+    resetSectors();
+    rt_.reset();
+  }
+
+  void resetSectors() {
+    truncated_.clear();
+    if (params_.runtime.lprt_sources) truncated_ = truncateLprt(baked_, *params_.runtime.lprt_sources);
+    costs_.stored_bytes = storedBytes(active());
+  }
+
+  const std::vector<Sector>& active() const { return params_.runtime.lprt_sources ? truncated_ : baked_; }
+
+  // The volume at `levels` steps per unit of the HDR scale (0 = float), emulated from the cache:
+  // the nearest probe at each of the 8 texel centres around the shading point, trilinear.
+  glm::vec3 emulated(const glm::dvec3& position, const glm::vec3& normal) const {
+    const runtime::ProbeCache& cache = rt_->cache();
+    const double levels = params_.runtime.storage_levels;
+    const double scale = cache.packedScale();
+    auto quantise = [&](float x) {
+      if (levels <= 0.0) return x;
+      const double q = std::round(std::clamp(double(x) / scale, 0.0, 1.0) * levels) / levels;
+      return float(q * scale);
+    };
+    const glm::dvec3 ts(options_.volume.texel_size_m);
+    const glm::dvec3 s = position + glm::dvec3(normal) * double(options_.normal_offset_m);
+    const glm::dvec3 t = s / ts - 0.5;
+    const glm::dvec3 g0 = glm::floor(t), f = t - g0;
+    std::array<glm::vec3, 4> colour{};
+    for (int corner = 0; corner < 8; ++corner) {
+      const glm::dvec3 g = g0 + glm::dvec3(corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
+      const double w = (corner & 1 ? f.x : 1 - f.x) * (corner & 2 ? f.y : 1 - f.y) * (corner & 4 ? f.z : 1 - f.z);
+      const runtime::ProbeRef pr = cache.probeAt((g + 0.5) * ts);
+      const runtime::BasisColours c = pr.valid() ? cache.colours(pr) : cache.fallback();
+      for (int b = 0; b < 4; ++b)
+        for (int ch = 0; ch < 3; ++ch) colour[b][ch] += float(w) * quantise(c[b][ch]);
+    }
+    const glm::vec4 wt = sh::shadingWeights(normal);
+    return wt.x * colour[0] + wt.y * colour[1] + wt.z * colour[2] + wt.w * colour[3];
+  }
+
   std::string name_;
-  DrtvParams params_;
+  Params params_;
   Manifest manifest_;
-  std::vector<Sector> sectors_;
+  std::vector<Sector> baked_, truncated_;
+  runtime::RuntimeOptions options_;
   std::unique_ptr<runtime::Runtime> rt_;
   TechniqueCosts costs_;
 };

@@ -28,6 +28,7 @@
 
 #include <glm/glm.hpp>
 
+#include "drtv/baker/bake.h"
 #include "drtv/formats/archive.h"
 #include "drtv/formats/error.h"
 #include "drtv/formats/lighting.h"
@@ -36,6 +37,8 @@
 #include "drtv/worlds/world.h"
 
 namespace drtv::eval {
+
+using TechniqueParams = std::map<std::string, std::string>;
 
 // What a technique costs, as measured by the technique itself.
 struct TechniqueCosts {
@@ -52,6 +55,16 @@ struct PrepareInput {
   raytrace::SectorRange block;       // the sectors, inclusive
   uint64_t seed = 1;
   int threads = 0;                   // 0 = all hardware threads
+  // A DRTV bake of this block already made (the accuracy table's default bake). A technique whose
+  // own bake would be this one, bit for bit (same settings, same seed), may take it instead of
+  // baking again; any other ignores it.
+  const baker::InMemoryBake* baked = nullptr;
+};
+
+// A point to shade: world metres and a unit normal.
+struct SurfacePoint {
+  glm::dvec3 position{0.0};
+  glm::vec3 normal{0.f, 0.f, 1.f};
 };
 
 class Technique {
@@ -69,12 +82,18 @@ class Technique {
   // Ambient irradiance (linear RGB, W/m^2-like units of the sky) at world `position` on a surface
   // with unit normal `normal`.
   virtual glm::vec3 ambient(const glm::dvec3& position, const glm::vec3& normal) const = 0;
+  // The ambient at each of `points`, shaded as a frame's pixels are: by default update() with the
+  // camera at each point in turn, then ambient(). A technique that needs to see the points first
+  // (the path-traced probe values of `probe-reference`) overrides it.
+  virtual Result<std::vector<glm::vec3>> evaluate(std::span<const SurfacePoint> points);
+  // Changes parameters after prepare() without preparing again. A parameter that needs another
+  // prepare (DRTV: quality, rays_per_basis, bounces) with a value other than the prepared one is
+  // an error, and so is an unknown one; nothing changes then. Default: takes none.
+  virtual Result<void> setParams(const TechniqueParams& params);
   virtual TechniqueCosts costs() const = 0;
   // The registered name it was made under, and its parameters as text ("fill=smooth").
   virtual std::string describe() const = 0;
 };
-
-using TechniqueParams = std::map<std::string, std::string>;
 
 // Parses "name=value,name=value" ("" gives none). Errors name the piece: "'fill': expected name=value".
 Result<TechniqueParams> parseTechniqueParams(std::string_view text);

@@ -1,0 +1,243 @@
+// probe-reference (technique.h): DRTV's probes and index grid, but each probe's values path-traced
+// (the reference) instead of baked and relit, read at the probe the index grid names for a point,
+// without the volume. It isolates the error of the directional representation from everything
+// else (docs/accuracy.md, `basis` rows). Parameters:
+//   basis          4-basis | ambient-cube | sh-l1   how a probe's light is stored and read back:
+//                  the talk's four bases and shading weights; the six-axis ambient cube [2]; band-1
+//                  SH irradiance from the same six axes [3] (accuracy.h's references)
+//   probe_samples  integer >= 2                     reference paths per probe and direction
+// Only the probes the shaded points name are traced, at evaluate(); their values are kept per hour,
+// so that another basis reads them without tracing again. The world given to prepare() must
+// outlive the technique.
+#include <algorithm>
+#include <array>
+#include <charconv>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <map>
+
+#include "drtv/baker/bake.h"
+#include "drtv/formats/sh.h"
+#include "drtv/reference/reference.h"
+#include "drtv/runtime/runtime.h"
+#include "techniques.h"
+
+namespace drtv::eval {
+namespace {
+
+enum class Basis { kFour, kCube, kShL1 };
+
+struct Params {
+  Basis basis = Basis::kFour;
+  int probe_samples = 256;
+  TechniqueParams given;
+};
+
+Result<Params> parseParams(const TechniqueParams& p) {
+  Params out;
+  out.given = p;
+  for (const auto& [k, v] : p) {
+    if (k == "basis") {
+      if (v == "4-basis") out.basis = Basis::kFour;
+      else if (v == "ambient-cube") out.basis = Basis::kCube;
+      else if (v == "sh-l1") out.basis = Basis::kShL1;
+      else return fail("basis=" + v + ": expected 4-basis, ambient-cube or sh-l1");
+    } else if (k == "probe_samples") {
+      int x = 0;
+      const auto [end, ec] = std::from_chars(v.data(), v.data() + v.size(), x);
+      if (ec != std::errc() || end != v.data() + v.size() || x < 2 || x > (1 << 20))
+        return fail("probe_samples=" + v + ": expected an integer in [2, 1048576]");
+      out.probe_samples = x;
+    } else {
+      return fail("no parameter '" + k + "' (probe-reference takes basis, probe_samples)");
+    }
+  }
+  return out;
+}
+
+// 10 normals per probe: the 4 bases, then +x -x +y -y +z -z.
+const std::array<glm::vec3, 10>& probeNormals() {
+  static const std::array<glm::vec3, 10> n = {sh::kBasis[0], sh::kBasis[1], sh::kBasis[2], sh::kBasis[3],
+                                              glm::vec3(1, 0, 0),  glm::vec3(-1, 0, 0), glm::vec3(0, 1, 0),
+                                              glm::vec3(0, -1, 0), glm::vec3(0, 0, 1),  glm::vec3(0, 0, -1)};
+  return n;
+}
+
+class ProbeReference final : public Technique {
+ public:
+  explicit ProbeReference(Params p) : params_(std::move(p)) {}
+
+  Result<void> prepare(const PrepareInput& in) override {
+    const baker::BakeSettings s = baker::BakeSettings::forQuality(baker::Quality::kDefault, in.seed);
+    std::optional<baker::InMemoryBake> own;
+    const baker::InMemoryBake* bake = in.baked;
+    if (!bake || bake->manifest.settings != s.describe()) {
+      auto b = baker::bakeInMemory(in.world, in.where, s, in.block, in.threads);
+      if (!b) return std::unexpected(b.error());
+      own = std::move(*b);
+      bake = &*own;
+    }
+    auto scene = reference::ReferenceScene::build(in.world, in.where);
+    if (!scene) return std::unexpected(scene.error());
+    scene_ = std::make_unique<reference::ReferenceScene>(std::move(*scene));
+    world_ = &in.world;
+    seed_ = in.seed;
+    threads_ = in.threads;
+    // A runtime only for its index grid: which probe a point reads (ProbeCache::probeAt).
+    runtime::RuntimeOptions o = runtime::optionsForEffects(bake->manifest.effects);
+    o.cache.max_sectors = std::max<int>(o.cache.max_sectors, int(bake->sectors.size()));
+    auto rt = runtime::runtimeForArchive(bake->manifest, o, 12.0);
+    if (!rt) return std::unexpected(rt.error());
+    for (const Sector& sec : bake->sectors)
+      if (auto r = (*rt)->addSector(sec); !r) return std::unexpected(r.error().context("sector " + toString(sec.key)));
+    rt_ = std::move(*rt);
+    normal_offset_m_ = o.normal_offset_m;
+    costs_ = {};
+    costs_.stored_bytes = bake->bytes;
+    costs_.update_ms = std::numeric_limits<double>::quiet_NaN();  // nothing runs per frame
+    const glm::ivec3 n = o.volume.size;
+    volume_texels_ = size_t(n.x) * size_t(n.y) * size_t(n.z);
+    setBytes();
+    probes_.clear();
+    traced_.clear();
+    return {};
+  }
+
+  Result<void> setParams(const TechniqueParams& params) override {
+    auto p = parseParams(params);
+    if (!p) return std::unexpected(p.error());
+    if (p->probe_samples != params_.probe_samples) traced_.clear();
+    params_ = std::move(*p);
+    setBytes();
+    return {};
+  }
+
+  Result<void> setLighting(double hour, const std::vector<PointLight>& lights) override {
+    if (!rt_) return fail("technique " + describe() + ": setLighting before prepare");
+    hour_ = hour;
+    lights_ = lights;
+    return {};
+  }
+
+  Result<void> update(const glm::dvec3&) override { return {}; }
+
+  Result<std::vector<glm::vec3>> evaluate(std::span<const SurfacePoint> points) override {
+    if (!rt_) return fail("technique " + describe() + ": evaluate before prepare");
+    // The probes the points name, in the order the points first name them.
+    std::vector<int> point_probe(points.size(), -1);
+    for (size_t i = 0; i < points.size(); ++i) point_probe[i] = probeIndex(points[i]);
+    std::vector<std::array<glm::vec3, 10>>& e = traced_[key()];
+    if (e.size() < probes_.size()) {
+      const auto t0 = std::chrono::steady_clock::now();
+      reference::ReferenceSettings ps;
+      ps.samples = params_.probe_samples;
+      ps.seed = seed_;
+      std::vector<reference::ReferenceQuery> q;
+      for (size_t k = e.size(); k < probes_.size(); ++k)
+        for (int d = 0; d < 10; ++d) q.push_back({probes_[k].position, probeNormals()[size_t(d)], uint64_t(1u << 30) + k * 10 + d});
+      const auto r = reference::referenceIrradiance(*scene_, reference::ReferenceLighting{world_->sky, hour_, lights_}, q, ps, threads_);
+      for (size_t k = 0; k * 10 < r.size(); ++k) {
+        std::array<glm::vec3, 10> v;
+        for (int d = 0; d < 10; ++d) v[size_t(d)] = r[k * 10 + d].ambient.mean;
+        e.push_back(v);
+      }
+      costs_.prepare_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    }
+    std::vector<glm::vec3> out;
+    out.reserve(points.size());
+    for (size_t i = 0; i < points.size(); ++i)
+      out.push_back(point_probe[i] < 0 ? glm::vec3(0.f) : read(e[size_t(point_probe[i])], points[i].normal));
+    return out;
+  }
+
+  glm::vec3 ambient(const glm::dvec3& position, const glm::vec3& normal) const override {
+    if (!rt_) return glm::vec3(0.f);
+    const runtime::ProbeRef pr = rt_->cache().probeAt(position + glm::dvec3(normal) * double(normal_offset_m_));
+    const auto it = traced_.find(key());
+    if (!pr.valid() || it == traced_.end()) return glm::vec3(0.f);
+    for (size_t k = 0; k < probes_.size() && k < it->second.size(); ++k)
+      if (probes_[k].slot == pr.slot && probes_[k].index == pr.index) return read(it->second[k], normal);
+    return glm::vec3(0.f);  // a probe no evaluate() traced
+  }
+
+  TechniqueCosts costs() const override { return costs_; }
+
+  std::string describe() const override {
+    std::string s = "probe-reference";
+    char sep = ' ';
+    for (const auto& [k, v] : params_.given) s += sep + k + "=" + v, sep = ',';
+    return s;
+  }
+
+ private:
+  struct Probe {
+    int slot, index;
+    glm::dvec3 position;
+  };
+
+  // The lighting the traced values belong to.
+  std::pair<double, size_t> key() const { return {hour_, lights_.size()}; }
+
+  int probeIndex(const SurfacePoint& p) {
+    const runtime::ProbeRef pr = rt_->cache().probeAt(p.position + glm::dvec3(p.normal) * double(normal_offset_m_));
+    if (!pr.valid()) return -1;
+    for (size_t k = 0; k < probes_.size(); ++k)
+      if (probes_[k].slot == pr.slot && probes_[k].index == pr.index) return int(k);
+    probes_.push_back({pr.slot, pr.index, rt_->cache().worldPosition(pr)});
+    return int(probes_.size() - 1);
+  }
+
+  glm::vec3 read(const std::array<glm::vec3, 10>& e, const glm::vec3& n) const {
+    switch (params_.basis) {
+      case Basis::kFour: {
+        const glm::vec4 w = sh::shadingWeights(n);
+        return w.x * e[0] + w.y * e[1] + w.z * e[2] + w.w * e[3];
+      }
+      case Basis::kCube:
+        // The squared normal components weigh the axis the normal leans to.
+        return n.x * n.x * (n.x >= 0 ? e[4] : e[5]) + n.y * n.y * (n.y >= 0 ? e[6] : e[7]) + n.z * n.z * (n.z >= 0 ? e[8] : e[9]);
+      case Basis::kShL1: {
+        glm::vec3 a(0.f);
+        for (int d = 4; d < 10; ++d) a += e[size_t(d)] / 6.f;
+        const glm::vec3 bx = 0.5f * (e[4] - e[5]), by = 0.5f * (e[6] - e[7]), bz = 0.5f * (e[8] - e[9]);
+        return glm::max(a + n.x * bx + n.y * by + n.z * bz, glm::vec3(0.f));
+      }
+    }
+    return glm::vec3(0.f);
+  }
+
+  void setBytes() { costs_.runtime_bytes = volume_texels_ * (params_.basis == Basis::kCube ? 18 : 12); }
+
+  Params params_;
+  std::unique_ptr<reference::ReferenceScene> scene_;
+  const worlds::World* world_ = nullptr;
+  uint64_t seed_ = 1;
+  int threads_ = 0;
+  std::unique_ptr<runtime::Runtime> rt_;
+  float normal_offset_m_ = 1.f;
+  size_t volume_texels_ = 0;
+  double hour_ = 12.0;
+  std::vector<PointLight> lights_;
+  std::vector<Probe> probes_;
+  std::map<std::pair<double, size_t>, std::vector<std::array<glm::vec3, 10>>> traced_;
+  TechniqueCosts costs_;
+};
+
+}  // namespace
+
+std::vector<TechniqueRegistration> probeReferenceTechniques() {
+  std::vector<TechniqueRegistration> out;
+  out.push_back({{"probe-reference",
+                  "DRTV's probes with path-traced values read through a basis (4-basis, ambient-cube, sh-l1), no volume: "
+                  "the representation's error alone",
+                  {}},
+                 [](const TechniqueParams& p) -> Result<std::unique_ptr<Technique>> {
+                   auto parsed = parseParams(p);
+                   if (!parsed) return std::unexpected(parsed.error());
+                   return std::make_unique<ProbeReference>(std::move(*parsed));
+                 }});
+  return out;
+}
+
+}  // namespace drtv::eval

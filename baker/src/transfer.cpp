@@ -130,25 +130,28 @@ RayResult classify(const raytrace::RayScene& scene, const raytrace::Ray& ray, co
   return r;
 }
 
-}  // namespace
+// What every step of one sector's transfer bake reads.
+struct TransferContext {
+  const raytrace::RayScene& scene;
+  const raytrace::SectorGeometry& geometry;
+  const TransferSettings& s;
+  size_t P, N, M;
+  float inv_cell;
+  uint64_t sector_key;
+  const glm::vec3& albedo(uint32_t prim) const { return geometry.materials[geometry.material[prim]]; }
+};
 
-std::vector<ProbeData> bakeTransfer(const raytrace::RayScene& scene, const raytrace::SectorGeometry& geometry,
-                                    std::span<const glm::vec3> probes, const TransferSettings& s,
-                                    TransferStats& stats, std::span<const glm::vec3> lprt_sources,
-                                    std::vector<float>* lprt) {
-  DRTV_CHECK(s.probe_rays_per_basis > 0 && s.surfel_rays > 0 && s.bounces >= 1 && s.surfel_cell_m > 0.f);
-  const size_t P = probes.size(), N = size_t(s.probe_rays_per_basis), M = size_t(s.surfel_rays);
-  const size_t S = lprt_sources.size();
-  const bool want_lprt = S > 0 && lprt != nullptr;
-  const float inv_cell = 1.f / s.surfel_cell_m;
-  const uint64_t sector_key = raytrace::hashKey(s.seed, uint64_t(uint32_t(geometry.key.ix)), uint64_t(uint32_t(geometry.key.iy)), 0x7472616eull);
-  auto albedo = [&](uint32_t prim) -> const glm::vec3& { return geometry.materials[geometry.material[prim]]; };
-
-  // ---- Probe rays: 4 bases x N cosine-weighted rays, plus one straight down for height_m.
-  auto t0 = Clock::now();
-  std::vector<ProbeData> out(P);
-  std::vector<RayResult> probe_res(P * 4 * N);
-  const raytrace::CosineSampler probe_sampler{static_cast<uint32_t>(N)}, surfel_sampler{static_cast<uint32_t>(M)};
+// The probes' rays: 4 bases x N cosine-weighted rays, plus one straight down for height_m. Fills
+// sky visibility, back-face fraction, mean hit distance and height; `probe_res` gets every ray's
+// result in probe, basis, sample order.
+void traceProbes(const TransferContext& ctx, std::span<const glm::vec3> probes, std::vector<ProbeData>& out,
+                 std::vector<RayResult>& probe_res) {
+  const raytrace::RayScene& scene = ctx.scene;
+  const TransferSettings& s = ctx.s;
+  const size_t P = ctx.P, N = ctx.N;
+  const float inv_cell = ctx.inv_cell;
+  const uint64_t sector_key = ctx.sector_key;
+  const raytrace::CosineSampler probe_sampler{static_cast<uint32_t>(N)};
   tbb::parallel_for(tbb::blocked_range<size_t>(0, P, 1), [&](const tbb::blocked_range<size_t>& range) {
     std::vector<raytrace::Ray> rays(N);
     std::vector<raytrace::Hit> hits(N);
@@ -192,16 +195,15 @@ std::vector<ProbeData> bakeTransfer(const raytrace::RayScene& scene, const raytr
       d.height_m = down.hit() ? std::min(down.t, 655.35f) : 0.f;
     }
   });
-  stats.probe_rays += uint64_t(P) * (4 * N + 1);
-  stats.probe_seconds += since(t0);
+}
 
-  if (!s.prt && !want_lprt) return out;
-
-  // ---- Level-1 surfels: the probes' hits, in probe, basis, sample order.
-  t0 = Clock::now();
-  CellMap cells;
-  std::vector<Surfel> surfels;
-  std::vector<uint32_t> probe_surfel(P * 4 * N, kNoSurfel);
+// Level-1 surfels: the probes' hits, one per cell in probe, basis, sample order; `probe_surfel`
+// names each probe ray's surfel. Returns how many there are (level 1's size).
+size_t levelOneSurfels(const TransferContext& ctx, const std::vector<RayResult>& probe_res, CellMap& cells,
+                       std::vector<Surfel>& surfels, std::vector<uint32_t>& probe_surfel, TransferStats& stats) {
+  const raytrace::RayScene& scene = ctx.scene;
+  const size_t P = ctx.P, N = ctx.N;
+  probe_surfel.assign(P * 4 * N, kNoSurfel);
   for (size_t p = 0; p < P; ++p)
     for (int b = 0; b < 4; ++b) {
       for (size_t i = 0; i < N; ++i) {
@@ -241,114 +243,133 @@ std::vector<ProbeData> bakeTransfer(const raytrace::RayScene& scene, const raytr
       }
     }
   }
+  return level1;
+}
 
-  // ---- Surface cache: trace level by level, then Jacobi sweeps.
+// The surface cache: trace level by level from level 1 (cells found while tracing, new ones
+// created in (surfel, ray) order), then Jacobi sweeps for the bounces. Returns each traced
+// surfel's transfer.
+std::vector<Sh4Rgb> surfaceCache(const TransferContext& ctx, CellMap& cells, std::vector<Surfel>& surfels, TransferStats& stats) {
+  const raytrace::RayScene& scene = ctx.scene;
+  const raytrace::SectorGeometry& geometry = ctx.geometry;
+  const TransferSettings& s = ctx.s;
+  const size_t M = ctx.M;
+  const float inv_cell = ctx.inv_cell;
+  const uint64_t sector_key = ctx.sector_key;
+  const raytrace::CosineSampler surfel_sampler{static_cast<uint32_t>(M)};
   std::vector<Sh4Rgb> transfer;
-  if (s.prt) {
-    std::vector<sh::Sh4> direct;
-    std::vector<Edge> edges;
-    // A hit whose cell did not exist before its level: where it landed, linked after the trace.
-    struct Miss {
-      uint64_t key;
-      glm::vec3 position;
-      uint32_t prim;
-    };
-    std::vector<Miss> misses;
-    size_t lo = 0;
-    for (int level = 1; level <= s.bounces && lo < surfels.size(); ++level) {
-      const size_t hi = surfels.size();
-      const bool last = level == s.bounces;
-      direct.resize(hi, sh::Sh4(0.f));
-      edges.resize(hi * M);
-      if (!last) misses.resize((hi - lo) * M);
-      // The cell map is read-only while the level is traced, so each ray finds the cell it
-      // landed in right there; only hits in cells that do not exist yet (at the last level they
-      // stay unlinked) are left for the serial pass below, which creates them in (surfel, ray)
-      // order: the ids are those a serial insert of every hit would give.
-      tbb::parallel_for(tbb::blocked_range<size_t>(lo, hi, 16), [&](const tbb::blocked_range<size_t>& range) {
-        std::vector<raytrace::Ray> rays(M);
-        std::vector<raytrace::Hit> hits(M);
-        std::vector<glm::vec3> dirs(M);
-        for (size_t si = range.begin(); si < range.end(); ++si) {
-          const Surfel& sf = surfels[si];
-          const raytrace::Frame frame(sf.normal);
-          const glm::vec2 shift = shiftFor(raytrace::hashKey(sector_key, (1ull << 40) | si));
-          const glm::vec3 origin = sf.position + kRayOffsetM * sf.normal;
-          surfel_sampler.generate(frame, shift, dirs);
-          for (size_t i = 0; i < M; ++i) rays[i] = raytrace::Ray{origin, 0.f, dirs[i], INFINITY};
-          scene.intersect(rays, hits);
-          sh::Sh4 d(0.f);
-          for (size_t i = 0; i < M; ++i) {
-            const RayResult r = classify(scene, rays[i], hits[i], inv_cell);
-            Edge& e = edges[si * M + i];
-            e = Edge{};
-            if (r.key == kEscaped) d += sh::evaluate(rays[i].dir);
-            if (r.key >= kBackface) continue;
-            e.material = geometry.material[r.prim];
-            e.child = cells.find(r.key);
-            if (e.child == kNoSurfel && !last) {
-              e.child = kPending;
-              misses[(si - lo) * M + i] = Miss{r.key, r.position, r.prim};
-            }
+  std::vector<sh::Sh4> direct;
+  std::vector<Edge> edges;
+  // A hit whose cell did not exist before its level: where it landed, linked after the trace.
+  struct Miss {
+    uint64_t key;
+    glm::vec3 position;
+    uint32_t prim;
+  };
+  std::vector<Miss> misses;
+  size_t lo = 0;
+  for (int level = 1; level <= s.bounces && lo < surfels.size(); ++level) {
+    const size_t hi = surfels.size();
+    const bool last = level == s.bounces;
+    direct.resize(hi, sh::Sh4(0.f));
+    edges.resize(hi * M);
+    if (!last) misses.resize((hi - lo) * M);
+    // The cell map is read-only while the level is traced, so each ray finds the cell it
+    // landed in right there; only hits in cells that do not exist yet (at the last level they
+    // stay unlinked) are left for the serial pass below, which creates them in (surfel, ray)
+    // order: the ids are those a serial insert of every hit would give.
+    tbb::parallel_for(tbb::blocked_range<size_t>(lo, hi, 16), [&](const tbb::blocked_range<size_t>& range) {
+      std::vector<raytrace::Ray> rays(M);
+      std::vector<raytrace::Hit> hits(M);
+      std::vector<glm::vec3> dirs(M);
+      for (size_t si = range.begin(); si < range.end(); ++si) {
+        const Surfel& sf = surfels[si];
+        const raytrace::Frame frame(sf.normal);
+        const glm::vec2 shift = shiftFor(raytrace::hashKey(sector_key, (1ull << 40) | si));
+        const glm::vec3 origin = sf.position + kRayOffsetM * sf.normal;
+        surfel_sampler.generate(frame, shift, dirs);
+        for (size_t i = 0; i < M; ++i) rays[i] = raytrace::Ray{origin, 0.f, dirs[i], INFINITY};
+        scene.intersect(rays, hits);
+        sh::Sh4 d(0.f);
+        for (size_t i = 0; i < M; ++i) {
+          const RayResult r = classify(scene, rays[i], hits[i], inv_cell);
+          Edge& e = edges[si * M + i];
+          e = Edge{};
+          if (r.key == kEscaped) d += sh::evaluate(rays[i].dir);
+          if (r.key >= kBackface) continue;
+          e.material = geometry.material[r.prim];
+          e.child = cells.find(r.key);
+          if (e.child == kNoSurfel && !last) {
+            e.child = kPending;
+            misses[(si - lo) * M + i] = Miss{r.key, r.position, r.prim};
           }
-          direct[si] = d * (kPi / float(M));
         }
-      });
-      stats.surfel_rays += uint64_t(hi - lo) * M;
-      if (!last)
-        for (size_t si = lo; si < hi; ++si)
-          for (size_t i = 0; i < M; ++i) {
-            Edge& e = edges[si * M + i];
-            if (e.child != kPending) continue;
-            const Miss& m = misses[(si - lo) * M + i];
-            e.child = cells.insert(m.key, uint32_t(surfels.size()));
-            if (e.child == surfels.size()) surfels.push_back({m.position, scene.normal(m.prim)});
-          }
-      lo = hi;
-    }
-    const size_t count = lo;  // surfels traced (the last level creates none)
-    transfer.resize(count);
-    for (size_t si = 0; si < count; ++si) transfer[si] = {direct[si], direct[si], direct[si]};
-    std::vector<Sh4Rgb> next(count);
-    for (int sweep = 1; sweep < s.bounces; ++sweep) {
-      tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 256), [&](const tbb::blocked_range<size_t>& range) {
-        for (size_t si = range.begin(); si < range.end(); ++si) {
-          Sh4Rgb acc{sh::Sh4(0.f), sh::Sh4(0.f), sh::Sh4(0.f)};
-          for (size_t i = 0; i < M; ++i) {
-            const Edge& e = edges[si * M + i];
-            if (e.child == kNoSurfel) continue;
-            const glm::vec3& rho = geometry.materials[e.material];
-            for (int c = 0; c < 3; ++c) acc[c] += rho[c] * transfer[e.child][c];
-          }
-          for (int c = 0; c < 3; ++c) next[si][c] = direct[si] + acc[c] * (1.f / float(M));
-        }
-      });
-      std::swap(transfer, next);
-    }
-    stats.surfels += count;
-
-    // ---- Gather: T[c][b] = (1/N) sum rho_c(x_i) T_{x_i}[c].
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, P, 4), [&](const tbb::blocked_range<size_t>& range) {
-      for (size_t p = range.begin(); p < range.end(); ++p)
-        for (int b = 0; b < 4; ++b) {
-          Sh4Rgb acc{sh::Sh4(0.f), sh::Sh4(0.f), sh::Sh4(0.f)};
-          for (size_t i = 0; i < N; ++i) {
-            const size_t idx = (p * 4 + b) * N + i;
-            const uint32_t si = probe_surfel[idx];
-            if (si == kNoSurfel) continue;
-            const glm::vec3& rho = albedo(probe_res[idx].prim);
-            for (int c = 0; c < 3; ++c) acc[c] += rho[c] * transfer[si][c];
-          }
-          for (int c = 0; c < 3; ++c) out[p].prt[c][b] = acc[c] * (1.f / float(N));
-        }
+        direct[si] = d * (kPi / float(M));
+      }
     });
+    stats.surfel_rays += uint64_t(hi - lo) * M;
+    if (!last)
+      for (size_t si = lo; si < hi; ++si)
+        for (size_t i = 0; i < M; ++i) {
+          Edge& e = edges[si * M + i];
+          if (e.child != kPending) continue;
+          const Miss& m = misses[(si - lo) * M + i];
+          e.child = cells.insert(m.key, uint32_t(surfels.size()));
+          if (e.child == surfels.size()) surfels.push_back({m.position, scene.normal(m.prim)});
+        }
+    lo = hi;
   }
-  stats.surfel_seconds += since(t0);
+  const size_t count = lo;  // surfels traced (the last level creates none)
+  transfer.resize(count);
+  for (size_t si = 0; si < count; ++si) transfer[si] = {direct[si], direct[si], direct[si]};
+  std::vector<Sh4Rgb> next(count);
+  for (int sweep = 1; sweep < s.bounces; ++sweep) {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 256), [&](const tbb::blocked_range<size_t>& range) {
+      for (size_t si = range.begin(); si < range.end(); ++si) {
+        Sh4Rgb acc{sh::Sh4(0.f), sh::Sh4(0.f), sh::Sh4(0.f)};
+        for (size_t i = 0; i < M; ++i) {
+          const Edge& e = edges[si * M + i];
+          if (e.child == kNoSurfel) continue;
+          const glm::vec3& rho = geometry.materials[e.material];
+          for (int c = 0; c < 3; ++c) acc[c] += rho[c] * transfer[e.child][c];
+        }
+        for (int c = 0; c < 3; ++c) next[si][c] = direct[si] + acc[c] * (1.f / float(M));
+      }
+    });
+    std::swap(transfer, next);
+  }
+  stats.surfels += count;
+  return transfer;
+}
 
-  if (!want_lprt) return out;
+// Gather: T[c][b] = (1/N) sum rho_c(x_i) T_{x_i}[c] over each probe basis' rays.
+void gatherPrt(const TransferContext& ctx, const std::vector<RayResult>& probe_res, const std::vector<uint32_t>& probe_surfel,
+               const std::vector<Sh4Rgb>& transfer, std::vector<ProbeData>& out) {
+  const size_t P = ctx.P, N = ctx.N;
+  auto albedo = [&](uint32_t prim) -> const glm::vec3& { return ctx.albedo(prim); };
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, P, 4), [&](const tbb::blocked_range<size_t>& range) {
+    for (size_t p = range.begin(); p < range.end(); ++p)
+      for (int b = 0; b < 4; ++b) {
+        Sh4Rgb acc{sh::Sh4(0.f), sh::Sh4(0.f), sh::Sh4(0.f)};
+        for (size_t i = 0; i < N; ++i) {
+          const size_t idx = (p * 4 + b) * N + i;
+          const uint32_t si = probe_surfel[idx];
+          if (si == kNoSurfel) continue;
+          const glm::vec3& rho = albedo(probe_res[idx].prim);
+          for (int c = 0; c < 3; ++c) acc[c] += rho[c] * transfer[si][c];
+        }
+        for (int c = 0; c < 3; ++c) out[p].prt[c][b] = acc[c] * (1.f / float(N));
+      }
+  });
+}
 
-  // ---- LPRT: direct irradiance of each source at each level-1 surfel, then one bounce.
-  t0 = Clock::now();
+// LPRT: the direct irradiance of each source at each level-1 surfel, then one bounce to the probes.
+void bakeLprt(const TransferContext& ctx, const std::vector<Surfel>& surfels, size_t level1, const std::vector<RayResult>& probe_res,
+              const std::vector<uint32_t>& probe_surfel, std::span<const glm::vec3> lprt_sources, std::vector<float>* lprt,
+              TransferStats& stats) {
+  const raytrace::RayScene& scene = ctx.scene;
+  const size_t P = ctx.P, N = ctx.N, S = lprt_sources.size();
+  auto albedo = [&](uint32_t prim) -> const glm::vec3& { return ctx.albedo(prim); };
   std::vector<float> irradiance(level1 * S, 0.f);
   std::atomic<uint64_t> lprt_rays{0};
   tbb::parallel_for(tbb::blocked_range<size_t>(0, level1, 16), [&](const tbb::blocked_range<size_t>& range) {
@@ -404,6 +425,42 @@ std::vector<ProbeData> bakeTransfer(const raytrace::RayScene& scene, const raytr
       for (size_t q = 0; q < S * 12; ++q) (*lprt)[p * S * 12 + q] = acc[q] / float(N);
     }
   });
+}
+
+}  // namespace
+
+std::vector<ProbeData> bakeTransfer(const raytrace::RayScene& scene, const raytrace::SectorGeometry& geometry,
+                                    std::span<const glm::vec3> probes, const TransferSettings& s,
+                                    TransferStats& stats, std::span<const glm::vec3> lprt_sources,
+                                    std::vector<float>* lprt) {
+  DRTV_CHECK(s.probe_rays_per_basis > 0 && s.surfel_rays > 0 && s.bounces >= 1 && s.surfel_cell_m > 0.f);
+  const size_t P = probes.size(), N = size_t(s.probe_rays_per_basis), M = size_t(s.surfel_rays);
+  const bool want_lprt = !lprt_sources.empty() && lprt != nullptr;
+  const TransferContext ctx{scene, geometry, s, P, N, M, 1.f / s.surfel_cell_m,
+                            raytrace::hashKey(s.seed, uint64_t(uint32_t(geometry.key.ix)), uint64_t(uint32_t(geometry.key.iy)), 0x7472616eull)};
+
+  auto t0 = Clock::now();
+  std::vector<ProbeData> out(P);
+  std::vector<RayResult> probe_res(P * 4 * N);
+  traceProbes(ctx, probes, out, probe_res);
+  stats.probe_rays += uint64_t(P) * (4 * N + 1);
+  stats.probe_seconds += since(t0);
+  if (!s.prt && !want_lprt) return out;
+
+  t0 = Clock::now();
+  CellMap cells;
+  std::vector<Surfel> surfels;
+  std::vector<uint32_t> probe_surfel;
+  const size_t level1 = levelOneSurfels(ctx, probe_res, cells, surfels, probe_surfel, stats);
+  if (s.prt) {
+    const std::vector<Sh4Rgb> transfer = surfaceCache(ctx, cells, surfels, stats);
+    gatherPrt(ctx, probe_res, probe_surfel, transfer, out);
+  }
+  stats.surfel_seconds += since(t0);
+  if (!want_lprt) return out;
+
+  t0 = Clock::now();
+  bakeLprt(ctx, surfels, level1, probe_res, probe_surfel, lprt_sources, lprt, stats);
   stats.lprt_seconds += since(t0);
   return out;
 }

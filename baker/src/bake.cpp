@@ -22,7 +22,7 @@
 
 #include "drtv/raytrace/sampling.h"
 #include "sector_journal.h"
-#include "stats_json.h"
+#include "sector_stats.h"
 #include "drtv/baker/stopwatch.h"
 
 namespace drtv::baker {
@@ -39,7 +39,7 @@ constexpr int kMaxGroundHits = 128;
 // Version of what the sector journals hold; part of the resume fingerprint (2: journals instead
 // of a pair of files per sector; 3: records keep their LPRT source positions for packing; 4: a
 // placement pass names LPRT sources, records keep no positions).
-constexpr int kBakeFormat = 4;
+constexpr int kBakeFormat = 5;
 
 std::string fmt(double v) {
   std::ostringstream s;
@@ -467,6 +467,132 @@ Result<Sector> bakeSector(const raytrace::WorldGeometry& geometry, const worlds:
 
 fs::path sectorDirectory(const fs::path& archive) { return fs::path(archive.string() + ".sectors"); }
 
+namespace {
+
+// What a resumed bake must share with the one that wrote the journals: the geometry, effects,
+// journal format, settings and every field of every interior.
+uint64_t bakeFingerprint(const raytrace::WorldGeometry& geometry, const worlds::World& world, const BakeSettings& settings,
+                         uint32_t effects) {
+  uint64_t fingerprint = raytrace::hashKey(geometry.fingerprint(), effects, kBakeFormat);
+  // Text hashed with XXH3, not std::hash: the stamp outlives the build (std::hash may change with
+  // the standard library, and a rebuilt drtv would then refuse to resume its own bake).
+  auto textHash = [](const std::string& t) { return uint64_t(XXH3_64bits(t.data(), t.size())); };
+  for (const auto& [k, v] : settings.describe()) fingerprint = raytrace::hashKey(fingerprint, textHash(k + "=" + v));
+  // Interiors decide probe flags and indices: every field, exactly (bit patterns, not text).
+  for (const InteriorVolume& v : world.interiors) {
+    fingerprint = raytrace::hashKey(fingerprint, textHash(v.name));
+    for (const glm::dvec3& p : {v.probe_position, v.min, v.max})
+      for (int a = 0; a < 3; ++a) fingerprint = raytrace::hashKey(fingerprint, std::bit_cast<uint64_t>(p[a]));
+    fingerprint = raytrace::hashKey(fingerprint, uint64_t(std::bit_cast<uint32_t>(v.blend_distance_m)));
+  }
+  return fingerprint;
+}
+
+// Creates `dir` and stamps it with `fingerprint`; a directory stamped by a different bake is an
+// error unless `fresh` (then its journals are removed).
+Result<void> claimSectorDirectory(const fs::path& dir, uint64_t fingerprint, bool fresh) {
+  char fp_text[32];
+  std::snprintf(fp_text, sizeof fp_text, "%016llx", static_cast<unsigned long long>(fingerprint));
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) return fail(dir.string() + ": cannot create: " + ec.message());
+  const fs::path stamp = dir / "bake.txt";
+  if (fs::exists(stamp, ec)) {
+    auto old = readFile(stamp);
+    const std::string text = old ? std::string(old->begin(), old->end()) : "";
+    if (text != fp_text) {
+      if (!fresh)
+        return fail(dir.string() + ": holds sectors of a different bake (other world, quality, settings or drtv version); pass --fresh to discard them");
+      if (auto r = detail::removeJournals(dir); !r) return std::unexpected(r.error());
+    }
+  }
+  return writeAtomically(stamp, fp_text, std::strlen(fp_text));
+}
+
+// Pass 1 of an LPRT bake: the placement of the sectors `todo_keys` and of their neighbours
+// (placementKeys), read back from any placement journal in `dir` or placed now and appended to
+// this shard's. Empty without LPRT.
+Result<SectorPlacements> placementPass(const raytrace::WorldGeometry& geometry, const worlds::World& world, const std::string& world_name,
+                                       const fs::path& dir, const std::vector<SectorKey>& todo_keys, const BakeSettings& settings,
+                                       uint32_t effects, const BakeOptions& options, PlacementPass& pass) {
+  SectorPlacements placements;
+  const std::vector<SectorKey> needed = placementKeys(todo_keys, effects);
+  if (needed.empty()) return placements;
+  const auto t0 = Clock::now();
+  auto placed = detail::scanJournals(dir, "placement-");
+  if (!placed) return std::unexpected(placed.error());
+  std::vector<SectorKey> missing;
+  for (const SectorKey k : needed) {
+    const auto it = placed->find(k);
+    if (it == placed->end()) {
+      missing.push_back(k);
+      continue;
+    }
+    auto bytes = detail::readSector(it->second);
+    if (!bytes) return std::unexpected(bytes.error());
+    auto p = decodePlacement(*bytes, it->second.file.string() + " sector " + toString(k));
+    if (!p) return std::unexpected(p.error());
+    placements[k] = std::move(*p);
+    ++pass.resumed;
+  }
+  auto fresh = placeSectors(geometry, world, missing, settings, effects);
+  if (!fresh) return std::unexpected(fresh.error().context(world_name));
+  if (!missing.empty()) {
+    auto w = detail::JournalWriter::open(
+        dir / ("placement-" + std::to_string(options.shard_index) + "-of-" + std::to_string(options.shard_count) + ".log"));
+    if (!w) return std::unexpected(w.error());
+    for (auto& [k, p] : *fresh) {
+      if (auto a = w->append(k, {}, encodePlacement(p)); !a) return std::unexpected(a.error());
+      placements[k] = std::move(p);
+    }
+  }
+  const std::set<SectorKey> own(todo_keys.begin(), todo_keys.end());
+  for (const SectorKey k : missing)
+    if (!own.contains(k)) pass.outside_rays += placements.at(k).stats.rays;
+  pass.sectors = needed.size();
+  pass.outside = needed.size() - own.size();
+  pass.seconds = since(t0);
+  return placements;
+}
+
+// Packs every sector of `keys` from the journal records `entries` into `archive`, in key order,
+// skipping empty ones; fills the report's per-sector counts from the bytes themselves (a resumed
+// sector's stats may be missing).
+Result<void> packArchive(const raytrace::WorldGeometry& geometry, const worlds::World& world, const std::string& world_name,
+                         const fs::path& archive, const fs::path& dir, const std::vector<SectorKey>& keys,
+                         const std::map<SectorKey, detail::JournalEntry>& entries, uint32_t effects, BakeReport& report) {
+  const auto t0 = Clock::now();
+  for (size_t i = 0; i < keys.size(); ++i)
+    if (entries.find(keys[i]) == entries.end())
+      return fail(dir.string() + ": sector " + toString(keys[i]) + " is missing from the journals it was written to");
+  auto out = ArchiveWriter::create(archive, report.settings.zstd_level);
+  if (!out) return std::unexpected(out.error());
+  report.sectors_empty = 0;
+  for (size_t i = 0; i < keys.size(); ++i) {
+    const detail::JournalEntry& e = entries.at(keys[i]);
+    auto bytes = detail::readSector(e);
+    if (!bytes) return std::unexpected(bytes.error());
+    auto decoded = decodeSector(*bytes, e.file.string() + " sector " + toString(keys[i]));
+    if (!decoded) return std::unexpected(decoded.error());
+    if (decoded->probes.empty()) {
+      ++report.sectors_empty;
+      continue;
+    }
+    SectorStats& st = *std::find_if(report.sectors.begin(), report.sectors.end(), [&](const SectorStats& s) { return s.key == keys[i]; });
+    st.probes = decoded->probes.size();
+    st.lprt_sources = decoded->lprt.sources.size();
+    st.bytes = bytes->size();
+    st.bytes_without_lprt = encodedSectorBytes(st.probes, 0, decoded->has_ground);
+    if (auto a = out->addEncodedSector(*bytes); !a) return std::unexpected(a.error());
+  }
+  if (auto f = out->finish(manifestFor(geometry, world, world_name, report.settings, effects)); !f) return std::unexpected(f.error());
+  report.packed = true;
+  report.pack_s = since(t0);
+  return {};
+}
+
+}  // namespace
+
 Result<BakeReport> bake(const worlds::World& world, const std::string& world_name, const fs::path& archive,
                         const BakeOptions& options) {
   const auto t_start = Clock::now();
@@ -517,36 +643,11 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
   for (int32_t x = range.x0; x <= range.x1; ++x)
     for (int32_t y = range.y0; y <= range.y1; ++y) keys.push_back({x, y});
 
-  // The sector directory and its fingerprint: a resumed bake must be the same bake.
+  // The sector directory, stamped with the bake's fingerprint: a resumed bake must be the same bake.
   const fs::path dir = sectorDirectory(archive);
-  uint64_t fingerprint = raytrace::hashKey(geometry->fingerprint(), effects, kBakeFormat);
-  // Text hashed with XXH3, not std::hash: the stamp outlives the build (std::hash may change with
-  // the standard library, and a rebuilt drtv would then refuse to resume its own bake).
-  auto textHash = [](const std::string& t) { return uint64_t(XXH3_64bits(t.data(), t.size())); };
-  for (const auto& [k, v] : report.settings.describe()) fingerprint = raytrace::hashKey(fingerprint, textHash(k + "=" + v));
-  // Interiors decide probe flags and indices: every field, exactly (bit patterns, not text).
-  for (const InteriorVolume& v : world.interiors) {
-    fingerprint = raytrace::hashKey(fingerprint, textHash(v.name));
-    for (const glm::dvec3& p : {v.probe_position, v.min, v.max})
-      for (int a = 0; a < 3; ++a) fingerprint = raytrace::hashKey(fingerprint, std::bit_cast<uint64_t>(p[a]));
-    fingerprint = raytrace::hashKey(fingerprint, uint64_t(std::bit_cast<uint32_t>(v.blend_distance_m)));
-  }
-  char fp_text[32];
-  std::snprintf(fp_text, sizeof fp_text, "%016llx", static_cast<unsigned long long>(fingerprint));
+  if (auto ok = claimSectorDirectory(dir, bakeFingerprint(*geometry, world, report.settings, effects), options.fresh); !ok)
+    return std::unexpected(ok.error());
   std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (ec) return fail(dir.string() + ": cannot create: " + ec.message());
-  const fs::path stamp = dir / "bake.txt";
-  if (fs::exists(stamp, ec)) {
-    auto old = readFile(stamp);
-    const std::string text = old ? std::string(old->begin(), old->end()) : "";
-    if (text != fp_text) {
-      if (!options.fresh)
-        return fail(dir.string() + ": holds sectors of a different bake (other world, quality, settings or drtv version); pass --fresh to discard them");
-      if (auto r = detail::removeJournals(dir); !r) return std::unexpected(r.error());
-    }
-  }
-  if (auto w = writeAtomically(stamp, fp_text, std::strlen(fp_text)); !w) return std::unexpected(w.error());
 
   // Which sectors this process bakes; the rest are resumed (or, on merge, must exist).
   std::vector<size_t> todo;
@@ -557,10 +658,8 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
   for (size_t i = 0; i < keys.size(); ++i) {
     if (const auto it = journal->find(keys[i]); it != journal->end()) {
       have[i] = 1;
-      if (auto j = detail::readStats(it->second); j) {
-        const auto parsed = nlohmann::json::parse(j->begin(), j->end(), nullptr, false);
-        if (!parsed.is_discarded()) stats[i] = sectorStatsFromJson(parsed);
-      }
+      if (auto j = detail::readStats(it->second); j)
+        if (auto decoded = decodeStats(*j)) stats[i] = *decoded;
       stats[i].key = keys[i];
       stats[i].resumed = true;
       continue;
@@ -576,50 +675,11 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
     if (missing) return fail(dir.string() + ": " + std::to_string(missing) + " sectors not baked yet (first " + first + "); run the missing shards");
   }
 
-  // Pass 1, with LPRT: the placement of every sector this process bakes and of their neighbours,
-  // read back from any placement journal or placed now and appended to this shard's.
-  SectorPlacements placements;
-  {
-    std::vector<SectorKey> todo_keys;
-    for (const size_t i : todo) todo_keys.push_back(keys[i]);
-    const std::vector<SectorKey> needed = placementKeys(todo_keys, effects);
-    if (!needed.empty()) {
-      t0 = Clock::now();
-      auto placed = detail::scanJournals(dir, "placement-");
-      if (!placed) return std::unexpected(placed.error());
-      std::vector<SectorKey> missing;
-      for (const SectorKey k : needed) {
-        const auto it = placed->find(k);
-        if (it == placed->end()) {
-          missing.push_back(k);
-          continue;
-        }
-        auto bytes = detail::readSector(it->second);
-        if (!bytes) return std::unexpected(bytes.error());
-        auto p = decodePlacement(*bytes, it->second.file.string() + " sector " + toString(k));
-        if (!p) return std::unexpected(p.error());
-        placements[k] = std::move(*p);
-        ++report.placement_pass.resumed;
-      }
-      auto fresh = placeSectors(*geometry, world, missing, report.settings, effects);
-      if (!fresh) return std::unexpected(fresh.error().context(world_name));
-      if (!missing.empty()) {
-        auto w = detail::JournalWriter::open(
-            dir / ("placement-" + std::to_string(options.shard_index) + "-of-" + std::to_string(options.shard_count) + ".log"));
-        if (!w) return std::unexpected(w.error());
-        for (auto& [k, p] : *fresh) {
-          if (auto a = w->append(k, "{}", encodePlacement(p)); !a) return std::unexpected(a.error());
-          placements[k] = std::move(p);
-        }
-      }
-      const std::set<SectorKey> own(todo_keys.begin(), todo_keys.end());
-      for (const SectorKey k : missing)
-        if (!own.contains(k)) report.placement_pass.outside_rays += placements.at(k).stats.rays;
-      report.placement_pass.sectors = needed.size();
-      report.placement_pass.outside = needed.size() - own.size();
-      report.placement_pass.seconds = since(t0);
-    }
-  }
+  // Pass 1, with LPRT: the placement of every sector this process bakes and of their neighbours.
+  std::vector<SectorKey> todo_keys;
+  for (const size_t i : todo) todo_keys.push_back(keys[i]);
+  auto placements = placementPass(*geometry, world, world_name, dir, todo_keys, report.settings, effects, options, report.placement_pass);
+  if (!placements) return std::unexpected(placements.error());
 
   // Pass 2: bake, in parallel over sectors (and inside each sector over probes and surfels); each
   // finished sector is one record of this shard's journal.
@@ -638,15 +698,15 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
   tbb::parallel_for(size_t(0), todo.size(), [&](size_t t) {
     const size_t i = todo[t];
     SectorStats st;
-    auto sector = bakeSector(*geometry, world, keys[i], report.settings, effects, placements, st);
+    auto sector = bakeSector(*geometry, world, keys[i], report.settings, effects, *placements, st);
     if (!sector) {
       errors[t] = sector.error();
       return;
     }
     const std::vector<uint8_t> bytes = encodeSector(*sector);
-    const std::string js = toJson(st).dump();
+    const std::vector<uint8_t> typed = encodeStats(st);
     std::lock_guard lock(mutex);
-    auto written = writer->append(keys[i], js, bytes);
+    auto written = writer->append(keys[i], typed, bytes);
     if (!written) {
       errors[t] = written.error();
       return;
@@ -671,37 +731,9 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
   // A shard stops here; a whole bake (or a merge) packs the archive.
   const bool complete = std::all_of(have.begin(), have.end(), [](uint8_t h) { return h != 0; });
   if (options.shard_count == 1 && complete) {
-    t0 = Clock::now();
     writer.reset();  // closes (and unlocks) this shard's journal
-    // Every record: those the scan found at the start and those this process appended.
-    const auto& entries = journal;
-    for (size_t i = 0; i < keys.size(); ++i)
-      if (entries->find(keys[i]) == entries->end())
-        return fail(dir.string() + ": sector " + toString(keys[i]) + " is missing from the journals it was written to");
-    auto out = ArchiveWriter::create(archive, report.settings.zstd_level);
-    if (!out) return std::unexpected(out.error());
-    report.sectors_empty = 0;
-    for (size_t i = 0; i < keys.size(); ++i) {
-      const detail::JournalEntry& e = entries->at(keys[i]);
-      auto bytes = detail::readSector(e);
-      if (!bytes) return std::unexpected(bytes.error());
-      auto decoded = decodeSector(*bytes, e.file.string() + " sector " + toString(keys[i]));
-      if (!decoded) return std::unexpected(decoded.error());
-      if (decoded->probes.empty()) {
-        ++report.sectors_empty;
-        continue;
-      }
-      // A resumed sector's stats may be missing: take the counts from the bytes themselves.
-      SectorStats& st = *std::find_if(report.sectors.begin(), report.sectors.end(), [&](const SectorStats& s) { return s.key == keys[i]; });
-      st.probes = decoded->probes.size();
-      st.lprt_sources = decoded->lprt.sources.size();
-      st.bytes = bytes->size();
-      st.bytes_without_lprt = encodedSectorBytes(st.probes, 0, decoded->has_ground);
-      if (auto a = out->addEncodedSector(*bytes); !a) return std::unexpected(a.error());
-    }
-    if (auto f = out->finish(manifestFor(*geometry, world, world_name, report.settings, effects)); !f) return std::unexpected(f.error());
-    report.packed = true;
-    report.pack_s = since(t0);
+    if (auto ok = packArchive(*geometry, world, world_name, archive, dir, keys, *journal, effects, report); !ok)
+      return std::unexpected(ok.error());
     if (!options.keep_sector_files) fs::remove_all(dir, ec);
   }
   report.wall_s = since(t_start);

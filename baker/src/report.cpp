@@ -5,21 +5,10 @@
 #include <fstream>
 #include <sstream>
 
-#include "stats_json.h"
+#include "sector_stats.h"
 
 namespace drtv::baker {
 namespace {
-
-template <class T>
-T get(const nlohmann::json& j, const char* key) {
-  if (!j.is_object() || !j.contains(key)) return T{};
-  const auto& v = j.at(key);
-  if constexpr (std::is_same_v<T, bool>) {
-    return v.is_boolean() ? v.get<bool>() : false;
-  } else {
-    return v.is_number() ? v.get<T>() : T{};
-  }
-}
 
 std::string fixed(double v, int digits = 1) {
   char buf[64];
@@ -41,62 +30,6 @@ struct MinMeanMax {
 
 }  // namespace
 
-nlohmann::json toJson(const SectorStats& s) {
-  return {
-      {"ix", s.key.ix}, {"iy", s.key.iy}, {"probes", s.probes}, {"triangles", s.triangles},
-      {"lprt_sources", s.lprt_sources}, {"bytes", s.bytes}, {"bytes_without_lprt", s.bytes_without_lprt},
-      {"static_candidates", s.placement.static_candidates}, {"vegetation_candidates", s.placement.vegetation_candidates},
-      {"interior_probes", s.placement.interior_probes}, {"relocated", s.placement.relocated},
-      {"dropped_inside", s.placement.dropped_inside}, {"rejected_distance", s.placement.rejected_distance},
-      {"thinned_cap", s.placement.thinned_cap}, {"placement_rays", s.placement.rays},
-      {"probe_rays", s.transfer.probe_rays}, {"surfel_rays", s.transfer.surfel_rays}, {"lprt_rays", s.transfer.lprt_rays},
-      {"surfels", s.transfer.surfels}, {"probe_hits_cached", s.transfer.probe_hits_cached},
-      {"probe_s", s.transfer.probe_seconds}, {"surfel_s", s.transfer.surfel_seconds}, {"lprt_s", s.transfer.lprt_seconds},
-      {"grid_rays", s.grid.rays}, {"cells_nearest", s.grid.cells_nearest}, {"cells_farther", s.grid.cells_farther},
-      {"cells_inside", s.grid.cells_inside}, {"cells_unseen", s.grid.cells_unseen}, {"other_rays", s.other_rays},
-      {"gather_s", s.gather_s}, {"build_s", s.build_s}, {"placement_s", s.placement_s}, {"transfer_s", s.transfer_s},
-      {"grid_s", s.grid_s}, {"total_s", s.total_s},
-  };
-}
-
-SectorStats sectorStatsFromJson(const nlohmann::json& j) {
-  SectorStats s;
-  s.key = {get<int32_t>(j, "ix"), get<int32_t>(j, "iy")};
-  s.probes = get<size_t>(j, "probes");
-  s.triangles = get<size_t>(j, "triangles");
-  s.lprt_sources = get<size_t>(j, "lprt_sources");
-  s.bytes = get<size_t>(j, "bytes");
-  s.bytes_without_lprt = get<size_t>(j, "bytes_without_lprt");
-  s.placement.static_candidates = get<size_t>(j, "static_candidates");
-  s.placement.vegetation_candidates = get<size_t>(j, "vegetation_candidates");
-  s.placement.interior_probes = get<size_t>(j, "interior_probes");
-  s.placement.relocated = get<size_t>(j, "relocated");
-  s.placement.dropped_inside = get<size_t>(j, "dropped_inside");
-  s.placement.rejected_distance = get<size_t>(j, "rejected_distance");
-  s.placement.thinned_cap = get<size_t>(j, "thinned_cap");
-  s.placement.rays = get<uint64_t>(j, "placement_rays");
-  s.transfer.probe_rays = get<uint64_t>(j, "probe_rays");
-  s.transfer.surfel_rays = get<uint64_t>(j, "surfel_rays");
-  s.transfer.lprt_rays = get<uint64_t>(j, "lprt_rays");
-  s.transfer.surfels = get<size_t>(j, "surfels");
-  s.transfer.probe_hits_cached = get<size_t>(j, "probe_hits_cached");
-  s.transfer.probe_seconds = get<double>(j, "probe_s");
-  s.transfer.surfel_seconds = get<double>(j, "surfel_s");
-  s.transfer.lprt_seconds = get<double>(j, "lprt_s");
-  s.grid.rays = get<uint64_t>(j, "grid_rays");
-  s.grid.cells_nearest = get<size_t>(j, "cells_nearest");
-  s.grid.cells_farther = get<size_t>(j, "cells_farther");
-  s.grid.cells_inside = get<size_t>(j, "cells_inside");
-  s.grid.cells_unseen = get<size_t>(j, "cells_unseen");
-  s.other_rays = get<uint64_t>(j, "other_rays");
-  s.gather_s = get<double>(j, "gather_s");
-  s.build_s = get<double>(j, "build_s");
-  s.placement_s = get<double>(j, "placement_s");
-  s.transfer_s = get<double>(j, "transfer_s");
-  s.grid_s = get<double>(j, "grid_s");
-  s.total_s = get<double>(j, "total_s");
-  return s;
-}
 
 Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json_path,
                           const std::filesystem::path& markdown_path) {

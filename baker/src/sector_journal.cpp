@@ -17,7 +17,7 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr uint32_t kMagic = 0x4a525444;  // "DRTJ"
-constexpr uint32_t kVersion = 1;
+constexpr uint32_t kVersion = 2;  // 2: typed stats (sector_stats.h) instead of JSON text
 constexpr size_t kHeaderBytes = 24, kHashBytes = 8;
 // A sector with LPRT is < 256 KB and its stats a few KB; anything far larger is not a record.
 constexpr uint32_t kMaxPayload = 64u << 20;
@@ -188,7 +188,7 @@ JournalWriter::~JournalWriter() {
   if (fd_ >= 0) ::close(fd_);  // also releases the lock
 }
 
-Result<JournalEntry> JournalWriter::append(SectorKey key, std::string_view stats, std::span<const uint8_t> sector) {
+Result<JournalEntry> JournalWriter::append(SectorKey key, std::span<const uint8_t> stats, std::span<const uint8_t> sector) {
   if (broken_) return fail(file_.string() + ": an earlier write failed and could not be undone; no more records are appended");
   if (stats.size() > kMaxPayload || sector.size() > kMaxPayload)
     return fail(file_.string() + ": sector " + toString(key) + " is too large for a journal record");
@@ -199,7 +199,7 @@ Result<JournalEntry> JournalWriter::append(SectorKey key, std::string_view stats
   storeU32(record.data() + 12, uint32_t(key.iy));
   storeU32(record.data() + 16, uint32_t(stats.size()));
   storeU32(record.data() + 20, uint32_t(sector.size()));
-  std::memcpy(record.data() + kHeaderBytes, stats.data(), stats.size());
+  if (!stats.empty()) std::memcpy(record.data() + kHeaderBytes, stats.data(), stats.size());
   if (!sector.empty()) std::memcpy(record.data() + kHeaderBytes + stats.size(), sector.data(), sector.size());
   const uint64_t hash = XXH3_64bits(record.data(), record.size() - kHashBytes);
   std::memcpy(record.data() + record.size() - kHashBytes, &hash, kHashBytes);

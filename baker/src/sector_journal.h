@@ -11,7 +11,8 @@
 // time on ext4, whose inode allocator scans recently deleted inodes.
 //
 // Record (little-endian): "DRTJ" u32 version  i32 ix  i32 iy  u32 stats_len  u32 sector_len,
-// then the stats (JSON text) and the encoded sector, then XXH3-64 of everything before it.
+// then the stats (a typed record, sector_stats.h; empty in placement journals) and the encoded
+// sector, then XXH3-64 of everything before it.
 #pragma once
 
 #include <cstdint>
@@ -61,7 +62,7 @@ class JournalWriter {
   JournalWriter& operator=(JournalWriter&&) noexcept;
   ~JournalWriter();
   // Returns where the record lies, as scanJournals would name it.
-  Result<JournalEntry> append(SectorKey key, std::string_view stats, std::span<const uint8_t> sector);
+  Result<JournalEntry> append(SectorKey key, std::span<const uint8_t> stats, std::span<const uint8_t> sector);
 
  private:
   JournalWriter() = default;

@@ -518,3 +518,46 @@ TEST(Bake, ReportCountsEveryRayTheBakeCasts) {
 
 }  // namespace
 }  // namespace drtv::baker
+
+namespace drtv::baker {
+namespace {
+
+// The sector journals keep each sector's statistics as a typed record: a merge reads them back
+// (every sector resumed) with the same counts the bake that made them reported.
+TEST(Bake, AMergeReadsEverySectorsStatisticsBackFromTheJournals) {
+  TempDir dir;
+  const worlds::World w = test::smallWorld();
+  const fs::path archive = dir.path / "stats.drtv";
+  BakeOptions shard = draft();
+  shard.shard_count = 1;
+  shard.keep_sector_files = true;
+  auto whole = bake(w, "small", dir.path / "whole.drtv", shard);
+  ASSERT_TRUE(whole) << whole.error().message;
+  for (int k = 0; k < 2; ++k) {
+    BakeOptions o = draft();
+    o.shard_index = k;
+    o.shard_count = 2;
+    ASSERT_TRUE(bake(w, "small", archive, o).has_value());
+  }
+  BakeOptions merge = draft();
+  merge.merge_only = true;
+  auto m = bake(w, "small", archive, merge);
+  ASSERT_TRUE(m) << m.error().message;
+  ASSERT_EQ(m->sectors.size(), whole->sectors.size());
+  for (size_t i = 0; i < m->sectors.size(); ++i) {
+    const SectorStats& a = m->sectors[i];
+    const SectorStats& b = whole->sectors[i];
+    EXPECT_TRUE(a.resumed);
+    EXPECT_EQ(a.key, b.key);
+    EXPECT_EQ(a.triangles, b.triangles) << toString(a.key);
+    EXPECT_EQ(a.placement.static_candidates, b.placement.static_candidates) << toString(a.key);
+    EXPECT_EQ(a.transfer.probe_rays, b.transfer.probe_rays) << toString(a.key);
+    EXPECT_EQ(a.transfer.surfels, b.transfer.surfels) << toString(a.key);
+    EXPECT_EQ(a.grid.rays, b.grid.rays) << toString(a.key);
+    EXPECT_EQ(a.rays(), b.rays()) << toString(a.key);
+    EXPECT_GT(a.transfer.probe_seconds + a.total_s, 0.0) << "times come back too";
+  }
+}
+
+}  // namespace
+}  // namespace drtv::baker

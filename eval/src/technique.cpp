@@ -58,6 +58,8 @@ Result<std::vector<glm::vec3>> Technique::evaluate(std::span<const SurfacePoint>
   return out;
 }
 
+std::optional<runtime::RuntimeOptions> Technique::streamingRuntime(const Manifest&) const { return std::nullopt; }
+
 Result<void> Technique::setParams(const TechniqueParams& params) {
   if (params.empty()) return {};
   return fail("technique " + describe() + " takes no parameters after prepare (" + params.begin()->first + ")");

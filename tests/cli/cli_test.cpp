@@ -365,3 +365,25 @@ TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
         << g.world << " --threads " << g.threads << " baked " << bytes.size() << " bytes hashing " << hex;
   }
 }
+
+// drtv fly and drtv render take a registered technique; one that does not run on drtv::runtime
+// (or a name nobody registered) is an error that names it, not a flight of something else.
+TEST(Cli, FlyAndRenderTakeATechniqueByName) {
+  const std::string archive = scratch("testbox.drtv");
+  ASSERT_EQ(drtv("bake " + src("worlds/fc3_testbox.json") + " -o " + archive + " --quality draft").status, 0);
+  const Outcome smooth = drtv("fly " + archive + " --frames 5 --technique drtv-smooth --params texel_m=1 --json -o " + scratch("fly"));
+  ASSERT_EQ(smooth.status, 0) << smooth.out;
+  EXPECT_NE(smooth.out.find("technique drtv-smooth fill=smooth,texel_m=1"), std::string::npos) << smooth.out;
+  EXPECT_NE(smooth.out.find("\"volume_texel_m\": 1.0"), std::string::npos) << "the streamer holds the technique's volume";
+  const Outcome probe = drtv("fly " + archive + " --frames 5 --technique probe-reference -o " + scratch("fly"));
+  EXPECT_EQ(probe.status, 1);
+  EXPECT_NE(probe.out.find("probe-reference: does not run on drtv::runtime"), std::string::npos) << probe.out;
+  const Outcome unknown = drtv("render " + archive + " --world " + src("worlds/fc3_testbox.json") + " --size 16x16 --technique lpv -o " +
+                               scratch("r.png"));
+  EXPECT_EQ(unknown.status, 1);
+  EXPECT_NE(unknown.out.find("unknown technique 'lpv'"), std::string::npos) << unknown.out;
+  const Outcome render = drtv("render " + archive + " --world " + src("worlds/fc3_testbox.json") + " --size 16x16 --technique drtv-smooth -o " +
+                              scratch("r.png"));
+  EXPECT_EQ(render.status, 0) << render.out;
+  EXPECT_EQ(drtv("fly " + archive + " --frames 2 --params fill=smooth -o " + scratch("fly")).status, 1) << "--params alone";
+}

@@ -160,7 +160,7 @@ TEST(Fly, DeterministicFlightsGiveTheSameFramesAndNoMissesAt100MetresPerSecond) 
 // budget, and every frame sets the moved lights and relights.
 TEST(Fly, ThirtyTwoMovingLightsAtHundredMetresPerSecondStayWithinTheLprtBudget) {
   testing::TempDir dir;
-  const Manifest m = testing::writeWorld(dir.path() / "lit.drtv", {.lprt_sources = 128});
+  const Manifest m = testing::writeWorld(dir.path() / "lit.drtv", {.lprt_sources = 128, .holes = {}});
   StreamerOptions so;
   so.io_mode = IoMode::kDeterministic;
   auto s = Streamer::open(dir.path() / "lit.drtv", so);

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.h"
+#include "drtv/eval/technique.h"
 #include "drtv/worlds/load.h"
 #include "drtv/fly/fly.h"
 
@@ -32,6 +33,7 @@ struct FlyCliOptions {
   bool no_runtime = false;
   std::vector<std::string> faults;  // "ix,iy:kind"
   std::string world;                // world file whose lights (and their paths) to fly with
+  std::string technique, params;    // a registered technique that runs on drtv::runtime
 };
 
 // "3,-1:corrupt" -> key and fault.
@@ -65,7 +67,23 @@ Result<void> runFly(const FlyCliOptions& o) {
     }
     source = faults;
   }
+  // The technique's runtime configuration; the streamer holds the sectors its volume covers.
+  std::optional<runtime::RuntimeOptions> technique_options;
+  std::string technique_name;
+  if (!o.technique.empty()) {
+    auto params = eval::parseTechniqueParams(o.params);
+    if (!params) return std::unexpected(params.error().context("--params"));
+    auto t = eval::makeTechnique(o.technique, *params);
+    if (!t) return std::unexpected(t.error());
+    technique_options = (*t)->streamingRuntime(reader->manifest());
+    if (!technique_options)
+      return fail("--technique " + (*t)->describe() + ": does not run on drtv::runtime, so it cannot be flown through a streamed archive");
+    technique_name = (*t)->describe();
+  } else if (!o.params.empty()) {
+    return fail("--params needs --technique");
+  }
   streamer::StreamerOptions so;
+  if (technique_options) so.residency.volume = technique_options->volume;
   so.io_mode = o.io_threads ? streamer::IoMode::kThreads : streamer::IoMode::kDeterministic;
   so.io_threads = std::max(1, o.io_threads);
   streamer::Streamer s(reader->manifest(), source, so);
@@ -81,6 +99,8 @@ Result<void> runFly(const FlyCliOptions& o) {
   fo.start_hour = o.start_hour;
   fo.hours_per_s = o.hours_per_s;
   fo.runtime = !o.no_runtime;
+  fo.runtime_options = technique_options;
+  fo.technique = technique_name;
   if (!o.world.empty()) {
     auto world = worlds::loadWorld(o.world);
     if (!world) return std::unexpected(world.error());
@@ -139,6 +159,10 @@ Command registerFly(CLI::App& app) {
                   "World file whose lights fly with the camera; lights with a path move along it (docs/world-format.md)");
   sub->add_option("--fault", o->faults, "Inject a fault on a sector: IX,IY:missing|truncated|corrupt|slow (repeatable)");
   sub->add_flag("--no-runtime", o->no_runtime, "Stream only: no relighting or volume updates");
+  std::string names;
+  for (const eval::TechniqueInfo& t : eval::registeredTechniques()) names += (names.empty() ? "" : ", ") + t.name;
+  sub->add_option("--technique", o->technique, "The technique to fly (one that runs on drtv::runtime): " + names + " (default: what the archive asks for)");
+  sub->add_option("--params", o->params, "The technique's parameters, name=value,... (e.g. fill=smooth,texel_m=1)");
   sub->add_flag("--json", o->json, "Print fly-report.json on stdout instead of the text summary");
   sub->add_option("-o,--output", o->outdir, "Output directory (created)");
   return {sub, [o]() -> Result<void> {

@@ -194,15 +194,8 @@ class DrtvTechnique final : public Technique {
 
   Result<void> setLighting(double hour, const std::vector<PointLight>& lights) override {
     if (!rt_) {
-      options_ = runtime::optionsForEffects(manifest_.effects);
+      options_ = runtimeOptions(manifest_.effects);
       const RuntimeParams& p = params_.runtime;
-      options_.volume.fill = p.fill;
-      if (p.texel_m) options_.volume.texel_size_m = glm::vec3(*p.texel_m, *p.texel_m, 2.f * *p.texel_m);
-      if (p.sun_window) options_.sun_band1_window = *p.sun_window;
-      if (p.part) options_.components = *p.part;
-      if (p.sources_per_light) options_.cache.sources_per_light = *p.sources_per_light;
-      if (p.light_sources) options_.cache.light_sources = *p.light_sources;
-      if (p.storage_levels >= 0) options_.volume.blur = false;
       options_.cache.max_sectors = std::max<int>(options_.cache.max_sectors, int(active().size()));
       auto rt = runtime::runtimeForArchive(manifest_, options_, hour, &lights);
       if (!rt) return std::unexpected(rt.error());
@@ -233,6 +226,11 @@ class DrtvTechnique final : public Technique {
 
   TechniqueCosts costs() const override { return costs_; }
 
+  std::optional<runtime::RuntimeOptions> streamingRuntime(const Manifest& manifest) const override {
+    if (params_.runtime.storage_levels >= 0 || params_.runtime.lprt_sources) return std::nullopt;  // emulations
+    return runtimeOptions(manifest.effects);
+  }
+
   std::string describe() const override {
     std::string s = name_;
     char sep = ' ';
@@ -241,6 +239,20 @@ class DrtvTechnique final : public Technique {
   }
 
  private:
+  // optionsForEffects (what an engine picks for the archive) with this technique's parameters.
+  runtime::RuntimeOptions runtimeOptions(uint32_t effects) const {
+    runtime::RuntimeOptions o = runtime::optionsForEffects(effects);
+    const RuntimeParams& p = params_.runtime;
+    o.volume.fill = p.fill;
+    if (p.texel_m) o.volume.texel_size_m = glm::vec3(*p.texel_m, *p.texel_m, 2.f * *p.texel_m);
+    if (p.sun_window) o.sun_band1_window = *p.sun_window;
+    if (p.part) o.components = *p.part;
+    if (p.sources_per_light) o.cache.sources_per_light = *p.sources_per_light;
+    if (p.light_sources) o.cache.light_sources = *p.light_sources;
+    if (p.storage_levels >= 0) o.volume.blur = false;
+    return o;
+  }
+
   void adopt(Manifest manifest, std::vector<Sector> sectors, double bake_s) {
     manifest_ = std::move(manifest);
     baked_ = std::move(sectors);

@@ -138,7 +138,7 @@ Result<FlyResult> fly(Streamer& streamer, const CatmullRomPath& path, const FlyO
 
   std::unique_ptr<runtime::Runtime> rt;
   if (o.runtime) {
-    runtime::RuntimeOptions ro = runtime::optionsForEffects(m.effects);
+    runtime::RuntimeOptions ro = o.runtime_options ? *o.runtime_options : runtime::optionsForEffects(m.effects);
     // The volume the streamer holds the sectors of (its residency's tier 0); fill and blur stay
     // what the archive's effects ask for.
     ro.volume.size = streamer.options().residency.volume.size;
@@ -154,6 +154,7 @@ Result<FlyResult> fly(Streamer& streamer, const CatmullRomPath& path, const FlyO
     rt = std::move(*made);
     r.runtime_note = "drtv::runtime: Runtime::addSector per load, setTime + update per frame (" +
                      effectsToString(m.effects) + ")";
+    if (!o.technique.empty()) r.runtime_note += "; technique " + o.technique;
     const size_t movers = size_t(std::count_if(o.light_paths.begin(), o.light_paths.end(), [](const LightPath& p) { return !p.keys.empty(); }));
     if (movers > 0)
       r.runtime_note += "; " + std::to_string(movers) + " of " + std::to_string(lights.size()) +

@@ -21,6 +21,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -34,6 +35,7 @@
 #include "drtv/formats/lighting.h"
 #include "drtv/formats/sector.h"
 #include "drtv/raytrace/world_geometry.h"
+#include "drtv/runtime/runtime.h"
 #include "drtv/worlds/world.h"
 
 namespace drtv::eval {
@@ -91,6 +93,11 @@ class Technique {
   // an error, and so is an unknown one; nothing changes then. Default: takes none.
   virtual Result<void> setParams(const TechniqueParams& params);
   virtual TechniqueCosts costs() const = 0;
+  // The drtv::runtime configuration an engine streaming `manifest`'s archive runs this technique
+  // with (`drtv fly --technique`: the streamer loads sectors into a runtime set up so, and its
+  // residency holds what that volume covers); nothing for a technique that does not run on
+  // drtv::runtime (the default).
+  virtual std::optional<runtime::RuntimeOptions> streamingRuntime(const Manifest& manifest) const;
   // The registered name it was made under, and its parameters as text ("fill=smooth").
   virtual std::string describe() const = 0;
 };

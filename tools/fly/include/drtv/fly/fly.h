@@ -25,6 +25,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -33,6 +34,7 @@
 #include "drtv/formats/error.h"
 #include "drtv/image/image.h"
 #include "drtv/fly/flight_path.h"
+#include "drtv/runtime/runtime.h"
 #include "drtv/streamer/streamer.h"
 
 namespace drtv::fly {
@@ -57,6 +59,11 @@ struct FlyOptions {
   // flight time (lightAt); the runtime redistributes them onto source probes and relights.
   std::vector<PointLight> lights;
   std::vector<LightPath> light_paths;
+  // The runtime's configuration (a technique's, `drtv fly --technique`) instead of what an engine
+  // picks for the archive's effects (runtime::optionsForEffects); its volume's size and texel
+  // size are the streamer's residency's, so pass the same there. `technique` names it in the report.
+  std::optional<runtime::RuntimeOptions> runtime_options;
+  std::string technique;
   // Called every ~1 % of the flight with (frames done, frames total): progress for a terminal.
   std::function<void(int, int)> progress;
 };

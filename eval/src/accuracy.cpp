@@ -242,6 +242,162 @@ std::vector<RowSpec> drtvRows(const BakeSettings& base, uint32_t effects, const 
   return rows;
 }
 
+// The block baked: the 3 x 3 sectors around the centre of the geometry unless asked otherwise,
+// clipped to the world's sectors.
+Result<raytrace::SectorRange> sweepBlock(const worlds::World& world, const std::string& where, const AccuracyOptions& options) {
+  auto geometry = raytrace::WorldGeometry::build(world, where);
+  if (!geometry) return std::unexpected(geometry.error());
+  const raytrace::SectorRange all = geometry->sectors();
+  raytrace::SectorRange block = all;
+  if (options.sectors) {
+    block = *options.sectors;
+  } else {
+    const glm::dvec3 c = 0.5 * (geometry->boundsMin() + geometry->boundsMax());
+    const SectorKey k = sectorAt(c.x, c.y);
+    block = {k.ix - 1, k.ix + 1, k.iy - 1, k.iy + 1};
+  }
+  block = {std::max(block.x0, all.x0), std::min(block.x1, all.x1), std::max(block.y0, all.y0), std::min(block.y1, all.y1)};
+  if (block.empty()) return fail(where + ": the sector block holds no sector of the world");
+  return block;
+}
+
+// The reference at every (hour, point), and its noise and mean into `report`.
+Truth referenceTruth(const ReferenceScene& scene, const worlds::World& world, const std::vector<Point>& points,
+                     const AccuracyOptions& options, AccuracyReport& report) {
+  const auto t_ref = Clock::now();
+  Truth truth;
+  ReferenceSettings rs;
+  rs.samples = options.reference_samples;
+  rs.seed = options.seed;
+  for (double hour : options.hours) {
+    std::vector<ReferenceQuery> q;
+    for (size_t i = 0; i < points.size(); ++i) q.push_back({points[i].position, points[i].normal, uint64_t(i)});
+    const ReferenceLighting lighting{world.sky, hour, world.lights};
+    for (const ReferenceIrradiance& r : referenceIrradiance(scene, lighting, q, rs, options.threads)) {
+      truth.mean.push_back(r.ambient.mean);
+      truth.std_error.push_back(r.ambient.std_error);
+      for (int k = 0; k < 4; ++k) truth.parts[size_t(k)].push_back(r.parts[size_t(k)].mean);
+    }
+  }
+  report.reference_s = since(t_ref);
+  double se = 0, sum = 0;
+  for (size_t i = 0; i < truth.mean.size(); ++i)
+    for (int c = 0; c < 3; ++c) se += truth.std_error[i][c], sum += truth.mean[i][c];
+  report.reference_noise = se / std::max(sum, 3.0 * double(truth.mean.size()) * kAmbientErrorFloor);
+  for (const glm::vec3& m : truth.mean) report.reference_mean += glm::dvec3(m);
+  report.reference_mean /= double(truth.mean.size());
+  return truth;
+}
+
+// Evaluates rows of the table against one reference: prepares (or re-parameterises) the row's
+// technique, shades the points at every hour, times its update and compares (the one comparison:
+// the whole ambient, or one term as a share of the whole).
+class RowEvaluator {
+ public:
+  RowEvaluator(const worlds::World& world, const std::string& where, raytrace::SectorRange block, const AccuracyOptions& options,
+               const InMemoryBake& base, const std::vector<Point>& points, const Truth& truth, AccuracyReport& report)
+      : world_(world), where_(where), block_(block), options_(options), base_(base), truth_(truth), report_(report) {
+    camera_ = points.front().position;
+    for (const Point& p : points) surface_.push_back({p.position, p.normal});
+    for (const glm::vec3& m : truth.mean) total_ += double(m.r) + m.g + m.b;
+    terms_ = 3.0 * double(truth.mean.size());
+    total_floored_ = total_ < terms_ * kAmbientErrorFloor;
+    total_ = std::max(total_, terms_ * kAmbientErrorFloor);
+  }
+
+  // Appends the row to the report; returns the values it compared.
+  Result<Values> evaluate(const RowSpec& spec) {
+    progress(spec.knob + "=" + spec.value);
+    auto t = techniqueFor(spec);
+    if (!t) return std::unexpected(t.error());
+    Values v;
+    v.reserve(options_.hours.size() * surface_.size());
+    for (double hour : options_.hours) {
+      if (auto r = (*t)->setLighting(hour, world_.lights); !r) return std::unexpected(r.error());
+      auto e = (*t)->evaluate(surface_);
+      if (!e) return std::unexpected(e.error());
+      v.insert(v.end(), e->begin(), e->end());
+    }
+    // Update time: a relight and full fill, alternating between two times far enough apart that
+    // the lighting changes (median of timing_repeats).
+    std::vector<double> ms;
+    for (int r = 0; r < options_.timing_repeats; ++r) {
+      if (auto l = (*t)->setLighting(options_.hours.front() + (r % 2 ? 0.0 : 3.0), world_.lights); !l) return std::unexpected(l.error());
+      if (auto u = (*t)->update(camera_); !u) return std::unexpected(u.error());
+      ms.push_back((*t)->costs().update_ms);
+    }
+    // NaN: the technique does nothing per frame (probe-reference).
+    const bool timed = !ms.empty() && std::none_of(ms.begin(), ms.end(), [](double x) { return std::isnan(x); });
+    if (timed) std::sort(ms.begin(), ms.end());
+    const TechniqueCosts c = (*t)->costs();
+    AccuracyRow row{spec.knob, spec.value, spec.is_default, 0, 0, c.prepare_s, timed ? ms[ms.size() / 2] : std::nan(""),
+                    c.stored_bytes, c.runtime_bytes, spec.note, 0};
+    if (spec.part < 0) {
+      const ErrorStats e = compare(v, truth_);
+      row.rel_error = e.rel, row.bias = e.bias, row.abs_error = e.abs;
+      row.note = flooredNote(row.note, e.floored);
+    } else {
+      // One term against the reference's same term, as a share of the whole reference ambient
+      // (so that the part rows' biases add up to the total's).
+      const std::vector<glm::vec3>& target = truth_.parts[size_t(spec.part)];
+      double rel = 0, bias = 0, share = 0;
+      for (size_t i = 0; i < v.size(); ++i)
+        for (int ch = 0; ch < 3; ++ch) {
+          rel += std::abs(double(v[i][ch]) - target[i][ch]);
+          bias += double(v[i][ch]) - target[i][ch];
+          share += target[i][ch];
+        }
+      row.abs_error = rel / std::max(terms_, 1.0);
+      row.rel_error = rel / total_, row.bias = bias / total_;
+      if (spec.knob == "part") {
+        char note[160];
+        std::snprintf(note, sizeof note,
+                      "this term alone vs the reference's, as a share of the total ambient (the reference's term: %.1f%% of it)",
+                      100.0 * share / total_);
+        row.note = note;
+      }
+      row.note = flooredNote(row.note, total_floored_);
+    }
+    report_.rows.push_back(std::move(row));
+    return v;
+  }
+
+ private:
+  void progress(const std::string& line) const {
+    if (options_.progress) options_.progress(line);
+  }
+
+  // A prepared technique of the row's name that takes its parameters without preparing again, or
+  // a new one, prepared (with the default bake lent). Kept: the first (the default DRTV) and the last.
+  Result<Technique*> techniqueFor(const RowSpec& spec) {
+    for (auto& t : prepared_) {
+      const std::string d = t->describe();
+      if (d.rfind(spec.technique, 0) == 0 && (d.size() == spec.technique.size() || d[spec.technique.size()] == ' '))
+        if (t->setParams(spec.params)) return t.get();
+    }
+    auto t = makeTechnique(spec.technique, spec.params);
+    if (!t) return std::unexpected(t.error());
+    progress("prepare " + (*t)->describe());
+    if (auto r = (*t)->prepare({world_, where_, block_, options_.seed, options_.threads, &base_}); !r) return std::unexpected(r.error());
+    if (prepared_.size() > 1) prepared_.pop_back();
+    prepared_.push_back(std::move(*t));
+    return prepared_.back().get();
+  }
+
+  const worlds::World& world_;
+  const std::string& where_;
+  raytrace::SectorRange block_;
+  const AccuracyOptions& options_;
+  const InMemoryBake& base_;
+  const Truth& truth_;
+  AccuracyReport& report_;
+  glm::dvec3 camera_{0.0};
+  std::vector<SurfacePoint> surface_;
+  double total_ = 0, terms_ = 0;
+  bool total_floored_ = false;
+  std::vector<std::unique_ptr<Technique>> prepared_;
+};
+
 }  // namespace
 
 Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::string& where, const AccuracyOptions& options) {
@@ -272,26 +428,14 @@ Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::st
   report.hours = options.hours;
   report.reference_samples = options.reference_samples;
 
-  // The block baked: the 3 x 3 sectors around the centre of the geometry unless asked otherwise.
-  auto geometry = raytrace::WorldGeometry::build(world, where);
-  if (!geometry) return std::unexpected(geometry.error());
-  const raytrace::SectorRange all = geometry->sectors();
-  raytrace::SectorRange block = all;
-  if (options.sectors) {
-    block = *options.sectors;
-  } else {
-    const glm::dvec3 c = 0.5 * (geometry->boundsMin() + geometry->boundsMax());
-    const SectorKey k = sectorAt(c.x, c.y);
-    block = {k.ix - 1, k.ix + 1, k.iy - 1, k.iy + 1};
-  }
-  block = {std::max(block.x0, all.x0), std::min(block.x1, all.x1), std::max(block.y0, all.y0), std::min(block.y1, all.y1)};
-  if (block.empty()) return fail(where + ": the sector block holds no sector of the world");
-  report.sectors = block;
-  const raytrace::SectorRange region = innerRange(block);
+  auto block = sweepBlock(world, where, options);
+  if (!block) return std::unexpected(block.error());
+  report.sectors = *block;
+  const raytrace::SectorRange region = innerRange(*block);
 
   const BakeSettings base_settings = BakeSettings::forQuality(Quality::kDefault, options.seed);
   progress("bake default");
-  auto base = bakeInMemory(world, where, base_settings, block, options.threads);
+  auto base = bakeInMemory(world, where, base_settings, *block, options.threads);
   if (!base) return std::unexpected(base.error());
   if (base->probes == 0) return fail(where + ": the sector block has no probes");
 
@@ -310,118 +454,16 @@ Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::st
 
   // The reference at every (hour, point).
   progress("reference at " + std::to_string(points.size()) + " points");
-  const auto t_ref = Clock::now();
-  Truth truth;
-  ReferenceSettings rs;
-  rs.samples = options.reference_samples;
-  rs.seed = options.seed;
-  for (double hour : options.hours) {
-    std::vector<ReferenceQuery> q;
-    for (size_t i = 0; i < points.size(); ++i) q.push_back({points[i].position, points[i].normal, uint64_t(i)});
-    const ReferenceLighting lighting{world.sky, hour, world.lights};
-    for (const ReferenceIrradiance& r : referenceIrradiance(*scene, lighting, q, rs, options.threads)) {
-      truth.mean.push_back(r.ambient.mean);
-      truth.std_error.push_back(r.ambient.std_error);
-      for (int k = 0; k < 4; ++k) truth.parts[size_t(k)].push_back(r.parts[size_t(k)].mean);
-    }
-  }
-  report.reference_s = since(t_ref);
-  {
-    double se = 0, sum = 0;
-    for (size_t i = 0; i < truth.mean.size(); ++i)
-      for (int c = 0; c < 3; ++c) se += truth.std_error[i][c], sum += truth.mean[i][c];
-    report.reference_noise = se / std::max(sum, 3.0 * double(truth.mean.size()) * kAmbientErrorFloor);
-    for (const glm::vec3& m : truth.mean) report.reference_mean += glm::dvec3(m);
-    report.reference_mean /= double(truth.mean.size());
-  }
+  const Truth truth = referenceTruth(*scene, world, points, options, report);
 
-  // The table: (technique, parameters) rows, each evaluated by one routine (evaluateRow) through
-  // the technique interface against the one reference above. DRTV's knobs move one at a time
-  // around its defaults; then every registered technique at its own defaults.
-  const glm::dvec3 camera = points.front().position;
-  std::vector<SurfacePoint> surface;
-  for (const Point& p : points) surface.push_back({p.position, p.normal});
-  double total = 0;  // the whole reference ambient, floored: what part rows are shares of
-  for (const glm::vec3& m : truth.mean) total += double(m.r) + m.g + m.b;
-  const double terms = 3.0 * double(truth.mean.size());
-  const bool total_floored = total < terms * kAmbientErrorFloor;
-  total = std::max(total, terms * kAmbientErrorFloor);
-
-  // Prepared techniques: the default DRTV (on the base bake) and the last other one.
-  std::vector<std::unique_ptr<Technique>> prepared;
-  auto techniqueFor = [&](const RowSpec& spec) -> Result<Technique*> {
-    for (auto& t : prepared)
-      if (t->describe().rfind(spec.technique, 0) == 0 && (t->describe().size() == spec.technique.size() || t->describe()[spec.technique.size()] == ' '))
-        if (t->setParams(spec.params)) return t.get();
-    auto t = makeTechnique(spec.technique, spec.params);
-    if (!t) return std::unexpected(t.error());
-    progress("prepare " + (*t)->describe());
-    if (auto r = (*t)->prepare({world, where, block, options.seed, options.threads, &*base}); !r) return std::unexpected(r.error());
-    if (prepared.size() > 1) prepared.pop_back();
-    prepared.push_back(std::move(*t));
-    return prepared.back().get();
-  };
-
+  // The table: (technique, parameters) rows, each evaluated by one RowEvaluator through the
+  // technique interface against the one reference above. DRTV's knobs move one at a time around
+  // its defaults; then every registered technique at its own defaults.
+  RowEvaluator rows(world, where, *block, options, *base, points, truth, report);
   Values default_values;  // the default DRTV row's, for the storage emulation check
-  auto evaluateRow = [&](const RowSpec& spec) -> Result<Values> {
-    progress(spec.knob + "=" + spec.value);
-    auto t = techniqueFor(spec);
-    if (!t) return std::unexpected(t.error());
-    Values v;
-    v.reserve(options.hours.size() * points.size());
-    for (double hour : options.hours) {
-      if (auto r = (*t)->setLighting(hour, world.lights); !r) return std::unexpected(r.error());
-      auto e = (*t)->evaluate(surface);
-      if (!e) return std::unexpected(e.error());
-      v.insert(v.end(), e->begin(), e->end());
-    }
-    // Update time: a relight and full fill, alternating between two times far enough apart that
-    // the lighting changes (median of timing_repeats).
-    std::vector<double> ms;
-    for (int r = 0; r < options.timing_repeats; ++r) {
-      if (auto l = (*t)->setLighting(options.hours.front() + (r % 2 ? 0.0 : 3.0), world.lights); !l) return std::unexpected(l.error());
-      if (auto u = (*t)->update(camera); !u) return std::unexpected(u.error());
-      ms.push_back((*t)->costs().update_ms);
-    }
-    // NaN: the technique does nothing per frame (probe-reference).
-    const bool timed = !ms.empty() && std::none_of(ms.begin(), ms.end(), [](double x) { return std::isnan(x); });
-    if (timed) std::sort(ms.begin(), ms.end());
-    const TechniqueCosts c = (*t)->costs();
-    AccuracyRow row{spec.knob, spec.value, spec.is_default, 0, 0, c.prepare_s, timed ? ms[ms.size() / 2] : std::nan(""),
-                    c.stored_bytes, c.runtime_bytes, spec.note, 0};
-    if (spec.part < 0) {
-      const ErrorStats e = compare(v, truth);
-      row.rel_error = e.rel, row.bias = e.bias, row.abs_error = e.abs;
-      row.note = flooredNote(row.note, e.floored);
-    } else {
-      // One term against the reference's same term, as a share of the whole reference ambient
-      // (so that the part rows' biases add up to the total's).
-      double rel = 0, bias = 0, share = 0;
-      for (size_t i = 0; i < v.size(); ++i)
-        for (int ch = 0; ch < 3; ++ch) {
-          rel += std::abs(double(v[i][ch]) - truth.parts[size_t(spec.part)][i][ch]);
-          bias += double(v[i][ch]) - truth.parts[size_t(spec.part)][i][ch];
-          share += truth.parts[size_t(spec.part)][i][ch];
-        }
-      row.abs_error = rel / std::max(terms, 1.0);
-      row.rel_error = rel / total, row.bias = bias / total;
-      if (spec.knob == "part") {
-        char note[160];
-        std::snprintf(note, sizeof note,
-                      "this term alone vs the reference's, as a share of the total ambient (the reference's term: %.1f%% of it)",
-                      100.0 * share / total);
-        row.note = note;
-      }
-      row.note = flooredNote(row.note, total_floored);
-    }
-    if (spec.knob == "technique" && spec.technique == "drtv" && spec.params.empty()) default_values = v;
-    report.rows.push_back(std::move(row));
-    return v;
-  };
-
   const std::vector<RowSpec> specs = drtvRows(base_settings, base->manifest.effects, world, options.probe_samples);
   for (const RowSpec& spec : specs) {
-    auto v = evaluateRow(spec);
+    auto v = rows.evaluate(spec);
     if (!v) return std::unexpected(v.error());
     if (spec.knob == "rays_per_basis" && spec.is_default) default_values = *v;
     if (spec.knob == "storage" && spec.value == "8-bit") {
@@ -439,7 +481,7 @@ Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::st
     if (!options.techniques.empty() &&
         std::find(options.techniques.begin(), options.techniques.end(), info.name) == options.techniques.end())
       continue;
-    if (auto v = evaluateRow({"technique", info.name, info.name == "drtv", info.name, {}, info.description}); !v)
+    if (auto v = rows.evaluate({"technique", info.name, info.name == "drtv", info.name, {}, info.description}); !v)
       return std::unexpected(v.error());
   }
   report.wall_s = since(t_start);

@@ -95,6 +95,12 @@ std::vector<TechniqueInfo> registeredTechniques() {
   return out;
 }
 
+std::string registeredTechniqueNames() {
+  std::string names;
+  for (const TechniqueInfo& t : registeredTechniques()) names += (names.empty() ? "" : ", ") + t.name;
+  return names;
+}
+
 Result<std::unique_ptr<Technique>> makeTechnique(std::string_view name, const TechniqueParams& params) {
   Registry& r = registry();
   TechniqueFactory factory;

@@ -51,8 +51,7 @@ Command registerAccuracy(CLI::App& app) {
   sub->add_option("--sectors", o->sectors, "Sector block to bake x0:x1,y0:y1 (default: 3x3 around the centre)");
   sub->add_option("--seed", o->seed, "Seed of every random number")->capture_default_str();
   sub->add_option("--threads", o->threads, "Worker threads (0 = all cores)")->check(CLI::Range(0, 1024));
-  std::string names;
-  for (const eval::TechniqueInfo& t : eval::registeredTechniques()) names += (names.empty() ? "" : ", ") + t.name;
+  const std::string names = eval::registeredTechniqueNames();
   sub->add_option("--techniques", o->techniques, "The techniques of the \"technique\" rows, comma-separated (default all: " + names + ")")
       ->delimiter(',');
   return {sub, [o]() -> Result<void> {

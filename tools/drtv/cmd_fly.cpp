@@ -159,8 +159,7 @@ Command registerFly(CLI::App& app) {
                   "World file whose lights fly with the camera; lights with a path move along it (docs/world-format.md)");
   sub->add_option("--fault", o->faults, "Inject a fault on a sector: IX,IY:missing|truncated|corrupt|slow (repeatable)");
   sub->add_flag("--no-runtime", o->no_runtime, "Stream only: no relighting or volume updates");
-  std::string names;
-  for (const eval::TechniqueInfo& t : eval::registeredTechniques()) names += (names.empty() ? "" : ", ") + t.name;
+  const std::string names = eval::registeredTechniqueNames();
   sub->add_option("--technique", o->technique, "The technique to fly (one that runs on drtv::runtime): " + names + " (default: what the archive asks for)");
   sub->add_option("--params", o->params, "The technique's parameters, name=value,... (e.g. fill=smooth,texel_m=1)");
   sub->add_flag("--json", o->json, "Print fly-report.json on stdout instead of the text summary");

@@ -125,8 +125,7 @@ Command registerRender(CLI::App& app) {
   sub->add_option("--exposure", o->exposure, "Radiance multiplier before tone mapping (0 = automatic)")
       ->check(finiteRange(0.0, 1e9));
   sub->add_flag("--smooth", o->smooth, "Smooth (trilinear over index cells) volume fill instead of nearest probe");
-  std::string names;
-  for (const eval::TechniqueInfo& t : eval::registeredTechniques()) names += (names.empty() ? "" : ", ") + t.name;
+  const std::string names = eval::registeredTechniqueNames();
   sub->add_option("--technique", o->technique, "The GI technique that shades the preview: " + names + " (default drtv-nearest)");
   sub->add_option("--params", o->params, "The technique's parameters, name=value,... (e.g. fill=smooth,texel_m=1)");
   sub->add_option("--threads", o->threads, "Worker threads (0 = all cores)")->check(CLI::Range(0, 1024));

@@ -116,6 +116,8 @@ using TechniqueFactory = std::function<Result<std::unique_ptr<Technique>>(const 
 Result<void> registerTechnique(TechniqueInfo info, TechniqueFactory factory);
 // Every registered technique, in registration order (the built-in ones first).
 std::vector<TechniqueInfo> registeredTechniques();
+// Their names, comma-separated ("drtv, drtv-nearest, ..."), for help texts and errors.
+std::string registeredTechniqueNames();
 // Makes the technique `name` with its preset overridden by `params`. Errors: an unknown name
 // (listing the known ones), a parameter the technique does not take or a bad value.
 Result<std::unique_ptr<Technique>> makeTechnique(std::string_view name, const TechniqueParams& params = {});

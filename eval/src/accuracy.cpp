@@ -242,6 +242,47 @@ std::vector<RowSpec> drtvRows(const BakeSettings& base, uint32_t effects, const 
   return rows;
 }
 
+// Rays of the category tests (SurfaceCategory): upper-hemisphere sky and the horizontal wall search.
+constexpr int kCategorySkyRays = 32, kCategoryWallRays = 8;
+constexpr double kEnclosedSkyFraction = 0.3, kWallDistanceM = 2.0, kWallNormalZ = 0.5;
+constexpr uint64_t kStreamCategory = 3;
+
+// Each point's SurfaceCategory (accuracy.h), from the reference scene's static geometry.
+std::vector<SurfaceCategory> categorise(const ReferenceScene& scene, const std::vector<Point>& points, uint64_t seed) {
+  std::vector<SurfaceCategory> out;
+  const raytrace::RayScene& rays = scene.rays();
+  const raytrace::Frame up(glm::vec3(0, 0, 1));
+  for (size_t i = 0; i < points.size(); ++i) {
+    const Point& p = points[i];
+    if (p.dynamic) {
+      out.push_back(kOnDynamic);
+      continue;
+    }
+    const glm::vec3 o = scene.toLocal(p.position) + 0.05f * p.normal;
+    int open = 0;
+    const uint64_t h = raytrace::hashKey(seed, kStreamCategory, i);
+    const glm::vec2 shift(raytrace::unitFloat(raytrace::mix64(h)), raytrace::unitFloat(raytrace::mix64(h ^ 1)));
+    for (int k = 0; k < kCategorySkyRays; ++k) {
+      const glm::vec2 u = raytrace::r2Point(uint32_t(k), shift);
+      const glm::vec3 d = up.toWorld(raytrace::cosineHemisphere(u));
+      open += !rays.occluded(raytrace::Ray{o, 0.f, d, std::numeric_limits<float>::infinity()});
+    }
+    if (double(open) < kEnclosedSkyFraction * kCategorySkyRays) {
+      out.push_back(kEnclosed);
+      continue;
+    }
+    bool wall = std::abs(p.normal.z) < kWallNormalZ;
+    for (int k = 0; k < kCategoryWallRays && !wall; ++k) {
+      const double a = 2.0 * 3.14159265358979323846 * k / kCategoryWallRays;
+      const raytrace::Ray r{o + glm::vec3(0, 0, 0.3f), 0.f, glm::vec3(float(std::cos(a)), float(std::sin(a)), 0.f), float(kWallDistanceM)};
+      const raytrace::Hit h = rays.intersect(r);
+      wall = h.hit() && std::abs(rays.normal(h.prim).z) < kWallNormalZ;
+    }
+    out.push_back(wall ? kWallOrFacade : kOpenGround);
+  }
+  return out;
+}
+
 // The block baked: the 3 x 3 sectors around the centre of the geometry unless asked otherwise,
 // clipped to the world's sectors.
 Result<raytrace::SectorRange> sweepBlock(const worlds::World& world, const std::string& where, const AccuracyOptions& options) {
@@ -295,8 +336,10 @@ Truth referenceTruth(const ReferenceScene& scene, const worlds::World& world, co
 class RowEvaluator {
  public:
   RowEvaluator(const worlds::World& world, const std::string& where, raytrace::SectorRange block, const AccuracyOptions& options,
-               const InMemoryBake& base, const std::vector<Point>& points, const Truth& truth, AccuracyReport& report)
-      : world_(world), where_(where), block_(block), options_(options), base_(base), truth_(truth), report_(report) {
+               const InMemoryBake& base, const std::vector<Point>& points, const Truth& truth,
+               std::vector<SurfaceCategory> categories, AccuracyReport& report)
+      : world_(world), where_(where), block_(block), options_(options), base_(base), truth_(truth),
+        categories_(std::move(categories)), report_(report) {
     camera_ = points.front().position;
     for (const Point& p : points) surface_.push_back({p.position, p.normal});
     for (const glm::vec3& m : truth.mean) total_ += double(m.r) + m.g + m.b;
@@ -358,6 +401,7 @@ class RowEvaluator {
       }
       row.note = flooredNote(row.note, total_floored_);
     }
+    row.categories = byCategory(v, spec.part < 0 ? truth_.mean : truth_.parts[size_t(spec.part)]);
     report_.rows.push_back(std::move(row));
     return v;
   }
@@ -365,6 +409,35 @@ class RowEvaluator {
  private:
   void progress(const std::string& line) const {
     if (options_.progress) options_.progress(line);
+  }
+
+  // The row's error restricted to each category's points: against `target` (the whole ambient or
+  // one term), relative to the category's whole reference ambient (floored as every row's).
+  std::array<CategoryError, kSurfaceCategoryCount> byCategory(const Values& v, const std::vector<glm::vec3>& target) const {
+    std::array<CategoryError, kSurfaceCategoryCount> out{};
+    std::array<double, kSurfaceCategoryCount> ref{};
+    const size_t P = categories_.size();
+    for (size_t i = 0; i < P; ++i) ++out[categories_[i]].points;
+    for (size_t i = 0; i < v.size(); ++i) {
+      const int c = categories_[i % P];
+      for (int ch = 0; ch < 3; ++ch) {
+        const double d = double(v[i][ch]) - target[i][ch];
+        out[size_t(c)].rel += std::abs(d);
+        out[size_t(c)].bias += d;
+        ref[size_t(c)] += truth_.mean[i][ch];
+      }
+    }
+    for (int c = 0; c < kSurfaceCategoryCount; ++c) {
+      CategoryError& e = out[size_t(c)];
+      const double terms = 3.0 * double(e.points * options_.hours.size());
+      if (terms == 0) continue;
+      e.floored = ref[size_t(c)] < terms * kAmbientErrorFloor;
+      const double den = std::max(ref[size_t(c)], terms * kAmbientErrorFloor);
+      e.abs = e.rel / terms;
+      e.rel /= den;
+      e.bias /= den;
+    }
+    return out;
   }
 
   // A prepared technique of the row's name that takes its parameters without preparing again, or
@@ -390,6 +463,7 @@ class RowEvaluator {
   const AccuracyOptions& options_;
   const InMemoryBake& base_;
   const Truth& truth_;
+  std::vector<SurfaceCategory> categories_;  // per point
   AccuracyReport& report_;
   glm::dvec3 camera_{0.0};
   std::vector<SurfacePoint> surface_;
@@ -459,7 +533,9 @@ Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::st
   // The table: (technique, parameters) rows, each evaluated by one RowEvaluator through the
   // technique interface against the one reference above. DRTV's knobs move one at a time around
   // its defaults; then every registered technique at its own defaults.
-  RowEvaluator rows(world, where, *block, options, *base, points, truth, report);
+  std::vector<SurfaceCategory> categories = categorise(*scene, points, options.seed);
+  for (const SurfaceCategory c : categories) ++report.category_points[size_t(c)];
+  RowEvaluator rows(world, where, *block, options, *base, points, truth, std::move(categories), report);
   Values default_values;  // the default DRTV row's, for the storage emulation check
   const std::vector<RowSpec> specs = drtvRows(base_settings, base->manifest.effects, world, options.probe_samples);
   for (const RowSpec& spec : specs) {
@@ -486,6 +562,17 @@ Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::st
   }
   report.wall_s = since(t_start);
   return report;
+}
+
+const char* surfaceCategoryName(SurfaceCategory c) {
+  switch (c) {
+    case kOpenGround: return "open";
+    case kWallOrFacade: return "wall";
+    case kEnclosed: return "enclosed";
+    case kOnDynamic: return "dynamic";
+    case kSurfaceCategoryCount: break;
+  }
+  return "?";
 }
 
 AmbientError ambientError(const std::vector<glm::vec3>& values, const std::vector<glm::vec3>& reference) {

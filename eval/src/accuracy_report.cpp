@@ -190,7 +190,20 @@ Result<void> writeAccuracyReport(const AccuracyReport& r, const fs::path& dir) {
     rows.push_back({{"knob", row.knob}, {"value", row.value}, {"default", row.is_default}, {"rel_error", orNull(row.rel_error)},
                     {"bias", orNull(row.bias)}, {"abs_error", orNull(row.abs_error)}, {"bake_s", orNull(row.bake_s)}, {"relight_fill_ms", orNull(row.relight_fill_ms)},
                     {"probe_bytes", row.probe_bytes}, {"volume_bytes", row.volume_bytes}, {"note", row.note}});
+  for (size_t i = 0; i < r.rows.size(); ++i) {
+    nlohmann::json cats = nlohmann::json::object();
+    for (int c = 0; c < kSurfaceCategoryCount; ++c) {
+      const CategoryError& e = r.rows[i].categories[size_t(c)];
+      if (e.points == 0) continue;
+      cats[surfaceCategoryName(SurfaceCategory(c))] = {{"points", e.points}, {"rel_error", orNull(e.rel)}, {"bias", orNull(e.bias)},
+                                                        {"abs_error", orNull(e.abs)}, {"floored", e.floored}};
+    }
+    rows[i]["categories"] = cats;
+  }
   j["rows"] = rows;
+  nlohmann::json cp = nlohmann::json::object();
+  for (int c = 0; c < kSurfaceCategoryCount; ++c) cp[surfaceCategoryName(SurfaceCategory(c))] = r.category_points[size_t(c)];
+  j["category_points"] = cp;
   if (auto w = writeText(dir / "accuracy.json", j.dump(2) + "\n"); !w) return w;
 
   // Markdown
@@ -211,6 +224,32 @@ Result<void> writeAccuracyReport(const AccuracyReport& r, const fs::path& dir) {
        << fixed(100 * row.rel_error, 1) << "% | " << (row.bias >= 0 ? "+" : "") << fixed(100 * row.bias, 1) << "% | "
        << fixed(row.bake_s, 2) << " | " << fixed(row.relight_fill_ms, 2) << " | " << fixed(row.probe_bytes / 1024.0, 1) << " | "
        << fixed(row.volume_bytes / 1024.0, 0) << " | " << row.note << " |\n";
+  // By surface category (accuracy.h, SurfaceCategory): the default configuration and every
+  // technique, each category's error, bias and share of the points, and the worst.
+  md << "\nBy surface category (points:";
+  for (int c = 0; c < kSurfaceCategoryCount; ++c)
+    md << " " << surfaceCategoryName(SurfaceCategory(c)) << " " << r.category_points[size_t(c)] << " ("
+       << fixed(100.0 * double(r.category_points[size_t(c)]) / double(std::max<size_t>(r.points, 1)), 0) << "%)";
+  md << "); rel. error (bias):\n\n| row |";
+  for (int c = 0; c < kSurfaceCategoryCount; ++c) md << " " << surfaceCategoryName(SurfaceCategory(c)) << " |";
+  md << " worst |\n|---|";
+  for (int c = 0; c < kSurfaceCategoryCount; ++c) md << "---:|";
+  md << "---|\n";
+  for (const AccuracyRow& row : r.rows) {
+    if (!(row.knob == "technique" || (row.knob == "rays_per_basis" && row.is_default))) continue;
+    md << "| " << (row.knob == "technique" ? row.value : std::string("default")) << " |";
+    int worst = -1;
+    for (int c = 0; c < kSurfaceCategoryCount; ++c) {
+      const CategoryError& e = row.categories[size_t(c)];
+      if (e.points == 0) {
+        md << " — |";
+        continue;
+      }
+      md << " " << fixed(100 * e.rel, 1) << "% (" << (e.bias >= 0 ? "+" : "") << fixed(100 * e.bias, 1) << "%) |";
+      if (worst < 0 || e.rel > row.categories[size_t(worst)].rel) worst = c;
+    }
+    md << " " << (worst < 0 ? "—" : surfaceCategoryName(SurfaceCategory(worst))) << " |\n";
+  }
   for (const std::string& s : r.skipped) md << "\nSkipped: " << s << ".\n";
   for (const std::string& s : r.notes) md << "\nNote: " << s << "\n";
   if (auto w = writeText(dir / "accuracy.md", md.str()); !w) return w;

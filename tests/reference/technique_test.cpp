@@ -6,6 +6,7 @@
 
 #include "drtv/eval/accuracy.h"
 #include "drtv/eval/technique.h"
+#include "drtv/worlds/load.h"
 #include "test_scenes.h"
 
 namespace drtv::eval {
@@ -187,6 +188,56 @@ TEST(Techniques, TheAccuracyTablesTechniqueRowsMatchItsFillRows) {
     if (row.knob == "part") parts += row.bias, ++n;
   EXPECT_EQ(n, 3) << "sun bounce, sky bounce, direct sky";
   EXPECT_NEAR(parts, total->bias, 1e-4);
+}
+
+}  // namespace
+}  // namespace drtv::eval
+
+namespace drtv::eval {
+namespace {
+
+// The per-category errors (issue 16's measurement): on an open plane every point is open ground
+// and the category's error is the row's; on the talk's test box (walls, spheres) the walls and
+// the dynamic objects get points of their own.
+TEST(AccuracyCategories, AnOpenPlaneIsAllOpenGroundAndItsErrorIsTheRows) {
+  worlds::World world = testing::planeWorld(400.0, glm::vec3(0.4f));
+  world.sky = testing::uniformSky(1.f, 0.f);
+  AccuracyOptions o;
+  o.hours = {10.0};
+  o.points = 20;
+  o.reference_samples = 16;
+  o.probe_samples = 8;
+  o.timing_repeats = 1;
+  o.techniques = {"drtv"};
+  auto r = measureAccuracy(world, "plane", o);
+  ASSERT_TRUE(r.has_value()) << r.error().message;
+  EXPECT_EQ(r->category_points[kOpenGround], r->points);
+  for (const AccuracyRow& row : r->rows) {
+    const CategoryError& e = row.categories[kOpenGround];
+    EXPECT_EQ(e.points, r->points) << row.knob << "=" << row.value;
+    EXPECT_NEAR(e.rel, row.rel_error, 1e-9) << row.knob << "=" << row.value;
+    EXPECT_NEAR(e.bias, row.bias, 1e-9) << row.knob << "=" << row.value;
+  }
+}
+
+TEST(AccuracyCategories, TheTestBoxHasWallAndDynamicPoints) {
+  auto world = worlds::loadWorld(std::string(DRTV_SOURCE_DIR) + "/worlds/fc3_testbox.json");
+  ASSERT_TRUE(world.has_value()) << world.error().message;
+  AccuracyOptions o;
+  o.hours = {9.0};
+  o.points = 60;
+  o.reference_samples = 16;
+  o.probe_samples = 8;
+  o.timing_repeats = 1;
+  o.techniques = {"drtv"};
+  auto r = measureAccuracy(*world, "testbox", o);
+  ASSERT_TRUE(r.has_value()) << r.error().message;
+  size_t sum = 0;
+  for (size_t n : r->category_points) sum += n;
+  EXPECT_EQ(sum, r->points);
+  EXPECT_GT(r->category_points[kWallOrFacade], 0u);
+  EXPECT_EQ(r->category_points[kOnDynamic], r->dynamic_points);
+  EXPECT_GT(r->category_points[kOpenGround], 0u);
 }
 
 }  // namespace

@@ -57,6 +57,7 @@
 // not depend on threads. Times do (they are measurements).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -102,6 +103,23 @@ struct AmbientError {
 };
 AmbientError ambientError(const std::vector<glm::vec3>& values, const std::vector<glm::vec3>& reference);
 
+// Where a sample point lies (issue 16: the hard places measured apart from the open ground). In
+// order of precedence: on a dynamic object; enclosed (indoors or under a roof: under 30 % of the
+// cosine-weighted upper hemisphere above it is open sky); on or within 2 m of a wall or facade (its
+// normal within 60 deg of horizontal, or a horizontal ray from just above it meets such a surface
+// within 2 m); else open ground. Vegetation counts as geometry (the reference scene does not tell
+// canopy apart).
+enum SurfaceCategory : int { kOpenGround = 0, kWallOrFacade, kEnclosed, kOnDynamic, kSurfaceCategoryCount };
+const char* surfaceCategoryName(SurfaceCategory c);  // "open", "wall", "enclosed", "dynamic"
+
+// A row's error over the points of one category, as the row's own (whole ambient, or one term as a
+// share of the category's whole reference ambient).
+struct CategoryError {
+  size_t points = 0;     // sample points in the category (each at every hour)
+  double rel = 0, bias = 0, abs = 0;
+  bool floored = false;
+};
+
 struct AccuracyRow {
   std::string knob;         // "rays_per_basis", "bounces", "part", "sun_window", "basis", "fill", "texel_m",
                             // "storage", "lprt_sources", "sources_per_light", "light_sources",
@@ -116,12 +134,14 @@ struct AccuracyRow {
   size_t volume_bytes = 0;  // the three volume textures
   std::string note;         // what is special about the row
   double abs_error = 0;     // mean absolute error per point, hour and channel (see the header)
+  std::array<CategoryError, kSurfaceCategoryCount> categories{};  // the same error by category
 };
 
 struct AccuracyReport {
   std::string world;                  // name or file
   raytrace::SectorRange sectors;                // the block baked
   size_t points = 0, dynamic_points = 0;
+  std::array<size_t, kSurfaceCategoryCount> category_points{};  // sample points per SurfaceCategory
   std::vector<double> hours;
   int reference_samples = 0;
   double reference_s = 0;             // wall seconds of the reference at the points

@@ -273,6 +273,7 @@ std::vector<std::pair<std::string, std::string>> BakeSettings::describe() const 
       {"min_vertical_m", fmt(placement.min_vertical_m)},
       {"inside_test_rays", std::to_string(placement.inside_test_rays)},
       {"grid_visibility_candidates", std::to_string(grid.visibility_candidates)},
+      {"grid_search_beyond", grid.search_beyond ? "1" : "0"},
       {"halo_m", fmt(halo_m)},
       {"lprt_halo_m", fmt(lprt_halo_m)},
       {"zstd_level", std::to_string(zstd_level)},

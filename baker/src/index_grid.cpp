@@ -38,7 +38,9 @@ void fillIndexGrid(const raytrace::RayScene& scene, std::span<const glm::vec3> p
   if (probes.empty()) return;
   const size_t k = std::min(probes.size(), size_t(std::max(1, settings.visibility_candidates)));
   std::atomic<uint64_t> rays{0};
-  std::atomic<size_t> nearest{0}, farther{0}, inside{0}, unseen{0};
+  std::atomic<size_t> nearest{0}, farther{0}, inside{0}, unseen{0}, searched{0};
+  // Cells that see no probe at all (enclosed air, a slit): they take a neighbour's choice below.
+  std::vector<uint8_t> unresolved(grid.cells.size(), 0);
   // Probe coordinates as separate arrays, so that each cell's distances are one vectorised loop.
   const size_t P = probes.size();
   std::vector<float> px(P), py(P), pz(P);
@@ -51,7 +53,7 @@ void fillIndexGrid(const raytrace::RayScene& scene, std::span<const glm::vec3> p
     std::vector<std::pair<float, uint32_t>> order(k);
     std::vector<float> dist2(P);
     uint64_t n_rays = 0;
-    size_t n_nearest = 0, n_farther = 0, n_inside = 0, n_unseen = 0;
+    size_t n_nearest = 0, n_farther = 0, n_inside = 0, n_unseen = 0, n_searched = 0;
     for (int z = zr.begin(); z < zr.end(); ++z)
       for (int y = 0; y < kGridDim; ++y)
         for (int x = 0; x < kGridDim; ++x) {
@@ -94,7 +96,31 @@ void fillIndexGrid(const raytrace::RayScene& scene, std::span<const glm::vec3> p
               ++n_inside;
             }
           }
-          if (!found) ++n_unseen;
+          if (!found && settings.search_beyond) {
+            // None of the k nearest is visible: search the rest, nearest first, before falling
+            // back (a cell must not name a probe behind a wall when one it can see exists).
+            std::vector<std::pair<float, uint32_t>> rest;
+            for (size_t i = 0; i < P; ++i)
+              if (std::find_if(order.begin(), order.begin() + std::ptrdiff_t(k), [&](const auto& o) { return o.second == i; }) ==
+                  order.begin() + std::ptrdiff_t(k))
+                rest.push_back({dist2[i], uint32_t(i)});
+            std::sort(rest.begin(), rest.end());
+            for (const auto& [d2, i] : rest) {
+              const float dist = std::sqrt(d2);
+              const raytrace::Ray ray{c, 0.f, (probes[i] - c) / dist, dist - kProbeClearanceM};
+              ++n_rays;
+              if (dist <= kProbeClearanceM || !scene.intersect(ray).hit()) {
+                chosen = i;
+                found = true;
+                ++n_searched;
+                break;
+              }
+            }
+          }
+          if (!found) {
+            ++n_unseen;
+            unresolved[IndexGrid::cellIndex(x, y, z)] = settings.search_beyond;
+          }
           grid.cells[IndexGrid::cellIndex(x, y, z)] = uint8_t(chosen);
         }
     rays += n_rays;
@@ -102,12 +128,42 @@ void fillIndexGrid(const raytrace::RayScene& scene, std::span<const glm::vec3> p
     farther += n_farther;
     inside += n_inside;
     unseen += n_unseen;
+    searched += n_searched;
   });
+  // A cell no probe is visible from takes the choice of the nearest resolved cell along the grid
+  // (breadth-first over the 6 face neighbours, in index order: deterministic): light from where
+  // it is, not from the nearest probe, which may be on the far side of a wall. A sector where no
+  // cell resolves keeps the nearest.
+  {
+    std::vector<int> frontier, next;
+    for (int i = 0; i < int(grid.cells.size()); ++i)
+      if (!unresolved[size_t(i)]) frontier.push_back(i);
+    std::vector<uint8_t> done(unresolved.size());
+    for (size_t i = 0; i < done.size(); ++i) done[i] = !unresolved[i];
+    while (!frontier.empty()) {
+      next.clear();
+      for (const int i : frontier) {
+        const int x = i % kGridDim, y = (i / kGridDim) % kGridDim, z = i / (kGridDim * kGridDim);
+        const int nb[6][3] = {{x - 1, y, z}, {x + 1, y, z}, {x, y - 1, z}, {x, y + 1, z}, {x, y, z - 1}, {x, y, z + 1}};
+        for (const auto& q : nb) {
+          if (q[0] < 0 || q[1] < 0 || q[2] < 0 || q[0] >= kGridDim || q[1] >= kGridDim || q[2] >= kGridDim) continue;
+          const size_t j = IndexGrid::cellIndex(q[0], q[1], q[2]);
+          if (done[j]) continue;
+          done[j] = 1;
+          grid.cells[j] = grid.cells[size_t(i)];
+          next.push_back(int(j));
+        }
+      }
+      std::sort(next.begin(), next.end());
+      frontier.swap(next);
+    }
+  }
   stats.rays += rays;
   stats.cells_nearest += nearest;
   stats.cells_farther += farther;
   stats.cells_inside += inside;
   stats.cells_unseen += unseen;
+  stats.cells_searched += searched;
 }
 
 }  // namespace drtv::baker

@@ -35,7 +35,7 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
                           const std::filesystem::path& markdown_path) {
   MinMeanMax probes, bytes, bytes_no_lprt, triangles;
   size_t total_probes = 0, relocated = 0, dropped = 0, rejected = 0, thinned = 0, veg = 0, interior = 0, resumed = 0;
-  size_t cells_near = 0, cells_far = 0, cells_inside = 0, cells_unseen = 0, surfels = 0, cached = 0;
+  size_t cells_near = 0, cells_far = 0, cells_inside = 0, cells_unseen = 0, cells_searched = 0, surfels = 0, cached = 0;
   uint64_t rays = 0, r_place = 0, r_probe = 0, r_surfel = 0, r_lprt = 0, r_grid = 0, r_other = 0;
   double t_gather = 0, t_build = 0, t_place = 0, t_probe = 0, t_surfel = 0, t_lprt = 0, t_grid = 0, t_total = 0;
   std::map<size_t, size_t> histogram;  // probes per sector, bucketed by 10
@@ -51,6 +51,7 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
     cells_far += s.grid.cells_farther;
     cells_inside += s.grid.cells_inside;
     cells_unseen += s.grid.cells_unseen;
+    cells_searched += s.grid.cells_searched;
     surfels += s.transfer.surfels;
     cached += s.transfer.probe_hits_cached;
     rays += s.rays();
@@ -105,7 +106,8 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
   j["bytes_per_sector"] = {{"with_lprt", bytes.json()}, {"without_lprt", bytes_no_lprt.json()}};
   j["triangles_per_sector"] = triangles.json();
   j["index_grid"] = {{"cells_nearest_visible", cells_near}, {"cells_farther_visible", cells_far},
-                     {"cells_inside_geometry", cells_inside}, {"cells_none_visible", cells_unseen}};
+                     {"cells_inside_geometry", cells_inside}, {"cells_beyond_candidates", cells_searched},
+                     {"cells_none_visible_take_a_neighbours", cells_unseen}};
   j["surface_cache"] = {{"surfels", surfels}, {"probe_hits_reusing_a_cell", cached}};
   j["rays"] = {{"total", rays}, {"placement", r_place}, {"probe", r_probe}, {"surfel", r_surfel}, {"lprt", r_lprt},
                {"grid", r_grid}, {"other", r_other}, {"per_second_wall", rays_per_s}};
@@ -155,7 +157,8 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
   md << "| without LPRT | " << fixed(bytes_no_lprt.min, 0) << " | " << fixed(bytes_no_lprt.mean, 0) << " | " << fixed(bytes_no_lprt.max, 0) << " |\n";
   md << "\n## Index grid\n\n" << cells_near << " cells took the nearest probe, " << cells_far
      << " a farther one because nearer ones were hidden, " << cells_inside << " lie inside geometry (nearest), "
-     << cells_unseen << " saw no candidate (nearest).\n";
+     << cells_searched << " saw none of the nearest candidates but a farther probe, " << cells_unseen
+     << " saw no probe at all (a neighbour cell's choice).\n";
   md << "\n## Rays\n\n| stage | rays |\n|---|---|\n";
   md << "| placement | " << r_place << " |\n| probe basis rays | " << r_probe << " |\n| surface cache | " << r_surfel
      << " (" << surfels << " cells) |\n| LPRT shadow rays | " << r_lprt << " |\n| index grid visibility | " << r_grid

@@ -45,6 +45,7 @@ void forEachStat(Stats& s, F&& f) {
   f("cells_farther", s.grid.cells_farther);
   f("cells_inside", s.grid.cells_inside);
   f("cells_unseen", s.grid.cells_unseen);
+  f("cells_searched", s.grid.cells_searched);
   f("other_rays", s.other_rays);
   f("gather_s", s.gather_s);
   f("build_s", s.build_s);

@@ -25,11 +25,11 @@ struct HouseScene {
   }
 };
 
-IndexGrid gridFor(const HouseScene& h, int candidates, IndexGridStats& stats) {
+IndexGrid gridFor(const HouseScene& h, int candidates, IndexGridStats& stats, bool search_beyond = true) {
   IndexGrid grid;
   grid.z_min_m = 0.f;
   grid.cell_height_m = 1.f;
-  fillIndexGrid(*h.scene, h.probes, IndexGridSettings{candidates}, grid, stats);
+  fillIndexGrid(*h.scene, h.probes, IndexGridSettings{candidates, search_beyond}, grid, stats);
   return grid;
 }
 
@@ -42,8 +42,22 @@ TEST(IndexGrid, ACellInsideAHouseTakesTheProbeInsideNotTheNearerOneOutside) {
   EXPECT_EQ(visible.at(4, 5, 1), 0) << "the room's probe";
   EXPECT_GT(stats.cells_farther, 0u);
   IndexGridStats talk_stats;
-  const IndexGrid nearest = gridFor(h, 1, talk_stats);
+  const IndexGrid nearest = gridFor(h, 1, talk_stats, /*search_beyond=*/false);
   EXPECT_EQ(nearest.at(4, 5, 1), 1) << "the talk's nearest probe is outside, behind the wall";
+}
+
+// With one candidate that is hidden, the cell still finds the probe it can see (issue 16: the
+// nearest fallback named probes behind walls and inside buildings, and their light leaked in).
+TEST(IndexGrid, ACellWhoseCandidatesAreAllHiddenSearchesTheOtherProbes) {
+  const HouseScene h;
+  IndexGridStats stats;
+  const IndexGrid grid = gridFor(h, 1, stats);
+  EXPECT_EQ(grid.at(4, 5, 1), 0) << "the room's probe, beyond the one hidden candidate";
+  EXPECT_GT(stats.cells_searched, 0u);
+  IndexGridStats talk;
+  gridFor(h, 1, talk, false);
+  EXPECT_EQ(talk.cells_searched, 0u);
+  EXPECT_GE(talk.cells_unseen, stats.cells_searched) << "what the talk left to the nearest probe";
 }
 
 TEST(IndexGrid, EveryCellTakesAProbeAndOpenCellsTakeTheNearest) {
@@ -53,7 +67,7 @@ TEST(IndexGrid, EveryCellTakesAProbeAndOpenCellsTakeTheNearest) {
   for (uint8_t c : grid.cells) EXPECT_LT(c, 2);
   // Cell (5, 10, 1): centre (22, 42, 1.5), open ground north of the house.
   EXPECT_EQ(grid.at(5, 10, 1), 1);
-  EXPECT_EQ(stats.cells_nearest + stats.cells_farther + stats.cells_inside + stats.cells_unseen, size_t(kGridCells));
+  EXPECT_EQ(stats.cells_nearest + stats.cells_farther + stats.cells_inside + stats.cells_searched + stats.cells_unseen, size_t(kGridCells));
 }
 
 TEST(IndexGrid, ExtentCoversTheProbesAndTheGround) {

@@ -9,7 +9,10 @@
 // not the one outside the wall 3 m away. Fallbacks, in order: when the segment to the nearest
 // probe starts inside geometry (its first hit is a back face: the cell centre is under terrain
 // or inside a wall) the cell takes the nearest probe — nothing better can be known from there;
-// when none of the candidates is visible, the nearest. A sector without probes keeps 255.
+// when none of the candidates is visible, the nearest visible probe of the whole sector (issue 16:
+// the nearest was often hidden behind a wall or inside a building, and its light leaked); when no
+// probe is visible, the choice of the nearest cell that resolved (breadth-first over face
+// neighbours). A sector without probes keeps 255.
 //
 // Vertical extent (chooseGridExtent): from 2 m below the lower of the lowest ground sample and
 // the lowest probe, to 4 m above the highest probe, split in 16 cells, each at least
@@ -32,6 +35,9 @@ inline constexpr float kMinCellHeightM = 1.f;
 
 struct IndexGridSettings {
   int visibility_candidates = 8;  // nearest probes tried for visibility per cell (1 = the talk)
+  // When none of them is visible: try the sector's other probes, nearest first, and give a cell
+  // that sees none a neighbour cell's choice (false with 1 candidate = the talk's nearest probe).
+  bool search_beyond = true;
 };
 
 struct IndexGridStats {
@@ -39,7 +45,8 @@ struct IndexGridStats {
   size_t cells_nearest = 0;      // took the nearest probe, visible
   size_t cells_farther = 0;      // took a farther probe because the nearer ones were hidden
   size_t cells_inside = 0;       // centre inside geometry: nearest
-  size_t cells_unseen = 0;       // no candidate visible: nearest
+  size_t cells_unseen = 0;       // no probe visible at all: a neighbour cell's choice
+  size_t cells_searched = 0;     // no candidate visible, a farther probe beyond them is
 };
 
 // Chooses z_min_m and cell_height_m (see above). `ground_min_z` may be +inf when unknown.

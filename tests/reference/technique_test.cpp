@@ -12,6 +12,18 @@
 namespace drtv::eval {
 namespace {
 
+// A small, fast sweep: one hour, few points and paths, one timing.
+AccuracyOptions smallSweep(double hour, int points, std::vector<std::string> techniques = {}) {
+  AccuracyOptions o;
+  o.hours = {hour};
+  o.points = points;
+  o.reference_samples = 16;
+  o.probe_samples = 8;
+  o.timing_repeats = 1;
+  o.techniques = std::move(techniques);
+  return o;
+}
+
 TEST(Techniques, DrtvAndItsTwoFillsAreRegistered) {
   std::vector<std::string> names;
   for (const TechniqueInfo& t : registeredTechniques()) names.push_back(t.name);
@@ -148,12 +160,7 @@ TEST(Techniques, DrtvTakesRuntimeParametersAfterPrepareAndRefusesBakeOnes) {
 TEST(Techniques, TheAccuracyTablesTechniqueRowsMatchItsFillRows) {
   worlds::World world = testing::planeWorld(400.0, glm::vec3(0.4f, 0.5f, 0.3f));
   world.sky = testing::uniformSky(1.f, 0.f);
-  AccuracyOptions o;
-  o.hours = {10.0};
-  o.points = 24;
-  o.reference_samples = 16;
-  o.probe_samples = 8;
-  o.timing_repeats = 1;
+  const AccuracyOptions o = smallSweep(10.0, 24);
   auto r = measureAccuracy(world, "plane", o);
   ASSERT_TRUE(r.has_value()) << r.error().message;
   auto find = [&](const std::string& knob, const std::string& value) -> const AccuracyRow* {
@@ -202,13 +209,7 @@ namespace {
 TEST(AccuracyCategories, AnOpenPlaneIsAllOpenGroundAndItsErrorIsTheRows) {
   worlds::World world = testing::planeWorld(400.0, glm::vec3(0.4f));
   world.sky = testing::uniformSky(1.f, 0.f);
-  AccuracyOptions o;
-  o.hours = {10.0};
-  o.points = 20;
-  o.reference_samples = 16;
-  o.probe_samples = 8;
-  o.timing_repeats = 1;
-  o.techniques = {"drtv"};
+  const AccuracyOptions o = smallSweep(10.0, 20, {"drtv"});
   auto r = measureAccuracy(world, "plane", o);
   ASSERT_TRUE(r.has_value()) << r.error().message;
   EXPECT_EQ(r->category_points[kOpenGround], r->points);
@@ -223,13 +224,7 @@ TEST(AccuracyCategories, AnOpenPlaneIsAllOpenGroundAndItsErrorIsTheRows) {
 TEST(AccuracyCategories, TheTestBoxHasWallAndDynamicPoints) {
   auto world = worlds::loadWorld(std::string(DRTV_SOURCE_DIR) + "/worlds/fc3_testbox.json");
   ASSERT_TRUE(world.has_value()) << world.error().message;
-  AccuracyOptions o;
-  o.hours = {9.0};
-  o.points = 60;
-  o.reference_samples = 16;
-  o.probe_samples = 8;
-  o.timing_repeats = 1;
-  o.techniques = {"drtv"};
+  const AccuracyOptions o = smallSweep(9.0, 60, {"drtv"});
   auto r = measureAccuracy(*world, "testbox", o);
   ASSERT_TRUE(r.has_value()) << r.error().message;
   size_t sum = 0;

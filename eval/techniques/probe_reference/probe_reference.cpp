@@ -115,6 +115,11 @@ class ProbeReference final : public Technique {
 
   Result<void> setLighting(double hour, const std::vector<PointLight>& lights) override {
     if (!rt_) return fail("technique " + describe() + ": setLighting before prepare");
+    // The traced values hold for one lighting: other lights (the same count or not) trace again.
+    auto same = [](const PointLight& a, const PointLight& b) {
+      return a.position == b.position && a.intensity == b.intensity && a.radius_m == b.radius_m;
+    };
+    if (!std::equal(lights.begin(), lights.end(), lights_.begin(), lights_.end(), same)) traced_.clear();
     hour_ = hour;
     lights_ = lights;
     return {};
@@ -176,8 +181,8 @@ class ProbeReference final : public Technique {
     glm::dvec3 position;
   };
 
-  // The lighting the traced values belong to.
-  std::pair<double, size_t> key() const { return {hour_, lights_.size()}; }
+  // The hour the traced values belong to (the lights are the same for all of traced_).
+  double key() const { return hour_; }
 
   int probeIndex(const SurfacePoint& p) {
     const runtime::ProbeRef pr = rt_->cache().probeAt(p.position + glm::dvec3(p.normal) * double(normal_offset_m_));
@@ -220,7 +225,7 @@ class ProbeReference final : public Technique {
   double hour_ = 12.0;
   std::vector<PointLight> lights_;
   std::vector<Probe> probes_;
-  std::map<std::pair<double, size_t>, std::vector<std::array<glm::vec3, 10>>> traced_;
+  std::map<double, std::vector<std::array<glm::vec3, 10>>> traced_;
   TechniqueCosts costs_;
 };
 

@@ -13,6 +13,14 @@
 namespace drtv::raytrace {
 namespace {
 
+// The k-th corner of a triangle as it is stored after `transform`: a mirroring transform (negative
+// determinant, e.g. glTF's scale -1) turns counter-clockwise into clockwise, so its triangles take
+// their corners 0, 2, 1 and keep their front side outward (glTF 2.0, 3.7.2.1: "when a mesh
+// primitive uses any triangle-based topology, the determinant of the node's global transform
+// defines the winding order").
+bool mirrors(const glm::dmat4& transform) { return glm::determinant(glm::dmat3(transform)) < 0.0; }
+int windingOrder(bool mirrored, int k) { return mirrored && k > 0 ? 3 - k : k; }
+
 // Triangles with less area than this (m^2) are degenerate: their normal is noise. 1 mm^2 is far
 // below any modelled detail and far above float round-off at the coordinates a sector uses.
 constexpr double kMinTriangleAreaM2 = 1e-6;
@@ -236,9 +244,10 @@ Result<WorldGeometry> WorldGeometry::build(const worlds::World& world, const std
     const worlds::Mesh& mesh = world.meshes[inst.mesh];
     const auto& valid = g.valid_tris_[inst.mesh];
     if (valid.size() > kLargeMeshTriangles) {
+      const bool mirrored = mirrors(inst.transform);
       for (uint32_t t : valid) {
         glm::dvec3 w[3];
-        for (int k = 0; k < 3; ++k) w[k] = apply(inst.transform, mesh.positions[mesh.indices[3 * t + k]]);
+        for (int k = 0; k < 3; ++k) w[k] = apply(inst.transform, mesh.positions[mesh.indices[3 * t + windingOrder(mirrored, k)]]);
         if (0.5 * glm::length(glm::cross(w[1] - w[0], w[2] - w[0])) < kMinTriangleAreaM2) {
           ++large_degenerate;
           continue;
@@ -360,8 +369,10 @@ SectorGeometry WorldGeometry::gather(SectorKey key, double halo_m) const {
     const SmallInstance& inst = small_[i];
     if (!overlaps(inst.min, inst.max)) continue;
     const worlds::Mesh& mesh = world_->meshes[inst.mesh];
+    const bool mirrored = mirrors(inst.transform);
     for (uint32_t t : valid_tris_[inst.mesh]) {
-      for (int k = 0; k < 3; ++k) s.vertices.push_back(glm::vec3(apply(inst.transform, mesh.positions[mesh.indices[3 * t + k]]) - origin));
+      for (int k = 0; k < 3; ++k)
+        s.vertices.push_back(glm::vec3(apply(inst.transform, mesh.positions[mesh.indices[3 * t + windingOrder(mirrored, k)]]) - origin));
       s.material.push_back(inst.material);
       s.cls.push_back(inst.cls);
     }

@@ -6,6 +6,7 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
+#include "drtv/raytrace/ray_scene.h"
 #include "drtv/raytrace/world_geometry.h"
 #include "drtv/formats/memory_limit.h"
 #include "../baker/test_worlds.h"
@@ -161,6 +162,30 @@ TEST(WorldGeometry, SingularOrNonFiniteTransformsAreSkippedWithANote) {
   ASSERT_TRUE(g);
   EXPECT_EQ(g->triangleCount(), 2u);
   EXPECT_EQ(g->notes().size(), 2u);
+}
+
+}  // namespace
+}  // namespace drtv::raytrace
+
+namespace drtv::raytrace {
+namespace {
+
+// A mirroring instance (negative determinant: glTF's scale -1, as in ../shared/assets/
+// probe_room_bevy) keeps its triangles' front side where it was: without the flip the plane faced
+// down, every index-grid cell above it read "inside geometry" and the baked ambient was 0.
+TEST(WorldGeometry, AMirroredInstanceKeepsItsFrontFaceUp) {
+  for (const glm::dvec3 scale : {glm::dvec3(1, 1, 1), glm::dvec3(-1, 1, 1), glm::dvec3(-2, -2, 2)}) {
+    worlds::World w = baker::test::planeWorld(100.0, glm::vec3(0.5f));
+    w.instances[0].transform = glm::dmat4(glm::dmat3(scale.x, 0, 0, 0, scale.y, 0, 0, 0, scale.z));
+    auto g = WorldGeometry::build(w, "mirrored");
+    ASSERT_TRUE(g) << g.error().message;
+    const SectorGeometry s = g->gather({0, 0}, 64.0);
+    auto scene = RayScene::build(s.vertices);
+    ASSERT_TRUE(scene);
+    ASSERT_GT(scene->triangleCount(), 0u);
+    for (uint32_t t = 0; t < scene->triangleCount(); ++t)
+      EXPECT_GT(scene->normal(t).z, 0.99f) << "scale (" << scale.x << ", " << scale.y << ", " << scale.z << ") triangle " << t;
+  }
 }
 
 }  // namespace

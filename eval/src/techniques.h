@@ -15,5 +15,7 @@ using TechniqueRegistration = std::pair<TechniqueInfo, TechniqueFactory>;
 std::vector<TechniqueRegistration> drtvTechniques();
 // eval/techniques/probe_reference: DRTV's probes with path-traced values, no volume (basis rows).
 std::vector<TechniqueRegistration> probeReferenceTechniques();
+// eval/techniques/lpv: cascaded light propagation volumes over ray-cast RSMs (drtv/lpv/lpv.h).
+std::vector<TechniqueRegistration> lpvTechniques();
 
 }  // namespace drtv::eval

@@ -251,23 +251,31 @@ void CascadedLpv::computeOcclusion(int c) {
           g.face_t[size_t(d) * g.cells + g.index(i, j, k)] = 1.f - std::clamp(0.25f * b, 0.f, 1.f);
         }
   }
-  // Sky transmittance: march from each cell centre towards the sky, one cell per step.
+  // Sky transmittance: march from each cell centre towards the sky, one cell per step. The
+  // corner nearest to centre + m w is the cell's index plus floor(1 + m w), the same offset for
+  // every cell, and each corner's blocking for a direction is read once.
+  const int m1 = n + 1;
+  std::vector<float> pass(size_t(m1) * size_t(m1) * size_t(m1));
+  std::vector<glm::ivec3> offsets;
   for (int dir = 0; dir < kSkyDirections; ++dir) {
     const glm::vec3 w = skyDirection(dir);
     // The view ray from the cell towards w is blocked by surfaces it meets on their front side
     // (n.w < 0), as the path tracer's ray is: the blocking potential read for travel along w.
     const sh::Sh4 y = sh::evaluate(-w);
+    for (size_t q = 0; q < pass.size(); ++q) pass[q] = 1.f - std::clamp(blocking(q, y), 0.f, 1.f);
+    offsets.clear();
+    for (int m = 1; m <= options_.sky_steps; ++m) offsets.push_back(glm::ivec3(glm::floor(1.f + float(m) * w)));
+    uint8_t* out = g.sky_t.data() + size_t(dir) * g.cells;
     for (int k = 0; k < n; ++k)
       for (int j = 0; j < n; ++j)
         for (int i = 0; i < n; ++i) {
           float T = 1.f;
-          const glm::vec3 centre(i + 0.5f, j + 0.5f, k + 0.5f);
-          for (int m = 1; m <= options_.sky_steps && T > 0.f; ++m) {
-            const glm::vec3 x = glm::floor(centre + float(m) * w + 0.5f);
-            if (x.x < 0 || x.y < 0 || x.z < 0 || x.x > n || x.y > n || x.z > n) break;
-            T *= 1.f - std::clamp(blocking(g.corner(int(x.x), int(x.y), int(x.z)), y), 0.f, 1.f);
+          for (const glm::ivec3& o : offsets) {
+            const int x = i + o.x, yy = j + o.y, z = k + o.z;
+            if (x < 0 || yy < 0 || z < 0 || x > n || yy > n || z > n) break;
+            T *= pass[g.corner(x, yy, z)];
           }
-          g.sky_t[size_t(dir) * g.cells + g.index(i, j, k)] = uint8_t(std::lround(T * 255.f));
+          out[g.index(i, j, k)] = uint8_t(T * 255.f + 0.5f);
         }
   }
 }
@@ -312,26 +320,36 @@ void CascadedLpv::propagate(int c) {
       const int k0 = std::max(0, t.z), k1 = n + std::min(0, t.z);
       const float* tr = g.face_t.data() + size_t(d) * N;
       for (int ch = 0; ch < 3; ++ch) {
-        const float* s0 = cur + size_t(ch * 4) * N;
-        const float* sa = cur + size_t(ch * 4 + m.a) * N;
-        const float* so1 = cur + size_t(ch * 4 + m.o1) * N;
-        const float* so2 = cur + size_t(ch * 4 + m.o2) * N;
-        float* d0 = next + size_t(ch * 4) * N;
-        float* da = next + size_t(ch * 4 + m.a) * N;
-        float* do1 = next + size_t(ch * 4 + m.o1) * N;
-        float* do2 = next + size_t(ch * 4 + m.o2) * N;
+        const float* __restrict s0 = cur + size_t(ch * 4) * N;
+        const float* __restrict sa = cur + size_t(ch * 4 + m.a) * N;
+        const float* __restrict so1 = cur + size_t(ch * 4 + m.o1) * N;
+        const float* __restrict so2 = cur + size_t(ch * 4 + m.o2) * N;
+        float* __restrict d0 = next + size_t(ch * 4) * N;
+        float* __restrict da = next + size_t(ch * 4 + m.a) * N;
+        float* __restrict do1 = next + size_t(ch * 4 + m.o1) * N;
+        float* __restrict do2 = next + size_t(ch * 4 + m.o2) * N;
         for (int k = k0; k < k1; ++k)
           for (int j = j0; j < j1; ++j) {
             const size_t row = g.index(0, j, k);
-            for (int i = i0; i < i1; ++i) {
-              const size_t x = row + size_t(i);
-              const size_t src = size_t(ptrdiff_t(x) - off);
-              const float f = occluded ? tr[x] : 1.f;
-              const float a0 = s0[src], aa = sa[src];
-              d0[x] += f * (m.m00 * a0 + m.m0a * aa);
-              da[x] += f * (m.ma0 * a0 + m.maa * aa);
-              do1[x] += f * m.moo * so1[src];
-              do2[x] += f * m.moo * so2[src];
+            // Rows are contiguous in x: one vectorisable loop per row, with or without occlusion.
+            if (occluded) {
+              for (int i = i0; i < i1; ++i) {
+                const size_t x = row + size_t(i), src = size_t(ptrdiff_t(x) - off);
+                const float f = tr[x], a0 = s0[src], aa = sa[src];
+                d0[x] += f * (m.m00 * a0 + m.m0a * aa);
+                da[x] += f * (m.ma0 * a0 + m.maa * aa);
+                do1[x] += f * m.moo * so1[src];
+                do2[x] += f * m.moo * so2[src];
+              }
+            } else {
+              for (int i = i0; i < i1; ++i) {
+                const size_t x = row + size_t(i), src = size_t(ptrdiff_t(x) - off);
+                const float a0 = s0[src], aa = sa[src];
+                d0[x] += m.m00 * a0 + m.m0a * aa;
+                da[x] += m.ma0 * a0 + m.maa * aa;
+                do1[x] += m.moo * so1[src];
+                do2[x] += m.moo * so2[src];
+              }
             }
           }
       }

@@ -378,10 +378,14 @@ TEST(Cli, FlyAndRenderTakeATechniqueByName) {
   const Outcome probe = drtv("fly " + archive + " --frames 5 --technique probe-reference -o " + scratch("fly"));
   EXPECT_EQ(probe.status, 1);
   EXPECT_NE(probe.out.find("probe-reference: does not run on drtv::runtime"), std::string::npos) << probe.out;
-  const Outcome unknown = drtv("render " + archive + " --world " + src("worlds/fc3_testbox.json") + " --size 16x16 --technique lpv -o " +
+  const Outcome unknown = drtv("render " + archive + " --world " + src("worlds/fc3_testbox.json") + " --size 16x16 --technique lpv-9000 -o " +
                                scratch("r.png"));
   EXPECT_EQ(unknown.status, 1);
-  EXPECT_NE(unknown.out.find("unknown technique 'lpv'"), std::string::npos) << unknown.out;
+  EXPECT_NE(unknown.out.find("unknown technique 'lpv-9000'"), std::string::npos) << unknown.out;
+  // A technique without a bake renders from the world given with the archive.
+  const Outcome lpv = drtv("render " + archive + " --world " + src("worlds/fc3_testbox.json") +
+                           " --size 16x16 --technique lpv --params cascades=2,cells=16 -o " + scratch("lpv.png"));
+  EXPECT_EQ(lpv.status, 0) << lpv.out;
   const Outcome render = drtv("render " + archive + " --world " + src("worlds/fc3_testbox.json") + " --size 16x16 --technique drtv-smooth -o " +
                               scratch("r.png"));
   EXPECT_EQ(render.status, 0) << render.out;

@@ -174,6 +174,8 @@ class DrtvTechnique final : public Technique {
     return {};
   }
 
+  bool readsArchives() const override { return true; }
+
   Result<void> prepareBaked(const Manifest& manifest, std::span<const Sector> sectors) override {
     adopt(manifest, std::vector<Sector>(sectors.begin(), sectors.end()), 0.0);
     return {};

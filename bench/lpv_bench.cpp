@@ -1,0 +1,98 @@
+// Benchmarks of the cascaded light propagation volumes (drtv/lpv/lpv.h, issue 14; figures in
+// docs/lpv.md). The library alone, with RSM texels made here (in an engine they come from the
+// GPU); the technique's ray-cast RSMs are timed by `drtv accuracy` (its "relight + fill" column).
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+#include <vector>
+
+#include "drtv/lpv/lpv.h"
+
+namespace {
+
+using drtv::lpv::CascadedLpv;
+using drtv::lpv::LpvOptions;
+using drtv::lpv::Surfel;
+
+// A 256 x 256 RSM's texels over a rolling ground around the camera, and its occluders.
+std::vector<Surfel> groundRsm(double extent_m, int res) {
+  std::vector<Surfel> out;
+  const double texel = extent_m / res;
+  for (int j = 0; j < res; ++j)
+    for (int i = 0; i < res; ++i) {
+      const double x = -extent_m / 2 + (i + 0.5) * texel, y = -extent_m / 2 + (j + 0.5) * texel;
+      const double z = 2.0 * std::sin(x * 0.1) * std::cos(y * 0.13);
+      const glm::vec3 n = glm::normalize(glm::vec3(-0.2f * std::cos(float(x) * 0.1f), 0.26f * std::sin(float(y) * 0.13f), 1.f));
+      out.push_back({glm::dvec3(x, y, z), n, glm::vec3(0.3f, 0.25f, 0.2f) * float(texel * texel), float(texel * texel)});
+    }
+  return out;
+}
+
+// A full update: injection of one 256 x 256 RSM per cascade, 8 iterations on 3 cascades of 32^3,
+// occlusion on (the geometry volume and transmittances made once, as for a still camera).
+void BM_LpvInjectAndPropagate(benchmark::State& state) {
+  LpvOptions o;
+  o.iterations = int(state.range(0));
+  auto lpv = CascadedLpv::create(o);
+  lpv->setCamera(glm::dvec3(0.0));
+  std::vector<std::vector<Surfel>> rsm;
+  for (int c = 0; c < 3; ++c) {
+    rsm.push_back(groundRsm(lpv->box(c).cell_m * o.cells, 256));
+    lpv->injectGeometry(c, rsm.back());
+    lpv->computeOcclusion(c);
+  }
+  for (auto _ : state) {
+    for (int c = 0; c < 3; ++c) {
+      lpv->clearLight(c);
+      lpv->injectLight(c, rsm[size_t(c)]);
+      lpv->propagate(c);
+    }
+    benchmark::DoNotOptimize(lpv->totalLight(0));
+  }
+  state.SetItemsProcessed(int64_t(state.iterations()) * 3 * o.cells * o.cells * o.cells * o.iterations);
+  state.counters["bytes"] = double(lpv->bytes());
+}
+BENCHMARK(BM_LpvInjectAndPropagate)->Arg(8)->Unit(benchmark::kMillisecond);
+
+// One camera step of one cell: the finest cascade moves, its geometry volume, transmittances, sky
+// and light are made again and propagated (the coarser ones stay).
+void BM_LpvCameraStep(benchmark::State& state) {
+  LpvOptions o;
+  auto lpv = CascadedLpv::create(o);
+  const std::vector<Surfel> ground = groundRsm(128.0, 512);
+  double x = 0.0;
+  lpv->setCamera(glm::dvec3(x, 0, 0));
+  for (auto _ : state) {
+    x += o.cell_m;
+    const uint32_t moved = lpv->setCamera(glm::dvec3(std::fmod(x, 32.0), 0, 0));
+    for (int c = 0; c < 3; ++c) {
+      if (!(moved & (1u << c))) continue;
+      lpv->injectGeometry(c, ground);
+      lpv->computeOcclusion(c);
+      lpv->computeSky(c, [](const glm::vec3& w) { return glm::vec3(std::max(0.1f, w.z)); });
+      lpv->injectLight(c, ground);
+      lpv->propagate(c);
+    }
+    benchmark::DoNotOptimize(lpv->totalLight(0));
+  }
+}
+BENCHMARK(BM_LpvCameraStep)->Unit(benchmark::kMillisecond);
+
+// The lookup a deferred pass makes per pixel: indirect plus sky.
+void BM_LpvAmbientLookup(benchmark::State& state) {
+  LpvOptions o;
+  auto lpv = CascadedLpv::create(o);
+  lpv->setCamera(glm::dvec3(0.0));
+  double x = 0;
+  for (auto _ : state) {
+    x = x > 40 ? -40 : x + 0.37;
+    const glm::dvec3 p(x, 0.5 * x, 1.0);
+    benchmark::DoNotOptimize(lpv->indirect(p, glm::vec3(0, 0, 1)) + lpv->sky(p, glm::vec3(0, 0, 1)));
+  }
+  state.SetItemsProcessed(int64_t(state.iterations()));
+}
+BENCHMARK(BM_LpvAmbientLookup);
+
+}  // namespace
+
+BENCHMARK_MAIN();

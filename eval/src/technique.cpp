@@ -31,6 +31,7 @@ Result<void> add(Registry& r, TechniqueInfo info, TechniqueFactory factory) {
 void builtinTechniques(Registry& r) {
   for (auto& [info, factory] : drtvTechniques()) (void)add(r, std::move(info), std::move(factory));
   for (auto& [info, factory] : probeReferenceTechniques()) (void)add(r, std::move(info), std::move(factory));
+  for (auto& [info, factory] : sweepTechniques()) (void)add(r, std::move(info), std::move(factory));
 }
 
 Registry& registry() {

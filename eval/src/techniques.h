@@ -15,5 +15,7 @@ using TechniqueRegistration = std::pair<TechniqueInfo, TechniqueFactory>;
 std::vector<TechniqueRegistration> drtvTechniques();
 // eval/techniques/probe_reference: DRTV's probes with path-traced values, no volume (basis rows).
 std::vector<TechniqueRegistration> probeReferenceTechniques();
+// eval/techniques/sweep: the top-down sweep light grid (seed 001), no bake.
+std::vector<TechniqueRegistration> sweepTechniques();
 
 }  // namespace drtv::eval

@@ -121,16 +121,19 @@ class Edges {
     const GridShape& p = parent_->light.shape;
     // The parent's columns interpolated to this level's height once, then bilinear per cell.
     const double zc = g_.origin.z + (k + 0.5) * g_.cell_m;
-    const double u = std::clamp((zc - p.origin.z) / p.cell_m - 0.5, 0.0, double(p.size.z - 1));
-    const int k0 = std::min(int(u), p.size.z - 1), k1 = std::min(k0 + 1, p.size.z - 1);
-    const float fz = float(u - k0);
     const std::vector<LightVector>& src = direct ? direct_ : full_;
     slice_.resize(size_t(ni_) * nj_);
-    for (size_t col = 0; col < slice_.size(); ++col)
+    for (size_t col = 0; col < slice_.size(); ++col) {
+      const size_t pcol = size_t(i0_) + col % size_t(ni_) + size_t(p.size.x) * (size_t(j0_) + col / size_t(ni_));
+      const double z = parent_->clear_z.empty() ? zc : std::max(zc, double(parent_->clear_z[pcol]));
+      const double u = std::clamp((z - p.origin.z) / p.cell_m - 0.5, 0.0, double(p.size.z - 1));
+      const int k0 = std::min(int(u), p.size.z - 1), k1 = std::min(k0 + 1, p.size.z - 1);
+      const float fz = float(u - k0);
       for (size_t b = 0; b < nb; ++b) {
         const size_t bin = size_t(bins[b]);
         slice_[col][bin] = src[size_t(k0) * slice_.size() + col][bin] * (1 - fz) + src[size_t(k1) * slice_.size() + col][bin] * fz;
       }
+    }
     for (const Cell& cell : cells) {
       const glm::dvec3 w = g_.centre(cell.i, cell.j, 0);
       const double ux = std::clamp((w.x - p.origin.x) / p.cell_m - 0.5 - i0_, 0.0, double(ni_ - 1));
@@ -234,6 +237,14 @@ class Sweeper {
     emission_index_.assign(g_.cellCount(), -1);
     emission_.clear();
     const int nz = g_.size.z;
+    if (!m_.ground_z.empty()) {
+      DRTV_CHECK_EQ(m_.ground_z.size(), size_t(g_.size.x) * size_t(g_.size.y));
+      out.clear_z.resize(m_.ground_z.size());
+      for (size_t c = 0; c < m_.ground_z.size(); ++c) {
+        const int k = std::clamp(int(std::ceil((double(m_.ground_z[c]) - g_.origin.z) / g_.cell_m)), 0, nz - 1);
+        out.clear_z[c] = float(g_.origin.z + (k + 0.5) * g_.cell_m);
+      }
+    }
     for (Pass* p : {&full_, &direct_})
       if (!p->bins.empty()) edges_.fill(nz, p->direct, p->bins, all_cells_, p->src, plane_);
     for (int k = nz - 1; k >= 0; --k) {

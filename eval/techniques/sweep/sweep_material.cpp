@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "drtv/formats/sector.h"
 #include "drtv/raytrace/ray_scene.h"
@@ -16,6 +17,7 @@ struct Accum {
   std::vector<float> ground;         // sum over downward rays of the share below the ground
   std::vector<glm::vec3> ground_albedo, object_albedo;
   std::vector<uint32_t> ground_hits, object_hits;
+  std::vector<float> ground_top;     // per column: the highest terrain hit
 };
 
 // One ray along `axis` through the grid: marks the cells it is blocked in.
@@ -70,6 +72,8 @@ struct Tracer {
       if (depth > 0) markRange(t_prev, t);
       if (cls == InstanceClass::kTerrain) {
         if (axis == 2) {
+          const size_t col = size_t(fixed.x) + size_t(s.size.x) * size_t(fixed.y);
+          acc.ground_top[col] = std::max(acc.ground_top[col], float(start.z - t));
           const double zg = start.z - t - bias_m;
           glm::ivec3 idx = fixed;
           for (int k = 0; k < s.size.z; ++k) {
@@ -116,6 +120,7 @@ Result<sweep::MaterialGrid> voxelise(const raytrace::WorldGeometry& geometry, co
   acc.object_albedo.assign(cells, glm::vec3(0.f));
   acc.ground_hits.assign(cells, 0);
   acc.object_hits.assign(cells, 0);
+  acc.ground_top.assign(size_t(s.size.x) * size_t(s.size.y), -std::numeric_limits<float>::infinity());
   const glm::dvec3 hi = s.max();
   const SectorKey k0 = sectorAt(s.origin.x, s.origin.y), k1 = sectorAt(hi.x - 1e-6, hi.y - 1e-6);
   const int cps = int(std::round(per_sector));
@@ -149,6 +154,7 @@ Result<sweep::MaterialGrid> voxelise(const raytrace::WorldGeometry& geometry, co
           }
     }
   sweep::MaterialGrid m = sweep::MaterialGrid::clear(s);
+  m.ground_z = acc.ground_top;
   const float rays = float(n * n);
   for (size_t c = 0; c < cells; ++c) {
     const float obj = std::min(1.f, float(acc.blocked[0][c] + acc.blocked[1][c] + acc.blocked[2][c]) / (3.f * rays));

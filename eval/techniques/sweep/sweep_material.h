@@ -14,6 +14,7 @@
 //  - ground: each downward ray's first terrain hit at height h makes the cell's share below
 //    h - ground_bias g = clamp((h - bias - z_cell_bottom) / cell_m, 0, 1): the seed's linear
 //    transition; g is averaged over the cell's downward rays;
+//  - ground_z per column: the highest terrain hit of its downward rays;
 //  - density 1 - (1 - g)(1 - o); reflectance the mean albedo of the hits, the terrain's weighted by
 //    g and the objects' by (1 - g) o.
 // The grid's cells must not straddle sectors (64 / cell_m an integer, the origin on a sector

@@ -12,6 +12,7 @@
 //   sun_disc_deg  (0, 45]                       the sun disc's angular radius (directions.h)
 //   offset        [0, 4]                        the lookup's offset along the normal, in cells
 //   ray_spacing_m (0, 64]                       VoxelOptions::ray_spacing_m
+// Registered as "sweep" and as the variant "sweep-bottom-up" (bottom_up=1).
 // The world given to prepare() must outlive the technique.
 #include <chrono>
 #include <charconv>
@@ -235,6 +236,8 @@ std::vector<TechniqueRegistration> sweepTechniques() {
                    if (!parsed) return std::unexpected(parsed.error());
                    return std::make_unique<SweepTechnique>(std::move(*parsed));
                  }});
+  out.push_back({{"sweep-bottom-up", "the sweep with the bottom-up pass the seed did not implement (bottom_up=1)", {{"bottom_up", "1"}}},
+                 out[0].second});
   return out;
 }
 

@@ -51,10 +51,14 @@ struct MaterialGrid {
   GridShape shape;
   std::vector<float> density;          // per cell, [0, 1]
   std::vector<glm::vec3> reflectance;  // per cell, RGB in [0, 1]
+  // Optional, per column (i + size.x j): the ground's highest point in it, world metres (empty:
+  // unknown). A finer grid's edges read this grid's light no lower than the cell above it
+  // (sweep.h).
+  std::vector<float> ground_z;
 
   // An empty (all clear) grid of `shape`.
   static MaterialGrid clear(const GridShape& shape) {
-    return {shape, std::vector<float>(shape.cellCount(), 0.f), std::vector<glm::vec3>(shape.cellCount(), glm::vec3(0.f))};
+    return {shape, std::vector<float>(shape.cellCount(), 0.f), std::vector<glm::vec3>(shape.cellCount(), glm::vec3(0.f)), {}};
   }
 };
 

@@ -95,7 +95,7 @@ Result<Params> parseParams(const TechniqueParams& p) {
 
 class SweepTechnique final : public Technique {
  public:
-  explicit SweepTechnique(Params p) : params_(std::move(p)) {}
+  SweepTechnique(std::string name, Params p) : name_(std::move(name)), params_(std::move(p)) {}
 
   Result<void> prepare(const PrepareInput& in) override {
     const auto t0 = Clock::now();
@@ -175,7 +175,7 @@ class SweepTechnique final : public Technique {
   TechniqueCosts costs() const override { return costs_; }
 
   std::string describe() const override {
-    std::string s = "sweep";
+    std::string s = name_;
     char sep = ' ';
     for (const auto& [k, v] : params_.given) s += sep + k + "=" + v, sep = ',';
     return s;
@@ -213,6 +213,7 @@ class SweepTechnique final : public Technique {
     return {};
   }
 
+  std::string name_;
   Params params_;
   Sky sky_;
   bool prepared_ = false;
@@ -226,18 +227,21 @@ class SweepTechnique final : public Technique {
 }  // namespace
 
 std::vector<TechniqueRegistration> sweepTechniques() {
+  auto factory = [](std::string name) -> TechniqueFactory {
+    return [name](const TechniqueParams& p) -> Result<std::unique_ptr<Technique>> {
+      auto parsed = parseParams(p);
+      if (!parsed) return std::unexpected(parsed.error());
+      return std::make_unique<SweepTechnique>(name, std::move(*parsed));
+    };
+  };
   std::vector<TechniqueRegistration> out;
   out.push_back({{"sweep",
                   "the top-down sweep light grid (seed 001): sky and sun swept down through voxelised material grids, "
                   "a 16 m grid over the world and 1 m grids per sector",
                   {}},
-                 [](const TechniqueParams& p) -> Result<std::unique_ptr<Technique>> {
-                   auto parsed = parseParams(p);
-                   if (!parsed) return std::unexpected(parsed.error());
-                   return std::make_unique<SweepTechnique>(std::move(*parsed));
-                 }});
+                 factory("sweep")});
   out.push_back({{"sweep-bottom-up", "the sweep with the bottom-up pass the seed did not implement (bottom_up=1)", {{"bottom_up", "1"}}},
-                 out[0].second});
+                 factory("sweep-bottom-up")});
   return out;
 }
 

@@ -146,13 +146,12 @@ Result<RenderResult> render(const worlds::World& world, const std::string& where
   std::vector<Sector> held;
   for (const Sector& s : sectors)
     if (detail::inStreamingBlock(s.key, cam.position) && held.size() < size_t(runtime::kMaxResidentSectors)) held.push_back(s);
-  if ((*technique)->readsArchives()) {
-    if (auto r = (*technique)->prepareBaked(baked, held); !r) return std::unexpected(r.error().context(archive));
-  } else {
-    // A technique without a bake (lpv) is set up from the world for the 3 x 3 sectors around the camera.
-    const SectorKey k = sectorAt(cam.position.x, cam.position.y);
-    const raytrace::SectorRange block{k.ix - 1, k.ix + 1, k.iy - 1, k.iy + 1};
-    if (auto r = (*technique)->prepare({world, where, block, 1, options.threads, nullptr}); !r) return std::unexpected(r.error());
+  if ((*technique)->preparesFromWorld()) {
+    const SectorKey c = sectorAt(cam.position.x, cam.position.y);
+    const raytrace::SectorRange block{c.ix - 3, c.ix + 3, c.iy - 3, c.iy + 3};  // detail::inStreamingBlock's
+    if (auto r = (*technique)->prepare({world, where, block, options.seed, options.threads}); !r) return std::unexpected(r.error());
+  } else if (auto r = (*technique)->prepareBaked(baked, held); !r) {
+    return std::unexpected(r.error().context(archive));
   }
   if (auto r = (*technique)->setLighting(options.hour, baked.lights); !r) return std::unexpected(r.error().context(archive));
   if (auto r = (*technique)->update(cam.position); !r) return std::unexpected(r.error().context(archive));

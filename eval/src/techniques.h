@@ -17,5 +17,7 @@ std::vector<TechniqueRegistration> drtvTechniques();
 std::vector<TechniqueRegistration> probeReferenceTechniques();
 // eval/techniques/lpv: cascaded light propagation volumes over ray-cast RSMs (drtv/lpv/lpv.h).
 std::vector<TechniqueRegistration> lpvTechniques();
+// eval/techniques/sweep: the top-down sweep light grid (seed 001), no bake.
+std::vector<TechniqueRegistration> sweepTechniques();
 
 }  // namespace drtv::eval

@@ -174,8 +174,6 @@ class DrtvTechnique final : public Technique {
     return {};
   }
 
-  bool readsArchives() const override { return true; }
-
   Result<void> prepareBaked(const Manifest& manifest, std::span<const Sector> sectors) override {
     adopt(manifest, std::vector<Sector>(sectors.begin(), sectors.end()), 0.0);
     return {};

@@ -122,6 +122,8 @@ class LpvTechnique final : public Technique {
     return {};
   }
 
+  bool preparesFromWorld() const override { return true; }
+
   Result<void> setParams(const TechniqueParams& params) override {
     auto p = parseParams(params);
     if (!p) return std::unexpected(p.error());

@@ -77,9 +77,10 @@ class Technique {
   // Prepares from what a bake already wrote (an archive's manifest and sectors). Techniques that
   // do not bake into drtv archives return an error naming themselves (the default).
   virtual Result<void> prepareBaked(const Manifest& manifest, std::span<const Sector> sectors);
-  // Whether prepareBaked() works: the technique reads drtv archives (DRTV). The others are
-  // prepared from the world (`drtv render` then prepares them for the block around the camera).
-  virtual bool readsArchives() const { return false; }
+  // Whether the technique is prepared from the world even where a baked archive exists (the sweep
+  // voxelises the world's triangles and bakes nothing): `drtv render` then calls prepare() for
+  // the block a streamer would hold around the camera instead of prepareBaked(). Default: false.
+  virtual bool preparesFromWorld() const { return false; }
   // The lighting: the prepared world's sky at `hour` (any finite real, modulo 24) and `lights`.
   virtual Result<void> setLighting(double hour, const std::vector<PointLight>& lights) = 0;
   // Brings the technique's state up to date for a camera at `camera` (world metres).

@@ -33,6 +33,7 @@ std::vector<Surfel> groundRsm(double extent_m, int res) {
 void BM_LpvInjectAndPropagate(benchmark::State& state) {
   LpvOptions o;
   o.iterations = int(state.range(0));
+  o.threads = int(state.range(1));
   auto lpv = CascadedLpv::create(o);
   lpv->setCamera(glm::dvec3(0.0));
   std::vector<std::vector<Surfel>> rsm;
@@ -52,7 +53,27 @@ void BM_LpvInjectAndPropagate(benchmark::State& state) {
   state.SetItemsProcessed(int64_t(state.iterations()) * 3 * o.cells * o.cells * o.cells * o.iterations);
   state.counters["bytes"] = double(lpv->bytes());
 }
-BENCHMARK(BM_LpvInjectAndPropagate)->Arg(8)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_LpvInjectAndPropagate)->Args({8, 1})->Args({8, 2})->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// The propagation alone (8 steps on 3 cascades), the light injected once.
+void BM_LpvPropagate(benchmark::State& state) {
+  LpvOptions o;
+  o.threads = int(state.range(0));
+  auto lpv = CascadedLpv::create(o);
+  lpv->setCamera(glm::dvec3(0.0));
+  for (int c = 0; c < 3; ++c) {
+    const std::vector<Surfel> rsm = groundRsm(lpv->box(c).cell_m * o.cells, 256);
+    lpv->injectGeometry(c, rsm);
+    lpv->computeOcclusion(c);
+    lpv->injectLight(c, rsm);
+  }
+  for (auto _ : state) {
+    for (int c = 0; c < 3; ++c) lpv->propagate(c);
+    benchmark::DoNotOptimize(lpv->totalLight(0));
+  }
+  state.SetItemsProcessed(int64_t(state.iterations()) * 3 * o.cells * o.cells * o.cells * o.iterations);
+}
+BENCHMARK(BM_LpvPropagate)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 // One camera step of one cell: the finest cascade moves, its geometry volume, transmittances, sky
 // and light are made again and propagated (the coarser ones stay).

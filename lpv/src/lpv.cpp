@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <thread>
 
 namespace drtv::lpv {
 namespace {
@@ -104,6 +105,7 @@ std::string validate(const LpvOptions& o) {
   if (o.sky_steps < 0 || o.sky_steps > o.cells) return "sky_steps: expected an integer in [0, cells]";
   if (!(o.lookup_offset_cells >= 0 && o.lookup_offset_cells <= 2)) return "lookup_offset_cells: expected cells in [0, 2]";
   if (!(o.blend_cells >= 0 && o.blend_cells <= float(o.cells) / 4)) return "blend_cells: expected cells in [0, cells / 4]";
+  if (o.threads < 1 || o.threads > 64) return "threads: expected an integer in [1, 64]";
   return "";
 }
 
@@ -127,8 +129,11 @@ CascadedLpv::CascadedLpv(const LpvOptions& o) : options_(o) {
     c.sky.assign(kPlanes * cells, 0.f);
     s *= o.ratio;
   }
-  step_a_.assign(kPlanes * cells, 0.f);
-  step_b_.assign(kPlanes * cells, 0.f);
+  const size_t padded = size_t(n + 2) * size_t(n + 2) * size_t(n + 2);
+  step_a_.assign(kPlanes * padded, 0.f);
+  step_b_.assign(kPlanes * padded, 0.f);
+  lit_a_.assign(3 * size_t(n + 2) * size_t(n + 2), 0);
+  lit_b_.assign(3 * size_t(n + 2) * size_t(n + 2), 0);
 }
 
 CascadedLpv::CascadedLpv(CascadedLpv&&) noexcept = default;
@@ -171,23 +176,29 @@ uint32_t CascadedLpv::setCamera(const glm::dvec3& camera) {
 void CascadedLpv::clearLight(int c) {
   Cascade& g = cascades_[size_t(c)];
   std::fill(g.injected.begin(), g.injected.end(), 0.f);
-  std::fill(g.light.begin(), g.light.end(), 0.f);
-  std::fill(g.last_step.begin(), g.last_step.end(), 0.f);
+  std::fill(g.light.begin(), g.light.end(), 0.f);  // until the next propagate
 }
 
 void CascadedLpv::injectLight(int c, std::span<const Surfel> surfels) {
   DRTV_CHECK(c >= 0 && c < cascadeCount());
   Cascade& g = cascades_[size_t(c)];
-  const double s = g.box.cell_m;
+  const double s = g.box.cell_m, inv_s = 1.0 / s;
   const float scale = float(1.0 / (double(sh::kPi) * s * s));
+  float* planes = g.injected.data();
   for (const Surfel& v : surfels) {
     // Half a cell along the normal [1] sec. 4.1: the VPL lights the space in front of it.
-    const glm::dvec3 p = (v.position + 0.5 * s * glm::dvec3(v.normal) - g.box.min) / s;
+    const glm::dvec3 p = (v.position - g.box.min) * inv_s + 0.5 * glm::dvec3(v.normal);
     if (!(p.x >= 0 && p.y >= 0 && p.z >= 0 && p.x < g.n && p.y < g.n && p.z < g.n)) continue;
     const size_t idx = g.index(int(p.x), int(p.y), int(p.z));
     const sh::Sh4 lobe = sh::cosineLobe(v.normal) * scale;
-    for (int ch = 0; ch < 3; ++ch)
-      for (int k = 0; k < 4; ++k) g.injected[size_t(ch * 4 + k) * g.cells + idx] += v.flux[ch] * lobe[k];
+    for (int ch = 0; ch < 3; ++ch) {
+      float* q = planes + size_t(ch * 4) * g.cells + idx;
+      const float f = v.flux[ch];
+      q[0] += f * lobe.x;
+      q[g.cells] += f * lobe.y;
+      q[2 * g.cells] += f * lobe.z;
+      q[3 * g.cells] += f * lobe.w;
+    }
   }
 }
 
@@ -297,69 +308,150 @@ void CascadedLpv::setSkyRadiance(int c, const std::array<glm::vec3, kSkyDirectio
   }
 }
 
+namespace {
+
+// One propagation step of one channel over a grid padded by one zero cell on every side (so that
+// every interior cell has its 6 neighbours without a bounds check): out = sum over the 6
+// directions of transmittance x matrix x the neighbour's 4 coefficients (lpv.h, "Propagation").
+// `src[q]`, `dst[q]`: the padded planes of coefficient q; `tr[d]`: the unpadded transmittance
+// planes (null: no occlusion); `light[q]`: the unpadded accumulation planes, += the step.
+// Rows (j, k) are skipped when neither they nor their 4 neighbour rows hold light in `src`
+// (`lit_src`, padded (n+2)^2 flags), and `lit_dst` records which rows the step lit. Slabs
+// [k0, k1) let threads share a step. AVX2 where the CPU has it (no FMA: -ffp-contract=off, so
+// the same bits as SSE2).
+__attribute__((target_clones("avx2", "default")))
+void propagateChannel(int n, int k0, int k1, const std::array<const float*, 4>& src, const std::array<float*, 4>& dst,
+                      const std::array<const float*, kDirs>& tr, const std::array<float*, 4>& light,
+                      const uint8_t* lit_src, uint8_t* lit_dst) {
+  const auto& mats = matrices();
+  const ptrdiff_t np = n + 2;
+  const ptrdiff_t off[kDirs] = {1, -1, np, -np, np * np, -np * np};  // source = cell - off
+  for (int k = k0; k < k1; ++k)
+    for (int j = 0; j < n; ++j) {
+      const size_t row_u = size_t(n) * (size_t(j) + size_t(n) * size_t(k));
+      const size_t row_p = size_t(1 + np * ((j + 1) + np * (k + 1)));
+      const size_t r = size_t((j + 1) + np * (k + 1));
+      if (!(lit_src[r] | lit_src[r - 1] | lit_src[r + 1] | lit_src[r - size_t(np)] | lit_src[r + size_t(np)])) {
+        if (lit_dst[r]) {  // what the buffer held two steps ago
+          for (int q = 0; q < 4; ++q) std::fill_n(dst[size_t(q)] + row_p, n, 0.f);
+        }
+        lit_dst[r] = 0;
+        continue;
+      }
+      lit_dst[r] = 1;
+      float o[4][128];
+      for (int q = 0; q < 4; ++q)
+        for (int i = 0; i < n; ++i) o[q][i] = 0.f;
+      for (int d = 0; d < kDirs; ++d) {
+        const DirMatrix& m = mats[size_t(d)];
+        const float* __restrict s0 = src[0] + row_p - off[d];
+        const float* __restrict sa = src[size_t(m.a)] + row_p - off[d];
+        const float* __restrict s1 = src[size_t(m.o1)] + row_p - off[d];
+        const float* __restrict s2 = src[size_t(m.o2)] + row_p - off[d];
+        float* __restrict o0 = o[0];
+        float* __restrict oa = o[m.a];
+        float* __restrict o1 = o[m.o1];
+        float* __restrict o2 = o[m.o2];
+        if (tr[size_t(d)]) {
+          const float* __restrict t = tr[size_t(d)] + row_u;
+          for (int i = 0; i < n; ++i) {
+            const float f = t[i], a0 = s0[i], aa = sa[i];
+            o0[i] += f * (m.m00 * a0 + m.m0a * aa);
+            oa[i] += f * (m.ma0 * a0 + m.maa * aa);
+            o1[i] += f * m.moo * s1[i];
+            o2[i] += f * m.moo * s2[i];
+          }
+        } else {
+          for (int i = 0; i < n; ++i) {
+            const float a0 = s0[i], aa = sa[i];
+            o0[i] += m.m00 * a0 + m.m0a * aa;
+            oa[i] += m.ma0 * a0 + m.maa * aa;
+            o1[i] += m.moo * s1[i];
+            o2[i] += m.moo * s2[i];
+          }
+        }
+      }
+      for (int q = 0; q < 4; ++q) {
+        float* __restrict out = dst[size_t(q)] + row_p;
+        float* __restrict acc = light[size_t(q)] + row_u;
+        for (int i = 0; i < n; ++i) {
+          out[i] = o[q][i];
+          acc[i] += o[q][i];
+        }
+      }
+    }
+}
+
+}  // namespace
+
 void CascadedLpv::propagate(int c) {
   DRTV_CHECK(c >= 0 && c < cascadeCount());
   Cascade& g = cascades_[size_t(c)];
   const int n = g.n;
   const size_t N = g.cells;
+  const size_t np = size_t(n) + 2, P = np * np * np;
   g.light = g.injected;
-  std::copy(g.injected.begin(), g.injected.end(), step_a_.begin());
+  // The padded step buffers: borders are never written (nothing enters from outside the grid);
+  // lit_a_ / lit_b_ say which interior rows of each may hold light, so rows that hold none are
+  // neither computed nor cleared. The injected light overwrites every interior row of step_a_.
+  for (int q = 0; q < kPlanes; ++q)
+    for (int k = 0; k < n; ++k)
+      for (int j = 0; j < n; ++j) {
+        const float* in = g.injected.data() + size_t(q) * N + g.index(0, j, k);
+        std::copy_n(in, n, step_a_.data() + size_t(q) * P + 1 + np * (size_t(j + 1) + np * size_t(k + 1)));
+      }
+  for (int ch = 0; ch < 3; ++ch)
+    for (int k = 0; k < n; ++k)
+      for (int j = 0; j < n; ++j) {
+        bool any = false;
+        for (int q = 0; q < 4; ++q) {
+          const float* in = g.injected.data() + size_t(ch * 4 + q) * N + g.index(0, j, k);
+          any = any || std::any_of(in, in + n, [](float v) { return v != 0.f; });
+        }
+        lit_a_[size_t(ch) * np * np + size_t(j + 1) + np * size_t(k + 1)] = any;
+      }
   float* cur = step_a_.data();
   float* next = step_b_.data();
-  const auto& mats = matrices();
+  uint8_t* lit_cur = lit_a_.data();
+  uint8_t* lit_next = lit_b_.data();
+  const int threads = std::clamp(options_.threads, 1, n);
   for (int it = 1; it <= options_.iterations; ++it) {
-    std::fill(next, next + kPlanes * N, 0.f);
     const bool occluded = options_.occlusion && it >= 2;
-    for (int d = 0; d < kDirs; ++d) {
-      const DirMatrix& m = mats[size_t(d)];
-      const glm::ivec3 t = dirVector(d);
-      // The source of cell (i,j,k) is (i,j,k) - t.
-      const ptrdiff_t off = ptrdiff_t(t.x) + ptrdiff_t(n) * (ptrdiff_t(t.y) + ptrdiff_t(n) * ptrdiff_t(t.z));
-      const int i0 = std::max(0, t.x), i1 = n + std::min(0, t.x);
-      const int j0 = std::max(0, t.y), j1 = n + std::min(0, t.y);
-      const int k0 = std::max(0, t.z), k1 = n + std::min(0, t.z);
-      const float* tr = g.face_t.data() + size_t(d) * N;
+    std::array<const float*, kDirs> tr{};
+    for (int d = 0; d < kDirs; ++d) tr[size_t(d)] = occluded ? g.face_t.data() + size_t(d) * N : nullptr;
+    auto slab = [&](int k0, int k1) {
       for (int ch = 0; ch < 3; ++ch) {
-        const float* __restrict s0 = cur + size_t(ch * 4) * N;
-        const float* __restrict sa = cur + size_t(ch * 4 + m.a) * N;
-        const float* __restrict so1 = cur + size_t(ch * 4 + m.o1) * N;
-        const float* __restrict so2 = cur + size_t(ch * 4 + m.o2) * N;
-        float* __restrict d0 = next + size_t(ch * 4) * N;
-        float* __restrict da = next + size_t(ch * 4 + m.a) * N;
-        float* __restrict do1 = next + size_t(ch * 4 + m.o1) * N;
-        float* __restrict do2 = next + size_t(ch * 4 + m.o2) * N;
-        for (int k = k0; k < k1; ++k)
-          for (int j = j0; j < j1; ++j) {
-            const size_t row = g.index(0, j, k);
-            // Rows are contiguous in x: one vectorisable loop per row, with or without occlusion.
-            if (occluded) {
-              for (int i = i0; i < i1; ++i) {
-                const size_t x = row + size_t(i), src = size_t(ptrdiff_t(x) - off);
-                const float f = tr[x], a0 = s0[src], aa = sa[src];
-                d0[x] += f * (m.m00 * a0 + m.m0a * aa);
-                da[x] += f * (m.ma0 * a0 + m.maa * aa);
-                do1[x] += f * m.moo * so1[src];
-                do2[x] += f * m.moo * so2[src];
-              }
-            } else {
-              for (int i = i0; i < i1; ++i) {
-                const size_t x = row + size_t(i), src = size_t(ptrdiff_t(x) - off);
-                const float a0 = s0[src], aa = sa[src];
-                d0[x] += m.m00 * a0 + m.m0a * aa;
-                da[x] += m.ma0 * a0 + m.maa * aa;
-                do1[x] += m.moo * so1[src];
-                do2[x] += m.moo * so2[src];
-              }
-            }
-          }
+        std::array<const float*, 4> src;
+        std::array<float*, 4> dst, light;
+        for (int q = 0; q < 4; ++q) {
+          src[size_t(q)] = cur + size_t(ch * 4 + q) * P;
+          dst[size_t(q)] = next + size_t(ch * 4 + q) * P;
+          light[size_t(q)] = g.light.data() + size_t(ch * 4 + q) * N;
+        }
+        propagateChannel(n, k0, k1, src, dst, tr, light, lit_cur + size_t(ch) * np * np, lit_next + size_t(ch) * np * np);
       }
+    };
+    if (threads == 1) {
+      slab(0, n);
+    } else {
+      // Slabs of z write disjoint rows of `next`, `light` and the flags: no synchronisation
+      // beyond the join; the sums per cell are the same whatever the slabs.
+      std::vector<std::thread> pool;
+      for (int t = 1; t < threads; ++t) pool.emplace_back(slab, n * t / threads, n * (t + 1) / threads);
+      slab(0, n / threads);
+      for (std::thread& th : pool) th.join();
     }
-    for (size_t p = 0; p < kPlanes * N; ++p) g.light[p] += next[p];
-    for (int ch = 0; ch < 3; ++ch) std::copy(next + size_t(ch * 4) * N, next + size_t(ch * 4) * N + N, g.last_step.begin() + ptrdiff_t(size_t(ch) * N));
     std::swap(cur, next);
+    std::swap(lit_cur, lit_next);
   }
-  if (options_.iterations == 0)
-    for (int ch = 0; ch < 3; ++ch) std::fill(g.last_step.begin() + ptrdiff_t(size_t(ch) * N), g.last_step.begin() + ptrdiff_t(size_t(ch + 1) * N), 0.f);
+  // The last step's band 0 (tests): what `cur` holds now, unpadded.
+  for (int ch = 0; ch < 3; ++ch)
+    for (int k = 0; k < n; ++k)
+      for (int j = 0; j < n; ++j) {
+        float* out = g.last_step.data() + size_t(ch) * N + g.index(0, j, k);
+        if (options_.iterations == 0) std::fill_n(out, n, 0.f);
+        else std::copy_n(cur + size_t(ch * 4) * P + 1 + np * (size_t(j + 1) + np * size_t(k + 1)), n, out);
+      }
 }
 
 glm::vec3 CascadedLpv::lookup(int c, const glm::dvec3& position, const glm::vec3& normal, bool sky) const {

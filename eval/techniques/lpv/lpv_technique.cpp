@@ -27,6 +27,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <thread>
 
 #include "drtv/lpv/lpv.h"
 #include "drtv/raytrace/world_geometry.h"
@@ -110,6 +111,8 @@ class LpvTechnique final : public Technique {
     if (!geometry) return std::unexpected(geometry.error());
     z_top_ = geometry->boundsMax().z;
     world_ = &in.world;
+    // The propagation's threads: the same bits on any count (lpv.h).
+    params_.lpv.threads = std::clamp(in.threads > 0 ? in.threads : int(std::thread::hardware_concurrency()), 1, 64);
     auto lpv = lpv::CascadedLpv::create(params_.lpv);
     if (!lpv) return std::unexpected(lpv.error());
     lpv_ = std::make_unique<lpv::CascadedLpv>(std::move(*lpv));
@@ -127,6 +130,7 @@ class LpvTechnique final : public Technique {
   Result<void> setParams(const TechniqueParams& params) override {
     auto p = parseParams(params);
     if (!p) return std::unexpected(p.error());
+    p->lpv.threads = params_.lpv.threads;
     if (lpv_) {
       auto lpv = lpv::CascadedLpv::create(p->lpv);
       if (!lpv) return std::unexpected(lpv.error());

@@ -51,8 +51,9 @@
 //    (its own injection, occlusion and propagation); lookups use the finest cascade holding the
 //    point and blend to the next over `blend_cells` cells at its border.
 //
-// Threading: one thread drives a CascadedLpv (setCamera, inject*, propagate, computeSky); the
-// const lookups may run from any number of threads between those calls.
+// Threading: one thread drives a CascadedLpv (setCamera, inject*, propagate, computeSky);
+// propagate() may use `threads` workers of its own; the const lookups may run from any number of
+// threads between those calls.
 #pragma once
 
 #include <array>
@@ -102,6 +103,8 @@ struct LpvOptions {
   int sky_steps = 12;          // cells marched per sky direction, [0, cells]
   float lookup_offset_cells = 0.5f;  // the lookup point moves this far along the normal, cells
   float blend_cells = 3.f;     // width of the blend to the next cascade at a cascade's border, cells
+  int threads = 1;             // threads a propagation step runs on (slabs of z), [1, 64]; the
+                               // result is the same bits for any count
 };
 // What is wrong with `o` ("" if nothing), naming the field.
 std::string validate(const LpvOptions& o);
@@ -186,6 +189,7 @@ class CascadedLpv {
   std::vector<Cascade> cascades_;
   // Propagation scratch (two step buffers), shared by the cascades.
   std::vector<float> step_a_, step_b_;
+  std::vector<uint8_t> lit_a_, lit_b_;  // per channel and padded row: may hold light
   bool placed_ = false;
 
  public:

@@ -276,18 +276,36 @@ void CascadedLpv::computeOcclusion(int c) {
     for (size_t q = 0; q < pass.size(); ++q) pass[q] = 1.f - std::clamp(blocking(q, y), 0.f, 1.f);
     offsets.clear();
     for (int m = 1; m <= options_.sky_steps; ++m) offsets.push_back(glm::ivec3(glm::floor(1.f + float(m) * w)));
+    // Offsets are monotone per axis, so a march leaves the corners at the first step that leaves
+    // them along any axis: steps[axis][coordinate] counts the steps inside.
+    const int S = int(offsets.size());
+    std::array<std::vector<int>, 3> steps;
+    for (int a = 0; a < 3; ++a) {
+      steps[size_t(a)].assign(size_t(n), S);
+      for (int i = 0; i < n; ++i)
+        for (int m = 0; m < S; ++m)
+          if (i + offsets[size_t(m)][a] < 0 || i + offsets[size_t(m)][a] > n) {
+            steps[size_t(a)][size_t(i)] = m;
+            break;
+          }
+    }
+    std::vector<ptrdiff_t> delta(static_cast<size_t>(S));
+    for (int m = 0; m < S; ++m) {
+      const glm::ivec3 o = offsets[size_t(m)];
+      delta[size_t(m)] = ptrdiff_t(o.x) + ptrdiff_t(m1) * (ptrdiff_t(o.y) + ptrdiff_t(m1) * ptrdiff_t(o.z));
+    }
     uint8_t* out = g.sky_t.data() + size_t(dir) * g.cells;
     for (int k = 0; k < n; ++k)
-      for (int j = 0; j < n; ++j)
+      for (int j = 0; j < n; ++j) {
+        const int jk = std::min(steps[1][size_t(j)], steps[2][size_t(k)]);
         for (int i = 0; i < n; ++i) {
+          const int count = std::min(jk, steps[0][size_t(i)]);
+          const float* base = pass.data() + g.corner(i, j, k);
           float T = 1.f;
-          for (const glm::ivec3& o : offsets) {
-            const int x = i + o.x, yy = j + o.y, z = k + o.z;
-            if (x < 0 || yy < 0 || z < 0 || x > n || yy > n || z > n) break;
-            T *= pass[g.corner(x, yy, z)];
-          }
+          for (int m = 0; m < count; ++m) T *= base[delta[size_t(m)]];
           out[g.index(i, j, k)] = uint8_t(T * 255.f + 0.5f);
         }
+      }
   }
 }
 

@@ -242,6 +242,23 @@ std::vector<RowSpec> drtvRows(const BakeSettings& base, uint32_t effects, const 
   return rows;
 }
 
+// LPV's knobs (eval/techniques/lpv), one at a time around its defaults: only when `--techniques`
+// names lpv (each row re-renders its RSMs at every camera move: minutes on the island).
+std::vector<RowSpec> lpvRows() {
+  std::vector<RowSpec> rows;
+  auto add = [&](const char* knob, const char* param, std::vector<std::string> values, const std::string& def, const std::string& note) {
+    for (const std::string& v : values)
+      rows.push_back({std::string("lpv_") + knob, v, v == def, "lpv", v == def ? TechniqueParams{} : TechniqueParams{{param, v}}, note});
+  };
+  add("cells", "cells", {"16", "32", "64"}, "32", "cells per axis of each cascade");
+  add("cascades", "cascades", {"1", "2", "3", "4"}, "3", "nested grids, cell 1 m x 2^c");
+  add("iterations", "iterations", {"4", "8", "16"}, "8", "propagation steps");
+  add("rsm", "rsm", {"128", "256", "512"}, "256", "sun and sky RSM side, texels");
+  add("occlusion", "occlusion", {"geometry", "rsm", "off"}, "geometry", "the geometry volume's source");
+  add("sky_bounce", "sky_bounce", {"0", "1"}, "1", "the top-down sky-lit RSM");
+  return rows;
+}
+
 // Rays of the category tests (SurfaceCategory): upper-hemisphere sky and the horizontal wall search.
 constexpr int kCategorySkyRays = 32, kCategoryWallRays = 8;
 constexpr double kEnclosedSkyFraction = 0.3, kWallDistanceM = 2.0, kWallNormalZ = 0.5;
@@ -551,6 +568,10 @@ Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::st
   }
   if (!((base->manifest.effects & kEffectLocalLights) && !world.lights.empty()))
     report.skipped.push_back("lprt_sources: the world has no point lights (no LPRT baked)");
+
+  if (std::find(options.techniques.begin(), options.techniques.end(), "lpv") != options.techniques.end())
+    for (const RowSpec& spec : lpvRows())
+      if (auto v = rows.evaluate(spec); !v) return std::unexpected(v.error());
 
   // technique: each registered technique (or those asked for) at its own defaults.
   for (const TechniqueInfo& info : registeredTechniques()) {

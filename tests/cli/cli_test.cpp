@@ -378,6 +378,15 @@ TEST(Cli, FlyAndRenderTakeATechniqueByName) {
   const Outcome probe = drtv("fly " + archive + " --frames 5 --technique probe-reference -o " + scratch("fly"));
   EXPECT_EQ(probe.status, 1);
   EXPECT_NE(probe.out.find("probe-reference: does not run on drtv::runtime"), std::string::npos) << probe.out;
+  // A technique that bakes nothing flies from the world: its update is in the frame time.
+  const Outcome lpv_fly = drtv("fly " + archive + " --frames 3 --technique lpv --params cascades=2,cells=16 --world " +
+                               src("worlds/fc3_testbox.json") + " --json -o " + scratch("fly-lpv"));
+  ASSERT_EQ(lpv_fly.status, 0) << lpv_fly.out;
+  EXPECT_NE(lpv_fly.out.find("technique lpv cascades=2,cells=16: its own update per frame"), std::string::npos) << lpv_fly.out;
+  EXPECT_EQ(lpv_fly.out.find("\"technique_ms_p99\": 0.0,"), std::string::npos) << "its update was timed: " << lpv_fly.out;
+  const Outcome lpv_no_world = drtv("fly " + archive + " --frames 3 --technique lpv -o " + scratch("fly-lpv"));
+  EXPECT_EQ(lpv_no_world.status, 1);
+  EXPECT_NE(lpv_no_world.out.find("give the world file with --world"), std::string::npos) << lpv_no_world.out;
   const Outcome unknown = drtv("render " + archive + " --world " + src("worlds/fc3_testbox.json") + " --size 16x16 --technique lpv-9000 -o " +
                                scratch("r.png"));
   EXPECT_EQ(unknown.status, 1);

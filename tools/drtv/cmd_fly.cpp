@@ -70,15 +70,21 @@ Result<void> runFly(const FlyCliOptions& o) {
   // The technique's runtime configuration; the streamer holds the sectors its volume covers.
   std::optional<runtime::RuntimeOptions> technique_options;
   std::string technique_name;
+  std::unique_ptr<eval::Technique> own_technique;  // one that runs on its own, set up from --world
   if (!o.technique.empty()) {
     auto params = eval::parseTechniqueParams(o.params);
     if (!params) return std::unexpected(params.error().context("--params"));
     auto t = eval::makeTechnique(o.technique, *params);
     if (!t) return std::unexpected(t.error());
     technique_options = (*t)->streamingRuntime(reader->manifest());
-    if (!technique_options)
-      return fail("--technique " + (*t)->describe() + ": does not run on drtv::runtime, so it cannot be flown through a streamed archive");
     technique_name = (*t)->describe();
+    if (!technique_options) {
+      if (!(*t)->preparesFromWorld())
+        return fail("--technique " + technique_name + ": does not run on drtv::runtime, so it cannot be flown through a streamed archive");
+      if (o.world.empty())
+        return fail("--technique " + technique_name + ": bakes nothing and is set up from the world: give the world file with --world");
+      own_technique = std::move(*t);
+    }
   } else if (!o.params.empty()) {
     return fail("--params needs --technique");
   }
@@ -101,9 +107,33 @@ Result<void> runFly(const FlyCliOptions& o) {
   fo.runtime = !o.no_runtime;
   fo.runtime_options = technique_options;
   fo.technique = technique_name;
+  std::optional<worlds::World> world;
   if (!o.world.empty()) {
-    auto world = worlds::loadWorld(o.world);
-    if (!world) return std::unexpected(world.error());
+    auto loaded = worlds::loadWorld(o.world);
+    if (!loaded) return std::unexpected(loaded.error());
+    world = std::move(*loaded);
+  }
+  if (own_technique) {
+    // Set up once from the world, for the sectors the archive holds; then its own update per frame.
+    raytrace::SectorRange block{INT32_MAX, INT32_MIN, INT32_MAX, INT32_MIN};
+    for (const SectorEntry& e : reader->manifest().sectors) {
+      block.x0 = std::min(block.x0, e.key.ix), block.x1 = std::max(block.x1, e.key.ix);
+      block.y0 = std::min(block.y0, e.key.iy), block.y1 = std::max(block.y1, e.key.iy);
+    }
+    if (auto r = own_technique->prepare({*world, o.world, block, 1, 0, nullptr}); !r) return std::unexpected(r.error());
+    fo.runtime = false;
+    fo.technique_bytes = own_technique->costs().runtime_bytes;
+    eval::Technique* t = own_technique.get();
+    fo.technique_frame = [t](const glm::dvec3& camera, double hour, const std::vector<PointLight>& lights) -> Result<double> {
+      if (auto r = t->setLighting(hour, lights); !r) return std::unexpected(r.error());
+      if (auto r = t->update(camera); !r) return std::unexpected(r.error());
+      return t->costs().update_ms;
+    };
+    if (!world->lights.empty()) {
+      fo.lights = world->lights;
+      fo.light_paths = world->light_paths;
+    }
+  } else if (world) {
     if (world->lights.empty()) return fail(o.world + ": --world gives the flight its lights, and this world has none");
     if (!(reader->manifest().effects & kEffectLocalLights))
       return fail(o.archive + ": baked without local lights (LPRT), so the lights of " + o.world + " would not show; bake a world with lights");

@@ -136,18 +136,23 @@ Result<FlyResult> fly(Streamer& streamer, const CatmullRomPath& path, const FlyO
   r.max_bytes = streamer.maxBytes();
   r.io_working_bytes = streamer.ioWorkingBytes();
 
+  for (size_t i = 0; i < o.light_paths.size(); ++i)
+    if (!o.light_paths[i].keys.empty())
+      if (std::string e = validateLightPath(o.light_paths[i]); !e.empty())
+        return fail("fly: lights[" + std::to_string(i) + "].path." + e);
+  if (o.light_paths.size() > o.lights.size()) return fail("fly: more light paths than lights");
+  if (o.technique_frame && o.runtime) return fail("fly: a technique of its own and drtv::runtime: give one");
+
   std::unique_ptr<runtime::Runtime> rt;
-  if (o.runtime) {
+  if (o.technique_frame) {
+    r.runtime_note = "technique " + o.technique + ": its own update per frame (drtv::runtime off); " +
+                     std::to_string(o.technique_bytes) + " B of its state";
+  } else if (o.runtime) {
     runtime::RuntimeOptions ro = o.runtime_options ? *o.runtime_options : runtime::optionsForEffects(m.effects);
     // The volume the streamer holds the sectors of (its residency's tier 0); fill and blur stay
     // what the archive's effects ask for.
     ro.volume.size = streamer.options().residency.volume.size;
     ro.volume.texel_size_m = streamer.options().residency.volume.texel_size_m;
-    for (size_t i = 0; i < o.light_paths.size(); ++i)
-      if (!o.light_paths[i].keys.empty())
-        if (std::string e = validateLightPath(o.light_paths[i]); !e.empty())
-          return fail("fly: lights[" + std::to_string(i) + "].path." + e);
-    if (o.light_paths.size() > o.lights.size()) return fail("fly: more light paths than lights");
     const std::vector<PointLight>& lights = o.lights.empty() ? m.lights : o.lights;
     auto made = runtime::runtimeForArchive(m, ro, o.start_hour, &lights);
     if (!made) return std::unexpected(made.error().context(r.archive));
@@ -201,12 +206,17 @@ Result<FlyResult> fly(Streamer& streamer, const CatmullRomPath& path, const FlyO
     sink.relight_ms = 0.0;
     ff.stats = streamer.update(cam, t, sink);
     ff.relight_ms = sink.relight_ms;
-    if (rt && moving) {
+    if ((rt || o.technique_frame) && moving) {
       const auto t0 = Clock::now();
       for (size_t i = 0; i < o.light_paths.size(); ++i)
         if (!o.light_paths[i].keys.empty()) lights_now[i] = lightAt(o.lights[i], o.light_paths[i], t);
-      (void)rt->setLights(lights_now);  // validated paths give valid lights
+      if (rt) (void)rt->setLights(lights_now);  // validated paths give valid lights
       ff.lights_ms = msSince(t0);
+    }
+    if (o.technique_frame) {
+      auto ms = o.technique_frame(cam.position_m, ff.hour, o.lights.empty() ? m.lights : lights_now);
+      if (!ms) return std::unexpected(ms.error().context("fly: frame " + std::to_string(f)));
+      ff.technique_ms = *ms;
     }
     if (rt) {
       const uint64_t relights = rt->relightCount();
@@ -216,7 +226,7 @@ Result<FlyResult> fly(Streamer& streamer, const CatmullRomPath& path, const FlyO
       ff.volume_ms = msSince(t0);
       ff.full_relight = rt->relightCount() != relights;
     }
-    ff.frame_ms = ff.stats.update_ms + ff.relight_ms + ff.lights_ms + ff.volume_ms;
+    ff.frame_ms = ff.stats.update_ms + ff.relight_ms + ff.lights_ms + ff.volume_ms + ff.technique_ms;
     r.frames.push_back(ff);
     if (std::find(snap_at.begin(), snap_at.end(), f) != snap_at.end()) r.snapshots.push_back(snapshot(streamer, sink, path, cam, f));
     if (o.progress && (f % std::max(1, frames / 100) == 0 || f == frames - 1)) o.progress(f + 1, frames);
@@ -239,7 +249,7 @@ Result<FlyResult> fly(Streamer& streamer, const CatmullRomPath& path, const FlyO
 FlySummary summarize(const FlyResult& r) {
   FlySummary s;
   s.frames = int(r.frames.size());
-  std::vector<double> frame_ms, update_ms, relight_ms, volume_ms;
+  std::vector<double> frame_ms, update_ms, relight_ms, volume_ms, technique_ms;
   double io_ms = 0;
   for (const FlyFrame& f : r.frames) {
     s.max_resident = std::max(s.max_resident, f.stats.resident);
@@ -256,6 +266,7 @@ FlySummary summarize(const FlyResult& r) {
     update_ms.push_back(f.stats.update_ms);
     relight_ms.push_back(f.relight_ms);
     volume_ms.push_back(f.volume_ms);
+    technique_ms.push_back(f.technique_ms);
   }
   s.frame_ms_p50 = percentile(frame_ms, 0.5);
   s.frame_ms_p99 = percentile(frame_ms, 0.99);
@@ -263,6 +274,7 @@ FlySummary summarize(const FlyResult& r) {
   s.update_ms_p99 = percentile(update_ms, 0.99);
   s.relight_ms_p99 = percentile(relight_ms, 0.99);
   s.volume_ms_p99 = percentile(volume_ms, 0.99);
+  s.technique_ms_p99 = percentile(technique_ms, 0.99);
   const int64_t started = [&] {
     int64_t n = 0;
     for (const FlyFrame& f : r.frames) n += f.stats.started;
@@ -284,15 +296,15 @@ Result<void> writeFlyReport(const FlyResult& r, const std::filesystem::path& dir
     std::ofstream f(p);
     if (!f) return fail(p.string() + ": cannot write");
     f << "frame,time_s,x_m,y_m,z_m,hour,resident,in_flight,wanted,loads,evictions,cancels,failures,misses,fallback,"
-         "resident_bytes,reserved_bytes,update_ms,relight_ms,volume_ms,frame_ms,full_relight,inline_io_ms\n";
+         "resident_bytes,reserved_bytes,update_ms,relight_ms,volume_ms,frame_ms,full_relight,inline_io_ms,technique_ms\n";
     char line[512];
     for (const FlyFrame& x : r.frames) {
       const FrameStats& st = x.stats;
-      std::snprintf(line, sizeof line, "%llu,%.6f,%.3f,%.3f,%.3f,%.5f,%d,%d,%d,%d,%d,%d,%d,%d,%d,%zu,%zu,%.5f,%.5f,%.5f,%.5f,%d,%.5f\n",
+      std::snprintf(line, sizeof line, "%llu,%.6f,%.3f,%.3f,%.3f,%.5f,%d,%d,%d,%d,%d,%d,%d,%d,%d,%zu,%zu,%.5f,%.5f,%.5f,%.5f,%d,%.5f,%.5f\n",
                     (unsigned long long)st.frame, st.time_s, x.position_m.x, x.position_m.y, x.position_m.z, x.hour, st.resident,
                     st.in_flight, st.wanted, st.loads, st.evictions, st.cancels, st.failures, st.misses, st.fallback,
                     st.resident_bytes, st.reserved_bytes, st.update_ms, x.relight_ms, x.volume_ms, x.frame_ms, int(x.full_relight),
-                    st.inline_io_ms);
+                    st.inline_io_ms, x.technique_ms);
       f << line;
     }
     if (!f) return fail(p.string() + ": write failed");
@@ -353,6 +365,7 @@ Result<void> writeFlyReport(const FlyResult& r, const std::filesystem::path& dir
                   {"update_ms_p99", s.update_ms_p99},
                   {"relight_ms_p99", s.relight_ms_p99},
                   {"volume_ms_p99", s.volume_ms_p99},
+                  {"technique_ms_p99", s.technique_ms_p99},
                   {"full_relights", s.full_relights},
                   {"inline_io_ms_per_load", s.inline_io_ms_mean_per_load}};
   j["goals"] = {{"zero_misses", s.misses == 0}, {"p99_frame_ms_le_1", s.frame_ms_p99 <= 1.0},
@@ -419,6 +432,11 @@ Result<void> writeFlyReport(const FlyResult& r, const std::filesystem::path& dir
   md << buf;
   std::snprintf(buf, sizeof buf, "| full relights (time of day) | %d | |\n", s.full_relights);
   md << buf;
+  if (r.options.technique_frame) {
+    std::snprintf(buf, sizeof buf, "| technique %s: update ms p99, state bytes | %.4f, %zu B | |\n", r.options.technique.c_str(),
+                  s.technique_ms_p99, r.options.technique_bytes);
+    md << buf;
+  }
   if (deterministic) {
     std::snprintf(buf, sizeof buf, "| I/O work per load (read+hash+zstd+decode+tile), inline | %.4f ms | off the frame |\n",
                   s.inline_io_ms_mean_per_load);

@@ -64,6 +64,13 @@ struct FlyOptions {
   // size are the streamer's residency's, so pass the same there. `technique` names it in the report.
   std::optional<runtime::RuntimeOptions> runtime_options;
   std::string technique;
+  // A technique that does not run on drtv::runtime (`drtv fly --technique lpv`): called every
+  // frame with the camera, the time of day and the lights (moved along their paths) after the
+  // streamer's update; returns the milliseconds its update took (in the frame time), or an error
+  // that ends the flight. Set `runtime` false with it. `technique_bytes` is reported beside the
+  // volume's.
+  std::function<Result<double>(const glm::dvec3& camera, double hour, const std::vector<PointLight>& lights)> technique_frame;
+  size_t technique_bytes = 0;
   // Called every ~1 % of the flight with (frames done, frames total): progress for a terminal.
   std::function<void(int, int)> progress;
 };
@@ -76,7 +83,8 @@ struct FlyFrame {
   double volume_ms = 0.0;       // Runtime::setTime + update: relight if needed, scroll, publish
   bool full_relight = false;    // the runtime relit every resident probe this frame
   double lights_ms = 0.0;       // Runtime::setLights of this frame's moving lights (0 without)
-  double frame_ms = 0.0;        // stats.update_ms + relight_ms + lights_ms + volume_ms
+  double technique_ms = 0.0;    // FlyOptions::technique_frame's update (0 without)
+  double frame_ms = 0.0;        // stats.update_ms + relight_ms + lights_ms + volume_ms + technique_ms
 };
 
 // A top-down picture of the world at one frame: RGB8, row 0 = north (max y).
@@ -114,7 +122,7 @@ struct FlySummary {
   size_t max_resident_bytes = 0, max_reserved_bytes = 0;
   int64_t loads = 0, evictions = 0, failures = 0, misses = 0, frames_with_misses = 0;
   double frame_ms_p50 = 0, frame_ms_p99 = 0, frame_ms_max = 0;
-  double update_ms_p99 = 0, relight_ms_p99 = 0, volume_ms_p99 = 0;
+  double update_ms_p99 = 0, relight_ms_p99 = 0, volume_ms_p99 = 0, technique_ms_p99 = 0;
   double inline_io_ms_mean_per_load = 0;  // kDeterministic: the I/O threads' work per sector
   int full_relights = 0;
 };

@@ -19,7 +19,8 @@
 // the triangle's area in expectation, with no division by a grazing cosine). occlusion=rsm takes
 // the RSM texels only (what an engine without the world's triangles has); occlusion=off none.
 //
-// Parameters: cascades, cells, cell_m, iterations, sky_steps (lpv.h's LpvOptions), occlusion
+// Parameters: cascades, cells, cell_m, iterations, sky_steps, lookup_offset (cells; lpv.h's
+// LpvOptions::lookup_offset_cells), occlusion
 // (geometry|rsm|off), rsm (sun and sky RSM side, texels), rsm_point (cube face side, texels),
 // sky_bounce (0|1). The world given to prepare() must outlive the technique.
 #include <algorithm>
@@ -67,6 +68,8 @@ Result<Params> parseParams(const TechniqueParams& p) {
       if (!parseNumber(v, out.lpv.cell_m)) return bad("metres in (0, 1e4]");
     } else if (k == "iterations") {
       if (!parseNumber(v, out.lpv.iterations)) return bad("an integer in [0, 256]");
+    } else if (k == "lookup_offset") {
+      if (!parseNumber(v, out.lpv.lookup_offset_cells)) return bad("cells in [0, 2]");
     } else if (k == "sky_steps") {
       if (!parseNumber(v, out.lpv.sky_steps)) return bad("an integer in [0, cells]");
     } else if (k == "occlusion") {
@@ -84,7 +87,7 @@ Result<Params> parseParams(const TechniqueParams& p) {
       else return bad("0 or 1");
     } else {
       return fail("no parameter '" + k +
-                  "' (lpv takes cascades, cells, cell_m, iterations, sky_steps, occlusion, rsm, rsm_point, sky_bounce)");
+                  "' (lpv takes cascades, cells, cell_m, iterations, sky_steps, lookup_offset, occlusion, rsm, rsm_point, sky_bounce)");
     }
   }
   out.lpv.occlusion = out.occlusion != Occlusion::kOff;

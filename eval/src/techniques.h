@@ -2,6 +2,7 @@
 // (technique.cpp calls each on first use of the registry).
 #pragma once
 
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -10,6 +11,15 @@
 namespace drtv::eval {
 
 using TechniqueRegistration = std::pair<TechniqueInfo, TechniqueFactory>;
+
+// What Technique::describe() returns: the registered name, then the given parameters as
+// "name k=v,k=v" (none: the name alone).
+inline std::string describeTechnique(const std::string& name, const TechniqueParams& given) {
+  std::string s = name;
+  char sep = ' ';
+  for (const auto& [k, v] : given) s += sep + k + "=" + v, sep = ',';
+  return s;
+}
 
 // eval/techniques/drtv: Deferred Radiance Transfer Volumes (the talk's), nearest and smooth fills.
 std::vector<TechniqueRegistration> drtvTechniques();

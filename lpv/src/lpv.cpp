@@ -508,7 +508,7 @@ float keepWeight(const glm::dvec3& u, int n, float blend) {
 }
 }  // namespace
 
-glm::vec3 CascadedLpv::indirect(const glm::dvec3& position, const glm::vec3& normal) const {
+glm::vec3 CascadedLpv::blended(const glm::dvec3& position, const glm::vec3& normal, bool sky) const {
   glm::vec3 out(0.f);
   float rest = 1.f;
   for (int c = 0; c < cascadeCount() && rest > 0.f; ++c) {
@@ -517,26 +517,15 @@ glm::vec3 CascadedLpv::indirect(const glm::dvec3& position, const glm::vec3& nor
     const glm::dvec3 u = (position - g.box.min) / g.box.cell_m - 0.5;
     const float w = c + 1 == cascadeCount() ? 1.f : keepWeight(u, g.n, options_.blend_cells);
     if (w <= 0.f) continue;
-    out += rest * w * lookup(c, position, normal, false);
+    out += rest * w * lookup(c, position, normal, sky);
     rest *= 1.f - w;
   }
   return glm::max(out, glm::vec3(0.f));
 }
 
-glm::vec3 CascadedLpv::sky(const glm::dvec3& position, const glm::vec3& normal) const {
-  glm::vec3 out(0.f);
-  float rest = 1.f;
-  for (int c = 0; c < cascadeCount() && rest > 0.f; ++c) {
-    const Cascade& g = cascades_[size_t(c)];
-    if (!g.box.contains(position)) continue;
-    const glm::dvec3 u = (position - g.box.min) / g.box.cell_m - 0.5;
-    const float w = c + 1 == cascadeCount() ? 1.f : keepWeight(u, g.n, options_.blend_cells);
-    if (w <= 0.f) continue;
-    out += rest * w * lookup(c, position, normal, true);
-    rest *= 1.f - w;
-  }
-  return glm::max(out, glm::vec3(0.f));
-}
+glm::vec3 CascadedLpv::indirect(const glm::dvec3& position, const glm::vec3& normal) const { return blended(position, normal, false); }
+
+glm::vec3 CascadedLpv::sky(const glm::dvec3& position, const glm::vec3& normal) const { return blended(position, normal, true); }
 
 glm::vec3 CascadedLpv::indirectIn(int c, const glm::dvec3& position, const glm::vec3& normal) const {
   DRTV_CHECK(c >= 0 && c < cascadeCount());

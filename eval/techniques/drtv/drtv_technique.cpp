@@ -231,12 +231,7 @@ class DrtvTechnique final : public Technique {
     return runtimeOptions(manifest.effects);
   }
 
-  std::string describe() const override {
-    std::string s = name_;
-    char sep = ' ';
-    for (const auto& [k, v] : params_.given) s += sep + k + "=" + v, sep = ',';
-    return s;
-  }
+  std::string describe() const override { return describeTechnique(name_, params_.given); }
 
  private:
   // optionsForEffects (what an engine picks for the archive) with this technique's parameters.

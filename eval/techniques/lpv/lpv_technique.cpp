@@ -233,12 +233,7 @@ class LpvTechnique final : public Technique {
 
   TechniqueCosts costs() const override { return costs_; }
 
-  std::string describe() const override {
-    std::string s = "lpv";
-    char sep = ' ';
-    for (const auto& [k, v] : params_.given) s += sep + k + "=" + v, sep = ',';
-    return s;
-  }
+  std::string describe() const override { return describeTechnique("lpv", params_.given); }
 
  private:
   // The static geometry's crossings of axis-parallel rays through cascade c's box (the header).

@@ -168,12 +168,7 @@ class ProbeReference final : public Technique {
 
   TechniqueCosts costs() const override { return costs_; }
 
-  std::string describe() const override {
-    std::string s = "probe-reference";
-    char sep = ' ';
-    for (const auto& [k, v] : params_.given) s += sep + k + "=" + v, sep = ',';
-    return s;
-  }
+  std::string describe() const override { return describeTechnique("probe-reference", params_.given); }
 
  private:
   struct Probe {

@@ -174,12 +174,7 @@ class SweepTechnique final : public Technique {
 
   TechniqueCosts costs() const override { return costs_; }
 
-  std::string describe() const override {
-    std::string s = name_;
-    char sep = ' ';
-    for (const auto& [k, v] : params_.given) s += sep + k + "=" + v, sep = ',';
-    return s;
-  }
+  std::string describe() const override { return describeTechnique(name_, params_.given); }
 
  private:
   struct Fine {

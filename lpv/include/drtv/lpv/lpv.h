@@ -184,6 +184,7 @@ class CascadedLpv {
   explicit CascadedLpv(const LpvOptions& o);
   void setSkyRadiance(int c, const std::array<glm::vec3, kSkyDirections>& L);
   glm::vec3 lookup(int c, const glm::dvec3& position, const glm::vec3& normal, bool sky) const;
+  glm::vec3 blended(const glm::dvec3& position, const glm::vec3& normal, bool sky) const;
 
   LpvOptions options_;
   std::vector<Cascade> cascades_;

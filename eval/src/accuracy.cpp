@@ -256,6 +256,8 @@ std::vector<RowSpec> lpvRows() {
   add("rsm", "rsm", {"128", "256", "512"}, "256", "sun and sky RSM side, texels");
   add("occlusion", "occlusion", {"geometry", "rsm", "off"}, "geometry", "the geometry volume's source");
   add("sky_bounce", "sky_bounce", {"0", "1"}, "1", "the top-down sky-lit RSM");
+  add("lookup_offset", "lookup_offset", {"0", "0.25", "0.5", "1"}, "0.5", "the lookup's shift along the normal, cells");
+  add("damping", "damping", {"0", "1"}, "1", "self-bleeding damped by the light's direction against the normal");
   return rows;
 }
 

@@ -472,28 +472,48 @@ void CascadedLpv::propagate(int c) {
       }
 }
 
-glm::vec3 CascadedLpv::lookup(int c, const glm::dvec3& position, const glm::vec3& normal, bool sky) const {
-  const Cascade& g = cascades_[size_t(c)];
-  const double s = g.box.cell_m;
-  const glm::dvec3 u = (position + double(options_.lookup_offset_cells) * s * glm::dvec3(normal) - g.box.min) / s - 0.5;
+namespace {
+// Trilinear over the cell centres of planes [p0, p1) at cell coordinates u (clamped to the grid).
+template <class Grid>
+void trilinear(const Grid& g, const std::vector<float>& planes, const glm::dvec3& u, int p0, int p1, float* acc) {
   const glm::dvec3 uc = glm::clamp(u, glm::dvec3(0.0), glm::dvec3(g.n - 1));
   const glm::ivec3 i0 = glm::min(glm::ivec3(glm::floor(uc)), glm::ivec3(g.n - 2));
   const glm::vec3 f = glm::vec3(uc - glm::dvec3(i0));
-  const std::vector<float>& planes = sky ? g.sky : g.light;
-  std::array<float, kPlanes> acc{};
   for (int dz = 0; dz < 2; ++dz)
     for (int dy = 0; dy < 2; ++dy)
       for (int dx = 0; dx < 2; ++dx) {
         const float w = (dx ? f.x : 1.f - f.x) * (dy ? f.y : 1.f - f.y) * (dz ? f.z : 1.f - f.z);
         if (w == 0.f) continue;
         const size_t idx = g.index(i0.x + dx, i0.y + dy, i0.z + dz);
-        for (int p = 0; p < kPlanes; ++p) acc[size_t(p)] += w * planes[size_t(p) * g.cells + idx];
+        for (int p = p0; p < p1; ++p) acc[p] += w * planes[size_t(p) * g.cells + idx];
       }
+}
+}  // namespace
+
+glm::vec3 CascadedLpv::lookup(int c, const glm::dvec3& position, const glm::vec3& normal, bool sky) const {
+  const Cascade& g = cascades_[size_t(c)];
+  const double s = g.box.cell_m;
+  const glm::dvec3 u = (position + double(options_.lookup_offset_cells) * s * glm::dvec3(normal) - g.box.min) / s - 0.5;
+  const std::vector<float>& planes = sky ? g.sky : g.light;
+  std::array<float, kPlanes> acc{};
+  trilinear(g, planes, u, 0, kPlanes, acc.data());
   const sh::Sh4 lobe = sh::cosineLobe(sky ? normal : -normal);
   glm::vec3 e;
   for (int ch = 0; ch < 3; ++ch)
     e[ch] = lobe.x * acc[size_t(ch * 4)] + lobe.y * acc[size_t(ch * 4 + 1)] + lobe.z * acc[size_t(ch * 4 + 2)] +
             lobe.w * acc[size_t(ch * 4 + 3)];
+  if (!sky && options_.damping) {
+    // Damping against self-bleeding [1] (seed 003, "Final scene rendering": "dampen based on
+    // the gradient's deviation from the intensity distribution's direction"): light that a
+    // surface receives travels towards it, so where the cell's light mostly travels out of the
+    // surface (its band-1 direction d along the normal, n.d > 0), it is the surface's own or its
+    // plane's, and is scaled by 1 - n.d.
+    for (int ch = 0; ch < 3; ++ch) {
+      const glm::vec3 d(acc[size_t(ch * 4 + 3)], acc[size_t(ch * 4 + 1)], acc[size_t(ch * 4 + 2)]);
+      const float len = glm::length(d);
+      if (len > 0.f) e[ch] *= 1.f - std::max(0.f, glm::dot(normal, d) / len);
+    }
+  }
   return e;
 }
 

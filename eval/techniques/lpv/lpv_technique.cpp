@@ -68,6 +68,10 @@ Result<Params> parseParams(const TechniqueParams& p) {
       if (!parseNumber(v, out.lpv.cell_m)) return bad("metres in (0, 1e4]");
     } else if (k == "iterations") {
       if (!parseNumber(v, out.lpv.iterations)) return bad("an integer in [0, 256]");
+    } else if (k == "damping") {
+      if (v == "0") out.lpv.damping = false;
+      else if (v == "1") out.lpv.damping = true;
+      else return bad("0 or 1");
     } else if (k == "lookup_offset") {
       if (!parseNumber(v, out.lpv.lookup_offset_cells)) return bad("cells in [0, 2]");
     } else if (k == "sky_steps") {
@@ -87,7 +91,7 @@ Result<Params> parseParams(const TechniqueParams& p) {
       else return bad("0 or 1");
     } else {
       return fail("no parameter '" + k +
-                  "' (lpv takes cascades, cells, cell_m, iterations, sky_steps, lookup_offset, occlusion, rsm, rsm_point, sky_bounce)");
+                  "' (lpv takes cascades, cells, cell_m, iterations, sky_steps, lookup_offset, damping, occlusion, rsm, rsm_point, sky_bounce)");
     }
   }
   out.lpv.occlusion = out.occlusion != Occlusion::kOff;

@@ -46,6 +46,12 @@
 //    SH is then sum_k L_sky(w_k) T_k Y(w_k) 4pi/K, and its irradiance dot(cosineLobe(n), sky).
 //    It is an ambient-occlusion-like estimate, not light transport: no sky bounce comes from it
 //    (the technique injects sky-lit surfels for that).
+//  - Lookup: the light at the point moved lookup_offset_cells along the normal, trilinear over
+//    cell centres. With `damping` (seed 003's damping of self-bleeding: the light's direction
+//    against the normal), the irradiance is scaled by 1 - max(0, n.d) per channel, d the unit
+//    band-1 direction of the light there: light a surface receives travels towards it, so light
+//    travelling out of it is its own or its plane's, which band 1's wide lobe would otherwise
+//    read (an up-facing ground under a lit plane's light: +20 % under a uniform sky without it).
 //  - Cascades [1] sec. 5: nested grids of `cells`^3, cell size cell_m * ratio^c, centred on the
 //    camera and snapped to whole cells so that light does not swim; each is an independent LPV
 //    (its own injection, occlusion and propagation); lookups use the finest cascade holding the
@@ -103,6 +109,7 @@ struct LpvOptions {
   int sky_steps = 12;          // cells marched per sky direction, [0, cells]
   float lookup_offset_cells = 0.5f;  // the lookup point moves this far along the normal, cells
   float blend_cells = 3.f;     // width of the blend to the next cascade at a cascade's border, cells
+  bool damping = true;         // damping of self-bleeding at lookups (indirect(); lpv.h, "Lookup")
   int threads = 1;             // threads a propagation step runs on (slabs of z), [1, 64]; the
                                // result is the same bits for any count
 };

@@ -189,7 +189,7 @@ TEST_F(ArchiveTest, RejectsBadMagicAndVersionAndMissingFiles) {
   std::vector<uint8_t> bytes = readFile(path);
   auto v = peekArchiveVersion(path);
   ASSERT_TRUE(v.has_value());
-  EXPECT_EQ(*v, kArchiveVersion);
+  EXPECT_EQ(*v, kArchiveVersionTalkBasis);
   bytes[8] = 9;
   writeFile(path, bytes);
   auto r = ArchiveReader::open(path);

@@ -88,7 +88,7 @@ TEST(ProbeRecord, ValidateRejectsWhatPackNeverWrites) {
   EXPECT_TRUE(bad([](ProbeRecord& x) { x.prt_range = INFINITY; }));
   EXPECT_TRUE(bad([](ProbeRecord& x) { x.lprt_range = -1.f; }));
   EXPECT_TRUE(bad([](ProbeRecord& x) { x.prt[1][2][3] = -32768; }));
-  EXPECT_TRUE(bad([](ProbeRecord& x) { x.reserved[7] = 1; }));
+  EXPECT_TRUE(bad([](ProbeRecord& x) { x.reserved[1] = 1; }));
 }
 
 }  // namespace

@@ -21,7 +21,7 @@
 //   distant = distantAmbient (sky irradiance x top-down occlusion, occlusion.h);
 //   a       = mix(distant, volume, weight);
 //   interior: inside an artist InteriorVolume with a resolved designated probe, the probe's own
-//             colours weighted by the shading weights; blended in over blend_distance_m from the
+//             colours shaded for the normal (shade(): the shading weights, or sh-l1's E(n)); blended in over blend_distance_m from the
 //             box faces inward: result = mix(a, interior, saturate(depth / blend_distance_m)).
 //
 // Thread-safety: one writer thread calls the non-const members. ambient(), nearestProbe() and the
@@ -53,6 +53,9 @@ namespace drtv::runtime {
 uint32_t componentsFromEffects(uint32_t effects);
 
 struct RuntimeOptions {
+  // The archive's directional representation (representation.h); the Runtime copies it into
+  // `cache` and `volume` (theirs are ignored). runtimeForArchive sets it from the manifest.
+  Representation representation = Representation::kFc3;
   VolumeOptions volume;                       // size, texel size, fill mode, blur
   ProbeCacheOptions cache;                    // resident slots, sources per light
   float sun_band1_window = kHanningBand1;     // lighting_sh.h: why Hanning
@@ -145,7 +148,8 @@ class Runtime {
 };
 
 // The one way a runtime is set up from an archive (the engine's, `drtv query`'s, the fly-through's,
-// the evaluation's): `options` (optionsForEffects(manifest.effects) for what an engine picks), lit
+// the evaluation's): `options` (optionsForEffects(manifest.effects) for what an engine picks) with
+// the manifest's representation, lit
 // by the manifest's sky, its lights (or `lights` instead when given) and its interiors at `hour`.
 // The caller then adds the sectors it holds. Errors: unsound lighting, a non-finite hour.
 Result<std::unique_ptr<Runtime>> runtimeForArchive(const Manifest& manifest, const RuntimeOptions& options, double hour,

@@ -44,13 +44,18 @@ namespace {
 RuntimeOptions withRepresentation(RuntimeOptions o) {
   o.cache.representation = o.representation;
   o.volume.representation = o.representation;
+  if (o.sun_band1_window == kSunLobeOfRepresentation) {
+    const bool linear = o.representation == Representation::kShL1;
+    o.sun_band1_window = linear ? kLinearSunBand1 : kHanningBand1;
+    o.sun_band0_scale = linear ? 0.f : 1.f;
+  }
   return o;
 }
 }  // namespace
 
 Runtime::Runtime(RuntimeOptions options)
     : options_(withRepresentation(options)), cache_(options_.cache), volume_(options_.volume) {
-  current_ = applied_ = evaluateSky(sky_, hour_, options_.sun_band1_window);
+  current_ = applied_ = evaluateSky(sky_, hour_, options_.sun_band1_window, options_.sun_band0_scale);
 }
 
 Result<void> Runtime::setLighting(const Sky& sky, std::vector<PointLight> lights, std::vector<InteriorVolume> interiors) {
@@ -59,7 +64,7 @@ Result<void> Runtime::setLighting(const Sky& sky, std::vector<PointLight> lights
   lights_ = std::move(lights);
   interiors_ = std::move(interiors);
   lights_changed_ = true;  // also forces a relight for a changed sun path or ground scale
-  current_ = evaluateSky(sky_, hour_, options_.sun_band1_window);
+  current_ = evaluateSky(sky_, hour_, options_.sun_band1_window, options_.sun_band0_scale);
   resolveInteriors();
   return {};
 }
@@ -67,7 +72,7 @@ Result<void> Runtime::setLighting(const Sky& sky, std::vector<PointLight> lights
 Result<void> Runtime::setTime(double hour) {
   if (!std::isfinite(hour)) return fail("time of day: " + std::to_string(hour) + " h is not a finite number");
   hour_ = hour;
-  current_ = evaluateSky(sky_, hour_, options_.sun_band1_window);
+  current_ = evaluateSky(sky_, hour_, options_.sun_band1_window, options_.sun_band0_scale);
   return {};
 }
 

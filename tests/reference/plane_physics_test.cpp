@@ -66,7 +66,9 @@ Plane bakePlane(Representation representation, const Sky& sky) {
 struct Ambient {
   double up, side, down;
 };
-Ambient ambientOverPlane(Representation representation, const Sky& sky, double hour, float sun_window = -1.f) {
+Ambient ambientOverPlane(Representation representation, const Sky& sky, double hour,
+                         float sun_window = runtime::kSunLobeOfRepresentation,
+                         float sun_band0 = 1.f) {
   const Plane plane = bakePlane(representation, sky);
   auto reader = ArchiveReader::open(plane.archive);
   EXPECT_TRUE(reader.has_value()) << (reader ? "" : reader.error().message);
@@ -74,7 +76,8 @@ Ambient ambientOverPlane(Representation representation, const Sky& sky, double h
   const Manifest& m = reader->manifest();
   EXPECT_EQ(m.representation, representation);
   runtime::RuntimeOptions options = runtime::optionsForEffects(m.effects);
-  if (sun_window >= 0.f) options.sun_band1_window = sun_window;
+  options.sun_band1_window = sun_window;
+  options.sun_band0_scale = sun_band0;
   auto rt = runtime::runtimeForArchive(m, options, hour);
   EXPECT_TRUE(rt.has_value());
   for (const SectorEntry& e : m.sectors) {
@@ -126,8 +129,25 @@ TEST(PlanePhysics, Fc3SunBounceIsTheWindowedBandOneLobes) {
     const double model = kRho * (0.25 + 0.5 * runtime::kHanningBand1 * s);
     RecordProperty("down_" + std::to_string(int(elevation)), std::to_string(a.down));
     EXPECT_NEAR(rel(a.down, model), 0.0, kFc3PropertyRel) << elevation << " deg: " << a.down;
-    if (elevation >= 60.0) EXPECT_LT(a.down, 0.8 * kRho * s) << "fc3 misses the physics at " << elevation << " deg";
+    if (elevation >= 60.0) {
+      EXPECT_LT(a.down, 0.8 * kRho * s) << "fc3 misses the physics at " << elevation << " deg";
+    }
   }
+}
+
+// The sun lobes measured for sh-l1 (lighting_sh.h), printed as a table for docs/accuracy.md.
+TEST(PlanePhysics, SunLobesMeasuredForShL1) {
+  struct Lobe {
+    const char* name;
+    float window, band0;
+  } lobes[] = {{"hanning", runtime::kHanningBand1, 1.f}, {"unwindowed", runtime::kNoWindowBand1, 1.f}, {"linear", runtime::kLinearSunBand1, 0.f}};
+  for (const Lobe& l : lobes)
+    for (double elevation : {20.0, 30.0, 45.0, 60.0, 90.0}) {
+      const Ambient a = ambientOverPlane(Representation::kShL1, testing::sunOnlySky(1.f, elevation), 12.0, l.window, l.band0);
+      const double s = std::sin(elevation * kPi / 180.0);
+      std::printf("[ sun ] %-10s %4.0f deg  down %.4f (exact %.4f, %+.1f %%)  side %.4f (%+.1f %%)  up %.4f\n", l.name, elevation,
+                  a.down, kRho * s, 100 * rel(a.down, kRho * s), a.side, 100 * rel(a.side, 0.5 * kRho * s), a.up);
+    }
 }
 
 TEST(PlanePhysics, ShL1SunBounceIsWithin10PercentAndNothingComesFromAbove) {

@@ -49,6 +49,8 @@
 
 namespace drtv::runtime {
 
+inline constexpr float kSunLobeOfRepresentation = -1.f;  // RuntimeOptions::sun_band1_window
+
 // The relighting components a world's effect mask asks for (effects.h -> probe_cache.h).
 uint32_t componentsFromEffects(uint32_t effects);
 
@@ -58,7 +60,12 @@ struct RuntimeOptions {
   Representation representation = Representation::kFc3;
   VolumeOptions volume;                       // size, texel size, fill mode, blur
   ProbeCacheOptions cache;                    // resident slots, sources per light
-  float sun_band1_window = kHanningBand1;     // lighting_sh.h: why Hanning
+  // The sun's SH lobe (lighting_sh.h). kSunLobeOfRepresentation: the representation's own, set by
+  // the Runtime: fc3 the Hanning window (band 0 x 1, band 1 x 1/2: why, lighting_sh.h), sh-l1 the
+  // linear sun (band 0 x 0, band 1 x 2: the plane cases and scenes, docs/accuracy.md "Sun").
+  // Any other value is used as given, with sun_band0_scale.
+  float sun_band1_window = kSunLobeOfRepresentation;
+  float sun_band0_scale = 1.f;
   uint32_t components = kAllComponents;       // relighting terms evaluated
   uint32_t effects = kAllEffects;             // interiors and distant occlusion are honoured here
   // Relight when lightingChange exceeds this: 1/512 is half an 8-bit step of the brightest light,

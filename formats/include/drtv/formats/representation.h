@@ -29,8 +29,8 @@
 //   texel:  byte 0 = unorm8 e0 / HDR scale; bytes 1..3 = e1..3 as 128 + round(127 e / HDR scale)
 //           (offset binary, exact zero at 128, decoded as (byte - 128) / 127 x HDR scale), so that
 //           the hardware's unorm trilinear filter followed by the affine decode equals filtering
-//           the decoded values (docs/runtime.md "sh-l1 texels" measures it against snorm8 for all
-//           four).
+//           the decoded values. (An snorm8 e0 would spend one of its bits on a sign it never has;
+//           the two encodings have not been compared by measurement yet.)
 #pragma once
 
 #include <cstdint>

@@ -204,6 +204,7 @@ Manifest manifestFor(const raytrace::WorldGeometry& geometry, const worlds::Worl
   m.sector_size_m = kSectorSizeM;
   m.effects = effects;
   m.settings = settings.describe();
+  m.representation = settings.transfer.representation;
   m.settings.emplace_back("world", world.name.empty() ? world_name : world.name);
   m.sky = world.sky;
   m.lights = world.lights;
@@ -259,7 +260,7 @@ BakeSettings BakeSettings::forQuality(Quality q, uint64_t seed) {
 }
 
 std::vector<std::pair<std::string, std::string>> BakeSettings::describe() const {
-  return {
+  std::vector<std::pair<std::string, std::string>> d = {
       {"quality", qualityName(quality)},
       {"seed", std::to_string(transfer.seed)},
       {"probe_rays_per_basis", std::to_string(transfer.probe_rays_per_basis)},
@@ -278,6 +279,9 @@ std::vector<std::pair<std::string, std::string>> BakeSettings::describe() const 
       {"lprt_halo_m", fmt(lprt_halo_m)},
       {"zstd_level", std::to_string(zstd_level)},
   };
+  // Only when not the talk's: a kFc3 bake describes itself (and hashes, and packs) as before.
+  if (transfer.representation != Representation::kFc3) d.emplace_back("representation", representationName(transfer.representation));
+  return d;
 }
 
 uint32_t effectsToBake(const worlds::World& world, std::vector<std::string>* skipped) {
@@ -438,14 +442,14 @@ Result<Sector> bakeSector(const raytrace::WorldGeometry& geometry, const worlds:
   stats.transfer_s = since(t0);
 
   for (size_t i = 0; i < placed.size(); ++i) {
-    data[i].flags = placed[i].flags;
+    data[i].flags |= placed[i].flags;  // bakeTransfer may have set kProbeSkyMoments
     data[i].interior = placed[i].interior;
     sector.probes.push_back(packProbe(data[i]));
   }
   if (!sources.empty()) {
     const size_t S = sources.size();
     for (const Source& s : sources) sector.lprt.sources.push_back(s.ref);
-    sector.lprt.on_bases = true;
+    sector.lprt.on_bases = ts.representation == Representation::kFc3;  // sh-l1: SH (transfer.h)
     sector.lprt.coeffs.resize(placed.size() * S * 12);
     for (size_t p = 0; p < placed.size(); ++p) {
       float range = 0.f;
@@ -608,6 +612,8 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
   report.world = world_name;
   report.archive = archive;
   report.settings = options.settings ? *options.settings : BakeSettings::forQuality(options.quality, options.seed);
+  if (options.representation) report.settings.transfer.representation = *options.representation;
+  else if (world.representation && !options.settings) report.settings.transfer.representation = *world.representation;
   if (std::string why = validateSettings(report.settings); !why.empty()) return fail("bake settings: " + why);
   report.threads = options.threads > 0 ? options.threads : int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
   if (options.shard_count > 1) report.shard = std::to_string(options.shard_index) + "/" + std::to_string(options.shard_count);

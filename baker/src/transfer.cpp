@@ -162,6 +162,7 @@ void traceProbes(const TransferContext& ctx, std::span<const glm::vec3> probes, 
       size_t escaped_total = 0, back = 0, hit = 0;
       double hit_t = 0.0;
       glm::dvec4 vis_sh(0.0);
+      glm::dvec3 moments(0.0);
       for (int b = 0; b < 4; ++b) {
         const raytrace::Frame frame(sh::kBasis[b]);
         const glm::vec2 shift = shiftFor(raytrace::hashKey(sector_key, p * 4 + b));
@@ -178,7 +179,11 @@ void traceProbes(const TransferContext& ctx, std::span<const glm::vec3> probes, 
             float pdf = 0.f;
             for (int k = 0; k < 4; ++k) pdf += std::max(0.f, glm::dot(sh::kBasis[k], rays[i].dir));
             pdf *= 0.25f / kPi;
-            if (pdf > 0.f) vis_sh += glm::dvec4(sh::evaluate(rays[i].dir) / pdf);
+            if (pdf > 0.f) {
+              const glm::vec3& w = rays[i].dir;
+              vis_sh += glm::dvec4(sh::evaluate(w) / pdf);
+              moments += glm::dvec3(glm::vec3(w.y * w.z, w.z * w.z, w.x * w.z) / pdf);
+            }
           } else {
             ++hit;
             hit_t += r.t;
@@ -189,6 +194,10 @@ void traceProbes(const TransferContext& ctx, std::span<const glm::vec3> probes, 
         if (s.sky_visibility) d.sky_vis[b] = float(double(escaped) / double(N));
       }
       if (s.sky_visibility) d.sky_vis_sh = glm::vec4(vis_sh / double(4 * N));
+      if (s.representation == Representation::kShL1) {
+        d.flags |= kProbeSkyMoments;
+        if (s.sky_visibility) d.sky_moments = glm::vec3(moments * (3.0 / (4.0 * double(kPi)) / double(4 * N)));
+      }
       d.backface_frac = float(double(back) / double(4 * N));
       d.mean_hit_m = hit ? float(hit_t / double(hit)) : 0.f;
       const raytrace::Hit down = scene.intersect(raytrace::Ray{probes[p], 0.f, glm::vec3(0, 0, -1), INFINITY});
@@ -343,6 +352,35 @@ std::vector<Sh4Rgb> surfaceCache(const TransferContext& ctx, CellMap& cells, std
 }
 
 // Gather: T[c][b] = (1/N) sum rho_c(x_i) T_{x_i}[c] over each probe basis' rays.
+// The sh-l1 weight of a probe ray towards `hit` from `probe`: Y(w) / S(w) (transfer.h).
+sh::Sh4 sphereWeight(const glm::vec3& probe, const glm::vec3& hit) {
+  const glm::vec3 w = glm::normalize(hit - probe);
+  float S = 0.f;
+  for (int k = 0; k < 4; ++k) S += std::max(0.f, glm::dot(sh::kBasis[k], w));
+  return S > 0.f ? sh::evaluate(w) / S : sh::Sh4(0.f);
+}
+
+// sh-l1 gather: M[c][i][j] = (1/N) sum over all 4N rays rho_c T_x[c][j] Y_i(w) / S(w).
+void gatherPrtShL1(const TransferContext& ctx, std::span<const glm::vec3> probes, const std::vector<RayResult>& probe_res,
+                   const std::vector<uint32_t>& probe_surfel, const std::vector<Sh4Rgb>& transfer, std::vector<ProbeData>& out) {
+  const size_t P = ctx.P, N = ctx.N;
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, P, 4), [&](const tbb::blocked_range<size_t>& range) {
+    for (size_t p = range.begin(); p < range.end(); ++p) {
+      std::array<std::array<glm::dvec4, 4>, 3> acc{};
+      for (size_t idx = p * 4 * N; idx < (p + 1) * 4 * N; ++idx) {
+        const uint32_t si = probe_surfel[idx];
+        if (si == kNoSurfel) continue;
+        const glm::vec3& rho = ctx.albedo(probe_res[idx].prim);
+        const sh::Sh4 y = sphereWeight(probes[p], probe_res[idx].position);
+        for (int c = 0; c < 3; ++c)
+          for (int i = 0; i < 4; ++i) acc[c][i] += glm::dvec4(rho[c] * y[i] * transfer[si][c]);
+      }
+      for (int c = 0; c < 3; ++c)
+        for (int i = 0; i < 4; ++i) out[p].prt[c][i] = glm::vec4(acc[c][i] / double(N));
+    }
+  });
+}
+
 void gatherPrt(const TransferContext& ctx, const std::vector<RayResult>& probe_res, const std::vector<uint32_t>& probe_surfel,
                const std::vector<Sh4Rgb>& transfer, std::vector<ProbeData>& out) {
   const size_t P = ctx.P, N = ctx.N;
@@ -364,7 +402,8 @@ void gatherPrt(const TransferContext& ctx, const std::vector<RayResult>& probe_r
 }
 
 // LPRT: the direct irradiance of each source at each level-1 surfel, then one bounce to the probes.
-void bakeLprt(const TransferContext& ctx, const std::vector<Surfel>& surfels, size_t level1, const std::vector<RayResult>& probe_res,
+void bakeLprt(const TransferContext& ctx, std::span<const glm::vec3> probes, const std::vector<Surfel>& surfels, size_t level1,
+              const std::vector<RayResult>& probe_res,
               const std::vector<uint32_t>& probe_surfel, std::span<const glm::vec3> lprt_sources, std::vector<float>* lprt,
               TransferStats& stats) {
   const raytrace::RayScene& scene = ctx.scene;
@@ -406,6 +445,7 @@ void bakeLprt(const TransferContext& ctx, const std::vector<Surfel>& surfels, si
   });
   stats.lprt_rays += lprt_rays;
   lprt->assign(P * S * 12, 0.f);
+  const bool sh_l1 = ctx.s.representation == Representation::kShL1;
   tbb::parallel_for(tbb::blocked_range<size_t>(0, P, 1), [&](const tbb::blocked_range<size_t>& range) {
     std::vector<float> acc(S * 12);
     for (size_t p = range.begin(); p < range.end(); ++p) {
@@ -417,6 +457,15 @@ void bakeLprt(const TransferContext& ctx, const std::vector<Surfel>& surfels, si
           if (si == kNoSurfel) continue;
           const glm::vec3& rho = albedo(probe_res[idx].prim);
           const float* e = &irradiance[si * S];
+          if (sh_l1) {
+            const sh::Sh4 y = sphereWeight(probes[p], probe_res[idx].position);
+            for (size_t j = 0; j < S; ++j) {
+              if (e[j] == 0.f) continue;
+              for (int c = 0; c < 3; ++c)
+                for (int q = 0; q < 4; ++q) acc[(j * 3 + c) * 4 + q] += rho[c] * e[j] * y[q];
+            }
+            continue;
+          }
           for (size_t j = 0; j < S; ++j) {
             if (e[j] == 0.f) continue;
             for (int c = 0; c < 3; ++c) acc[(j * 3 + c) * 4 + k] += rho[c] * e[j];
@@ -454,13 +503,16 @@ std::vector<ProbeData> bakeTransfer(const raytrace::RayScene& scene, const raytr
   const size_t level1 = levelOneSurfels(ctx, probe_res, cells, surfels, probe_surfel, stats);
   if (s.prt) {
     const std::vector<Sh4Rgb> transfer = surfaceCache(ctx, cells, surfels, stats);
-    gatherPrt(ctx, probe_res, probe_surfel, transfer, out);
+    if (s.representation == Representation::kShL1)
+      gatherPrtShL1(ctx, probes, probe_res, probe_surfel, transfer, out);
+    else
+      gatherPrt(ctx, probe_res, probe_surfel, transfer, out);
   }
   stats.surfel_seconds += since(t0);
   if (!want_lprt) return out;
 
   t0 = Clock::now();
-  bakeLprt(ctx, surfels, level1, probe_res, probe_surfel, lprt_sources, lprt, stats);
+  bakeLprt(ctx, probes, surfels, level1, probe_res, probe_surfel, lprt_sources, lprt, stats);
   stats.lprt_seconds += since(t0);
   return out;
 }

@@ -27,10 +27,12 @@ Result<std::unique_ptr<AmbientPass>> AmbientPass::create(VulkanCompute& vk, cons
   const std::string shaders = source_dir + "/runtime/shaders", wrappers = source_dir + "/bench/common/shaders";
   // Bindings 0-2 textures, 3 constants, 4 points, 5 results in both; HLSL's separate sampler at 6
   // (glslang maps register(tN/bN/sN/uN) to binding N plus the stage's shift for that class).
+  // The representation is a compile-time choice of the shader (ambient.glsl, DRTV_SH_L1).
+  const std::string define = volume.options().representation == Representation::kShL1 ? "-DDRTV_SH_L1 " : "";
   const std::string arguments =
       language == ShaderLanguage::kGlsl
-          ? "-V -S comp -DDRTV_AMBIENT_NO_ENTRY " + shaders + "/ambient.glsl " + wrappers + "/ambient_compute.comp"
-          : "-D -V -S comp -e computeMain -I" + shaders + " --shift-cbuffer-binding 3 --shift-sampler-binding 6 " + wrappers +
+          ? "-V -S comp -DDRTV_AMBIENT_NO_ENTRY " + define + shaders + "/ambient.glsl " + wrappers + "/ambient_compute.comp"
+          : "-D -V -S comp -e computeMain " + define + "-I" + shaders + " --shift-cbuffer-binding 3 --shift-sampler-binding 6 " + wrappers +
                 "/ambient_compute.hlsl";
   auto spirv = compileWithGlslang(arguments);
   if (!spirv) return std::unexpected(spirv.error());

@@ -204,7 +204,13 @@ std::vector<RowSpec> drtvRows(const BakeSettings& base, uint32_t effects, const 
     if (components & parts[k].second) rows.push_back({"part", parts[k].first, false, "drtv", {{"part", parts[k].first}}, "", int(k)});
   for (const auto& [name, w] : {std::pair{"hanning", runtime::kHanningBand1}, std::pair{"lanczos", runtime::kLanczosBand1},
                                 std::pair{"none", runtime::kNoWindowBand1}})
-    rows.push_back({"sun_window", name, w == runtime::RuntimeOptions{}.sun_band1_window, "drtv", {{"sun_window", name}}, "band-1 factor " + fmt(w)});
+    rows.push_back({"sun_window", name, w == runtime::kHanningBand1, "drtv", {{"sun_window", name}}, "band-1 factor " + fmt(w)});
+  // The directional representation, each a real bake -> relight -> volume -> ambient
+  // (representation.h); sh-l1 with its own sun lobe (linear) and with fc3's (Hanning).
+  rows.push_back({"representation", "fc3", true, "drtv", {}, "the default bake: the talk's 4 bases, Hanning sun"});
+  rows.push_back({"representation", "sh-l1", false, "drtv", {{"representation", "sh-l1"}}, "band-1 SH irradiance, linear sun"});
+  rows.push_back({"representation", "sh-l1+hanning", false, "drtv", {{"representation", "sh-l1"}, {"sun_window", "hanning"}},
+                  "band-1 SH irradiance, fc3's windowed sun"});
   for (const char* basis : {"4-basis", "ambient-cube", "sh-l1"})
     rows.push_back({"basis", basis, std::string(basis) == "4-basis", "probe-reference",
                     {{"basis", basis}, {"probe_samples", std::to_string(probe_samples)}}, "path-traced probe values, nearest probe, no volume"});

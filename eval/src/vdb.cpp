@@ -52,7 +52,6 @@ Result<VdbExportStats> exportVdb(const std::filesystem::path& archive, const std
   auto sky_acc = sky->getAccessor();
   auto den_acc = density->getAccessor();
   auto irr_acc = irradiance->getAccessor();
-  const glm::vec4 up_weights = sh::shadingWeights(glm::vec3(0, 0, 1));
   VdbExportStats stats;
   stats.sectors = sectors.size();
   for (const Sector& s : sectors) {
@@ -74,8 +73,8 @@ Result<VdbExportStats> exportVdb(const std::filesystem::path& archive, const std
           if (!p.valid()) continue;
           const glm::vec4 v = cache.skyVisibility(p);
           sky_acc.setValue(c, (v.x + v.y + v.z) / 3.f);
-          const runtime::BasisColours col = cache.colours(p);
-          const glm::vec3 e = up_weights.x * col[0] + up_weights.y * col[1] + up_weights.z * col[2] + up_weights.w * col[3];
+          // The probe's colours shaded for +Z in the archive's representation (fc3: the talk's weights).
+          const glm::vec3 e = runtime::shade(cache.representation(), cache.colours(p), glm::vec3(0, 0, 1));
           irr_acc.setValue(c, openvdb::Vec3s(e.r, e.g, e.b));
         }
     for (const ProbeRecord& r : s.probes) {

@@ -44,7 +44,7 @@ std::vector<uint8_t> encodeHeader(const Header& h) {
   std::vector<uint8_t> out;
   ByteWriter w(out);
   w.bytes(kArchiveMagic, 8);
-  w.put<uint32_t>(kArchiveVersion);
+  w.put<uint32_t>(h.version);
   w.put<uint32_t>(kArchiveHeaderBytes);
   w.put(h.manifest_offset);
   w.put(h.manifest_bytes);
@@ -62,9 +62,9 @@ Result<Header> parseHeader(std::span<const uint8_t> bytes, uint64_t actual_file_
   if (std::memcmp(magic, kArchiveMagic, 8) != 0) return failAt(where, 0, "bad magic: not a drtv archive");
   Header h;
   if (!rd.get(h.version)) return failAt(where, 8, "truncated before the version");
-  if (h.version != kArchiveVersion)
+  if (h.version != kArchiveVersionTalkBasis && h.version != kArchiveVersion)
     return failAt(where, 8, "version " + std::to_string(h.version) + " unsupported (this build reads " +
-                                std::to_string(kArchiveVersion) + ")");
+                                std::to_string(kArchiveVersionTalkBasis) + " and " + std::to_string(kArchiveVersion) + ")");
   uint32_t header_bytes = 0;
   rd.get(header_bytes);
   rd.get(h.manifest_offset);
@@ -181,6 +181,7 @@ std::vector<uint8_t> encodeManifest(const Manifest& m) {
   for (int i = 0; i < 3; ++i) w.put<double>(m.bounds_max[i]);
   w.put<double>(m.sector_size_m);
   w.put<uint32_t>(m.effects);
+  if (archiveVersionFor(m.representation) != kArchiveVersionTalkBasis) w.put<uint32_t>(static_cast<uint32_t>(m.representation));
   w.put<uint32_t>(static_cast<uint32_t>(m.settings.size()));
   for (const auto& [k, v] : m.settings) {
     DRTV_CHECK_LE(k.size(), size_t(UINT16_MAX));
@@ -206,7 +207,7 @@ std::vector<uint8_t> encodeManifest(const Manifest& m) {
 }
 
 // `base` is the manifest's offset in the file, so that messages give file offsets.
-Result<Manifest> parseManifest(std::span<const uint8_t> bytes, uint64_t base, uint64_t payload_end,
+Result<Manifest> parseManifest(std::span<const uint8_t> bytes, uint32_t version, uint64_t base, uint64_t payload_end,
                                const std::string& where) {
   ByteReader rd(bytes);
   Manifest m;
@@ -226,6 +227,20 @@ Result<Manifest> parseManifest(std::span<const uint8_t> bytes, uint64_t base, ui
   const uint64_t effects_at = at();
   if (!rd.get(m.effects)) return truncated("the effects");
   if (m.effects & ~kAllEffects) return failAt(where, effects_at, "unknown effect bits " + std::to_string(m.effects & ~kAllEffects));
+  m.version = version;
+  m.representation = Representation::kFc3;
+  if (version != kArchiveVersionTalkBasis) {
+    const uint64_t repr_at = at();
+    uint32_t code = 0;
+    if (!rd.get(code)) return truncated("the representation");
+    if (code >= kRepresentationCount)
+      return failAt(where, repr_at, "representation " + std::to_string(code) + " unknown (this build reads " + representationNames() +
+                                        " = 0.." + std::to_string(kRepresentationCount - 1) +
+                                        "): rebake the world with this build's `drtv bake --representation`");
+    m.representation = Representation(code);
+    if (m.representation == Representation::kFc3)
+      return failAt(where, repr_at, "representation fc3 in a version-2 manifest (fc3 archives are version 1)");
+  }
   uint32_t n_settings = 0;
   const uint64_t settings_at = at();
   if (!rd.get(n_settings)) return truncated("the settings count");
@@ -325,7 +340,7 @@ Result<Manifest> decodeArchiveHeaderAndManifest(std::span<const uint8_t> file, c
   if (!header) return std::unexpected(header.error());
   const auto manifest_bytes = file.subspan(header->manifest_offset, header->manifest_bytes);
   if (hash64(manifest_bytes) != header->manifest_hash) return failAt(where, header->manifest_offset, "manifest hash mismatch (corrupt)");
-  return parseManifest(manifest_bytes, header->manifest_offset, header->manifest_offset, where);
+  return parseManifest(manifest_bytes, header->version, header->manifest_offset, header->manifest_offset, where);
 }
 
 // ---- reader -----------------------------------------------------------------------------------
@@ -379,7 +394,7 @@ Result<ArchiveReader> ArchiveReader::open(const std::filesystem::path& path) {
     return fail(impl->name + ": cannot read the manifest: " + errnoText());
   if (hash64(manifest) != header->manifest_hash)
     return failAt(impl->name, header->manifest_offset, "manifest hash mismatch (corrupt)");
-  auto parsed = parseManifest(manifest, header->manifest_offset, header->manifest_offset, impl->name);
+  auto parsed = parseManifest(manifest, header->version, header->manifest_offset, header->manifest_offset, impl->name);
   if (!parsed) return std::unexpected(parsed.error());
   impl->manifest = std::move(*parsed);
   return ArchiveReader(std::move(impl));
@@ -525,7 +540,7 @@ Result<void> ArchiveWriter::finish(const Manifest& info) {
   Impl& s = *impl_;
   DRTV_CHECK(!s.finished);
   Manifest m = info;
-  m.version = kArchiveVersion;
+  m.version = archiveVersionFor(m.representation);
   if (std::string what = validateLighting(m.sky, m.lights, m.interiors); !what.empty())
     return fail(s.path.string() + ": lighting: " + what);
   m.sectors = s.entries;
@@ -533,6 +548,7 @@ Result<void> ArchiveWriter::finish(const Manifest& info) {
   const std::vector<uint8_t> manifest = encodeManifest(m);
   if (auto ok = s.writeAt(manifest.data(), manifest.size(), s.offset); !ok) return ok;
   Header h;
+  h.version = m.version;
   h.manifest_offset = s.offset;
   h.manifest_bytes = manifest.size();
   h.manifest_hash = hash64(manifest);

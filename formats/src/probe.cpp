@@ -33,6 +33,8 @@ ProbeRecord packProbe(const ProbeData& p) {
   const float cm = std::clamp(finiteOrZero(p.height_m) * 100.f, 0.f, 65535.f);
   r.height_cm = static_cast<uint16_t>(std::lround(cm));
   r.mean_hit_m = std::max(0.f, finiteOrZero(p.mean_hit_m));
+  if (r.flags & kProbeSkyMoments)
+    for (int k = 0; k < 3; ++k) r.sky_moments[k] = quantizeSnorm16(finiteOrZero(p.sky_moments[k]), 1.f);
   return r;
 }
 
@@ -49,6 +51,7 @@ ProbeData unpackProbe(const ProbeRecord& r) {
   p.backface_frac = dequantizeUnorm16(r.backface_frac);
   p.height_m = r.height_cm / 100.f;
   p.mean_hit_m = r.mean_hit_m;
+  for (int k = 0; k < 3; ++k) p.sky_moments[k] = dequantizeSnorm16(r.sky_moments[k], 1.f);
   return p;
 }
 
@@ -80,6 +83,10 @@ std::string validateProbe(const ProbeRecord& r) {
   if (min_prt == -32768) return "prt coefficient -32768 is never written";
   for (int k = 0; k < 4; ++k) min_sh = std::min(min_sh, r.sky_vis_sh[k]);
   if (min_sh == -32768) return "sky_vis_sh coefficient -32768 is never written";
+  int16_t min_moment = INT16_MAX, any_moment = 0;
+  for (int16_t v : r.sky_moments) min_moment = std::min(min_moment, v), any_moment |= v;
+  if (min_moment == -32768) return "sky_moments coefficient -32768 is never written";
+  if (any_moment != 0 && !(r.flags & kProbeSkyMoments)) return "sky_moments are not zero without the sky-moments flag";
   uint8_t reserved = 0;
   for (uint8_t b : r.reserved) reserved |= b;
   if (reserved != 0) return "reserved bytes are not zero";

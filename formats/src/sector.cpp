@@ -36,6 +36,7 @@ void writeProbe(ByteWriter& w, const ProbeRecord& r) {
   w.put(r.backface_frac);
   w.put(r.height_cm);
   w.put(r.mean_hit_m);
+  for (int16_t v : r.sky_moments) w.put(v);
   w.bytes(r.reserved, sizeof r.reserved);
   DRTV_CHECK_EQ(w.size() - start, kProbeBytes);
 }
@@ -54,6 +55,7 @@ void readProbe(ByteReader& rd, ProbeRecord& r) {
   rd.get(r.backface_frac);
   rd.get(r.height_cm);
   rd.get(r.mean_hit_m);
+  for (int16_t& v : r.sky_moments) rd.get(v);
   rd.bytes(r.reserved, sizeof r.reserved);
 }
 

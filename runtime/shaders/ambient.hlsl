@@ -4,6 +4,9 @@
 //   glslangValidator -D -V -e main -S frag runtime/shaders/ambient.hlsl -o ambient.hlsl.spv
 // The tests #include this file from a compute entry point and run it as Vulkan compute
 // (bench/common/shaders/ambient_compute.hlsl, which gives the command).
+// The sh-l1 representation (drtv/formats/representation.h): compiled with -DDRTV_SH_L1, the
+// texels hold each channel's band-1 irradiance SH e0..e3 (bytes 1..3 offset binary) and lines
+// S5-S6 replace A5-A9 (the C++ has the same S lines).
 //  [1] Gilabert & Stefanov, "Deferred Radiance Transfer Volumes", GDC 2012.
 
 Texture3D<float4> VolumeTexture_R : register(t0);
@@ -36,6 +39,14 @@ float3 drtvAmbient(float3 posWS, float3 normalWS) {
   float4 fetchR = VolumeTexture_R.SampleLevel(VolumeSampler, volumeUV, 0) * HdrScale;   // A4
   float4 fetchG = VolumeTexture_G.SampleLevel(VolumeSampler, volumeUV, 0) * HdrScale;
   float4 fetchB = VolumeTexture_B.SampleLevel(VolumeSampler, volumeUV, 0) * HdrScale;
+#ifdef DRTV_SH_L1
+  // Bytes 1..3 are 128 + 127 e / HdrScale: fetch.yzw = HdrScale (255 v - 128) / 127.
+  fetchR.yzw = (fetchR.yzw * 255.0 - 128.0 * HdrScale) / 127.0;
+  fetchG.yzw = (fetchG.yzw * 255.0 - 128.0 * HdrScale) / 127.0;
+  fetchB.yzw = (fetchB.yzw * 255.0 - 128.0 * HdrScale) / 127.0;
+  float4 shBasis = float4(1.0, normalWS.y, normalWS.z, normalWS.x);                     // S5
+  return max(float3(dot(shBasis, fetchR), dot(shBasis, fetchG), dot(shBasis, fetchB)), 0.0);  // S6
+#else
   float4 basisWeights;                                                                  // A5
   basisWeights.x = dot(normalWS, Basis_0);
   basisWeights.y = dot(normalWS, Basis_1);
@@ -45,6 +56,7 @@ float3 drtvAmbient(float3 posWS, float3 normalWS) {
   basisWeights.xyz *= saturate(basisWeights.xyz);                                       // A7
   // A8: one texture per channel, RGBA = the four basis intensities.
   return float3(dot(basisWeights, fetchR), dot(basisWeights, fetchG), dot(basisWeights, fetchB));  // A9
+#endif
 }
 
 float4 main(float3 positionWS : TEXCOORD0, float3 normalWS : TEXCOORD1) : SV_Target {

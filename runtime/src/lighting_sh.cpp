@@ -23,8 +23,9 @@ sh::Sh4Rgb projectSkyGradient(const glm::vec3& zenith, const glm::vec3& horizon,
   return out;
 }
 
-sh::Sh4Rgb projectSun(const glm::vec3& dir, const glm::vec3& irradiance, float band1_window) {
+sh::Sh4Rgb projectSun(const glm::vec3& dir, const glm::vec3& irradiance, float band1_window, float band0_scale) {
   sh::Sh4 basis = sh::evaluate(dir);
+  basis.x *= band0_scale;
   basis.y *= band1_window;
   basis.z *= band1_window;
   basis.w *= band1_window;
@@ -38,7 +39,7 @@ float sunHorizonFade(double elevation_rad) {
   return float(t * t * (3.0 - 2.0 * t));
 }
 
-SkyLighting evaluateSky(const Sky& sky, double hour, float band1_window) {
+SkyLighting evaluateSky(const Sky& sky, double hour, float band1_window, float band0_scale) {
   DRTV_CHECK(std::isfinite(hour));
   SkyLighting s;
   double h = std::fmod(hour, 24.0);
@@ -54,7 +55,7 @@ SkyLighting evaluateSky(const Sky& sky, double hour, float band1_window) {
   s.ground_radiance_scale = sky.ground_radiance_scale;
   s.sky_sh = projectSkyGradient(s.sky_zenith, s.sky_horizon, s.ground_radiance_scale);
   s.sky_direct_sh = projectSkyGradient(s.sky_zenith, s.sky_horizon, 1.f);
-  s.sun_sh = projectSun(s.sun_direction, s.sun_irradiance, band1_window);
+  s.sun_sh = projectSun(s.sun_direction, s.sun_irradiance, band1_window, band0_scale);
   return s;
 }
 

@@ -106,6 +106,59 @@ DRTV_HOT_CLONES int32_t relightPlanes(const float* in, float* out, int n, int st
   return *std::max_element(lane_max, lane_max + 16);
 }
 
+// sh-l1: e[c][i][k] = sum_j lc[c][j] M'[c][i][j][k] + d0[c] P0_i[k] + d2[c] P2_i[k] (probe_cache.h),
+// then clamped if `clamp` (e0 to [0, kMaxColour], e1..3 to +-kMaxColour, NaN to 0). Returns the
+// bit pattern of the largest |clamped value| (0 if not clamping).
+inline float clampSigned(float x) {
+  const float y = x > -kMaxColour ? x : -kMaxColour;  // NaN -> -kMaxColour here, fixed below
+  const float z = y < kMaxColour ? y : kMaxColour;
+  return x == x ? z : 0.f;
+}
+DRTV_HOT_CLONES int32_t relightPlanesShL1(const float* in, float* out, int n, int stride, const float (&lc)[3][4],
+                                          const float (&d0)[3], const float (&d2)[3], bool clamp) {
+  int32_t lane_max[16] = {};
+  for (int c = 0; c < 3; ++c)
+    for (int i = 0; i < 4; ++i) {
+      const float* __restrict t0 = in + ((c * 4 + i) * 4 + 0) * stride;
+      const float* __restrict t1 = t0 + stride;
+      const float* __restrict t2 = t1 + stride;
+      const float* __restrict t3 = t2 + stride;
+      const float* __restrict p0 = in + (kTransferPlanes + i) * stride;
+      const float* __restrict p2 = in + (kTransferPlanes + 4 + i) * stride;
+      float* __restrict o = out + (c * 4 + i) * stride;
+      const float l0 = lc[c][0], l1 = lc[c][1], l2 = lc[c][2], l3 = lc[c][3], a = d0[c], b = d2[c];
+      for (int i0 = 0; i0 < n; i0 += 16)
+        for (int j = 0; j < 16; ++j) {
+          const int k = i0 + j;
+          const float x = l0 * t0[k] + l1 * t1[k] + l2 * t2[k] + l3 * t3[k] + a * p0[k] + b * p2[k];
+          if (!clamp) {
+            o[k] = x;
+            continue;
+          }
+          const float y = i == 0 ? clampColour(x) : clampSigned(x);
+          o[k] = y;
+          lane_max[j] = std::max(lane_max[j], std::bit_cast<int32_t>(std::fabs(y)));
+        }
+    }
+  return *std::max_element(lane_max, lane_max + 16);
+}
+
+int32_t clampPlanesShL1(float* out, int n, int stride) {
+  int32_t mx = 0;
+  for (int p = 0; p < kColourPlanes; ++p) {
+    float* o = out + p * stride;
+    for (int k = 0; k < n; ++k) {
+      const float y = p % 4 == 0 ? clampColour(o[k]) : clampSigned(o[k]);
+      o[k] = y;
+      mx = std::max(mx, std::bit_cast<int32_t>(std::fabs(y)));
+    }
+  }
+  return mx;
+}
+
+// The band factors of the clamped cosine (sh.h): irradiance SH e_i = kLobe[i] R_i.
+constexpr float kLobe[4] = {sh::kCosineLobe0, sh::kCosineLobe1, sh::kCosineLobe1, sh::kCosineLobe1};
+
 DRTV_HOT_CLONES int32_t clampPlanes(float* out, int n, int stride) {
   int32_t lane_max[16] = {};
   for (int p = 0; p < kColourPlanes; ++p) {
@@ -229,6 +282,15 @@ Result<void> ProbeCache::addSector(const Sector& sector) {
     return fail(where + ": LPRT block size does not match its probes and sources");
   for (int i = 0; i < n; ++i)
     if (std::string e = validateProbe(sector.probes[i]); !e.empty()) return fail(where + ": probe " + std::to_string(i) + ": " + e);
+  const Representation want = m.opt.representation;
+  for (int i = 0; i < n; ++i) {
+    const Representation got = (sector.probes[i].flags & kProbeSkyMoments) ? Representation::kShL1 : Representation::kFc3;
+    if (got != want)
+      return fail(where + ": probe " + std::to_string(i) + " was baked as " + representationName(got) + ", the runtime reads " +
+                  representationName(want) + " (set it up from the archive's manifest)");
+  }
+  if (want == Representation::kShL1 && sources > 0 && sector.lprt.on_bases)
+    return fail(where + ": sh-l1 needs its LPRT block in SH, this one is on the talk's bases");
   int s = -1;
   for (size_t k = 0; k < m.slots.size(); ++k)
     if (!m.slots[k].used) {
@@ -240,6 +302,7 @@ Result<void> ProbeCache::addSector(const Sector& sector) {
   Slot& sl = m.slots[s];
   sl = Slot{};
   sl.used = true;
+  const bool sh_l1 = m.opt.representation == Representation::kShL1;
   sl.key = sector.key;
   sl.count = n;
   sl.origin = glm::dvec2(sector.key.ix * kSectorSizeM, sector.key.iy * kSectorSizeM);
@@ -265,6 +328,17 @@ Result<void> ProbeCache::addSector(const Sector& sector) {
     if (d.flags & kProbeInterior) sl.designated.push_back(uint8_t(i));
     sl.lo = glm::min(sl.lo, d.position);
     sl.hi = glm::max(sl.hi, d.position);
+    if (sh_l1) {
+      for (int c = 0; c < 3; ++c)
+        for (int r = 0; r < 4; ++r)
+          for (int k = 0; k < 4; ++k) m.inPlane(s, (c * 4 + r) * 4 + k)[i] = kLobe[r] * d.prt[c][r][k];
+      const float p2[4] = {sh::kY0 * d.sky_vis_sh[2], d.sky_moments[0], d.sky_moments[1], d.sky_moments[2]};
+      for (int r = 0; r < 4; ++r) {
+        m.inPlane(s, kTransferPlanes + r)[i] = kLobe[r] * sh::kY0 * d.sky_vis_sh[r];
+        m.inPlane(s, kTransferPlanes + 4 + r)[i] = kLobe[r] * p2[r];
+      }
+      continue;
+    }
     for (int c = 0; c < 3; ++c)
       for (int b = 0; b < 4; ++b)
         for (int k = 0; k < 4; ++k) m.inPlane(s, (c * 4 + b) * 4 + k)[i] = d.prt[c][b][k];
@@ -451,6 +525,33 @@ void ProbeCache::Impl::relightSlot(int s, const RelightInput& li) {
   const bool lprt = !active.empty();
   const int stride = this->stride(s);
   const int n16 = (n + 15) & ~15;
+  if (opt.representation == Representation::kShL1) {
+    float d0[3], d2[3];
+    for (int c = 0; c < 3; ++c) {
+      const bool on = li.components & kComponentDirectSky;
+      d0[c] = on ? li.sky_direct_sh[c][0] : 0.f;
+      d2[c] = on ? li.sky_direct_sh[c][2] : 0.f;
+    }
+    int32_t bits = relightPlanesShL1(inPlane(s, 0), outPlane(s, 0), n16, stride, lc, d0, d2, !lprt);
+    if (lprt) {
+      thread_local std::vector<float> scratch;
+      scratch.assign(size_t(12) * stride, 0.f);
+      for (const Active& a : active) {
+        float colour[12];
+        for (int c = 0; c < 3; ++c)
+          for (int k = 0; k < 4; ++k) colour[c * 4 + k] = a.colour[c];
+        accumulateSource(scratch.data(), sl.lprt.data() + a.j * 12 * stride, sl.lprt_scale.data(), n16, stride, colour);
+      }
+      for (int q = 0; q < 12; ++q) {
+        float* o = outPlane(s, q);
+        const float* x = scratch.data() + size_t(q) * stride;
+        for (int i = 0; i < n; ++i) o[i] += kLobe[q % 4] * x[i];
+      }
+      bits = clampPlanesShL1(outPlane(s, 0), n16, stride);
+    }
+    sl.max_colour = std::bit_cast<float>(bits);
+    return;
+  }
   // Without local lights the clamp happens in the same pass; with them, after the LPRT sums.
   int32_t max_bits = relightPlanes(inPlane(s, 0), outPlane(s, 0), n16, stride, lc, direct, !lprt);
   if (lprt) {
@@ -517,7 +618,7 @@ void ProbeCache::packSlot(int s) {
   uint32_t* out = m.packed.data() + size_t(s) * kSlotProbes * 3;
   for (int i = 0; i < sl.count; ++i)
     for (int c = 0; c < 3; ++c)
-      out[i * 3 + c] = detail::packTexel(m.outPlane(s, c * 4 + 0)[i], m.outPlane(s, c * 4 + 1)[i], m.outPlane(s, c * 4 + 2)[i],
+      out[i * 3 + c] = detail::packTexel(m.opt.representation, m.outPlane(s, c * 4 + 0)[i], m.outPlane(s, c * 4 + 1)[i], m.outPlane(s, c * 4 + 2)[i],
                                  m.outPlane(s, c * 4 + 3)[i], inv);
 }
 
@@ -527,18 +628,29 @@ void ProbeCache::pack(float hdr_scale) {
   m.scale = hdr_scale;
   const float inv = 1.f / hdr_scale;
   for (int c = 0; c < 3; ++c)
-    m.packed_fallback[c] = detail::packTexel(m.fallback[0][c], m.fallback[1][c], m.fallback[2][c], m.fallback[3][c], inv);
+    m.packed_fallback[c] = detail::packTexel(m.opt.representation, m.fallback[0][c], m.fallback[1][c], m.fallback[2][c], m.fallback[3][c], inv);
   for (size_t s = 0; s < m.slots.size(); ++s)
     if (m.slots[s].used) packSlot(int(s));
 }
 
 float ProbeCache::packedScale() const { return impl_->scale; }
+Representation ProbeCache::representation() const { return impl_->opt.representation; }
 void ProbeCache::setFallback(const BasisColours& colours) {
+  const bool sh_l1 = impl_->opt.representation == Representation::kShL1;
   for (int b = 0; b < 4; ++b)
     for (int c = 0; c < 3; ++c) {
       const float x = colours[b][c];
-      impl_->fallback[b][c] = x > 0.f ? std::min(x, kMaxColour) : 0.f;
+      impl_->fallback[b][c] = sh_l1 && b > 0 ? clampSigned(x) : (x > 0.f ? std::min(x, kMaxColour) : 0.f);
     }
+}
+
+glm::vec3 shade(Representation r, const BasisColours& c, const glm::vec3& n) {
+  if (r == Representation::kShL1) {
+    const glm::vec3 e = c[0] + c[1] * n.y + c[2] * n.z + c[3] * n.x;
+    return glm::max(e, glm::vec3(0.f));
+  }
+  const glm::vec4 w = sh::shadingWeights(n);
+  return w.x * c[0] + w.y * c[1] + w.z * c[2] + w.w * c[3];
 }
 const BasisColours& ProbeCache::fallback() const { return impl_->fallback; }
 const std::array<uint32_t, 3>& ProbeCache::packedFallback() const { return impl_->packed_fallback; }

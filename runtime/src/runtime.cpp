@@ -40,9 +40,22 @@ RuntimeOptions optionsForEffects(uint32_t effects) {
   return o;
 }
 
+namespace {
+RuntimeOptions withRepresentation(RuntimeOptions o) {
+  o.cache.representation = o.representation;
+  o.volume.representation = o.representation;
+  if (o.sun_band1_window == kSunLobeOfRepresentation) {
+    const bool linear = o.representation == Representation::kShL1;
+    o.sun_band1_window = linear ? kLinearSunBand1 : kHanningBand1;
+    o.sun_band0_scale = linear ? 0.f : 1.f;
+  }
+  return o;
+}
+}  // namespace
+
 Runtime::Runtime(RuntimeOptions options)
-    : options_(options), cache_(options.cache), volume_(options.volume) {
-  current_ = applied_ = evaluateSky(sky_, hour_, options_.sun_band1_window);
+    : options_(withRepresentation(options)), cache_(options_.cache), volume_(options_.volume) {
+  current_ = applied_ = evaluateSky(sky_, hour_, options_.sun_band1_window, options_.sun_band0_scale);
 }
 
 Result<void> Runtime::setLighting(const Sky& sky, std::vector<PointLight> lights, std::vector<InteriorVolume> interiors) {
@@ -51,7 +64,7 @@ Result<void> Runtime::setLighting(const Sky& sky, std::vector<PointLight> lights
   lights_ = std::move(lights);
   interiors_ = std::move(interiors);
   lights_changed_ = true;  // also forces a relight for a changed sun path or ground scale
-  current_ = evaluateSky(sky_, hour_, options_.sun_band1_window);
+  current_ = evaluateSky(sky_, hour_, options_.sun_band1_window, options_.sun_band0_scale);
   resolveInteriors();
   return {};
 }
@@ -59,7 +72,7 @@ Result<void> Runtime::setLighting(const Sky& sky, std::vector<PointLight> lights
 Result<void> Runtime::setTime(double hour) {
   if (!std::isfinite(hour)) return fail("time of day: " + std::to_string(hour) + " h is not a finite number");
   hour_ = hour;
-  current_ = evaluateSky(sky_, hour_, options_.sun_band1_window);
+  current_ = evaluateSky(sky_, hour_, options_.sun_band1_window, options_.sun_band0_scale);
   return {};
 }
 
@@ -75,13 +88,15 @@ RelightInput Runtime::relightInput() const { return {applied_.sky_sh, applied_.s
 
 void Runtime::rescale() {
   BasisColours fallback{};
+  const bool sh_l1 = options_.representation == Representation::kShL1;
   if (options_.components & kComponentDirectSky)
     for (int b = 0; b < 4; ++b)
       for (int c = 0; c < 3; ++c)
-        fallback[b][c] = std::max(0.f, glm::dot(sh::cosineLobe(sh::kBasis[b]), applied_.sky_sh[c]));
+        fallback[b][c] = sh_l1 ? (b == 0 ? sh::kCosineLobe0 : sh::kCosineLobe1) * applied_.sky_sh[c][b]
+                               : std::max(0.f, glm::dot(sh::cosineLobe(sh::kBasis[b]), applied_.sky_sh[c]));
   cache_.setFallback(fallback);
   float mx = cache_.maxColour();
-  for (const glm::vec3& f : cache_.fallback()) mx = std::max({mx, f.r, f.g, f.b});
+  for (const glm::vec3& f : cache_.fallback()) mx = std::max({mx, std::fabs(f.r), std::fabs(f.g), std::fabs(f.b)});
   cache_.pack(std::max(kMinHdrScale, std::min(mx * options_.hdr_headroom, kMaxColour)));
   volume_.invalidateAll();
 }
@@ -159,9 +174,7 @@ AmbientSample Runtime::ambient(const glm::dvec3& position, const glm::vec3& norm
       s.interior_weight = t;
     }
     if (s.interior >= 0) {
-      const BasisColours c = cache_.colours(interior_probes_[s.interior]);
-      const glm::vec4 w = sh::shadingWeights(n);
-      s.interior_ambient = w.x * c[0] + w.y * c[1] + w.z * c[2] + w.w * c[3];
+      s.interior_ambient = shade(options_.representation, cache_.colours(interior_probes_[s.interior]), n);
       s.irradiance += (s.interior_ambient - s.irradiance) * s.interior_weight;
     }
   }
@@ -176,7 +189,9 @@ std::optional<BasisColours> Runtime::nearestProbeColours(const glm::dvec3& posit
 
 Result<std::unique_ptr<Runtime>> runtimeForArchive(const Manifest& manifest, const RuntimeOptions& options, double hour,
                                                    const std::vector<PointLight>* lights) {
-  auto rt = std::make_unique<Runtime>(options);
+  RuntimeOptions o = options;
+  o.representation = manifest.representation;  // the archive's, whatever the caller picked
+  auto rt = std::make_unique<Runtime>(o);
   if (auto r = rt->setLighting(manifest.sky, lights ? *lights : manifest.lights, manifest.interiors); !r)
     return std::unexpected(r.error());
   if (auto r = rt->setTime(hour); !r) return std::unexpected(r.error());

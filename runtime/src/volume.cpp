@@ -306,7 +306,7 @@ void Volume::fillBoxSmooth(const glm::ivec3& g0, const glm::ivec3& g1, const Pro
             }
           }
         for (int c = 0; c < 3; ++c) {
-          const uint32_t t = detail::packTexel(acc[c * 4 + 0], acc[c * 4 + 1], acc[c * 4 + 2], acc[c * 4 + 3], inv);
+          const uint32_t t = detail::packTexel(options_.representation, acc[c * 4 + 0], acc[c * 4 + 1], acc[c * 4 + 2], acc[c * 4 + 3], inv);
           for (int dz = 0; dz < (sz == 0 ? 2 : 1); ++dz)
             for (int dy = 0; dy < (ya.s == 0 ? 2 : 1); ++dy)
               for (int dx = 0; dx < (xa.s == 0 ? 2 : 1); ++dx)
@@ -509,6 +509,7 @@ void Volume::mirrorBoundary(uint32_t* tex, std::span<const int> xs, std::span<co
 }
 
 void Volume::writeRangeBox(const glm::ivec3& g0, const glm::ivec3& g1, const ProbeCache& cache) {
+  DRTV_CHECK(cache.representation() == options_.representation);  // Runtime sets both from one field
   if (options_.fill == FillMode::kSmooth)
     fillBoxSmooth(g0, g1, cache);
   else
@@ -633,7 +634,14 @@ glm::vec4 tex3D(const Volume& v, int channel, const glm::vec3& uv) {
 // The shader from `ws` (position relative to SnappedCamera, offset applied) to the three fetches.
 std::array<glm::vec4, 3> fetchAt(const Volume& v, const VolumeShaderConstants& k, const glm::vec3& ws) {
   const glm::vec3 uv = glm::fract(ws * k.uv_scale + 0.5f + k.wrap_offset) * k.uv_remap_scale + k.uv_remap_bias;  // A3
-  return {tex3D(v, 0, uv) * k.hdr_scale, tex3D(v, 1, uv) * k.hdr_scale, tex3D(v, 2, uv) * k.hdr_scale};       // A4
+  std::array<glm::vec4, 3> f = {tex3D(v, 0, uv), tex3D(v, 1, uv), tex3D(v, 2, uv)};
+  for (glm::vec4& x : f) {
+    // sh-l1: bytes 1..3 are offset binary (representation.h): (byte - 128) / 127.
+    if (v.options().representation == Representation::kShL1)
+      for (int i = 1; i < 4; ++i) x[i] = (x[i] * 255.f - 128.f) * (1.f / 127.f);
+    x *= k.hdr_scale;  // A4
+  }
+  return f;
 }
 }  // namespace
 
@@ -643,6 +651,11 @@ glm::vec3 sampleVolume(const Volume& volume, const glm::dvec3& position, const g
   const glm::vec3 sampling_offset = normal * normal_offset_m;                      // A1
   const glm::vec3 ws = glm::vec3(position - k.snapped_camera) + sampling_offset;   // A2
   const std::array<glm::vec4, 3> f = fetchAt(volume, k, ws);                       // A3, A4
+  if (volume.options().representation == Representation::kShL1) {
+    // S5-S6: E(n) = max(0, e0 + e1 n.y + e2 n.z + e3 n.x) per channel.
+    const glm::vec4 y(1.f, normal.y, normal.z, normal.x);                          // S5
+    return glm::max(glm::vec3(glm::dot(y, f[0]), glm::dot(y, f[1]), glm::dot(y, f[2])), glm::vec3(0.f));  // S6
+  }
   const glm::vec4 w = sh::shadingWeights(normal);                                  // A5-A7
   return {glm::dot(w, f[0]), glm::dot(w, f[1]), glm::dot(w, f[2])};                // A8, A9
 }

@@ -147,6 +147,48 @@ std::vector<uint8_t> forgeManifest(std::vector<uint8_t> file, size_t manifest_of
   return file;
 }
 
+// The representation (representation.h): fc3 archives stay version 1 without the field (their
+// bytes are those of every earlier build); others are version 2 with it; a code this build does
+// not know is refused with the option to rebake with.
+TEST_F(ArchiveTest, StoresTheRepresentationAsVersion2AndRefusesAnUnknownOne) {
+  const fs::path fc3 = writeSample("fc3.drtv");
+  EXPECT_EQ(*peekArchiveVersion(fc3), kArchiveVersionTalkBasis);
+  EXPECT_EQ(ArchiveReader::open(fc3)->manifest().representation, Representation::kFc3);
+
+  const fs::path path = dir_ / "shl1.drtv";
+  {
+    auto w = ArchiveWriter::create(path);
+    ASSERT_TRUE(w.has_value());
+    ASSERT_TRUE(w->addSector(testing::makeSector({0, 0}, 5, 0, 3)).has_value());
+    Manifest m;
+    m.bounds_max = {64, 64, 10};
+    m.effects = kEffectSunBounce | kEffectSkyBounce;
+    m.representation = Representation::kShL1;
+    ASSERT_TRUE(w->finish(m).has_value());
+  }
+  EXPECT_EQ(*peekArchiveVersion(path), kArchiveVersion);
+  auto r = ArchiveReader::open(path);
+  ASSERT_TRUE(r.has_value()) << r.error().message;
+  EXPECT_EQ(r->manifest().representation, Representation::kShL1);
+  EXPECT_EQ(r->manifest().version, kArchiveVersion);
+
+  std::vector<uint8_t> file = readFile(path);
+  uint64_t manifest_offset = 0;
+  std::memcpy(&manifest_offset, file.data() + 16, 8);
+  std::vector<uint8_t> manifest(file.begin() + ptrdiff_t(manifest_offset), file.end());
+  const size_t code_at = 6 * 8 + 8 + 4;  // bounds, sector size, effects
+  uint32_t code = 0;
+  std::memcpy(&code, manifest.data() + code_at, 4);
+  ASSERT_EQ(code, uint32_t(Representation::kShL1));
+  code = 9;
+  std::memcpy(manifest.data() + code_at, &code, 4);
+  writeFile(path, forgeManifest(file, manifest_offset, manifest));
+  auto bad = ArchiveReader::open(path);
+  ASSERT_FALSE(bad.has_value());
+  EXPECT_NE(bad.error().message.find("representation 9 unknown"), std::string::npos) << bad.error().message;
+  EXPECT_NE(bad.error().message.find("rebake"), std::string::npos) << bad.error().message;
+}
+
 TEST_F(ArchiveTest, AbsurdCountsAreRejectedBeforeAllocating) {
   const fs::path path = writeSample();
   const std::vector<uint8_t> bytes = readFile(path);
@@ -189,7 +231,7 @@ TEST_F(ArchiveTest, RejectsBadMagicAndVersionAndMissingFiles) {
   std::vector<uint8_t> bytes = readFile(path);
   auto v = peekArchiveVersion(path);
   ASSERT_TRUE(v.has_value());
-  EXPECT_EQ(*v, kArchiveVersion);
+  EXPECT_EQ(*v, kArchiveVersionTalkBasis);
   bytes[8] = 9;
   writeFile(path, bytes);
   auto r = ArchiveReader::open(path);

@@ -59,9 +59,10 @@ struct Baked {
   std::vector<Sector> sectors;
 };
 
-// The island baked to an archive in a temporary directory and read back (once for all tests).
-const Baked& bakedIsland() {
-  static const Baked baked = [] {
+// The island baked to an archive in a temporary directory and read back (once for all tests, per
+// representation).
+Baked bakeIsland(Representation representation) {
+  {
     Baked b;
     worlds::IslandOptions io;
     io.size_km2 = 0.09;  // 300 m square: the 3 x 3 sector block is land, shore and sea
@@ -74,6 +75,7 @@ const Baked& bakedIsland() {
     baker::BakeOptions options;
     options.quality = baker::Quality::kDraft;
     options.sectors = raytrace::SectorRange{-1, 1, -1, 1};
+    options.representation = representation;
     auto report = baker::bake(*world, "island", dir / "island.drtv", options);
     EXPECT_TRUE(report.has_value()) << (report ? "" : report.error().message);
     if (report) {
@@ -90,15 +92,20 @@ const Baked& bakedIsland() {
     }
     fs::remove_all(dir);
     return b;
-  }();
-  return baked;
+  }
+}
+const Baked& bakedIsland(Representation representation) {
+  static const Baked fc3 = bakeIsland(Representation::kFc3);
+  if (representation == Representation::kFc3) return fc3;
+  static const Baked sh_l1 = bakeIsland(Representation::kShL1);
+  return sh_l1;
 }
 
 // A runtime for the archive as `drtv query` builds one, lit at kHour, volume on `camera`.
 std::unique_ptr<runtime::Runtime> relit(const Baked& b, const glm::dvec3& camera) {
-  auto rt = std::make_unique<runtime::Runtime>(runtime::optionsForEffects(b.manifest.effects));
-  EXPECT_TRUE(rt->setLighting(b.manifest.sky, b.manifest.lights, b.manifest.interiors).has_value());
-  EXPECT_TRUE(rt->setTime(kHour).has_value());
+  auto made = runtime::runtimeForArchive(b.manifest, runtime::optionsForEffects(b.manifest.effects), kHour);
+  EXPECT_TRUE(made.has_value());
+  std::unique_ptr<runtime::Runtime> rt = std::move(*made);
   for (const Sector& s : b.sectors) EXPECT_TRUE(rt->addSector(s).has_value());
   rt->update(camera);
   return rt;
@@ -187,9 +194,10 @@ struct Comparison {
 // Runs `language`'s shader over the points of both cameras and compares with sampleVolume and,
 // where the runtime's answer is the volume alone, with Runtime::ambient. `perturb` edits the
 // constants the shader gets (to show that the comparison fails on a wrong shader input).
-Comparison compareShader(ShaderLanguage language, void (*perturb)(VolumeConstantsBlock&) = nullptr) {
+Comparison compareShader(ShaderLanguage language, void (*perturb)(VolumeConstantsBlock&) = nullptr,
+                         Representation representation = Representation::kFc3) {
   Comparison out;
-  const Baked& baked = bakedIsland();
+  const Baked& baked = bakedIsland(representation);
   if (baked.sectors.empty()) {
     ADD_FAILURE() << "no baked sectors";
     return out;
@@ -232,8 +240,13 @@ Comparison compareShader(ShaderLanguage language, void (*perturb)(VolumeConstant
     for (size_t i = 0; i < points.size(); ++i) {
       const TestPoint& p = points[i];
       const glm::vec3 cpu = runtime::sampleVolume(volume, p.position, p.normal, offset_m);
+      // How far one 8-bit step in every fetch moves the result: the weights' sum (fc3), or
+      // 1 + (255 / 127) (|n.x| + |n.y| + |n.z|) for sh-l1 (band 1's step is 255/127 of band 0's).
       const glm::vec4 w = sh::shadingWeights(p.normal);
-      const double weight_sum = std::max(1e-3, double(w.x + w.y + w.z + w.w));
+      const double weight_sum =
+          representation == Representation::kShL1
+              ? 1.0 + 255.0 / 127.0 * (std::fabs(p.normal.x) + std::fabs(p.normal.y) + std::fabs(p.normal.z))
+              : std::max(1e-3, double(w.x + w.y + w.z + w.w));
       const glm::dvec3 contrast = footprintContrast(volume, k, p, offset_m);
       double tolerance_steps = kFloatSteps;
       for (int a = 0; a < 3; ++a) {
@@ -280,8 +293,8 @@ Comparison compareShader(ShaderLanguage language, void (*perturb)(VolumeConstant
   return out;
 }
 
-void expectAgreement(ShaderLanguage language) {
-  const Comparison c = compareShader(language);
+void expectAgreement(ShaderLanguage language, Representation representation = Representation::kFc3) {
+  const Comparison c = compareShader(language, nullptr, representation);
   if (c.points == 0) return;  // compareShader said why
   EXPECT_GE(c.points, 10000u);
   EXPECT_GE(c.runtime_points, 3000u) << "too few points where Runtime::ambient is the volume alone";
@@ -293,6 +306,14 @@ void expectAgreement(ShaderLanguage language) {
 TEST(ShaderRun, GlslAmbientAsVulkanComputeMatchesSampleVolumeOnABakedArchive) { expectAgreement(ShaderLanguage::kGlsl); }
 
 TEST(ShaderRun, HlslAmbientAsVulkanComputeMatchesSampleVolumeOnABakedArchive) { expectAgreement(ShaderLanguage::kHlsl); }
+
+TEST(ShaderRun, GlslShL1AmbientMatchesSampleVolumeOnAnShL1Archive) {
+  expectAgreement(ShaderLanguage::kGlsl, Representation::kShL1);
+}
+
+TEST(ShaderRun, HlslShL1AmbientMatchesSampleVolumeOnAnShL1Archive) {
+  expectAgreement(ShaderLanguage::kHlsl, Representation::kShL1);
+}
 
 // The comparison can fail: the same run with the sampling offset a quarter texel too long, or the
 // HDR scale 2 % too high, must exceed the tolerance.

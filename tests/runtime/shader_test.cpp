@@ -39,6 +39,12 @@ TEST(Shaders, HlslAmbientCompilesToSpirv) {
   EXPECT_EQ(compile("-D -V -e main -S frag " + (kShaders / "ambient.hlsl").string()), 0);
 }
 
+TEST(Shaders, ShL1VariantsCompileToSpirv) {
+  if (!haveGlslang()) GTEST_SKIP() << "glslangValidator not installed";
+  EXPECT_EQ(compile("-V -S frag -DDRTV_SH_L1 " + (kShaders / "ambient.glsl").string()), 0);
+  EXPECT_EQ(compile("-D -V -e main -S frag -DDRTV_SH_L1 " + (kShaders / "ambient.hlsl").string()), 0);
+}
+
 TEST(Shaders, BothCarryTheNumberedLinesOfTheCppVersionInOrder) {
   for (const auto& [file, wrap] : {std::pair{"ambient.glsl", "fract("}, std::pair{"ambient.hlsl", "frac("}}) {
     const std::string text = read(kShaders / file);

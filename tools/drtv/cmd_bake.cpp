@@ -1,5 +1,6 @@
 // drtv bake <world.json> -o <archive> [--threads N] [--quality draft|default|high]
 //           [--sectors x0:x1,y0:y1] [--shard k/N] [--merge] [--fresh] [--keep-sectors] [--seed S]
+//           [--representation fc3|sh-l1]
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -23,6 +24,7 @@ struct BakeCliOptions {
   bool fresh = false;
   bool keep_sectors = false;
   uint64_t seed = 1;
+  std::string representation;  // "" = the world's (else fc3)
 };
 
 void drawProgress(size_t done, size_t total) {
@@ -41,6 +43,11 @@ Result<void> runBake(const BakeCliOptions& o) {
   options.quality = *quality;
   options.threads = o.threads;
   options.seed = o.seed;
+  if (!o.representation.empty()) {
+    const auto r = parseRepresentation(o.representation);
+    if (!r) return fail("--representation '" + o.representation + "': expected one of " + representationNames());
+    options.representation = *r;
+  }
   options.fresh = o.fresh;
   options.keep_sector_files = o.keep_sectors;
   options.merge_only = o.merge;
@@ -117,6 +124,9 @@ Command registerBake(CLI::App& app) {
   sub->add_flag("--fresh", o->fresh, "Discard sector journals left by a different bake");
   sub->add_flag("--keep-sectors", o->keep_sectors, "Keep <archive>.sectors/ after packing");
   sub->add_option("--seed", o->seed, "Seed of every random number (default 1)");
+  sub->add_option("--representation", o->representation,
+                  "Directional representation: fc3 (the talk's 4 bases, default) | sh-l1 (band-1 SH irradiance); "
+                  "overrides the world's \"representation\"");
   return {sub, [o]() { return runBake(*o); }, &o->world};
 }
 

@@ -82,6 +82,7 @@ Result<void> runQuery(const QueryOptions& o) {
     j["normal"] = {normal->x, normal->y, normal->z};
     j["time_h"] = *hour;
     j["sectors_loaded"] = sectors.size();
+    j["representation"] = representationName(m.representation);
     j["irradiance"] = rgb(total->irradiance);
     j["path"] = path;
     j["volume_weight"] = total->volume_weight;
@@ -98,6 +99,7 @@ Result<void> runQuery(const QueryOptions& o) {
   std::printf("ambient irradiance at (%.2f, %.2f, %.2f), normal (%.2f, %.2f, %.2f), %s: %.5f %.5f %.5f\n", at->x, at->y,
               at->z, normal->x, normal->y, normal->z, o.time.c_str(), total->irradiance.r, total->irradiance.g,
               total->irradiance.b);
+  std::printf("representation: %s\n", representationName(m.representation));
   std::printf("path: %s (volume weight %.2f)%s%s\n", path, total->volume_weight,
               total->interior >= 0 ? ", interior " : "", total->interior >= 0 ? m.interiors[total->interior].name.c_str() : "");
   for (const Part& p : parts) {

@@ -214,7 +214,7 @@ class Parser {
 };
 
 Result<World> Parser::parse(const json& root) {
-  DRTV_TRY(object(root, "", {"name", "terrain", "island", "primitives", "gltf", "vegetation", "lights", "interiors", "effects", "sky"}));
+  DRTV_TRY(object(root, "", {"name", "terrain", "island", "primitives", "gltf", "vegetation", "lights", "interiors", "effects", "sky", "representation"}));
   DRTV_TRY_DECL(name, optString(root, "name", "", std::filesystem::path(file_).stem().string()));
   world_.name = name;
   if (root.contains("island") && root.contains("terrain")) return error("terrain", "cannot be combined with 'island' (the island has its own terrain)");
@@ -226,6 +226,13 @@ Result<World> Parser::parse(const json& root) {
   if (root.contains("lights")) DRTV_TRY(lights(root.at("lights")));
   if (root.contains("interiors")) DRTV_TRY(interiors(root.at("interiors")));
   if (root.contains("sky")) DRTV_TRY(sky(root.at("sky")));
+  if (root.contains("representation")) {
+    const json& r = root.at("representation");
+    if (!r.is_string()) return error("representation", std::string("expected string, got ") + r.type_name());
+    const auto parsed = parseRepresentation(r.get<std::string>());
+    if (!parsed) return error("representation", "'" + r.get<std::string>() + "': expected one of " + representationNames());
+    world_.representation = *parsed;
+  }
   if (root.contains("effects")) {
     DRTV_TRY(effects(root.at("effects")));
   } else {

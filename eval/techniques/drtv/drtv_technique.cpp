@@ -4,10 +4,15 @@
 //   quality            draft | default | high       the bake preset (BakeSettings::forQuality)
 //   rays_per_basis     integer >= 1                 overrides the preset's transfer rays
 //   bounces            integer >= 1                 overrides the preset's bounces
+//   representation     fc3 | sh-l1                  the directional representation baked
+//                                                   (representation.h; default fc3)
 //   fill               nearest | smooth             the volume fill (runtime FillMode)
 //   texel_m            metres in (0, 1e4]           the volume's horizontal texel size (the
 //                                                   vertical one twice it, as the default 2 x 4 m)
-//   sun_window         hanning | lanczos | none     the band-1 window on the sun's SH
+//   sun_window         hanning | lanczos | none | linear
+//                                                   the sun's SH lobe (lighting_sh.h; default:
+//                                                   the representation's, hanning for fc3,
+//                                                   linear for sh-l1)
 //   part               all | sun_bounce | sky_bounce | direct_sky | local_lights
 //                                                   one relighting term alone (the reference's
 //                                                   parts of the same names)
@@ -18,7 +23,7 @@
 //   storage            runtime | 8-bit | 16-bit | float
 //                                                   the volume's precision, emulated outside the
 //                                                   runtime (nearest fill, no blur, trilinear over
-//                                                   texels, the talk's shading weights)
+//                                                   texels, the talk's shading weights; fc3 only)
 // Registered as "drtv" and as the variants "drtv-nearest" and "drtv-smooth".
 #include <algorithm>
 #include <array>
@@ -40,6 +45,7 @@ using Clock = std::chrono::steady_clock;
 struct BakeParams {
   baker::Quality quality = baker::Quality::kDefault;
   std::optional<int> rays_per_basis, bounces;
+  Representation representation = Representation::kFc3;
   bool operator==(const BakeParams&) const = default;
 };
 
@@ -47,6 +53,7 @@ struct RuntimeParams {
   runtime::FillMode fill = runtime::FillMode::kNearest;
   std::optional<float> texel_m;
   std::optional<float> sun_window;
+  float sun_band0 = 1.f;
   std::optional<uint32_t> part;  // a runtime component
   std::optional<int> sources_per_light;
   std::optional<runtime::LightSources> light_sources;
@@ -94,7 +101,12 @@ Result<Params> parseParams(const TechniqueParams& p) {
       if (v == "hanning") out.runtime.sun_window = runtime::kHanningBand1;
       else if (v == "lanczos") out.runtime.sun_window = runtime::kLanczosBand1;
       else if (v == "none") out.runtime.sun_window = runtime::kNoWindowBand1;
-      else return fail("sun_window=" + v + ": expected hanning, lanczos or none");
+      else if (v == "linear") out.runtime.sun_window = runtime::kLinearSunBand1, out.runtime.sun_band0 = 0.f;
+      else return fail("sun_window=" + v + ": expected hanning, lanczos, none or linear");
+    } else if (k == "representation") {
+      auto r = parseRepresentation(v);
+      if (!r) return fail("representation=" + v + ": expected one of " + representationNames());
+      out.bake.representation = *r;
     } else if (k == "part") {
       if (v == "all") out.runtime.part.reset();
       else if (v == "sun_bounce") out.runtime.part = runtime::kComponentSunBounce;
@@ -122,10 +134,12 @@ Result<Params> parseParams(const TechniqueParams& p) {
       else return fail("storage=" + v + ": expected runtime, 8-bit, 16-bit or float");
     } else {
       return fail("no parameter '" + k +
-                  "' (drtv takes quality, rays_per_basis, bounces, fill, texel_m, sun_window, part, sources_per_light, "
-                  "light_sources, lprt_sources, storage)");
+                  "' (drtv takes quality, rays_per_basis, bounces, representation, fill, texel_m, sun_window, part, "
+                  "sources_per_light, light_sources, lprt_sources, storage)");
     }
   }
+  if (out.bake.representation != Representation::kFc3 && out.runtime.storage_levels >= 0)
+    return fail("storage=...: the storage emulation shades with the talk's weights; it takes representation=fc3 only");
   return out;
 }
 
@@ -133,6 +147,7 @@ baker::BakeSettings bakeSettings(const BakeParams& p, uint64_t seed) {
   baker::BakeSettings s = baker::BakeSettings::forQuality(p.quality, seed);
   if (p.rays_per_basis) s.transfer.probe_rays_per_basis = *p.rays_per_basis;
   if (p.bounces) s.transfer.bounces = *p.bounces;
+  s.transfer.representation = p.representation;
   return s;
 }
 
@@ -240,7 +255,7 @@ class DrtvTechnique final : public Technique {
     const RuntimeParams& p = params_.runtime;
     o.volume.fill = p.fill;
     if (p.texel_m) o.volume.texel_size_m = glm::vec3(*p.texel_m, *p.texel_m, 2.f * *p.texel_m);
-    if (p.sun_window) o.sun_band1_window = *p.sun_window;
+    if (p.sun_window) o.sun_band1_window = *p.sun_window, o.sun_band0_scale = p.sun_band0;
     if (p.part) o.components = *p.part;
     if (p.sources_per_light) o.cache.sources_per_light = *p.sources_per_light;
     if (p.light_sources) o.cache.light_sources = *p.light_sources;

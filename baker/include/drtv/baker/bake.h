@@ -108,6 +108,8 @@ struct BakeOptions {
   bool fresh = false;                    // discard sector journals of a different bake
   bool keep_sector_files = false;        // keep "<archive>.sectors/" after packing
   std::optional<BakeSettings> settings;  // overrides the quality preset (tests)
+  // The directional representation (representation.h); unset = the world's, else kFc3.
+  std::optional<Representation> representation;
   // Called after each sector with (done, total), from one thread at a time. May be empty.
   std::function<void(size_t, size_t)> progress;
 };

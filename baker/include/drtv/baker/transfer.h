@@ -44,6 +44,15 @@
 // i.e. the bounced irradiance on a surface facing B_k (sector.h's kSectorLprtOnBases layout).
 // The light's direct contribution is the runtime's business and is not included.
 //
+// sh-l1 (representation.h): the same rays, weighed for the sphere instead of each basis' lobe.
+// With all 4N rays of a probe and the mixture pdf p(w) = S(w) / (4 pi), S(w) = sum_k max(0, B_k.w)
+// (>= 0.8 everywhere: the four lobes cover the sphere, so the estimator is bounded):
+//   M[c][i][j] = integral Y_i(w) (rho_c(x)/pi) T_x[c][j] dw ~= 1/N sum rho_c(x) T_x[c][j] Y_i(w) / S(w)
+// (the bounced radiance arriving at the probe, projected), sky_moments = 3/(4 pi) integral of
+// (y z, z z, x z) V dw from the escaped rays, and the LPRT block in SH (on_bases = false):
+//   LPRT[p][j][c][i] = 1/N sum rho_c(x) E_j(x) Y_i(w) / S(w).
+// sky_vis keeps its kFc3 meaning (the distant-occlusion tile and the tools read it).
+//
 // Determinism: ray directions are R2 points [pbrt sec. 8.2] (CosineSampler) with a shift keyed by (seed, sector,
 // probe, basis) or (seed, sector, surfel index); all sums run in a fixed order.
 #pragma once
@@ -57,6 +66,7 @@
 #include "drtv/raytrace/ray_scene.h"
 #include "drtv/raytrace/world_geometry.h"
 #include "drtv/formats/probe.h"
+#include "drtv/formats/representation.h"
 
 namespace drtv::baker {
 
@@ -72,6 +82,7 @@ struct TransferSettings {
   bool prt = true;                 // bake T (sun or sky bounce asked for); else T = 0
   bool sky_visibility = true;      // bake v and sky_vis_sh (direct sky asked for); else 0
   uint64_t seed = 1;
+  Representation representation = Representation::kFc3;  // what prt and LPRT hold (see above)
 };
 
 struct TransferStats {

@@ -1,10 +1,14 @@
 // drtv/formats/archive.h — a baked world: one file holding a manifest and zstd-compressed sector
 // payloads, each readable on its own without touching the others (the streamer's unit of I/O).
 //
-// File layout (version 1; integers and floats little-endian; offsets in bytes from file start):
+// File layout (versions 1 and 2; integers and floats little-endian; offsets in bytes from file
+// start). Version 2 differs only by the u32 representation after the effects; a writer writes
+// version 1 for a kFc3 bake (so that its bytes are those of every earlier build) and version 2
+// otherwise (so that a version-1-only reader refuses it, naming the version). A version-1 archive
+// reads as kFc3.
 //
 //    0   8  char    magic "DRTVARC\0"
-//    8   4  uint32  version (1)
+//    8   4  uint32  version (1 or 2)
 //   12   4  uint32  header size (64)
 //   16   8  uint64  manifest offset
 //   24   8  uint64  manifest size
@@ -16,6 +20,9 @@
 //             f64 bounds min[3], max[3]   world metres
 //             f64 sector size             64
 //             u32 effects                 drtv::Effect mask baked into this archive
+//             u32 representation          (version 2 only) drtv::Representation code; a code
+//                                         this build does not know is refused, naming the codes
+//                                         it reads and the option to rebake with
 //             u32 settings count          then per setting: u16 key length, key, u32 value
 //                                         length, value (UTF-8; bake settings for reports)
 //             lighting (lighting.h), so that relighting needs no world file:
@@ -44,11 +51,15 @@
 #include "drtv/formats/effects.h"
 #include "drtv/formats/error.h"
 #include "drtv/formats/lighting.h"
+#include "drtv/formats/representation.h"
 #include "drtv/formats/sector.h"
 
 namespace drtv {
 
-inline constexpr uint32_t kArchiveVersion = 1;
+inline constexpr uint32_t kArchiveVersion = 2;          // the newest version this build reads and writes
+inline constexpr uint32_t kArchiveVersionTalkBasis = 1;  // written for kFc3 bakes (no representation field)
+// The version a writer writes for `r`.
+inline uint32_t archiveVersionFor(Representation r) { return r == Representation::kFc3 ? kArchiveVersionTalkBasis : kArchiveVersion; }
 inline constexpr size_t kArchiveHeaderBytes = 64;
 inline constexpr size_t kArchiveSectorEntryBytes = 40;
 
@@ -63,10 +74,11 @@ struct SectorEntry {
 };
 
 struct Manifest {
-  uint32_t version = kArchiveVersion;
+  uint32_t version = kArchiveVersion;            // as read (1 or 2); the writer sets it from the representation
   glm::dvec3 bounds_min{0.0}, bounds_max{0.0};  // world metres
   double sector_size_m = kSectorSizeM;
   uint32_t effects = 0;                         // drtv::Effect mask baked
+  Representation representation = Representation::kFc3;  // representation.h: how probes are baked
   std::vector<std::pair<std::string, std::string>> settings;  // bake settings, in order
   Sky sky = Sky::tropicalDefault();             // the world's sun path and sky gradients
   std::vector<PointLight> lights;               // dynamic point lights (LPRT sources' users)

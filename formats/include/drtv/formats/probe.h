@@ -21,7 +21,10 @@
 //   138     2  uint16  height_cm       height above the surface below the probe, centimetres
 //                                      (0 .. 655.35 m), for the distant-occlusion tile
 //   140     4  float32 mean_hit_m      mean distance to the first hit of the bake rays that hit, [0, 1e7] m
-//   144     8  uint8   reserved[8]     zero; rejected when non-zero (room for version 2)
+//   144     6  int16   sky_moments[3]  snorm16 x 1: (3/4pi) integral of (y z, z z, x z) V dw, the sky
+//                                      visibility's second moments (representation.h, sh-l1);
+//                                      non-zero only with kProbeSkyMoments, else rejected
+//   150     2  uint8   reserved[2]     zero; rejected when non-zero
 //   152
 #pragma once
 
@@ -42,8 +45,9 @@ enum ProbeFlag : uint16_t {
   kProbeVegetation = 1u << 1,    // placed on a vegetation bounding box
   kProbeInterior = 1u << 2,      // the designated probe of an interior volume
   kProbeManual = 1u << 3,        // added by hand rather than by placement rays
+  kProbeSkyMoments = 1u << 4,    // sky_moments holds the visibility moments (an sh-l1 bake)
 };
-inline constexpr uint16_t kProbeKnownFlags = 0x000f;
+inline constexpr uint16_t kProbeKnownFlags = 0x001f;
 
 // Snorm range of sky_vis_sh (see the table above).
 inline constexpr float kSkyVisShRange = 4.f;
@@ -75,11 +79,13 @@ struct ProbeRecord {
   uint16_t backface_frac;
   uint16_t height_cm;
   float mean_hit_m;
-  uint8_t reserved[8];
+  int16_t sky_moments[3];
+  uint8_t reserved[2];
 };
 static_assert(sizeof(ProbeRecord) == 152, "probe record is 152 bytes (talk slide 22)");
 static_assert(offsetof(ProbeRecord, prt) == 20 && offsetof(ProbeRecord, sky_vis) == 116 &&
-                  offsetof(ProbeRecord, lprt_range) == 132 && offsetof(ProbeRecord, reserved) == 144,
+                  offsetof(ProbeRecord, lprt_range) == 132 && offsetof(ProbeRecord, sky_moments) == 144 &&
+                  offsetof(ProbeRecord, reserved) == 150,
               "byte layout as drawn above");
 
 // The unpacked, float form of a probe: what the baker produces and the runtime reads.
@@ -93,12 +99,14 @@ struct ProbeData {
   float backface_frac = 0.f;                     // [0,1]
   float height_m = 0.f;                          // [0, 655.35]
   float mean_hit_m = 0.f;
+  glm::vec3 sky_moments{0.f};                    // (yz, zz, xz) moments in [-1, 1] (with kProbeSkyMoments)
 };
 
 // Packs `p`, choosing prt_range as the largest |coefficient| (or 1 when all are 0), kept in
 // [kMinQuantizationRange, kMaxPrtRange]. Values are clamped to their documented ranges; NaN
 // becomes 0 (a bug upstream; packing stays total).
-// lprt_range is set to 0: the LPRT block's packer fills it.
+// lprt_range is set to 0: the LPRT block's packer fills it. sky_moments are written only when
+// flags has kProbeSkyMoments (else the bytes stay zero, as a talk-basis record has them).
 ProbeRecord packProbe(const ProbeData& p);
 
 // Unpacks a record. Precondition: the record was validated (validateProbe) or packed here.
@@ -106,7 +114,8 @@ ProbeData unpackProbe(const ProbeRecord& r);
 
 // Checks a record read from untrusted bytes: finite position with x, y in [0, 64] and |z| < 1e6,
 // known flags, prt_range in [kMinQuantizationRange, kMaxPrtRange], lprt_range 0 or in
-// [kMinQuantizationRange, kMaxLprtRange], mean_hit_m in [0, kMaxMeanHitM], zero reserved bytes,
+// [kMinQuantizationRange, kMaxLprtRange], mean_hit_m in [0, kMaxMeanHitM], zero reserved bytes, zero sky_moments
+// without kProbeSkyMoments,
 // and no int16 -32768 (never written). NaN fails every range. Returns an empty string when valid,
 // else what is wrong, naming the field (the caller adds file, sector and byte offset).
 std::string validateProbe(const ProbeRecord& r);

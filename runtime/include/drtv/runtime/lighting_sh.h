@@ -35,6 +35,13 @@
 // (sigma = sinc(1/2) = 2/pi) rings to -0.068 E and the raw delta (w1 = 1, the L2-optimal fit) to
 // -0.25 E. Band 0 is never scaled, so the sun's energy (its mean irradiance) is exact.
 //
+// The linear sun (band0_scale 0, band1_window 2; measured for sh-l1, docs/accuracy.md "Sun"):
+// SH E [0, 2 Y1 d], so that a transfer equal to one clamped-cosine lobe about m gives E cos(d, m):
+// exact on every unshadowed surface that faces the sun (the ground under a sun at any elevation,
+// where the windowed lobe gives E (1 + sin e) / 4, -50 % at noon), -E |cos| on those facing away
+// (which the end-of-sum clamp does not undo). Not energy-conserving over all orientations; it
+// trades the windowed lobe's error on lit surfaces for one on surfaces facing away.
+//
 // Sun below the horizon: the sun is faded out smoothly as its centre goes from 2 deg above to
 // 0.83 deg below the horizon (0.83 deg = atmospheric refraction 0.57 deg + the sun's semi-diameter
 // 0.27 deg, the standard "sunset" elevation), so that a gradient that still has sun colour after
@@ -51,6 +58,7 @@ namespace drtv::runtime {
 inline constexpr float kHanningBand1 = 0.5f;             // (1 + cos(pi/2)) / 2
 inline constexpr float kLanczosBand1 = 0.636619772f;     // sinc(1/2) = 2 / pi
 inline constexpr float kNoWindowBand1 = 1.f;
+inline constexpr float kLinearSunBand1 = 2.f;   // with band0_scale 0: the linear sun (above)
 inline constexpr double kSunFadeTopRad = 0.0349066;      // 2 deg: fully on above this elevation
 inline constexpr double kSunFadeBottomRad = -0.0144862;  // -0.83 deg: fully off below this
 
@@ -61,8 +69,9 @@ sh::Sh4 projectSkyGradient(float zenith, float horizon, float ground_scale);
 sh::Sh4Rgb projectSkyGradient(const glm::vec3& zenith, const glm::vec3& horizon, float ground_scale);
 
 // SH of a sun of irradiance `irradiance` (at normal incidence) arriving from unit direction `dir`
-// (towards the sun), band 1 scaled by `band1_window` in [0, 1]. Pure, thread-safe.
-sh::Sh4Rgb projectSun(const glm::vec3& dir, const glm::vec3& irradiance, float band1_window);
+// (towards the sun), band 1 scaled by `band1_window` in [0, 2] (above 1 only for the linear sun),
+// band 0 by `band0_scale` in [0, 1]. Pure, thread-safe.
+sh::Sh4Rgb projectSun(const glm::vec3& dir, const glm::vec3& irradiance, float band1_window, float band0_scale = 1.f);
 
 // The sun's below-horizon fade in [0, 1] for a sun at elevation `elevation_rad` (smoothstep from
 // kSunFadeBottomRad to kSunFadeTopRad). NaN reads as 0.
@@ -86,7 +95,7 @@ struct SkyLighting {
 // Evaluates `sky` at `hour` (any finite real, taken modulo 24). Precondition: `sky` passed
 // validateLighting and `hour` is finite (bugs otherwise; Runtime checks both and returns errors).
 // Thread-safe.
-SkyLighting evaluateSky(const Sky& sky, double hour, float band1_window = kHanningBand1);
+SkyLighting evaluateSky(const Sky& sky, double hour, float band1_window = kHanningBand1, float band0_scale = 1.f);
 
 // How far lighting moved from `from` to `to`: the largest absolute change of any sky or sun SH
 // coefficient divided by the largest band-0 coefficient of either (so 1/255 is about one step of

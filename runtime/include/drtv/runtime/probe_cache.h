@@ -23,6 +23,17 @@
 // Packing then converts each probe once to three RGBA8 texels (one per colour channel, RGBA =
 // the four basis intensities) for the volume fill to gather by index.
 //
+// sh-l1 (representation.h): the same planes hold M'[c][i][j] = A_i M[c][i][j] (A = the clamped
+// cosine's band factors pi Y0, 2pi/3 Y1, so that the output is irradiance SH e) and, in planes
+// 48..55, the direct sky's per-probe factors P0_i = A_i Y0 s_i and P2_i = A_i (i = 0: Y0 s_2;
+// i = 1..3: the moments m_yz, m_zz, m_xz) with s = sky_vis_sh. Then, per channel c and i:
+//   e[c][i] = sum_j (SkySH[c][j] + SunSH[c][j]) M'[c][i][j]                     bounce
+//           + SkyDirectSH[c][0] P0_i + SkyDirectSH[c][2] P2_i                   direct sky
+//           + sum_j light[j][c] A_i LPRT_sh[j][c][i]                             local lights
+// exact for the band-1 projection of the masked sky because the sky's SH has Y00 and Y10 only
+// (lighting_sh.h; its Y1-1 and Y11 are ignored here). Clamping at the end: e0 to [0, kMaxColour],
+// e1..3 to [-kMaxColour, kMaxColour] (E(n) itself is clamped at 0 where it is evaluated, shade()).
+//
 // Local lights [2]: a light's intensity is distributed onto LPRT source probes within its radius:
 // the `sources_per_light` nearest candidates (default 4) with weights w = (1 - (d/R)^2)^2,
 // normalised to sum to 1 so that the light's energy is kept. The weight is finite and largest (1)
@@ -49,6 +60,7 @@
 
 #include "drtv/formats/error.h"
 #include "drtv/formats/lighting.h"
+#include "drtv/formats/representation.h"
 #include "drtv/formats/sector.h"
 #include "drtv/formats/sh.h"
 
@@ -57,7 +69,7 @@ namespace drtv::runtime {
 inline constexpr int kMaxResidentSectors = 51;  // DESIGN.md: at most 51 resident sectors
 inline constexpr int kSlotProbes = 256;         // plane length per slot: >= 255 probes, 64-byte multiple
 inline constexpr int kTransferPlanes = 48;      // T[c][b][k]
-inline constexpr int kInputPlanes = kTransferPlanes + 4;  // + v[b]
+inline constexpr int kInputPlanes = kTransferPlanes + 8;  // + v[b] (fc3) or P0_i, P2_i (sh-l1)
 inline constexpr int kColourPlanes = 12;        // colour[c][b]
 // Relit colours are clamped to this, so that no finite input gives Inf downstream (an HDR scale
 // times 255 times three channels stays far inside float range).
@@ -73,8 +85,14 @@ enum Component : uint32_t {
 };
 inline constexpr uint32_t kAllComponents = 0xf;
 
-// A probe's relit colours: irradiance (linear RGB) at a virtual surface facing each basis B0..B3.
+// A probe's relit colours. kFc3: irradiance (linear RGB) at a virtual surface facing each basis
+// B0..B3. kShL1: the band-1 irradiance SH e0..e3 per channel (representation.h).
 using BasisColours = std::array<glm::vec3, 4>;
+
+// Irradiance (linear RGB) for unit normal `n` from four colours in representation `r`: kFc3, the
+// talk's shading weights (sh::shadingWeights); kShL1, max(0, e0 + e1 n.y + e2 n.z + e3 n.x) per
+// channel. Pure, thread-safe.
+glm::vec3 shade(Representation r, const BasisColours& colours, const glm::vec3& n);
 
 // The lighting one relight uses.
 struct RelightInput {
@@ -100,6 +118,7 @@ struct ProbeCacheOptions {
   int max_sectors = kMaxResidentSectors;  // slots; memory is reserved for all of them up front
   int sources_per_light = 4;              // LPRT source probes that share one light, 1..64
   LightSources light_sources = LightSources::kVisibleFromLight;
+  Representation representation = Representation::kFc3;  // what the added sectors were baked in
 };
 
 // One light's share on one source probe (the output of distributeLights).
@@ -117,7 +136,8 @@ class ProbeCache {
 
   // Copies `sector` into a free slot (dequantising its probes once). Its colours are black until
   // it is relit. Errors: the key is already resident; all slots are used; a grid cell names a
-  // probe that does not exist; an LPRT block whose size does not match.
+  // probe that does not exist; an LPRT block whose size does not match; a sector baked in another
+  // representation than the cache's (kProbeSkyMoments marks sh-l1 probes; sh-l1 LPRT is in SH).
   Result<void> addSector(const Sector& sector);
   // Frees the sector's slot; false if it was not resident.
   bool removeSector(SectorKey key);
@@ -141,12 +161,13 @@ class ProbeCache {
   float maxColour(int slot) const;
   float maxColour() const;
 
-  // Converts relit colours to RGBA8 texels with `hdr_scale` (> 0): byte = round(255 min(1,
-  // colour / hdr_scale)). The fallback colours (what a volume texel with no probe holds) are
-  // packed too.
+  // Converts relit colours to RGBA8 texels with `hdr_scale` (> 0): kFc3, byte = round(255 min(1,
+  // colour / hdr_scale)); kShL1 as representation.h. The fallback colours (what a volume texel
+  // with no probe holds) are packed too.
   void pack(float hdr_scale);
   void packSlot(int slot);  // with the scale of the last pack()
   float packedScale() const;
+  Representation representation() const;
   void setFallback(const BasisColours& colours);
   const BasisColours& fallback() const;
   const std::array<uint32_t, 3>& packedFallback() const;

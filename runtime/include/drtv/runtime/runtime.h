@@ -21,7 +21,7 @@
 //   distant = distantAmbient (sky irradiance x top-down occlusion, occlusion.h);
 //   a       = mix(distant, volume, weight);
 //   interior: inside an artist InteriorVolume with a resolved designated probe, the probe's own
-//             colours weighted by the shading weights; blended in over blend_distance_m from the
+//             colours shaded for the normal (shade(): the shading weights, or sh-l1's E(n)); blended in over blend_distance_m from the
 //             box faces inward: result = mix(a, interior, saturate(depth / blend_distance_m)).
 //
 // Thread-safety: one writer thread calls the non-const members. ambient(), nearestProbe() and the
@@ -49,13 +49,23 @@
 
 namespace drtv::runtime {
 
+inline constexpr float kSunLobeOfRepresentation = -1.f;  // RuntimeOptions::sun_band1_window
+
 // The relighting components a world's effect mask asks for (effects.h -> probe_cache.h).
 uint32_t componentsFromEffects(uint32_t effects);
 
 struct RuntimeOptions {
+  // The archive's directional representation (representation.h); the Runtime copies it into
+  // `cache` and `volume` (theirs are ignored). runtimeForArchive sets it from the manifest.
+  Representation representation = Representation::kFc3;
   VolumeOptions volume;                       // size, texel size, fill mode, blur
   ProbeCacheOptions cache;                    // resident slots, sources per light
-  float sun_band1_window = kHanningBand1;     // lighting_sh.h: why Hanning
+  // The sun's SH lobe (lighting_sh.h). kSunLobeOfRepresentation: the representation's own, set by
+  // the Runtime: fc3 the Hanning window (band 0 x 1, band 1 x 1/2: why, lighting_sh.h), sh-l1 the
+  // linear sun (band 0 x 0, band 1 x 2: the plane cases and scenes, docs/accuracy.md "Sun").
+  // Any other value is used as given, with sun_band0_scale.
+  float sun_band1_window = kSunLobeOfRepresentation;
+  float sun_band0_scale = 1.f;
   uint32_t components = kAllComponents;       // relighting terms evaluated
   uint32_t effects = kAllEffects;             // interiors and distant occlusion are honoured here
   // Relight when lightingChange exceeds this: 1/512 is half an 8-bit step of the brightest light,
@@ -145,7 +155,8 @@ class Runtime {
 };
 
 // The one way a runtime is set up from an archive (the engine's, `drtv query`'s, the fly-through's,
-// the evaluation's): `options` (optionsForEffects(manifest.effects) for what an engine picks), lit
+// the evaluation's): `options` (optionsForEffects(manifest.effects) for what an engine picks) with
+// the manifest's representation, lit
 // by the manifest's sky, its lights (or `lights` instead when given) and its interiors at `hour`.
 // The caller then adds the sectors it holds. Errors: unsound lighting, a non-finite hour.
 Result<std::unique_ptr<Runtime>> runtimeForArchive(const Manifest& manifest, const RuntimeOptions& options, double hour,

@@ -55,6 +55,9 @@ struct VolumeOptions {
   glm::vec3 texel_size_m{2.f, 2.f, 4.f};   // world metres per texel, > 0 (see the header)
   FillMode fill = FillMode::kNearest;
   bool blur = false;                       // 3x3x3 [1 2 1] blur of the texels (talk slide 60)
+  // What the texels hold (representation.h); must equal the cache's. The fill, scroll and blur
+  // move bytes and are the same for both (sh-l1's offset-binary bytes blend linearly).
+  Representation representation = Representation::kFc3;
 };
 
 // What the shader needs (the talk's names, slide 40, plus the remap for the duplicated boundary):
@@ -133,12 +136,14 @@ class Volume {
 
 // The talk's ambient shader on the CPU [1, slides 40-44]: the volume sampled at the normal-offset
 // position with trilinear filtering and the frac wrap, the basis weights with the down-basis wrap
-// (sh::shadingWeights), ambient = sum_b w_b colour_b. Irradiance, linear RGB. `normal` is unit.
+// (sh::shadingWeights), ambient = sum_b w_b colour_b; for sh-l1 the bytes decoded as
+// representation.h says and E(n) = max(0, e0 + e1 n.y + e2 n.z + e3 n.x) (shade()). Irradiance,
+// linear RGB. `normal` is unit.
 // Only meaningful where coverage() > 0. Thread-safe (const).
 glm::vec3 sampleVolume(const Volume& volume, const glm::dvec3& position, const glm::vec3& normal, float normal_offset_m);
 
-// The four basis colours the hardware would fetch at `position` (no normal offset): what
-// sampleVolume weighs. Exposed for tests and the query tool.
+// The four colours the hardware would fetch at `position` (no normal offset), decoded (kFc3: basis
+// intensities; kShL1: e0..e3): what sampleVolume shades. Exposed for tests and the query tool.
 BasisColours fetchVolume(const Volume& volume, const glm::dvec3& position);
 
 }  // namespace drtv::runtime

@@ -12,7 +12,10 @@
 
 #include <glm/glm.hpp>
 
+#include <optional>
+
 #include "drtv/formats/effects.h"
+#include "drtv/formats/representation.h"
 #include "drtv/formats/lighting.h"
 
 namespace drtv::worlds {
@@ -73,6 +76,9 @@ struct World {
   std::vector<InteriorVolume> interiors;
   uint32_t effects = 0;            // drtv::Effect mask in force (see defaultEffects)
   bool effects_explicit = false;   // true when the source named them, false when derived
+  // The directional representation to bake in ("representation": "fc3" | "sh-l1" in a world
+  // file); unset = kFc3, unless `drtv bake --representation` says otherwise.
+  std::optional<Representation> representation;
   // What the loaders skipped or repaired, one line each, for reports: "skipped: PalmTree.gltf:
   // mesh 'Leaves' primitive 1: mode 1 (lines)", "dropped: ...: 3 zero-area triangles".
   std::vector<std::string> notes;

@@ -1,16 +1,28 @@
-// The sweep (sweep.h). Layout: every per-level buffer is a padded plane of (nx + 2 kPad) x
-// (ny + 2 kPad) floats, one plane per direction and channel, so that a gather over a row is a
-// contiguous loop; the pad ring holds the edges' light.
+// The sweep (sweep.h), laid out for the loops that read it:
+//  - the light flowing from one level to the next is a padded plane of (nx + 2 kPad) x
+//    (ny + 2 kPad) floats per direction and channel (the pad ring holds the edges' light), so that
+//    a row's gather is a contiguous loop per tap;
+//  - a row's gathered light is structure-of-arrays (direction, channel, x): empty cells pass it on
+//    with row copies, packing and averaging are loops over x, and only the cells with material
+//    take the per-cell reflection;
+//  - a path's transmittance through the cells it crosses, the product of their (1 - d)^len, comes
+//    from factor planes made once per level, one per distinct crossed length (exp only in cells of
+//    fractional density), and is skipped where the rows crossed hold no material. The first
+//    version took exp of the summed optical depth per path, cell and channel: the same quantity up
+//    to float rounding (tests/sweep/sweep_reference_test.cpp compares the two);
+//  - the cell's own pass-through, (1 - d)^l, by its 5 distinct path lengths, not per direction.
 #include "drtv/sweep/sweep.h"
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <vector>
 
 #include <glm/gtc/packing.hpp>
 
 #include "drtv/formats/error.h"
+#include "small_float.h"
 
 namespace drtv::sweep {
 namespace {
@@ -26,6 +38,7 @@ struct Crossed {
   int dx, dy;
   bool src_level;
   float len;
+  int len_id = -1;  // its length's factor plane (Sweeper::crossed_len_)
 };
 struct Tap {
   int ox, oy;  // source offset from the target, cells
@@ -35,7 +48,8 @@ struct Tap {
 struct BinPath {
   int bin;
   std::array<Tap, kTaps> taps;
-  float target_len;  // the path length the target cell itself attenuates
+  float target_len;      // the path length the target cell itself attenuates
+  int target_len_id = -1;  // Sweeper::target_len_
 };
 
 BinPath makePath(int bin, float smoothing) {
@@ -99,6 +113,9 @@ class Edges {
           direct_[dst] = d;
         }
   }
+
+  // Whether the edges' light is the same at every level (the open sky).
+  bool sameAtEveryLevel() const { return parent_ == nullptr; }
 
   // The light of the cells (i, j) in `cells` at grid level k (may be -1 or size.z) for `bins`,
   // into planes[b * 3 + c][plane index].
@@ -167,8 +184,57 @@ struct Pass {
   std::vector<BinPath> paths;
   bool direct = false;
   std::vector<float> src, dst;  // bins.size() * 3 planes
-  std::vector<float> acc;       // bins.size() * 3 rows of nx: one row's gathered light
+  std::vector<float> acc;       // bins.size() * 3 rows of nx: a row's gathered light, then what it stores
 };
+
+// Rows of n floats: a[x] = sum over the 5 taps of w_t s_t[x], in tap order (the reference's order
+// of accumulation), with per-x weights or, where no crossed cell holds material, constant ones.
+void weightedTaps(float* __restrict a, const std::array<const float*, kTaps>& s, const std::array<const float*, kTaps>& w, int n) {
+  const float* __restrict s0 = s[0];
+  const float* __restrict s1 = s[1];
+  const float* __restrict s2 = s[2];
+  const float* __restrict s3 = s[3];
+  const float* __restrict s4 = s[4];
+  const float* __restrict w0 = w[0];
+  const float* __restrict w1 = w[1];
+  const float* __restrict w2 = w[2];
+  const float* __restrict w3 = w[3];
+  const float* __restrict w4 = w[4];
+  for (int x = 0; x < n; ++x) a[x] = w0[x] * s0[x] + w1[x] * s1[x] + w2[x] * s2[x] + w3[x] * s3[x] + w4[x] * s4[x];
+}
+void constantTaps(float* __restrict a, const std::array<const float*, kTaps>& s, const std::array<float, kTaps>& w, int n) {
+  const float* __restrict s0 = s[0];
+  const float* __restrict s1 = s[1];
+  const float* __restrict s2 = s[2];
+  const float* __restrict s3 = s[3];
+  const float* __restrict s4 = s[4];
+  const float w0 = w[0], w1 = w[1], w2 = w[2], w3 = w[3], w4 = w[4];
+  for (int x = 0; x < n; ++x) a[x] = w0 * s0[x] + w1 * s1[x] + w2 * s2[x] + w3 * s3[x] + w4 * s4[x];
+}
+
+// Adds one direction's stored light (rows r, g, b of n) to a row's sums (7 rows of n: rgb,
+// luminance, luminance times the unit source direction `from`), in the order of Sweeper::add.
+void addRow(float* __restrict sums, int n, const float* __restrict r, const float* __restrict g, const float* __restrict b,
+            const glm::vec3& from) {
+  float* __restrict sr = sums;
+  float* __restrict sg = sums + n;
+  float* __restrict sb = sums + 2 * n;
+  float* __restrict sl = sums + 3 * n;
+  float* __restrict sx = sums + 4 * n;
+  float* __restrict sy = sums + 5 * n;
+  float* __restrict sz = sums + 6 * n;
+  const float fx = from.x, fy = from.y, fz = from.z;
+  for (int x = 0; x < n; ++x) {
+    sr[x] += r[x];
+    sg[x] += g[x];
+    sb[x] += b[x];
+    const float l = 0.2126f * r[x] + 0.7152f * g[x] + 0.0722f * b[x];
+    sl[x] += l;
+    sx[x] += l * fx;
+    sy[x] += l * fy;
+    sz[x] += l * fz;
+  }
+}
 
 class Sweeper {
  public:
@@ -177,20 +243,33 @@ class Sweeper {
     DRTV_CHECK(g_.size.x >= 1 && g_.size.y >= 1 && g_.size.z >= 1 && g_.cell_m > 0);
     DRTV_CHECK_EQ(m.density.size(), g_.cellCount());
     DRTV_CHECK_EQ(m.reflectance.size(), g_.cellCount());
+    nx_ = g_.size.x;
     w_ = g_.size.x + 2 * kPad;
     h_ = g_.size.y + 2 * kPad;
     plane_ = size_t(w_) * size_t(h_);
-    // Optical depth per cell length, padded; outside the grid's sides: clear.
+    // Optical depth per cell length, padded; outside the grid's sides: clear. Per level and padded
+    // row, the span of cells with material (row_lo_ > row_hi_: none), and the cells of fractional
+    // density (the only ones whose factors need exp).
     sigma_.assign(plane_ * size_t(g_.size.z), 0.f);
     level_has_material_.assign(size_t(g_.size.z), 0);
+    row_lo_.assign(size_t(g_.size.z) * size_t(h_), w_);
+    row_hi_.assign(size_t(g_.size.z) * size_t(h_), -1);
+    fractional_.resize(size_t(g_.size.z));
     for (int k = 0; k < g_.size.z; ++k)
       for (int j = 0; j < g_.size.y; ++j)
         for (int i = 0; i < g_.size.x; ++i) {
           const float d = m.density[g_.index(i, j, k)];
           DRTV_CHECK(d >= 0.f && d <= 1.f);
           const float s = d >= 1.f ? kInf : -std::log1p(-d);
-          sigma_[size_t(k) * plane_ + size_t(j + kPad) * size_t(w_) + size_t(i + kPad)] = s;
-          if (s > 0) level_has_material_[size_t(k)] = 1;
+          const size_t pi = size_t(j + kPad) * size_t(w_) + size_t(i + kPad);
+          sigma_[size_t(k) * plane_ + pi] = s;
+          if (s > 0) {
+            level_has_material_[size_t(k)] = 1;
+            const size_t r = size_t(k) * size_t(h_) + size_t(j + kPad);
+            row_lo_[r] = std::min(row_lo_[r], i + kPad);
+            row_hi_[r] = std::max(row_hi_[r], i + kPad);
+            if (s < kInf) fractional_[size_t(k)].push_back(uint32_t(pi));
+          }
         }
     for (int j = -kPad; j < g_.size.y + kPad; ++j)
       for (int i = -kPad; i < g_.size.x + kPad; ++i) {
@@ -204,17 +283,29 @@ class Sweeper {
       for (int o = 0; o < kDirections; ++o)
         a += dirs[size_t(o)].solid_angle_sr * glm::dot(dirs[size_t(o)].travel, dirs[size_t(b)].travel);
       cos_sum_[size_t(b)] = a;
+      travel_[size_t(b)] = dirs[size_t(b)].travel;
+      omega_[size_t(b)] = dirs[size_t(b)].solid_angle_sr;
+      unit_from_[size_t(b)] = glm::normalize(dirs[size_t(b)].mean_from);
     }
     full_.direct = false;
     for (int b = 0; b < kSwept; ++b) full_.bins.push_back(b);
     direct_.direct = true;
+    direct_of_bin_.fill(-1);
     if (!o_.direct_sun || o_.keep_direct)
       for (int b = 0; b < kSwept; ++b)
-        if (sky.sun[size_t(b)] != glm::vec3(0.f)) direct_.bins.push_back(b);
+        if (sky.sun[size_t(b)] != glm::vec3(0.f)) {
+          direct_of_bin_[size_t(b)] = int(direct_.bins.size());
+          direct_.bins.push_back(b);
+        }
     for (Pass* p : {&full_, &direct_}) setUp(*p);
     up_.direct = false;
     for (int b = kSwept; b < kDirections; ++b) up_.bins.push_back(b);
     if (o_.bottom_up) setUp(up_);
+    weights_.assign(size_t(kTaps) * size_t(nx_), 0.f);
+    codes_.assign(size_t(kSwept) * size_t(nx_), 0u);
+    row_sums_.assign(size_t(kSums) * size_t(nx_), 0.f);
+    row_emission_.resize(size_t(nx_));
+    row_emits_.assign(size_t(nx_), 0);
   }
 
   SweptGrid run(const SkyInput& sky) {
@@ -232,10 +323,13 @@ class Sweeper {
       out.direct->average.assign(g_.cellCount(), 0);
       out.direct->dominant.assign(g_.cellCount(), 0);
     }
-    avg_.assign(g_.cellCount(), glm::vec4(0.f));
-    dom_.assign(g_.cellCount(), glm::vec3(0.f));
-    emission_index_.assign(g_.cellCount(), -1);
-    emission_.clear();
+    if (o_.bottom_up) {
+      // The up-going pass adds to the cells' sums after the downward one: kept per cell.
+      avg_.assign(g_.cellCount(), glm::vec4(0.f));
+      dom_.assign(g_.cellCount(), glm::vec3(0.f));
+      emission_index_.assign(g_.cellCount(), -1);
+      emission_.clear();
+    }
     const int nz = g_.size.z;
     if (!m_.ground_z.empty()) {
       DRTV_CHECK_EQ(m_.ground_z.size(), size_t(g_.size.x) * size_t(g_.size.y));
@@ -248,210 +342,363 @@ class Sweeper {
     for (Pass* p : {&full_, &direct_})
       if (!p->bins.empty()) edges_.fill(nz, p->direct, p->bins, all_cells_, p->src, plane_);
     for (int k = nz - 1; k >= 0; --k) {
-      for (Pass* p : {&full_, &direct_})
-        if (!p->bins.empty()) edges_.fill(k, p->direct, p->bins, ring_cells_, p->dst, plane_);
+      // The open sky's ring is the same at every level, and the levels never write it: both
+      // buffers have it once the first level's is filled.
+      if (k == nz - 1 || !edges_.sameAtEveryLevel())
+        for (Pass* p : {&full_, &direct_})
+          if (!p->bins.empty()) edges_.fill(k, p->direct, p->bins, ring_cells_, p->dst, plane_);
       level(k, out);
       for (Pass* p : {&full_, &direct_}) std::swap(p->src, p->dst);
     }
-    upGoing(out);
+    if (o_.bottom_up) bottomUp(out);
     return out;
   }
 
  private:
+  // Row sums of a cell's stored light: rgb, luminance, and luminance-weighted unit source direction.
+  static constexpr int kSums = 7;
+
   void setUp(Pass& p) {
-    for (int b : p.bins) p.paths.push_back(makePath(b, o_.smoothing));
+    for (int b : p.bins) {
+      BinPath path = makePath(b, o_.smoothing);
+      for (Tap& t : path.taps)
+        for (Crossed& c : t.crossed) c.len_id = lengthId(crossed_len_, c.len);
+      path.target_len_id = lengthId(target_len_, path.target_len);
+      p.paths.push_back(std::move(path));
+    }
     p.src.assign(p.bins.size() * 3 * plane_, 0.f);
     p.dst = p.src;
-    p.acc.assign(p.bins.size() * 3 * size_t(g_.size.x), 0.f);
+    p.acc.assign(p.bins.size() * 3 * size_t(nx_), 0.f);
   }
 
-  // Gathers row j of level k (source level k_src) into p.acc.
-  void gather(Pass& p, int k, int k_src, int j) {
-    const int nx = g_.size.x;
-    std::fill(p.acc.begin(), p.acc.end(), 0.f);
-    const bool material = level_has_material_[size_t(k)] || (k_src >= 0 && k_src < g_.size.z && level_has_material_[size_t(k_src)]);
-    const float* sig_t = sigma_.data() + size_t(k) * plane_;
-    const float* sig_s = (k_src >= 0 && k_src < g_.size.z) ? sigma_.data() + size_t(k_src) * plane_ : nullptr;
-    od_.resize(size_t(nx));
+  static int lengthId(std::vector<float>& lengths, float len) {
+    const auto it = std::find(lengths.begin(), lengths.end(), len);
+    if (it != lengths.end()) return int(it - lengths.begin());
+    lengths.push_back(len);
+    return int(lengths.size()) - 1;
+  }
+
+  // Whether padded row r of level k holds material in padded columns [x0, x1].
+  bool hasMaterial(int k, int r, int x0, int x1) const {
+    const size_t i = size_t(k) * size_t(h_) + size_t(r);
+    return row_lo_[i] <= x1 && row_hi_[i] >= x0;
+  }
+
+  // Level k's factor planes, (1 - d)^len = exp(-len sigma) per crossed length, valid in the rows
+  // that hold material (the only ones read). Two levels are kept; the one holding `keep` stays.
+  const float* factors(int k, int keep) {
+    for (LevelFactors& f : factors_)
+      if (f.level == k) return f.planes.data();
+    LevelFactors& f = factors_[0].level == keep ? factors_[1] : factors_[0];
+    f.level = k;
+    f.planes.resize(crossed_len_.size() * plane_);
+    const float* sig = sigma_.data() + size_t(k) * plane_;
+    for (size_t l = 0; l < crossed_len_.size(); ++l) {
+      float* out = f.planes.data() + l * plane_;
+      for (int r = 0; r < h_; ++r) {
+        if (!hasMaterial(k, r, 0, w_ - 1)) continue;
+        const float* s = sig + size_t(r) * size_t(w_);
+        float* o = out + size_t(r) * size_t(w_);
+        for (int x = 0; x < w_; ++x) o[x] = s[x] == 0.f ? 1.f : 0.f;  // clear, or full (sigma inf)
+      }
+      const float len = crossed_len_[l];
+      for (uint32_t pi : fractional_[size_t(k)]) out[pi] = std::exp(-(len * sig[pi]));
+    }
+    return f.planes.data();
+  }
+
+  // Gathers row j of level k (source level k_src) into p.acc, and into q->acc for the bins q
+  // shares with p (the direct pass: a subset of the same bins, the same paths).
+  void gather(Pass& p, Pass* q, int k, int k_src, int j) {
+    const int nx = nx_;
+    const bool src_in = k_src >= 0 && k_src < g_.size.z;
+    const bool target_material = level_has_material_[size_t(k)] != 0;
+    const bool src_material = src_in && level_has_material_[size_t(k_src)] != 0;
+    const float* f_target = target_material ? factors(k, src_material ? k_src : k) : nullptr;
+    const float* f_src = src_material ? factors(k_src, k) : nullptr;
     for (size_t b = 0; b < p.bins.size(); ++b) {
       const BinPath& path = p.paths[b];
-      for (const Tap& t : path.taps) {
-        const size_t row = size_t(j + kPad + t.oy) * size_t(w_) + size_t(kPad + t.ox);
-        bool any = false;
-        if (material && !t.crossed.empty()) {
-          std::fill(od_.begin(), od_.end(), 0.f);
-          for (const Crossed& c : t.crossed) {
-            const float* s = c.src_level ? sig_s : sig_t;
-            if (!s) continue;
-            s += size_t(j + kPad + c.dy) * size_t(w_) + size_t(kPad + c.dx);
-            for (int x = 0; x < nx; ++x) od_[size_t(x)] += c.len * s[x];
-          }
-          for (int x = 0; x < nx; ++x) any |= od_[size_t(x)] > 0.f;
-        }
-        for (int c = 0; c < 3; ++c) {
-          const float* s = p.src.data() + (b * 3 + size_t(c)) * plane_ + row;
-          float* a = p.acc.data() + (b * 3 + size_t(c)) * size_t(nx);
-          if (any)
-            for (int x = 0; x < nx; ++x) a[x] += t.w * std::exp(-od_[size_t(x)]) * s[x];
+      std::array<bool, kTaps> varying{};
+      bool any = false;
+      for (int t = 0; t < kTaps; ++t) {
+        const Tap& tap = path.taps[size_t(t)];
+        float* w = weights_.data() + size_t(t) * size_t(nx);
+        for (const Crossed& c : tap.crossed) {
+          const float* f = c.src_level ? f_src : f_target;
+          const int r = j + kPad + c.dy, x0 = kPad + c.dx;
+          if (!f || !hasMaterial(c.src_level ? k_src : k, r, x0, x0 + nx - 1)) continue;
+          const float* fr = f + size_t(c.len_id) * plane_ + size_t(r) * size_t(w_) + size_t(x0);
+          if (!varying[size_t(t)])
+            std::memcpy(w, fr, size_t(nx) * sizeof(float));
           else
-            for (int x = 0; x < nx; ++x) a[x] += t.w * s[x];
+            for (int x = 0; x < nx; ++x) w[x] *= fr[x];
+          varying[size_t(t)] = true;
+        }
+        if (varying[size_t(t)]) {
+          for (int x = 0; x < nx; ++x) w[x] = tap.w * w[x];
+          any = true;
         }
       }
+      if (any)
+        for (int t = 0; t < kTaps; ++t)
+          if (!varying[size_t(t)]) std::fill_n(weights_.data() + size_t(t) * size_t(nx), nx, path.taps[size_t(t)].w);
+      accumulate(p, b, path, any, j);
+      if (q && q->direct && direct_of_bin_[size_t(path.bin)] >= 0) accumulate(*q, size_t(direct_of_bin_[size_t(path.bin)]), path, any, j);
+    }
+  }
+
+  void accumulate(Pass& p, size_t b, const BinPath& path, bool varying, int j) {
+    const int nx = nx_;
+    std::array<const float*, kTaps> w;
+    std::array<float, kTaps> wc;
+    for (int t = 0; t < kTaps; ++t) {
+      w[size_t(t)] = weights_.data() + size_t(t) * size_t(nx);
+      wc[size_t(t)] = path.taps[size_t(t)].w;
+    }
+    for (int c = 0; c < 3; ++c) {
+      const float* plane = p.src.data() + (b * 3 + size_t(c)) * plane_;
+      std::array<const float*, kTaps> s;
+      for (int t = 0; t < kTaps; ++t) {
+        const Tap& tap = path.taps[size_t(t)];
+        s[size_t(t)] = plane + size_t(j + kPad + tap.oy) * size_t(w_) + size_t(kPad + tap.ox);
+      }
+      float* a = p.acc.data() + (b * 3 + size_t(c)) * size_t(nx);
+      if (varying)
+        weightedTaps(a, s, w, nx);
+      else
+        constantTaps(a, s, wc, nx);
     }
   }
 
   void level(int k, SweptGrid& out) {
-    const int nx = g_.size.x, ny = g_.size.y;
-    const auto& dirs = directions();
-    const float* sig = sigma_.data() + size_t(k) * plane_;
-    std::array<glm::vec3, kSwept> stored_full, stored_direct, in, tr;
-    std::array<float, kSwept> trans{};
+    const int nx = nx_, ny = g_.size.y;
+    const float* sig_level = sigma_.data() + size_t(k) * plane_;
     for (int j = 0; j < ny; ++j) {
-      gather(full_, k, k + 1, j);
-      if (!direct_.bins.empty()) gather(direct_, k, k + 1, j);
-      for (int i = 0; i < nx; ++i) {
-        const size_t cell = g_.index(i, j, k);
-        const size_t pi = size_t(j + kPad) * size_t(w_) + size_t(i + kPad);
-        const float s = sig[pi];
-        for (int b = 0; b < kSwept; ++b)
-          for (int c = 0; c < 3; ++c) in[size_t(b)][c] = full_.acc[(size_t(b) * 3 + size_t(c)) * size_t(nx) + size_t(i)];
-        if (s == 0.f) {
-          for (int b = 0; b < kSwept; ++b) {
-            stored_full[size_t(b)] = in[size_t(b)];
-            for (int c = 0; c < 3; ++c) full_.dst[(size_t(b) * 3 + size_t(c)) * plane_ + pi] = in[size_t(b)][c];
-          }
-        } else {
-          const float tau = std::exp(-s);
-          const glm::vec3 rho = m_.reflectance[cell];
-          glm::vec3 sum(0.f);
-          glm::mat3 q(0.f);  // columns x, y, z of sum_i q_i travel_i, per channel in rows
-          for (int b = 0; b < kSwept; ++b) {
-            const float t = std::exp(-s * full_.paths[size_t(b)].target_len);
-            trans[size_t(b)] = t;
-            tr[size_t(b)] = in[size_t(b)] * t;
-            const float norm = kFourPi - 0.5f * (1.f - tau) * (kFourPi + cos_sum_[size_t(b)]);
-            const glm::vec3 qi = in[size_t(b)] * ((1.f - t) / norm);
-            sum += qi;
-            const glm::vec3& u = dirs[size_t(b)].travel;
-            q[0] += qi * u.x;
-            q[1] += qi * u.y;
-            q[2] += qi * u.z;
-          }
-          const float fa = 0.5f * (1.f + tau), fb = 0.5f * (1.f - tau);
-          auto reflected = [&](int o) {
-            const glm::vec3& u = dirs[size_t(o)].travel;
-            const glm::vec3 dq = q[0] * u.x + q[1] * u.y + q[2] * u.z;
-            return rho * dirs[size_t(o)].solid_angle_sr * (fa * sum - fb * dq);
-          };
-          for (int b = 0; b < kSwept; ++b) {
-            const glm::vec3 r = reflected(b);
-            stored_full[size_t(b)] = in[size_t(b)] * std::sqrt(trans[size_t(b)]) + 0.5f * r;
-            const glm::vec3 o = tr[size_t(b)] + r;
-            for (int c = 0; c < 3; ++c) full_.dst[(size_t(b) * 3 + size_t(c)) * plane_ + pi] = o[c];
-          }
-          if (rho != glm::vec3(0.f)) {
-            emission_index_[cell] = int(emission_.size());
-            std::array<glm::vec3, kUp> e;
-            for (int o = 0; o < kUp; ++o) e[size_t(o)] = reflected(kSwept + o);
-            emission_.push_back(e);
-          }
-        }
-        // The sun's unscattered light: the same attenuation, no reflection.
-        for (int b = 0; b < kSwept; ++b) stored_direct[size_t(b)] = glm::vec3(0.f);
-        for (size_t d = 0; d < direct_.bins.size(); ++d) {
-          const int b = direct_.bins[d];
-          glm::vec3 v;
-          for (int c = 0; c < 3; ++c) v[c] = direct_.acc[(d * 3 + size_t(c)) * size_t(nx) + size_t(i)];
-          const float t = s == 0.f ? 1.f : std::exp(-s * direct_.paths[d].target_len);
-          stored_direct[size_t(b)] = v * std::sqrt(t);
-          const glm::vec3 o = v * t;
-          for (int c = 0; c < 3; ++c) direct_.dst[(d * 3 + size_t(c)) * plane_ + pi] = o[c];
-        }
-        uint32_t* dst = out.light.light.data() + cell * kDirections;
-        for (int b = 0; b < kSwept; ++b) {
-          const glm::vec3 v = o_.direct_sun ? stored_full[size_t(b)] : glm::max(stored_full[size_t(b)] - stored_direct[size_t(b)], glm::vec3(0.f));
-          dst[b] = packR11G11B10(v);
-          accumulate(cell, b, v);
-        }
-        if (out.direct) {
-          uint32_t* dd = out.direct->light.data() + cell * kDirections;
-          for (int b = 0; b < kSwept; ++b) dd[b] = packR11G11B10(stored_direct[size_t(b)]);
-        }
+      gather(full_, direct_.bins.empty() ? nullptr : &direct_, k, k + 1, j);
+      const size_t row = size_t(j + kPad) * size_t(w_) + size_t(kPad);
+      // Empty cells pass their light on as it came (and store it): row copies, which the cells
+      // with material then overwrite.
+      for (Pass* p : {&full_, &direct_})
+        for (size_t plane = 0; plane < p->bins.size() * 3; ++plane)
+          std::memcpy(p->dst.data() + plane * plane_ + row, p->acc.data() + plane * size_t(nx), size_t(nx) * sizeof(float));
+      std::fill(row_emits_.begin(), row_emits_.end(), 0);
+      const size_t r = size_t(k) * size_t(h_) + size_t(j + kPad);
+      for (int i = row_lo_[r] - kPad; i <= row_hi_[r] - kPad; ++i)
+        if (const float s = sig_level[row + size_t(i)]; s != 0.f) interact(k, j, i, s, row + size_t(i));
+      storeRow(k, j, out);
+    }
+  }
+
+  // The light of a cell with material (sigma s > 0) at x = i of the row: what passes, what is
+  // reflected, into dst (what leaves) and acc (what is stored), for both passes.
+  void interact(int k, int j, int i, float s, size_t pi) {
+    const size_t nx = size_t(nx_);
+    const size_t cell = g_.index(i, j, k);
+    // The cell's pass-through per distinct path length: 0 in a full cell.
+    std::array<float, kMaxTargetLengths> t_len{}, sqrt_t_len{};
+    float tau = 0.f;
+    if (s < kInf) {
+      tau = std::exp(-s);
+      for (size_t l = 0; l < target_len_.size(); ++l) {
+        t_len[l] = std::exp(-s * target_len_[l]);
+        sqrt_t_len[l] = std::sqrt(t_len[l]);
+      }
+    }
+    const glm::vec3 rho = m_.reflectance[cell];
+    float* acc = full_.acc.data();
+    std::array<glm::vec3, kSwept> in;
+    glm::vec3 sum(0.f);
+    glm::mat3 q(0.f);  // columns x, y, z of sum_i q_i travel_i, per channel in rows
+    for (int b = 0; b < kSwept; ++b) {
+      for (int c = 0; c < 3; ++c) in[size_t(b)][c] = acc[(size_t(b) * 3 + size_t(c)) * nx + size_t(i)];
+      const float t = t_len[size_t(full_.paths[size_t(b)].target_len_id)];
+      const float norm = kFourPi - 0.5f * (1.f - tau) * (kFourPi + cos_sum_[size_t(b)]);
+      const glm::vec3 qi = in[size_t(b)] * ((1.f - t) / norm);
+      sum += qi;
+      const glm::vec3& u = travel_[size_t(b)];
+      q[0] += qi * u.x;
+      q[1] += qi * u.y;
+      q[2] += qi * u.z;
+    }
+    const float fa = 0.5f * (1.f + tau), fb = 0.5f * (1.f - tau);
+    auto reflected = [&](int o) {
+      const glm::vec3& u = travel_[size_t(o)];
+      const glm::vec3 dq = q[0] * u.x + q[1] * u.y + q[2] * u.z;
+      return rho * omega_[size_t(o)] * (fa * sum - fb * dq);
+    };
+    for (int b = 0; b < kSwept; ++b) {
+      const glm::vec3 r = reflected(b);
+      const int l = full_.paths[size_t(b)].target_len_id;
+      const glm::vec3 stored = in[size_t(b)] * sqrt_t_len[size_t(l)] + 0.5f * r;
+      const glm::vec3 leave = in[size_t(b)] * t_len[size_t(l)] + r;
+      for (int c = 0; c < 3; ++c) {
+        full_.dst[(size_t(b) * 3 + size_t(c)) * plane_ + pi] = leave[c];
+        acc[(size_t(b) * 3 + size_t(c)) * nx + size_t(i)] = stored[c];
+      }
+    }
+    if (rho != glm::vec3(0.f)) {
+      std::array<glm::vec3, kUp>& e = row_emission_[size_t(i)];
+      for (int o = 0; o < kUp; ++o) e[size_t(o)] = reflected(kSwept + o);
+      row_emits_[size_t(i)] = 1;
+      if (o_.bottom_up) {
+        emission_index_[cell] = int(emission_.size());
+        emission_.push_back(e);
+      }
+    }
+    // The sun's unscattered light: the same attenuation, no reflection.
+    for (size_t d = 0; d < direct_.bins.size(); ++d) {
+      const int l = direct_.paths[d].target_len_id;
+      for (int c = 0; c < 3; ++c) {
+        const float v = direct_.acc[(d * 3 + size_t(c)) * nx + size_t(i)];
+        direct_.dst[(d * 3 + size_t(c)) * plane_ + pi] = v * t_len[size_t(l)];
+        direct_.acc[(d * 3 + size_t(c)) * nx + size_t(i)] = v * sqrt_t_len[size_t(l)];
       }
     }
   }
 
-  void accumulate(size_t cell, int b, const glm::vec3& v) {
-    avg_[cell] += glm::vec4(v, 0.f);
-    const float l = luminance(v);
-    avg_[cell].w += l;
-    dom_[cell] += l * glm::normalize(directions()[size_t(b)].mean_from);
+  // Packs row j of level k's stored light (acc) into the grids, with the cells' average and
+  // dominant direction.
+  void storeRow(int k, int j, SweptGrid& out) {
+    const int nx = nx_;
+    const size_t cell0 = g_.index(0, j, k);
+    float* acc = full_.acc.data();
+    if (!o_.direct_sun)  // the ambient without the sun's unscattered part
+      for (int b = 0; b < kSwept; ++b) {
+        const int d = direct_of_bin_[size_t(b)];
+        for (int c = 0; c < 3; ++c) {
+          float* a = acc + (size_t(b) * 3 + size_t(c)) * size_t(nx);
+          if (d >= 0) {
+            const float* ad = direct_.acc.data() + (size_t(d) * 3 + size_t(c)) * size_t(nx);
+            for (int x = 0; x < nx; ++x) a[x] = std::max(a[x] - ad[x], 0.f);
+          } else {
+            for (int x = 0; x < nx; ++x) a[x] = std::max(a[x], 0.f);
+          }
+        }
+      }
+    float* sums = row_sums_.data();
+    std::fill(row_sums_.begin(), row_sums_.end(), 0.f);
+    for (int b = 0; b < kSwept; ++b) {
+      const float* r = acc + size_t(b) * 3 * size_t(nx);
+      const float* g = r + nx;
+      const float* bl = g + nx;
+      uint32_t* code = codes_.data() + size_t(b) * size_t(nx);
+      for (int x = 0; x < nx; ++x) code[x] = detail::packR11G11B10(r[x], g[x], bl[x]);
+      addRow(sums, nx, r, g, bl, unit_from_[size_t(b)]);
+    }
+    for (int x = 0; x < nx; ++x) {
+      uint32_t* dst = out.light.light.data() + (cell0 + size_t(x)) * kDirections;
+      for (int b = 0; b < kSwept; ++b) dst[b] = codes_[size_t(b) * size_t(nx) + size_t(x)];
+    }
+    if (out.direct)
+      for (size_t d = 0; d < direct_.bins.size(); ++d) {
+        const float* r = direct_.acc.data() + d * 3 * size_t(nx);
+        uint32_t* dst = out.direct->light.data() + cell0 * kDirections + size_t(direct_.bins[d]);
+        for (int x = 0; x < nx; ++x) dst[size_t(x) * kDirections] = detail::packR11G11B10(r[x], r[nx + x], r[2 * nx + x]);
+      }
+    if (o_.bottom_up) {  // the up-going light comes later (bottomUp)
+      for (int x = 0; x < nx; ++x) {
+        avg_[cell0 + size_t(x)] = {sums[x], sums[nx + x], sums[2 * nx + x], sums[3 * nx + x]};
+        dom_[cell0 + size_t(x)] = {sums[4 * nx + x], sums[5 * nx + x], sums[6 * nx + x]};
+      }
+      return;
+    }
+    // The up-going directions without the bottom-up pass: the cells' own reflected light, halved.
+    for (int x = 0; x < nx; ++x) {
+      glm::vec4 avg(sums[x], sums[nx + x], sums[2 * nx + x], sums[3 * nx + x]);
+      glm::vec3 dom(sums[4 * nx + x], sums[5 * nx + x], sums[6 * nx + x]);
+      const size_t cell = cell0 + size_t(x);
+      if (row_emits_[size_t(x)])
+        for (int o = 0; o < kUp; ++o) {
+          const glm::vec3 stored = 0.5f * row_emission_[size_t(x)][size_t(o)];
+          out.light.light[cell * kDirections + size_t(kSwept + o)] = detail::packR11G11B10(stored.r, stored.g, stored.b);
+          add(avg, dom, kSwept + o, stored);
+        }
+      finish(out, cell, avg, dom);
+    }
   }
 
-  // The up-going directions: the cells' own reflected light (halved), or with bottom_up carried
-  // up from the bottom level; then the cells' average and dominant direction.
-  void upGoing(SweptGrid& out) {
-    const int nx = g_.size.x, ny = g_.size.y, nz = g_.size.z;
+  void add(glm::vec4& avg, glm::vec3& dom, int b, const glm::vec3& v) const {
+    avg += glm::vec4(v, 0.f);
+    const float l = luminance(v);
+    avg.w += l;
+    dom += l * unit_from_[size_t(b)];
+  }
+
+  static void finish(SweptGrid& out, size_t cell, const glm::vec4& avg, const glm::vec3& dom) {
+    const glm::vec3 mean = glm::vec3(avg) / kFourPi;
+    out.light.average[cell] = detail::packR11G11B10(mean.r, mean.g, mean.b);
+    const glm::vec3 d = avg.w > 0 ? dom / avg.w : glm::vec3(0.f);
+    out.light.dominant[cell] = glm::packSnorm4x8(glm::vec4(d, 0.f));
+  }
+
+  // The up-going directions carried up from the bottom level (bottom_up), then the cells'
+  // average and dominant direction.
+  void bottomUp(SweptGrid& out) {
+    const int nx = nx_, ny = g_.size.y, nz = g_.size.z;
     auto emission = [&](size_t cell, int o) {
       const int e = emission_index_[cell];
       return e < 0 ? glm::vec3(0.f) : emission_[size_t(e)][size_t(o)];
     };
-    if (o_.bottom_up) {
-      std::fill(up_.src.begin(), up_.src.end(), 0.f);  // below the grid: nothing comes up
-      for (int k = 0; k < nz; ++k) {
-        edges_.fill(k, false, up_.bins, ring_cells_, up_.dst, plane_);
-        const float* sig = sigma_.data() + size_t(k) * plane_;
-        for (int j = 0; j < ny; ++j) {
-          gather(up_, k, k - 1, j);
-          for (int i = 0; i < nx; ++i) {
-            const size_t cell = g_.index(i, j, k);
-            const size_t pi = size_t(j + kPad) * size_t(w_) + size_t(i + kPad);
-            const float s = sig[pi];
-            for (int o = 0; o < kUp; ++o) {
-              glm::vec3 v;
-              for (int c = 0; c < 3; ++c) v[c] = up_.acc[(size_t(o) * 3 + size_t(c)) * size_t(nx) + size_t(i)];
-              const float t = s == 0.f ? 1.f : std::exp(-s * up_.paths[size_t(o)].target_len);
-              const glm::vec3 e = emission(cell, o);
-              const glm::vec3 leave = v * t + e;
-              for (int c = 0; c < 3; ++c) up_.dst[(size_t(o) * 3 + size_t(c)) * plane_ + pi] = leave[c];
-              const glm::vec3 stored = v * std::sqrt(t) + 0.5f * e;
-              out.light.light[cell * kDirections + size_t(kSwept + o)] = packR11G11B10(stored);
-              accumulate(cell, kSwept + o, stored);
-            }
+    std::fill(up_.src.begin(), up_.src.end(), 0.f);  // below the grid: nothing comes up
+    for (int k = 0; k < nz; ++k) {
+      edges_.fill(k, false, up_.bins, ring_cells_, up_.dst, plane_);
+      const float* sig = sigma_.data() + size_t(k) * plane_;
+      for (int j = 0; j < ny; ++j) {
+        gather(up_, nullptr, k, k - 1, j);
+        for (int i = 0; i < nx; ++i) {
+          const size_t cell = g_.index(i, j, k);
+          const size_t pi = size_t(j + kPad) * size_t(w_) + size_t(i + kPad);
+          const float s = sig[pi];
+          for (int o = 0; o < kUp; ++o) {
+            glm::vec3 v;
+            for (int c = 0; c < 3; ++c) v[c] = up_.acc[(size_t(o) * 3 + size_t(c)) * size_t(nx) + size_t(i)];
+            const float t = s == 0.f ? 1.f : std::exp(-s * up_.paths[size_t(o)].target_len);
+            const glm::vec3 e = emission(cell, o);
+            const glm::vec3 leave = v * t + e;
+            for (int c = 0; c < 3; ++c) up_.dst[(size_t(o) * 3 + size_t(c)) * plane_ + pi] = leave[c];
+            const glm::vec3 stored = v * std::sqrt(t) + 0.5f * e;
+            out.light.light[cell * kDirections + size_t(kSwept + o)] = detail::packR11G11B10(stored.r, stored.g, stored.b);
+            add(avg_[cell], dom_[cell], kSwept + o, stored);
           }
         }
-        std::swap(up_.src, up_.dst);
       }
-    } else {
-      for (size_t cell = 0; cell < g_.cellCount(); ++cell) {
-        if (emission_index_[cell] < 0) continue;
-        for (int o = 0; o < kUp; ++o) {
-          const glm::vec3 stored = 0.5f * emission(cell, o);
-          out.light.light[cell * kDirections + size_t(kSwept + o)] = packR11G11B10(stored);
-          accumulate(cell, kSwept + o, stored);
-        }
-      }
+      std::swap(up_.src, up_.dst);
     }
-    for (size_t cell = 0; cell < g_.cellCount(); ++cell) {
-      out.light.average[cell] = packR11G11B10(glm::vec3(avg_[cell]) / kFourPi);
-      const glm::vec3 d = avg_[cell].w > 0 ? dom_[cell] / avg_[cell].w : glm::vec3(0.f);
-      out.light.dominant[cell] = glm::packSnorm4x8(glm::vec4(d, 0.f));
-    }
+    for (size_t cell = 0; cell < g_.cellCount(); ++cell) finish(out, cell, avg_[cell], dom_[cell]);
   }
+
+  // Distinct path lengths a cell attenuates itself: straight, the 4 side diagonals, the 4 corner
+  // diagonals, and the two kinds of near-horizontal path (directions.h), one way or the other.
+  static constexpr size_t kMaxTargetLengths = 8;
+
+  struct LevelFactors {
+    int level = std::numeric_limits<int>::min();
+    std::vector<float> planes;  // crossed_len_.size() planes
+  };
 
   const MaterialGrid& m_;
   GridShape g_;
   SweepOptions o_;
   Edges edges_;
-  int w_ = 0, h_ = 0;
+  int nx_ = 0, w_ = 0, h_ = 0;
   size_t plane_ = 0;
   std::vector<float> sigma_;
   std::vector<uint8_t> level_has_material_;
+  std::vector<int> row_lo_, row_hi_;
+  std::vector<std::vector<uint32_t>> fractional_;
+  std::vector<float> crossed_len_, target_len_;
+  std::array<LevelFactors, 2> factors_;
   std::vector<Edges::Cell> all_cells_, ring_cells_;
-  std::array<float, kDirections> cos_sum_{};
+  std::array<float, kDirections> cos_sum_{}, omega_{};
+  std::array<glm::vec3, kDirections> travel_{}, unit_from_{};
   Pass full_, direct_, up_;
-  std::vector<float> od_;
-  std::vector<glm::vec4> avg_;  // rgb sum, luminance sum
+  std::array<int, kSwept> direct_of_bin_{};
+  std::vector<float> weights_;   // kTaps rows of nx: a bin's tap weights along the row
+  std::vector<uint32_t> codes_;  // kSwept rows of nx: the row's packed light
+  std::vector<float> row_sums_;  // kSums rows of nx
+  std::vector<std::array<glm::vec3, kUp>> row_emission_;  // per x: the up-going reflected light
+  std::vector<uint8_t> row_emits_;
+  std::vector<glm::vec4> avg_;  // bottom_up: per cell, rgb sum, luminance sum
   std::vector<glm::vec3> dom_;
   std::vector<int> emission_index_;
   std::vector<std::array<glm::vec3, kUp>> emission_;

@@ -178,13 +178,14 @@ class Edges {
   std::vector<LightVector> full_, direct_, slice_;
 };
 
-// One stream of light through the grid: a set of directions, its ping-pong level buffers.
+// One stream of light through the grid: a set of directions, its ping-pong level buffers. While a
+// row is being swept, dst's row holds the light gathered into it, then what its cells store; the
+// light the cells with material send on replaces theirs once the row is stored.
 struct Pass {
   std::vector<int> bins;
   std::vector<BinPath> paths;
   bool direct = false;
   std::vector<float> src, dst;  // bins.size() * 3 planes
-  std::vector<float> acc;       // bins.size() * 3 rows of nx: a row's gathered light, then what it stores
 };
 
 // Rows of n floats: a[x] = sum over the 5 taps of w_t s_t[x], in tap order (the reference's order
@@ -212,28 +213,68 @@ void constantTaps(float* __restrict a, const std::array<const float*, kTaps>& s,
   for (int x = 0; x < n; ++x) a[x] = w0 * s0[x] + w1 * s1[x] + w2 * s2[x] + w3 * s3[x] + w4 * s4[x];
 }
 
-// Adds one direction's stored light (rows r, g, b of n) to a row's sums (7 rows of n: rgb,
-// luminance, luminance times the unit source direction `from`), in the order of Sweeper::add.
-void addRow(float* __restrict sums, int n, const float* __restrict r, const float* __restrict g, const float* __restrict b,
-            const glm::vec3& from) {
-  float* __restrict sr = sums;
-  float* __restrict sg = sums + n;
-  float* __restrict sb = sums + 2 * n;
-  float* __restrict sl = sums + 3 * n;
-  float* __restrict sx = sums + 4 * n;
-  float* __restrict sy = sums + 5 * n;
-  float* __restrict sz = sums + 6 * n;
-  const float fx = from.x, fy = from.y, fz = from.z;
+// A row's sums of its cells' stored light (Sweeper::add, in its order): rgb, luminance, and
+// luminance times the unit source direction.
+struct RowSums {
+  float *r, *g, *b, *l, *x, *y, *z;
+};
+
+// What the light grid stores of one direction along a row of n cells: the stored light (rows r, g,
+// b), less the sun's unscattered part (dr, dg, db; kMinusDirect) or clamped at 0 (kClamped), or as
+// it is; into rows vr, vg, vb and packed into `code`. (Two loops with addToSums, not one: GCC
+// vectorises neither half when they are fused.)
+enum class Stored { kAsIs, kClamped, kMinusDirect };
+template <Stored kMode>
+void storedLight(int n, const float* __restrict r, const float* __restrict g, const float* __restrict b, const float* __restrict dr,
+                 const float* __restrict dg, const float* __restrict db, float* __restrict vr, float* __restrict vg, float* __restrict vb,
+                 uint32_t* __restrict code) {
   for (int x = 0; x < n; ++x) {
-    sr[x] += r[x];
-    sg[x] += g[x];
-    sb[x] += b[x];
-    const float l = 0.2126f * r[x] + 0.7152f * g[x] + 0.0722f * b[x];
+    if constexpr (kMode == Stored::kMinusDirect) {
+      vr[x] = std::max(r[x] - dr[x], 0.f);
+      vg[x] = std::max(g[x] - dg[x], 0.f);
+      vb[x] = std::max(b[x] - db[x], 0.f);
+    } else if constexpr (kMode == Stored::kClamped) {
+      vr[x] = std::max(r[x], 0.f);
+      vg[x] = std::max(g[x], 0.f);
+      vb[x] = std::max(b[x], 0.f);
+    } else {
+      vr[x] = r[x];
+      vg[x] = g[x];
+      vb[x] = b[x];
+    }
+    code[x] = detail::packR11G11B10(vr[x], vg[x], vb[x]);
+  }
+}
+
+// Adds one direction's stored light (rows vr, vg, vb of n) to a row's sums (Sweeper::add, in its
+// order): rgb, luminance, and luminance times the unit source direction (fx, fy, fz).
+void addToSums(int n, const float* __restrict vr, const float* __restrict vg, const float* __restrict vb, float* __restrict sr,
+               float* __restrict sg, float* __restrict sb, float* __restrict sl, float* __restrict sx, float* __restrict sy,
+               float* __restrict sz, float fx, float fy, float fz) {
+  for (int x = 0; x < n; ++x) {
+    sr[x] += vr[x];
+    sg[x] += vg[x];
+    sb[x] += vb[x];
+    const float l = 0.2126f * vr[x] + 0.7152f * vg[x] + 0.0722f * vb[x];
     sl[x] += l;
     sx[x] += l * fx;
     sy[x] += l * fy;
     sz[x] += l * fz;
   }
+}
+
+// glm::packSnorm4x8(vec4(d, 0)) without its libm round per component: clamp to [-1, 1], times
+// 127, rounded half away from zero (std::round: c - trunc(c) is exact for |c| <= 127).
+uint32_t packDirection(const glm::vec3& d) {
+  uint32_t out = 0;
+  for (int c = 0; c < 3; ++c) {
+    const float v = std::min(std::max(d[c], -1.f), 1.f) * 127.f;
+    const int i = int(v);
+    const float f = v - float(i);
+    const int rounded = i + (f >= 0.5f ? 1 : 0) - (f <= -0.5f ? 1 : 0);
+    out |= uint32_t(uint8_t(int8_t(rounded))) << (8 * c);
+  }
+  return out;
 }
 
 class Sweeper {
@@ -304,8 +345,11 @@ class Sweeper {
     weights_.assign(size_t(kTaps) * size_t(nx_), 0.f);
     codes_.assign(size_t(kSwept) * size_t(nx_), 0u);
     row_sums_.assign(size_t(kSums) * size_t(nx_), 0.f);
-    row_emission_.resize(size_t(nx_));
-    row_emits_.assign(size_t(nx_), 0);
+    values_.assign(3 * size_t(nx_), 0.f);
+    mat_x_.reserve(size_t(nx_));
+    batch_.assign(size_t(kBatchRows) * size_t(nx_), 0.f);
+    leave_.assign(size_t(3 * kSwept) * size_t(nx_), 0.f);
+    direct_leave_.assign(direct_.bins.size() * 3 * size_t(nx_), 0.f);
   }
 
   SweptGrid run(const SkyInput& sky) {
@@ -355,20 +399,17 @@ class Sweeper {
   }
 
  private:
-  // Row sums of a cell's stored light: rgb, luminance, and luminance-weighted unit source direction.
-  static constexpr int kSums = 7;
-
   void setUp(Pass& p) {
     for (int b : p.bins) {
       BinPath path = makePath(b, o_.smoothing);
       for (Tap& t : path.taps)
         for (Crossed& c : t.crossed) c.len_id = lengthId(crossed_len_, c.len);
       path.target_len_id = lengthId(target_len_, path.target_len);
+      DRTV_CHECK_LE(target_len_.size(), kMaxTargetLengths);
       p.paths.push_back(std::move(path));
     }
     p.src.assign(p.bins.size() * 3 * plane_, 0.f);
     p.dst = p.src;
-    p.acc.assign(p.bins.size() * 3 * size_t(nx_), 0.f);
   }
 
   static int lengthId(std::vector<float>& lengths, float len) {
@@ -407,8 +448,8 @@ class Sweeper {
     return f.planes.data();
   }
 
-  // Gathers row j of level k (source level k_src) into p.acc, and into q->acc for the bins q
-  // shares with p (the direct pass: a subset of the same bins, the same paths).
+  // Gathers row j of level k (source level k_src) into p.dst's row, and into q->dst's for the
+  // bins q shares with p (the direct pass: a subset of the same bins, the same paths).
   void gather(Pass& p, Pass* q, int k, int k_src, int j) {
     const int nx = nx_;
     const bool src_in = k_src >= 0 && k_src < g_.size.z;
@@ -442,12 +483,12 @@ class Sweeper {
       if (any)
         for (int t = 0; t < kTaps; ++t)
           if (!varying[size_t(t)]) std::fill_n(weights_.data() + size_t(t) * size_t(nx), nx, path.taps[size_t(t)].w);
-      accumulate(p, b, path, any, j);
-      if (q && q->direct && direct_of_bin_[size_t(path.bin)] >= 0) accumulate(*q, size_t(direct_of_bin_[size_t(path.bin)]), path, any, j);
+      gatherDirection(p, b, path, any, j);
+      if (q && direct_of_bin_[size_t(path.bin)] >= 0) gatherDirection(*q, size_t(direct_of_bin_[size_t(path.bin)]), path, any, j);
     }
   }
 
-  void accumulate(Pass& p, size_t b, const BinPath& path, bool varying, int j) {
+  void gatherDirection(Pass& p, size_t b, const BinPath& path, bool varying, int j) {
     const int nx = nx_;
     std::array<const float*, kTaps> w;
     std::array<float, kTaps> wc;
@@ -455,6 +496,7 @@ class Sweeper {
       w[size_t(t)] = weights_.data() + size_t(t) * size_t(nx);
       wc[size_t(t)] = path.taps[size_t(t)].w;
     }
+    const size_t row = size_t(j + kPad) * size_t(w_) + size_t(kPad);
     for (int c = 0; c < 3; ++c) {
       const float* plane = p.src.data() + (b * 3 + size_t(c)) * plane_;
       std::array<const float*, kTaps> s;
@@ -462,7 +504,7 @@ class Sweeper {
         const Tap& tap = path.taps[size_t(t)];
         s[size_t(t)] = plane + size_t(j + kPad + tap.oy) * size_t(w_) + size_t(kPad + tap.ox);
       }
-      float* a = p.acc.data() + (b * 3 + size_t(c)) * size_t(nx);
+      float* a = p.dst.data() + (b * 3 + size_t(c)) * plane_ + row;
       if (varying)
         weightedTaps(a, s, w, nx);
       else
@@ -471,119 +513,199 @@ class Sweeper {
   }
 
   void level(int k, SweptGrid& out) {
-    const int nx = nx_, ny = g_.size.y;
-    const float* sig_level = sigma_.data() + size_t(k) * plane_;
-    for (int j = 0; j < ny; ++j) {
+    for (int j = 0; j < g_.size.y; ++j) {
       gather(full_, direct_.bins.empty() ? nullptr : &direct_, k, k + 1, j);
-      const size_t row = size_t(j + kPad) * size_t(w_) + size_t(kPad);
-      // Empty cells pass their light on as it came (and store it): row copies, which the cells
-      // with material then overwrite.
-      for (Pass* p : {&full_, &direct_})
-        for (size_t plane = 0; plane < p->bins.size() * 3; ++plane)
-          std::memcpy(p->dst.data() + plane * plane_ + row, p->acc.data() + plane * size_t(nx), size_t(nx) * sizeof(float));
-      std::fill(row_emits_.begin(), row_emits_.end(), 0);
-      const size_t r = size_t(k) * size_t(h_) + size_t(j + kPad);
-      for (int i = row_lo_[r] - kPad; i <= row_hi_[r] - kPad; ++i)
-        if (const float s = sig_level[row + size_t(i)]; s != 0.f) interact(k, j, i, s, row + size_t(i));
+      interactRow(k, j);
       storeRow(k, j, out);
+      // What the cells with material send on replaces what they stored.
+      const size_t row = size_t(j + kPad) * size_t(w_) + size_t(kPad);
+      const size_t n = mat_x_.size();
+      for (const auto& [p, leave] : {std::pair{&full_, &leave_}, std::pair{&direct_, &direct_leave_}})
+        for (size_t plane = 0; plane < p->bins.size() * 3; ++plane) {
+          float* dst = p->dst.data() + plane * plane_ + row;
+          const float* l = leave->data() + plane * size_t(nx_);
+          for (size_t m = 0; m < n; ++m) dst[mat_x_[m]] = l[m];
+        }
     }
   }
 
-  // The light of a cell with material (sigma s > 0) at x = i of the row: what passes, what is
-  // reflected, into dst (what leaves) and acc (what is stored), for both passes.
-  void interact(int k, int j, int i, float s, size_t pi) {
-    const size_t nx = size_t(nx_);
-    const size_t cell = g_.index(i, j, k);
-    // The cell's pass-through per distinct path length: 0 in a full cell.
-    std::array<float, kMaxTargetLengths> t_len{}, sqrt_t_len{};
-    float tau = 0.f;
-    if (s < kInf) {
-      tau = std::exp(-s);
-      for (size_t l = 0; l < target_len_.size(); ++l) {
-        t_len[l] = std::exp(-s * target_len_[l]);
-        sqrt_t_len[l] = std::sqrt(t_len[l]);
+  // Batch row `r` (of nx floats).
+  float* batch(int r) { return batch_.data() + size_t(r) * size_t(nx_); }
+
+  // The cells with material (sigma > 0) of row j, level k, as one batch (mat_x_: their x): what
+  // passes and what is reflected (sweep.h), per cell in the reference's order of operations, as
+  // loops over the batch. Their stored light goes into dst's row (both passes), the light they send
+  // on into leave_ / direct_leave_, the up-going reflected light into the batch's emission rows.
+  void interactRow(int k, int j) {
+    const int nx = nx_;
+    const size_t row = size_t(j + kPad) * size_t(w_) + size_t(kPad);
+    const float* sig = sigma_.data() + size_t(k) * plane_ + row;
+    mat_x_.clear();
+    const size_t r = size_t(k) * size_t(h_) + size_t(j + kPad);
+    for (int i = row_lo_[r] - kPad; i <= row_hi_[r] - kPad; ++i)
+      if (sig[i] != 0.f) mat_x_.push_back(i);
+    const int n = int(mat_x_.size());
+    if (n == 0) return;
+    float* tau = batch(kTau);
+    float* fa = batch(kFa);
+    float* fb = batch(kFb);
+    // The cells' own pass-through per distinct path length: 0 in a full cell.
+    for (int m = 0; m < n; ++m) {
+      const int x = mat_x_[size_t(m)];
+      const float s = sig[x];
+      const size_t cell = g_.index(x, j, k);
+      tau[m] = 0.f;
+      for (size_t l = 0; l < target_len_.size(); ++l) batch(kT + int(l))[m] = batch(kSqrtT + int(l))[m] = 0.f;
+      if (s < kInf) {
+        tau[m] = std::exp(-s);
+        for (size_t l = 0; l < target_len_.size(); ++l) {
+          const float t = std::exp(-s * target_len_[l]);
+          batch(kT + int(l))[m] = t;
+          batch(kSqrtT + int(l))[m] = std::sqrt(t);
+        }
       }
+      fa[m] = 0.5f * (1.f + tau[m]);
+      fb[m] = 0.5f * (1.f - tau[m]);
+      const glm::vec3& rho = m_.reflectance[cell];
+      for (int c = 0; c < 3; ++c) batch(kRho + c)[m] = rho[c];
+      for (int p = 0; p < kSwept * 3; ++p) batch(kIn + p)[m] = full_.dst[size_t(p) * plane_ + row + size_t(x)];
     }
-    const glm::vec3 rho = m_.reflectance[cell];
-    float* acc = full_.acc.data();
-    std::array<glm::vec3, kSwept> in;
-    glm::vec3 sum(0.f);
-    glm::mat3 q(0.f);  // columns x, y, z of sum_i q_i travel_i, per channel in rows
+    // What each direction loses in the cell, I (1 - T), normalised, summed as sum and q (columns
+    // x, y, z of sum_i q_i travel_i, per channel).
+    for (int p = 0; p < 12; ++p) std::fill_n(batch(kSum + p), n, 0.f);
     for (int b = 0; b < kSwept; ++b) {
-      for (int c = 0; c < 3; ++c) in[size_t(b)][c] = acc[(size_t(b) * 3 + size_t(c)) * nx + size_t(i)];
-      const float t = t_len[size_t(full_.paths[size_t(b)].target_len_id)];
-      const float norm = kFourPi - 0.5f * (1.f - tau) * (kFourPi + cos_sum_[size_t(b)]);
-      const glm::vec3 qi = in[size_t(b)] * ((1.f - t) / norm);
-      sum += qi;
-      const glm::vec3& u = travel_[size_t(b)];
-      q[0] += qi * u.x;
-      q[1] += qi * u.y;
-      q[2] += qi * u.z;
-    }
-    const float fa = 0.5f * (1.f + tau), fb = 0.5f * (1.f - tau);
-    auto reflected = [&](int o) {
-      const glm::vec3& u = travel_[size_t(o)];
-      const glm::vec3 dq = q[0] * u.x + q[1] * u.y + q[2] * u.z;
-      return rho * omega_[size_t(o)] * (fa * sum - fb * dq);
-    };
-    for (int b = 0; b < kSwept; ++b) {
-      const glm::vec3 r = reflected(b);
-      const int l = full_.paths[size_t(b)].target_len_id;
-      const glm::vec3 stored = in[size_t(b)] * sqrt_t_len[size_t(l)] + 0.5f * r;
-      const glm::vec3 leave = in[size_t(b)] * t_len[size_t(l)] + r;
-      for (int c = 0; c < 3; ++c) {
-        full_.dst[(size_t(b) * 3 + size_t(c)) * plane_ + pi] = leave[c];
-        acc[(size_t(b) * 3 + size_t(c)) * nx + size_t(i)] = stored[c];
+      const float* in_r = batch(kIn + 3 * b);
+      const float* in_g = batch(kIn + 3 * b + 1);
+      const float* in_b = batch(kIn + 3 * b + 2);
+      const float* t = batch(kT + full_.paths[size_t(b)].target_len_id);
+      float *sr = batch(kSum), *sg = batch(kSum + 1), *sb = batch(kSum + 2);
+      float *qxr = batch(kQ), *qxg = batch(kQ + 1), *qxb = batch(kQ + 2);
+      float *qyr = batch(kQ + 3), *qyg = batch(kQ + 4), *qyb = batch(kQ + 5);
+      float *qzr = batch(kQ + 6), *qzg = batch(kQ + 7), *qzb = batch(kQ + 8);
+      const float cos_sum = cos_sum_[size_t(b)];
+      const glm::vec3 u = travel_[size_t(b)];
+#pragma GCC ivdep
+      for (int m = 0; m < n; ++m) {
+        const float norm = kFourPi - 0.5f * (1.f - tau[m]) * (kFourPi + cos_sum);
+        const float share = (1.f - t[m]) / norm;
+        const float qr = in_r[m] * share, qg = in_g[m] * share, qb = in_b[m] * share;
+        sr[m] += qr;
+        sg[m] += qg;
+        sb[m] += qb;
+        qxr[m] += qr * u.x;
+        qxg[m] += qg * u.x;
+        qxb[m] += qb * u.x;
+        qyr[m] += qr * u.y;
+        qyg[m] += qg * u.y;
+        qyb[m] += qb * u.y;
+        qzr[m] += qr * u.z;
+        qzg[m] += qg * u.z;
+        qzb[m] += qb * u.z;
       }
     }
-    if (rho != glm::vec3(0.f)) {
-      std::array<glm::vec3, kUp>& e = row_emission_[size_t(i)];
-      for (int o = 0; o < kUp; ++o) e[size_t(o)] = reflected(kSwept + o);
-      row_emits_[size_t(i)] = 1;
-      if (o_.bottom_up) {
-        emission_index_[cell] = int(emission_.size());
-        emission_.push_back(e);
+    // The reflected light per outgoing direction o: rho Omega_o (fa sum - fb q . travel_o).
+    for (int o = 0; o < kDirections; ++o) {
+      const float *sr = batch(kSum), *sg = batch(kSum + 1), *sb = batch(kSum + 2);
+      const float *qxr = batch(kQ), *qxg = batch(kQ + 1), *qxb = batch(kQ + 2);
+      const float *qyr = batch(kQ + 3), *qyg = batch(kQ + 4), *qyb = batch(kQ + 5);
+      const float *qzr = batch(kQ + 6), *qzg = batch(kQ + 7), *qzb = batch(kQ + 8);
+      const float *rr = batch(kRho), *rg = batch(kRho + 1), *rb = batch(kRho + 2);
+      const glm::vec3 u = travel_[size_t(o)];
+      const float omega = omega_[size_t(o)];
+      if (o < kSwept) {
+        const int l = full_.paths[size_t(o)].target_len_id;
+        const float *t = batch(kT + l), *st = batch(kSqrtT + l);
+        const float *in_r = batch(kIn + 3 * o), *in_g = batch(kIn + 3 * o + 1), *in_b = batch(kIn + 3 * o + 2);
+        float *str = batch(kStored + 3 * o), *stg = batch(kStored + 3 * o + 1), *stb = batch(kStored + 3 * o + 2);
+        float* lr = leave_.data() + size_t(3 * o) * size_t(nx);
+        float* lg = lr + nx;
+        float* lb = lg + nx;
+#pragma GCC ivdep
+        for (int m = 0; m < n; ++m) {
+          const float dr = qxr[m] * u.x + qyr[m] * u.y + qzr[m] * u.z;
+          const float dg = qxg[m] * u.x + qyg[m] * u.y + qzg[m] * u.z;
+          const float db = qxb[m] * u.x + qyb[m] * u.y + qzb[m] * u.z;
+          const float ref_r = (rr[m] * omega) * (fa[m] * sr[m] - fb[m] * dr);
+          const float ref_g = (rg[m] * omega) * (fa[m] * sg[m] - fb[m] * dg);
+          const float ref_b = (rb[m] * omega) * (fa[m] * sb[m] - fb[m] * db);
+          str[m] = in_r[m] * st[m] + 0.5f * ref_r;
+          stg[m] = in_g[m] * st[m] + 0.5f * ref_g;
+          stb[m] = in_b[m] * st[m] + 0.5f * ref_b;
+          lr[m] = in_r[m] * t[m] + ref_r;
+          lg[m] = in_g[m] * t[m] + ref_g;
+          lb[m] = in_b[m] * t[m] + ref_b;
+        }
+      } else {
+        float *er = batch(kEmission + 3 * (o - kSwept)), *eg = batch(kEmission + 3 * (o - kSwept) + 1),
+              *eb = batch(kEmission + 3 * (o - kSwept) + 2);
+#pragma GCC ivdep
+        for (int m = 0; m < n; ++m) {
+          const float dr = qxr[m] * u.x + qyr[m] * u.y + qzr[m] * u.z;
+          const float dg = qxg[m] * u.x + qyg[m] * u.y + qzg[m] * u.z;
+          const float db = qxb[m] * u.x + qyb[m] * u.y + qzb[m] * u.z;
+          er[m] = (rr[m] * omega) * (fa[m] * sr[m] - fb[m] * dr);
+          eg[m] = (rg[m] * omega) * (fa[m] * sg[m] - fb[m] * dg);
+          eb[m] = (rb[m] * omega) * (fa[m] * sb[m] - fb[m] * db);
+        }
       }
+    }
+    for (int p = 0; p < kSwept * 3; ++p) {
+      float* dst = full_.dst.data() + size_t(p) * plane_ + row;
+      const float* st = batch(kStored + p);
+      for (int m = 0; m < n; ++m) dst[mat_x_[size_t(m)]] = st[m];
     }
     // The sun's unscattered light: the same attenuation, no reflection.
     for (size_t d = 0; d < direct_.bins.size(); ++d) {
       const int l = direct_.paths[d].target_len_id;
+      const float *t = batch(kT + l), *st = batch(kSqrtT + l);
       for (int c = 0; c < 3; ++c) {
-        const float v = direct_.acc[(d * 3 + size_t(c)) * nx + size_t(i)];
-        direct_.dst[(d * 3 + size_t(c)) * plane_ + pi] = v * t_len[size_t(l)];
-        direct_.acc[(d * 3 + size_t(c)) * nx + size_t(i)] = v * sqrt_t_len[size_t(l)];
+        float* dst = direct_.dst.data() + (d * 3 + size_t(c)) * plane_ + row;
+        float* leave = direct_leave_.data() + (d * 3 + size_t(c)) * size_t(nx);
+        for (int m = 0; m < n; ++m) {
+          const float v = dst[mat_x_[size_t(m)]];
+          leave[m] = v * t[m];
+          dst[mat_x_[size_t(m)]] = v * st[m];
+        }
       }
     }
+    if (o_.bottom_up)  // the up-going pass adds the cells' reflection to the light it carries
+      for (int m = 0; m < n; ++m) {
+        const size_t cell = g_.index(mat_x_[size_t(m)], j, k);
+        if (m_.reflectance[cell] == glm::vec3(0.f)) continue;
+        emission_index_[cell] = int(emission_.size());
+        std::array<glm::vec3, kUp>& e = emission_.emplace_back();
+        for (int o = 0; o < kUp; ++o)
+          for (int c = 0; c < 3; ++c) e[size_t(o)][c] = batch(kEmission + 3 * o + c)[m];
+      }
   }
 
-  // Packs row j of level k's stored light (acc) into the grids, with the cells' average and
+  // Packs row j of level k's stored light (dst's rows) into the grids, with the cells' average and
   // dominant direction.
   void storeRow(int k, int j, SweptGrid& out) {
     const int nx = nx_;
     const size_t cell0 = g_.index(0, j, k);
-    float* acc = full_.acc.data();
-    if (!o_.direct_sun)  // the ambient without the sun's unscattered part
-      for (int b = 0; b < kSwept; ++b) {
-        const int d = direct_of_bin_[size_t(b)];
-        for (int c = 0; c < 3; ++c) {
-          float* a = acc + (size_t(b) * 3 + size_t(c)) * size_t(nx);
-          if (d >= 0) {
-            const float* ad = direct_.acc.data() + (size_t(d) * 3 + size_t(c)) * size_t(nx);
-            for (int x = 0; x < nx; ++x) a[x] = std::max(a[x] - ad[x], 0.f);
-          } else {
-            for (int x = 0; x < nx; ++x) a[x] = std::max(a[x], 0.f);
-          }
-        }
-      }
-    float* sums = row_sums_.data();
+    const size_t row = size_t(j + kPad) * size_t(w_) + size_t(kPad);
     std::fill(row_sums_.begin(), row_sums_.end(), 0.f);
+    float* s = row_sums_.data();
+    const RowSums sums{s, s + nx, s + 2 * nx, s + 3 * nx, s + 4 * nx, s + 5 * nx, s + 6 * nx};
     for (int b = 0; b < kSwept; ++b) {
-      const float* r = acc + size_t(b) * 3 * size_t(nx);
-      const float* g = r + nx;
-      const float* bl = g + nx;
+      const float* r = full_.dst.data() + size_t(3 * b) * plane_ + row;
+      const float* g = r + plane_;
+      const float* bl = g + plane_;
+      const int d = direct_of_bin_[size_t(b)];
+      const float* dr = d >= 0 ? direct_.dst.data() + size_t(3 * d) * plane_ + row : r;
+      const float* dg = dr + (d >= 0 ? plane_ : 0);
+      const float* db = dg + (d >= 0 ? plane_ : 0);
       uint32_t* code = codes_.data() + size_t(b) * size_t(nx);
-      for (int x = 0; x < nx; ++x) code[x] = detail::packR11G11B10(r[x], g[x], bl[x]);
-      addRow(sums, nx, r, g, bl, unit_from_[size_t(b)]);
+      float *vr = values_.data(), *vg = vr + nx, *vb = vg + nx;
+      if (o_.direct_sun)
+        storedLight<Stored::kAsIs>(nx, r, g, bl, dr, dg, db, vr, vg, vb, code);
+      else if (d >= 0)
+        storedLight<Stored::kMinusDirect>(nx, r, g, bl, dr, dg, db, vr, vg, vb, code);
+      else
+        storedLight<Stored::kClamped>(nx, r, g, bl, dr, dg, db, vr, vg, vb, code);
+      const glm::vec3 f = unit_from_[size_t(b)];
+      addToSums(nx, vr, vg, vb, sums.r, sums.g, sums.b, sums.l, sums.x, sums.y, sums.z, f.x, f.y, f.z);
     }
     for (int x = 0; x < nx; ++x) {
       uint32_t* dst = out.light.light.data() + (cell0 + size_t(x)) * kDirections;
@@ -591,29 +713,47 @@ class Sweeper {
     }
     if (out.direct)
       for (size_t d = 0; d < direct_.bins.size(); ++d) {
-        const float* r = direct_.acc.data() + d * 3 * size_t(nx);
+        const float* r = direct_.dst.data() + d * 3 * plane_ + row;
         uint32_t* dst = out.direct->light.data() + cell0 * kDirections + size_t(direct_.bins[d]);
-        for (int x = 0; x < nx; ++x) dst[size_t(x) * kDirections] = detail::packR11G11B10(r[x], r[nx + x], r[2 * nx + x]);
+        for (int x = 0; x < nx; ++x) dst[size_t(x) * kDirections] = detail::packR11G11B10(r[x], r[plane_ + x], r[2 * plane_ + x]);
       }
     if (o_.bottom_up) {  // the up-going light comes later (bottomUp)
       for (int x = 0; x < nx; ++x) {
-        avg_[cell0 + size_t(x)] = {sums[x], sums[nx + x], sums[2 * nx + x], sums[3 * nx + x]};
-        dom_[cell0 + size_t(x)] = {sums[4 * nx + x], sums[5 * nx + x], sums[6 * nx + x]};
+        avg_[cell0 + size_t(x)] = {sums.r[x], sums.g[x], sums.b[x], sums.l[x]};
+        dom_[cell0 + size_t(x)] = {sums.x[x], sums.y[x], sums.z[x]};
       }
       return;
     }
     // The up-going directions without the bottom-up pass: the cells' own reflected light, halved.
-    for (int x = 0; x < nx; ++x) {
-      glm::vec4 avg(sums[x], sums[nx + x], sums[2 * nx + x], sums[3 * nx + x]);
-      glm::vec3 dom(sums[4 * nx + x], sums[5 * nx + x], sums[6 * nx + x]);
-      const size_t cell = cell0 + size_t(x);
-      if (row_emits_[size_t(x)])
-        for (int o = 0; o < kUp; ++o) {
-          const glm::vec3 stored = 0.5f * row_emission_[size_t(x)][size_t(o)];
-          out.light.light[cell * kDirections + size_t(kSwept + o)] = detail::packR11G11B10(stored.r, stored.g, stored.b);
-          add(avg, dom, kSwept + o, stored);
+    const int n = int(mat_x_.size());
+    if (n > 0) {
+      float* bs = batch(kSumsRows);
+      const RowSums bsums{bs, bs + nx, bs + 2 * nx, bs + 3 * nx, bs + 4 * nx, bs + 5 * nx, bs + 6 * nx};
+      for (int p = 0; p < kSums; ++p)
+        for (int m = 0; m < n; ++m) bs[p * nx + m] = s[p * nx + mat_x_[size_t(m)]];
+      for (int o = 0; o < kUp; ++o) {
+        float* half = batch(kStored);  // free again: the stored light is in dst
+        for (int c = 0; c < 3; ++c) {
+          const float* e = batch(kEmission + 3 * o + c);
+          for (int m = 0; m < n; ++m) half[c * nx + m] = 0.5f * e[m];
         }
-      finish(out, cell, avg, dom);
+        uint32_t* code = codes_.data() + size_t(o) * size_t(nx);
+        for (int m = 0; m < n; ++m) code[m] = detail::packR11G11B10(half[m], half[nx + m], half[2 * nx + m]);
+        const glm::vec3 f = unit_from_[size_t(kSwept + o)];
+        addToSums(n, half, half + nx, half + 2 * nx, bsums.r, bsums.g, bsums.b, bsums.l, bsums.x, bsums.y, bsums.z, f.x, f.y, f.z);
+      }
+      for (int p = 0; p < kSums; ++p)
+        for (int m = 0; m < n; ++m) s[p * nx + mat_x_[size_t(m)]] = bs[p * nx + m];
+      for (int m = 0; m < n; ++m) {
+        uint32_t* dst = out.light.light.data() + (cell0 + size_t(mat_x_[size_t(m)])) * kDirections + kSwept;
+        for (int o = 0; o < kUp; ++o) dst[o] = codes_[size_t(o) * size_t(nx) + size_t(m)];
+      }
+    }
+    for (int x = 0; x < nx; ++x) {
+      const size_t cell = cell0 + size_t(x);
+      out.light.average[cell] = detail::packR11G11B10(sums.r[x] / kFourPi, sums.g[x] / kFourPi, sums.b[x] / kFourPi);
+      const float w = sums.l[x];
+      out.light.dominant[cell] = packDirection(w > 0 ? glm::vec3(sums.x[x] / w, sums.y[x] / w, sums.z[x] / w) : glm::vec3(0.f));
     }
   }
 
@@ -627,8 +767,7 @@ class Sweeper {
   static void finish(SweptGrid& out, size_t cell, const glm::vec4& avg, const glm::vec3& dom) {
     const glm::vec3 mean = glm::vec3(avg) / kFourPi;
     out.light.average[cell] = detail::packR11G11B10(mean.r, mean.g, mean.b);
-    const glm::vec3 d = avg.w > 0 ? dom / avg.w : glm::vec3(0.f);
-    out.light.dominant[cell] = glm::packSnorm4x8(glm::vec4(d, 0.f));
+    out.light.dominant[cell] = packDirection(avg.w > 0 ? dom / avg.w : glm::vec3(0.f));
   }
 
   // The up-going directions carried up from the bottom level (bottom_up), then the cells'
@@ -651,7 +790,7 @@ class Sweeper {
           const float s = sig[pi];
           for (int o = 0; o < kUp; ++o) {
             glm::vec3 v;
-            for (int c = 0; c < 3; ++c) v[c] = up_.acc[(size_t(o) * 3 + size_t(c)) * size_t(nx) + size_t(i)];
+            for (int c = 0; c < 3; ++c) v[c] = up_.dst[(size_t(o) * 3 + size_t(c)) * plane_ + pi];
             const float t = s == 0.f ? 1.f : std::exp(-s * up_.paths[size_t(o)].target_len);
             const glm::vec3 e = emission(cell, o);
             const glm::vec3 leave = v * t + e;
@@ -670,6 +809,23 @@ class Sweeper {
   // Distinct path lengths a cell attenuates itself: straight, the 4 side diagonals, the 4 corner
   // diagonals, and the two kinds of near-horizontal path (directions.h), one way or the other.
   static constexpr size_t kMaxTargetLengths = 8;
+  // Row sums of a cell's stored light: rgb, luminance, luminance-weighted unit source direction.
+  static constexpr int kSums = 7;
+  // The batch's rows (of nx floats), per cell with material: inputs and pass-through, sums,
+  // stored light (3 per direction), up-going reflected light.
+  static constexpr int kIn = 0;
+  static constexpr int kTau = kIn + 3 * kSwept;
+  static constexpr int kFa = kTau + 1;
+  static constexpr int kFb = kFa + 1;
+  static constexpr int kT = kFb + 1;
+  static constexpr int kSqrtT = kT + int(kMaxTargetLengths);
+  static constexpr int kRho = kSqrtT + int(kMaxTargetLengths);
+  static constexpr int kSum = kRho + 3;
+  static constexpr int kQ = kSum + 3;
+  static constexpr int kStored = kQ + 9;
+  static constexpr int kEmission = kStored + 3 * kSwept;
+  static constexpr int kSumsRows = kEmission + 3 * kUp;
+  static constexpr int kBatchRows = kSumsRows + kSums;
 
   struct LevelFactors {
     int level = std::numeric_limits<int>::min();
@@ -693,11 +849,13 @@ class Sweeper {
   std::array<glm::vec3, kDirections> travel_{}, unit_from_{};
   Pass full_, direct_, up_;
   std::array<int, kSwept> direct_of_bin_{};
-  std::vector<float> weights_;   // kTaps rows of nx: a bin's tap weights along the row
+  std::vector<float> weights_;   // kTaps rows of nx: a direction's tap weights along the row
   std::vector<uint32_t> codes_;  // kSwept rows of nx: the row's packed light
   std::vector<float> row_sums_;  // kSums rows of nx
-  std::vector<std::array<glm::vec3, kUp>> row_emission_;  // per x: the up-going reflected light
-  std::vector<uint8_t> row_emits_;
+  std::vector<float> values_;    // 3 rows of nx: a direction's stored light as the grid stores it
+  std::vector<int> mat_x_;       // the row's cells with material
+  std::vector<float> batch_;     // kBatchRows rows of nx
+  std::vector<float> leave_, direct_leave_;  // per pass, bins * 3 rows of nx: what the batch sends on
   std::vector<glm::vec4> avg_;  // bottom_up: per cell, rgb sum, luminance sum
   std::vector<glm::vec3> dom_;
   std::vector<int> emission_index_;

@@ -27,6 +27,14 @@
 namespace drtv::sweep {
 namespace {
 
+// The row loops are compiled twice, for the baseline and for AVX2 (without FMA: the same IEEE
+// operations in the same order, so the same results, 8 lanes instead of 4), chosen at load time.
+#if defined(__GNUC__) && defined(__x86_64__) && !defined(__SANITIZE_ADDRESS__)
+#define DRTV_SWEEP_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define DRTV_SWEEP_CLONES
+#endif
+
 constexpr int kPad = kNearHorizontalStep + 1;  // the farthest source: 4 sideways + 1 smoothing tap
 constexpr int kTaps = 5;
 constexpr float kFourPi = 12.566370614359172f;
@@ -190,7 +198,7 @@ struct Pass {
 
 // Rows of n floats: a[x] = sum over the 5 taps of w_t s_t[x], in tap order (the reference's order
 // of accumulation), with per-x weights or, where no crossed cell holds material, constant ones.
-void weightedTaps(float* __restrict a, const std::array<const float*, kTaps>& s, const std::array<const float*, kTaps>& w, int n) {
+DRTV_SWEEP_CLONES void weightedTaps(float* __restrict a, const std::array<const float*, kTaps>& s, const std::array<const float*, kTaps>& w, int n) {
   const float* __restrict s0 = s[0];
   const float* __restrict s1 = s[1];
   const float* __restrict s2 = s[2];
@@ -203,7 +211,7 @@ void weightedTaps(float* __restrict a, const std::array<const float*, kTaps>& s,
   const float* __restrict w4 = w[4];
   for (int x = 0; x < n; ++x) a[x] = w0[x] * s0[x] + w1[x] * s1[x] + w2[x] * s2[x] + w3[x] * s3[x] + w4[x] * s4[x];
 }
-void constantTaps(float* __restrict a, const std::array<const float*, kTaps>& s, const std::array<float, kTaps>& w, int n) {
+DRTV_SWEEP_CLONES void constantTaps(float* __restrict a, const std::array<const float*, kTaps>& s, const std::array<float, kTaps>& w, int n) {
   const float* __restrict s0 = s[0];
   const float* __restrict s1 = s[1];
   const float* __restrict s2 = s[2];
@@ -225,7 +233,7 @@ struct RowSums {
 // vectorises neither half when they are fused.)
 enum class Stored { kAsIs, kClamped, kMinusDirect };
 template <Stored kMode>
-void storedLight(int n, const float* __restrict r, const float* __restrict g, const float* __restrict b, const float* __restrict dr,
+DRTV_SWEEP_CLONES void storedLight(int n, const float* __restrict r, const float* __restrict g, const float* __restrict b, const float* __restrict dr,
                  const float* __restrict dg, const float* __restrict db, float* __restrict vr, float* __restrict vg, float* __restrict vb,
                  uint32_t* __restrict code) {
   for (int x = 0; x < n; ++x) {
@@ -248,7 +256,7 @@ void storedLight(int n, const float* __restrict r, const float* __restrict g, co
 
 // Adds one direction's stored light (rows vr, vg, vb of n) to a row's sums (Sweeper::add, in its
 // order): rgb, luminance, and luminance times the unit source direction (fx, fy, fz).
-void addToSums(int n, const float* __restrict vr, const float* __restrict vg, const float* __restrict vb, float* __restrict sr,
+DRTV_SWEEP_CLONES void addToSums(int n, const float* __restrict vr, const float* __restrict vg, const float* __restrict vb, float* __restrict sr,
                float* __restrict sg, float* __restrict sb, float* __restrict sl, float* __restrict sx, float* __restrict sy,
                float* __restrict sz, float fx, float fy, float fz) {
   for (int x = 0; x < n; ++x) {
@@ -346,7 +354,6 @@ class Sweeper {
     codes_.assign(size_t(kSwept) * size_t(nx_), 0u);
     row_sums_.assign(size_t(kSums) * size_t(nx_), 0.f);
     values_.assign(3 * size_t(nx_), 0.f);
-    mat_x_.reserve(size_t(nx_));
     batch_.assign(size_t(kBatchRows) * size_t(nx_), 0.f);
     leave_.assign(size_t(3 * kSwept) * size_t(nx_), 0.f);
     direct_leave_.assign(direct_.bins.size() * 3 * size_t(nx_), 0.f);
@@ -518,47 +525,50 @@ class Sweeper {
       interactRow(k, j);
       storeRow(k, j, out);
       // What the cells with material send on replaces what they stored.
-      const size_t row = size_t(j + kPad) * size_t(w_) + size_t(kPad);
-      const size_t n = mat_x_.size();
+      const size_t at = size_t(j + kPad) * size_t(w_) + size_t(kPad + span_lo_);
       for (const auto& [p, leave] : {std::pair{&full_, &leave_}, std::pair{&direct_, &direct_leave_}})
-        for (size_t plane = 0; plane < p->bins.size() * 3; ++plane) {
-          float* dst = p->dst.data() + plane * plane_ + row;
-          const float* l = leave->data() + plane * size_t(nx_);
-          for (size_t m = 0; m < n; ++m) dst[mat_x_[m]] = l[m];
-        }
+        for (size_t plane = 0; plane < p->bins.size() * 3; ++plane)
+          std::memcpy(p->dst.data() + plane * plane_ + at, leave->data() + plane * size_t(nx_), size_t(span_n_) * sizeof(float));
     }
   }
 
   // Batch row `r` (of nx floats).
   float* batch(int r) { return batch_.data() + size_t(r) * size_t(nx_); }
 
-  // The cells with material (sigma > 0) of row j, level k, as one batch (mat_x_: their x): what
+  // The span of row j, level k, from its first to its last cell with material, as one batch: what
   // passes and what is reflected (sweep.h), per cell in the reference's order of operations, as
-  // loops over the batch. Their stored light goes into dst's row (both passes), the light they send
-  // on into leave_ / direct_leave_, the up-going reflected light into the batch's emission rows.
+  // loops over the span. Its empty cells come out as they went in (T = 1 stops nothing, so nothing
+  // is reflected: exactly, in floats too). The stored light goes into dst's row in place (both
+  // passes), the light sent on into leave_ / direct_leave_, the up-going reflected light into the
+  // batch's emission rows.
   void interactRow(int k, int j) {
     const int nx = nx_;
-    const size_t row = size_t(j + kPad) * size_t(w_) + size_t(kPad);
-    const float* sig = sigma_.data() + size_t(k) * plane_ + row;
-    mat_x_.clear();
     const size_t r = size_t(k) * size_t(h_) + size_t(j + kPad);
-    for (int i = row_lo_[r] - kPad; i <= row_hi_[r] - kPad; ++i)
-      if (sig[i] != 0.f) mat_x_.push_back(i);
-    const int n = int(mat_x_.size());
-    if (n == 0) return;
+    span_lo_ = 0;
+    span_n_ = 0;
+    if (row_lo_[r] > row_hi_[r]) return;
+    const int lo = row_lo_[r] - kPad, n = row_hi_[r] - row_lo_[r] + 1;
+    span_lo_ = lo;
+    span_n_ = n;
+    const size_t row = size_t(j + kPad) * size_t(w_) + size_t(kPad + lo);  // the span's first cell
+    const float* sig = sigma_.data() + size_t(k) * plane_ + row;
     float* tau = batch(kTau);
     float* fa = batch(kFa);
     float* fb = batch(kFb);
-    // The cells' own pass-through per distinct path length: 0 in a full cell.
+    const size_t lengths = target_len_.size();
+    // The cells' own pass-through per distinct path length: 1 in an empty cell, 0 in a full one.
     for (int m = 0; m < n; ++m) {
-      const int x = mat_x_[size_t(m)];
-      const float s = sig[x];
-      const size_t cell = g_.index(x, j, k);
-      tau[m] = 0.f;
-      for (size_t l = 0; l < target_len_.size(); ++l) batch(kT + int(l))[m] = batch(kSqrtT + int(l))[m] = 0.f;
-      if (s < kInf) {
+      const float s = sig[m];
+      const size_t cell = g_.index(lo + m, j, k);
+      if (s == 0.f) {
+        tau[m] = 1.f;
+        for (size_t l = 0; l < lengths; ++l) batch(kT + int(l))[m] = batch(kSqrtT + int(l))[m] = 1.f;
+      } else if (s == kInf) {
+        tau[m] = 0.f;
+        for (size_t l = 0; l < lengths; ++l) batch(kT + int(l))[m] = batch(kSqrtT + int(l))[m] = 0.f;
+      } else {
         tau[m] = std::exp(-s);
-        for (size_t l = 0; l < target_len_.size(); ++l) {
+        for (size_t l = 0; l < lengths; ++l) {
           const float t = std::exp(-s * target_len_[l]);
           batch(kT + int(l))[m] = t;
           batch(kSqrtT + int(l))[m] = std::sqrt(t);
@@ -568,15 +578,15 @@ class Sweeper {
       fb[m] = 0.5f * (1.f - tau[m]);
       const glm::vec3& rho = m_.reflectance[cell];
       for (int c = 0; c < 3; ++c) batch(kRho + c)[m] = rho[c];
-      for (int p = 0; p < kSwept * 3; ++p) batch(kIn + p)[m] = full_.dst[size_t(p) * plane_ + row + size_t(x)];
     }
+    auto in = [&](int b, int c) { return full_.dst.data() + size_t(3 * b + c) * plane_ + row; };
     // What each direction loses in the cell, I (1 - T), normalised, summed as sum and q (columns
     // x, y, z of sum_i q_i travel_i, per channel).
     for (int p = 0; p < 12; ++p) std::fill_n(batch(kSum + p), n, 0.f);
     for (int b = 0; b < kSwept; ++b) {
-      const float* in_r = batch(kIn + 3 * b);
-      const float* in_g = batch(kIn + 3 * b + 1);
-      const float* in_b = batch(kIn + 3 * b + 2);
+      const float* in_r = in(b, 0);
+      const float* in_g = in(b, 1);
+      const float* in_b = in(b, 2);
       const float* t = batch(kT + full_.paths[size_t(b)].target_len_id);
       float *sr = batch(kSum), *sg = batch(kSum + 1), *sb = batch(kSum + 2);
       float *qxr = batch(kQ), *qxg = batch(kQ + 1), *qxb = batch(kQ + 2);
@@ -615,8 +625,9 @@ class Sweeper {
       if (o < kSwept) {
         const int l = full_.paths[size_t(o)].target_len_id;
         const float *t = batch(kT + l), *st = batch(kSqrtT + l);
-        const float *in_r = batch(kIn + 3 * o), *in_g = batch(kIn + 3 * o + 1), *in_b = batch(kIn + 3 * o + 2);
-        float *str = batch(kStored + 3 * o), *stg = batch(kStored + 3 * o + 1), *stb = batch(kStored + 3 * o + 2);
+        // The stored light replaces the gathered light it is made of, cell by cell.
+        float *in_r = in(o, 0), *in_g = in(o, 1), *in_b = in(o, 2);
+        float *str = in_r, *stg = in_g, *stb = in_b;
         float* lr = leave_.data() + size_t(3 * o) * size_t(nx);
         float* lg = lr + nx;
         float* lb = lg + nx;
@@ -628,12 +639,13 @@ class Sweeper {
           const float ref_r = (rr[m] * omega) * (fa[m] * sr[m] - fb[m] * dr);
           const float ref_g = (rg[m] * omega) * (fa[m] * sg[m] - fb[m] * dg);
           const float ref_b = (rb[m] * omega) * (fa[m] * sb[m] - fb[m] * db);
-          str[m] = in_r[m] * st[m] + 0.5f * ref_r;
-          stg[m] = in_g[m] * st[m] + 0.5f * ref_g;
-          stb[m] = in_b[m] * st[m] + 0.5f * ref_b;
-          lr[m] = in_r[m] * t[m] + ref_r;
-          lg[m] = in_g[m] * t[m] + ref_g;
-          lb[m] = in_b[m] * t[m] + ref_b;
+          const float ir = in_r[m], ig = in_g[m], ib = in_b[m];
+          lr[m] = ir * t[m] + ref_r;
+          lg[m] = ig * t[m] + ref_g;
+          lb[m] = ib * t[m] + ref_b;
+          str[m] = ir * st[m] + 0.5f * ref_r;
+          stg[m] = ig * st[m] + 0.5f * ref_g;
+          stb[m] = ib * st[m] + 0.5f * ref_b;
         }
       } else {
         float *er = batch(kEmission + 3 * (o - kSwept)), *eg = batch(kEmission + 3 * (o - kSwept) + 1),
@@ -649,11 +661,6 @@ class Sweeper {
         }
       }
     }
-    for (int p = 0; p < kSwept * 3; ++p) {
-      float* dst = full_.dst.data() + size_t(p) * plane_ + row;
-      const float* st = batch(kStored + p);
-      for (int m = 0; m < n; ++m) dst[mat_x_[size_t(m)]] = st[m];
-    }
     // The sun's unscattered light: the same attenuation, no reflection.
     for (size_t d = 0; d < direct_.bins.size(); ++d) {
       const int l = direct_.paths[d].target_len_id;
@@ -662,16 +669,16 @@ class Sweeper {
         float* dst = direct_.dst.data() + (d * 3 + size_t(c)) * plane_ + row;
         float* leave = direct_leave_.data() + (d * 3 + size_t(c)) * size_t(nx);
         for (int m = 0; m < n; ++m) {
-          const float v = dst[mat_x_[size_t(m)]];
+          const float v = dst[m];
           leave[m] = v * t[m];
-          dst[mat_x_[size_t(m)]] = v * st[m];
+          dst[m] = v * st[m];
         }
       }
     }
     if (o_.bottom_up)  // the up-going pass adds the cells' reflection to the light it carries
       for (int m = 0; m < n; ++m) {
-        const size_t cell = g_.index(mat_x_[size_t(m)], j, k);
-        if (m_.reflectance[cell] == glm::vec3(0.f)) continue;
+        const size_t cell = g_.index(lo + m, j, k);
+        if (sig[m] == 0.f || m_.reflectance[cell] == glm::vec3(0.f)) continue;
         emission_index_[cell] = int(emission_.size());
         std::array<glm::vec3, kUp>& e = emission_.emplace_back();
         for (int o = 0; o < kUp; ++o)
@@ -724,30 +731,24 @@ class Sweeper {
       }
       return;
     }
-    // The up-going directions without the bottom-up pass: the cells' own reflected light, halved.
-    const int n = int(mat_x_.size());
-    if (n > 0) {
-      float* bs = batch(kSumsRows);
-      const RowSums bsums{bs, bs + nx, bs + 2 * nx, bs + 3 * nx, bs + 4 * nx, bs + 5 * nx, bs + 6 * nx};
-      for (int p = 0; p < kSums; ++p)
-        for (int m = 0; m < n; ++m) bs[p * nx + m] = s[p * nx + mat_x_[size_t(m)]];
-      for (int o = 0; o < kUp; ++o) {
-        float* half = batch(kStored);  // free again: the stored light is in dst
-        for (int c = 0; c < 3; ++c) {
-          const float* e = batch(kEmission + 3 * o + c);
-          for (int m = 0; m < n; ++m) half[c * nx + m] = 0.5f * e[m];
-        }
-        uint32_t* code = codes_.data() + size_t(o) * size_t(nx);
-        for (int m = 0; m < n; ++m) code[m] = detail::packR11G11B10(half[m], half[nx + m], half[2 * nx + m]);
-        const glm::vec3 f = unit_from_[size_t(kSwept + o)];
-        addToSums(n, half, half + nx, half + 2 * nx, bsums.r, bsums.g, bsums.b, bsums.l, bsums.x, bsums.y, bsums.z, f.x, f.y, f.z);
+    // The up-going directions without the bottom-up pass: the cells' own reflected light, halved
+    // (0 in the span's empty cells, which adds nothing).
+    const int n = span_n_, lo = span_lo_;
+    for (int o = 0; o < kUp && n > 0; ++o) {
+      float* half = batch(kHalf);
+      for (int c = 0; c < 3; ++c) {
+        const float* e = batch(kEmission + 3 * o + c);
+        for (int m = 0; m < n; ++m) half[c * nx + m] = 0.5f * e[m];
       }
-      for (int p = 0; p < kSums; ++p)
-        for (int m = 0; m < n; ++m) s[p * nx + mat_x_[size_t(m)]] = bs[p * nx + m];
-      for (int m = 0; m < n; ++m) {
-        uint32_t* dst = out.light.light.data() + (cell0 + size_t(mat_x_[size_t(m)])) * kDirections + kSwept;
-        for (int o = 0; o < kUp; ++o) dst[o] = codes_[size_t(o) * size_t(nx) + size_t(m)];
-      }
+      uint32_t* code = codes_.data() + size_t(o) * size_t(nx);
+      for (int m = 0; m < n; ++m) code[m] = detail::packR11G11B10(half[m], half[nx + m], half[2 * nx + m]);
+      const glm::vec3 f = unit_from_[size_t(kSwept + o)];
+      addToSums(n, half, half + nx, half + 2 * nx, sums.r + lo, sums.g + lo, sums.b + lo, sums.l + lo, sums.x + lo, sums.y + lo, sums.z + lo,
+                f.x, f.y, f.z);
+    }
+    for (int m = 0; m < n; ++m) {
+      uint32_t* dst = out.light.light.data() + (cell0 + size_t(lo + m)) * kDirections + kSwept;
+      for (int o = 0; o < kUp; ++o) dst[o] = codes_[size_t(o) * size_t(nx) + size_t(m)];
     }
     for (int x = 0; x < nx; ++x) {
       const size_t cell = cell0 + size_t(x);
@@ -811,10 +812,9 @@ class Sweeper {
   static constexpr size_t kMaxTargetLengths = 8;
   // Row sums of a cell's stored light: rgb, luminance, luminance-weighted unit source direction.
   static constexpr int kSums = 7;
-  // The batch's rows (of nx floats), per cell with material: inputs and pass-through, sums,
-  // stored light (3 per direction), up-going reflected light.
-  static constexpr int kIn = 0;
-  static constexpr int kTau = kIn + 3 * kSwept;
+  // The batch's rows (of nx floats), per cell of the span: pass-through, reflectance, the sums of
+  // what is stopped, the up-going reflected light, and one direction's halved emission.
+  static constexpr int kTau = 0;
   static constexpr int kFa = kTau + 1;
   static constexpr int kFb = kFa + 1;
   static constexpr int kT = kFb + 1;
@@ -822,10 +822,9 @@ class Sweeper {
   static constexpr int kRho = kSqrtT + int(kMaxTargetLengths);
   static constexpr int kSum = kRho + 3;
   static constexpr int kQ = kSum + 3;
-  static constexpr int kStored = kQ + 9;
-  static constexpr int kEmission = kStored + 3 * kSwept;
-  static constexpr int kSumsRows = kEmission + 3 * kUp;
-  static constexpr int kBatchRows = kSumsRows + kSums;
+  static constexpr int kEmission = kQ + 9;
+  static constexpr int kHalf = kEmission + 3 * kUp;
+  static constexpr int kBatchRows = kHalf + 3;
 
   struct LevelFactors {
     int level = std::numeric_limits<int>::min();
@@ -853,7 +852,7 @@ class Sweeper {
   std::vector<uint32_t> codes_;  // kSwept rows of nx: the row's packed light
   std::vector<float> row_sums_;  // kSums rows of nx
   std::vector<float> values_;    // 3 rows of nx: a direction's stored light as the grid stores it
-  std::vector<int> mat_x_;       // the row's cells with material
+  int span_lo_ = 0, span_n_ = 0;  // the row's span of cells with material (interactRow)
   std::vector<float> batch_;     // kBatchRows rows of nx
   std::vector<float> leave_, direct_leave_;  // per pass, bins * 3 rows of nx: what the batch sends on
   std::vector<glm::vec4> avg_;  // bottom_up: per cell, rgb sum, luminance sum

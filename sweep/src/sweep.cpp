@@ -229,7 +229,7 @@ struct RowSums {
 
 // What the light grid stores of one direction along a row of n cells: the stored light (rows r, g,
 // b), less the sun's unscattered part (dr, dg, db; kMinusDirect) or clamped at 0 (kClamped), or as
-// it is; into rows vr, vg, vb and packed into `code`. (Two loops with addToSums, not one: GCC
+// it is; into rows vr, vg, vb and packed into code[x * kDirections] (the light grid's layout). (Two loops with addToSums, not one: GCC
 // vectorises neither half when they are fused.)
 enum class Stored { kAsIs, kClamped, kMinusDirect };
 template <Stored kMode>
@@ -250,7 +250,7 @@ DRTV_SWEEP_CLONES void storedLight(int n, const float* __restrict r, const float
       vg[x] = g[x];
       vb[x] = b[x];
     }
-    code[x] = detail::packR11G11B10(vr[x], vg[x], vb[x]);
+    code[size_t(x) * kDirections] = detail::packR11G11B10(vr[x], vg[x], vb[x]);
   }
 }
 
@@ -271,18 +271,125 @@ DRTV_SWEEP_CLONES void addToSums(int n, const float* __restrict vr, const float*
   }
 }
 
-// glm::packSnorm4x8(vec4(d, 0)) without its libm round per component: clamp to [-1, 1], times
-// 127, rounded half away from zero (std::round: c - trunc(c) is exact for |c| <= 127).
-uint32_t packDirection(const glm::vec3& d) {
-  uint32_t out = 0;
-  for (int c = 0; c < 3; ++c) {
-    const float v = std::min(std::max(d[c], -1.f), 1.f) * 127.f;
-    const int i = int(v);
-    const float f = v - float(i);
-    const int rounded = i + (f >= 0.5f ? 1 : 0) - (f <= -0.5f ? 1 : 0);
-    out |= uint32_t(uint8_t(int8_t(rounded))) << (8 * c);
+// One component of glm::packSnorm4x8 without libm's roundf: clamp to [-1, 1], times 127, rounded
+// half away from zero (std::round: v - trunc(v) is exact for |v| <= 127), as a byte.
+inline uint32_t snormByte(float d) {
+  const float v = std::min(std::max(d, -1.f), 1.f) * 127.f;
+  const int i = int(v);
+  const float f = v - float(i);
+  const int rounded = i + (f >= 0.5f ? 1 : 0) - (f <= -0.5f ? 1 : 0);
+  return uint32_t(rounded) & 0xffu;
+}
+
+// glm::packSnorm4x8(vec4(d, 0)).
+uint32_t packDirection(const glm::vec3& d) { return snormByte(d.x) | (snormByte(d.y) << 8) | (snormByte(d.z) << 16); }
+
+// A row's average light (the rgb sums over 4 pi) and dominant direction (the luminance-weighted
+// direction sums over the luminance sum, 0 without light), packed: Sweeper::finish for n cells.
+DRTV_SWEEP_CLONES void finishRow(int n, const float* __restrict sr, const float* __restrict sg, const float* __restrict sb,
+                                 const float* __restrict sl, const float* __restrict sx, const float* __restrict sy,
+                                 const float* __restrict sz, uint32_t* __restrict average, uint32_t* __restrict dominant) {
+  for (int x = 0; x < n; ++x) average[x] = detail::packR11G11B10(sr[x] / kFourPi, sg[x] / kFourPi, sb[x] / kFourPi);
+  for (int x = 0; x < n; ++x) {
+    const float w = sl[x];
+    const bool lit = w > 0;
+    const float dx = lit ? sx[x] / w : 0.f, dy = lit ? sy[x] / w : 0.f, dz = lit ? sz[x] / w : 0.f;
+    dominant[x] = snormByte(dx) | (snormByte(dy) << 8) | (snormByte(dz) << 16);
   }
-  return out;
+}
+
+// The batch's rows for the reflection (Sweeper::interactRow), per cell of a span: the cell's
+// pass-through tau and (1 +- tau) / 2, its reflectance, and the sums of what it stops (sum, and q:
+// q[3 axis + channel] = sum_i q_i travel_i).
+struct ReflectionRows {
+  const float *tau, *fa, *fb;
+  const float* rho[3];
+  float* sum[3];
+  float* q[9];
+};
+
+// Adds what one direction loses in each cell of the span, its light I (rows in_*) times (1 - T)
+// (row t), normalised by the direction's norm, to the sums.
+DRTV_SWEEP_CLONES void addStopped(int n, const ReflectionRows& w, const float* __restrict in_r, const float* __restrict in_g,
+                                  const float* __restrict in_b, const float* __restrict t, float cos_sum, float ux, float uy, float uz) {
+  const float* __restrict tau = w.tau;
+  float *__restrict sr = w.sum[0], *__restrict sg = w.sum[1], *__restrict sb = w.sum[2];
+  float *__restrict qxr = w.q[0], *__restrict qxg = w.q[1], *__restrict qxb = w.q[2];
+  float *__restrict qyr = w.q[3], *__restrict qyg = w.q[4], *__restrict qyb = w.q[5];
+  float *__restrict qzr = w.q[6], *__restrict qzg = w.q[7], *__restrict qzb = w.q[8];
+#pragma GCC ivdep
+  for (int m = 0; m < n; ++m) {
+    const float norm = kFourPi - 0.5f * (1.f - tau[m]) * (kFourPi + cos_sum);
+    const float share = (1.f - t[m]) / norm;
+    const float qr = in_r[m] * share, qg = in_g[m] * share, qb = in_b[m] * share;
+    sr[m] += qr;
+    sg[m] += qg;
+    sb[m] += qb;
+    qxr[m] += qr * ux;
+    qxg[m] += qg * ux;
+    qxb[m] += qb * ux;
+    qyr[m] += qr * uy;
+    qyg[m] += qg * uy;
+    qyb[m] += qb * uy;
+    qzr[m] += qr * uz;
+    qzg[m] += qg * uz;
+    qzb[m] += qb * uz;
+  }
+}
+
+// The light reflected into outgoing direction (ux, uy, uz) of solid angle omega, in channel c of
+// cell m: rho Omega (fa sum - fb q . travel).
+#define DRTV_SWEEP_REFLECTED(c)                                                       \
+  ((rho##c[m] * omega) * (fa[m] * s##c[m] - fb[m] * (qx##c[m] * ux + qy##c[m] * uy + qz##c[m] * uz)))
+
+// A down-going direction's light in each cell of the span: what it stores (I sqrt(T) + reflected
+// / 2, replacing its gathered light in rows io_*) and what it sends on (I T + reflected, rows l*).
+DRTV_SWEEP_CLONES void reflectDown(int n, const ReflectionRows& w, float ux, float uy, float uz, float omega, const float* __restrict t,
+                                   const float* __restrict st, float* __restrict io_r, float* __restrict io_g, float* __restrict io_b,
+                                   float* __restrict lr, float* __restrict lg, float* __restrict lb) {
+  const float *__restrict fa = w.fa, *__restrict fb = w.fb;
+  const float *__restrict rhor = w.rho[0], *__restrict rhog = w.rho[1], *__restrict rhob = w.rho[2];
+  const float *__restrict sr = w.sum[0], *__restrict sg = w.sum[1], *__restrict sb = w.sum[2];
+  const float *__restrict qxr = w.q[0], *__restrict qxg = w.q[1], *__restrict qxb = w.q[2];
+  const float *__restrict qyr = w.q[3], *__restrict qyg = w.q[4], *__restrict qyb = w.q[5];
+  const float *__restrict qzr = w.q[6], *__restrict qzg = w.q[7], *__restrict qzb = w.q[8];
+#pragma GCC ivdep
+  for (int m = 0; m < n; ++m) {
+    const float ref_r = DRTV_SWEEP_REFLECTED(r), ref_g = DRTV_SWEEP_REFLECTED(g), ref_b = DRTV_SWEEP_REFLECTED(b);
+    const float ir = io_r[m], ig = io_g[m], ib = io_b[m];
+    lr[m] = ir * t[m] + ref_r;
+    lg[m] = ig * t[m] + ref_g;
+    lb[m] = ib * t[m] + ref_b;
+    io_r[m] = ir * st[m] + 0.5f * ref_r;
+    io_g[m] = ig * st[m] + 0.5f * ref_g;
+    io_b[m] = ib * st[m] + 0.5f * ref_b;
+  }
+}
+
+// An up-going direction's reflected light in each cell of the span, into rows e*.
+DRTV_SWEEP_CLONES void reflectUp(int n, const ReflectionRows& w, float ux, float uy, float uz, float omega, float* __restrict er,
+                                 float* __restrict eg, float* __restrict eb) {
+  const float *__restrict fa = w.fa, *__restrict fb = w.fb;
+  const float *__restrict rhor = w.rho[0], *__restrict rhog = w.rho[1], *__restrict rhob = w.rho[2];
+  const float *__restrict sr = w.sum[0], *__restrict sg = w.sum[1], *__restrict sb = w.sum[2];
+  const float *__restrict qxr = w.q[0], *__restrict qxg = w.q[1], *__restrict qxb = w.q[2];
+  const float *__restrict qyr = w.q[3], *__restrict qyg = w.q[4], *__restrict qyb = w.q[5];
+  const float *__restrict qzr = w.q[6], *__restrict qzg = w.q[7], *__restrict qzb = w.q[8];
+#pragma GCC ivdep
+  for (int m = 0; m < n; ++m) {
+    er[m] = DRTV_SWEEP_REFLECTED(r);
+    eg[m] = DRTV_SWEEP_REFLECTED(g);
+    eb[m] = DRTV_SWEEP_REFLECTED(b);
+  }
+}
+#undef DRTV_SWEEP_REFLECTED
+
+// w[x] *= f[x], and w[x] = s w[x]: a tap's weight along a row, crossed cell by crossed cell.
+DRTV_SWEEP_CLONES void multiplyRow(float* __restrict w, const float* __restrict f, int n) {
+  for (int x = 0; x < n; ++x) w[x] *= f[x];
+}
+DRTV_SWEEP_CLONES void scaleRow(float* __restrict w, float s, int n) {
+  for (int x = 0; x < n; ++x) w[x] = s * w[x];
 }
 
 class Sweeper {
@@ -479,11 +586,11 @@ class Sweeper {
           if (!varying[size_t(t)])
             std::memcpy(w, fr, size_t(nx) * sizeof(float));
           else
-            for (int x = 0; x < nx; ++x) w[x] *= fr[x];
+            multiplyRow(w, fr, nx);
           varying[size_t(t)] = true;
         }
         if (varying[size_t(t)]) {
-          for (int x = 0; x < nx; ++x) w[x] = tap.w * w[x];
+          scaleRow(w, tap.w, nx);
           any = true;
         }
       }
@@ -581,84 +688,25 @@ class Sweeper {
     }
     auto in = [&](int b, int c) { return full_.dst.data() + size_t(3 * b + c) * plane_ + row; };
     // What each direction loses in the cell, I (1 - T), normalised, summed as sum and q (columns
-    // x, y, z of sum_i q_i travel_i, per channel).
+    // x, y, z of sum_i q_i travel_i, per channel); then the reflected light per outgoing direction.
+    ReflectionRows rows{tau, fa, fb, {batch(kRho), batch(kRho + 1), batch(kRho + 2)}, {}, {}};
+    for (int c = 0; c < 3; ++c) rows.sum[c] = batch(kSum + c);
+    for (int p = 0; p < 9; ++p) rows.q[p] = batch(kQ + p);
     for (int p = 0; p < 12; ++p) std::fill_n(batch(kSum + p), n, 0.f);
     for (int b = 0; b < kSwept; ++b) {
-      const float* in_r = in(b, 0);
-      const float* in_g = in(b, 1);
-      const float* in_b = in(b, 2);
-      const float* t = batch(kT + full_.paths[size_t(b)].target_len_id);
-      float *sr = batch(kSum), *sg = batch(kSum + 1), *sb = batch(kSum + 2);
-      float *qxr = batch(kQ), *qxg = batch(kQ + 1), *qxb = batch(kQ + 2);
-      float *qyr = batch(kQ + 3), *qyg = batch(kQ + 4), *qyb = batch(kQ + 5);
-      float *qzr = batch(kQ + 6), *qzg = batch(kQ + 7), *qzb = batch(kQ + 8);
-      const float cos_sum = cos_sum_[size_t(b)];
       const glm::vec3 u = travel_[size_t(b)];
-#pragma GCC ivdep
-      for (int m = 0; m < n; ++m) {
-        const float norm = kFourPi - 0.5f * (1.f - tau[m]) * (kFourPi + cos_sum);
-        const float share = (1.f - t[m]) / norm;
-        const float qr = in_r[m] * share, qg = in_g[m] * share, qb = in_b[m] * share;
-        sr[m] += qr;
-        sg[m] += qg;
-        sb[m] += qb;
-        qxr[m] += qr * u.x;
-        qxg[m] += qg * u.x;
-        qxb[m] += qb * u.x;
-        qyr[m] += qr * u.y;
-        qyg[m] += qg * u.y;
-        qyb[m] += qb * u.y;
-        qzr[m] += qr * u.z;
-        qzg[m] += qg * u.z;
-        qzb[m] += qb * u.z;
-      }
+      addStopped(n, rows, in(b, 0), in(b, 1), in(b, 2), batch(kT + full_.paths[size_t(b)].target_len_id), cos_sum_[size_t(b)], u.x, u.y, u.z);
     }
-    // The reflected light per outgoing direction o: rho Omega_o (fa sum - fb q . travel_o).
     for (int o = 0; o < kDirections; ++o) {
-      const float *sr = batch(kSum), *sg = batch(kSum + 1), *sb = batch(kSum + 2);
-      const float *qxr = batch(kQ), *qxg = batch(kQ + 1), *qxb = batch(kQ + 2);
-      const float *qyr = batch(kQ + 3), *qyg = batch(kQ + 4), *qyb = batch(kQ + 5);
-      const float *qzr = batch(kQ + 6), *qzg = batch(kQ + 7), *qzb = batch(kQ + 8);
-      const float *rr = batch(kRho), *rg = batch(kRho + 1), *rb = batch(kRho + 2);
       const glm::vec3 u = travel_[size_t(o)];
-      const float omega = omega_[size_t(o)];
       if (o < kSwept) {
         const int l = full_.paths[size_t(o)].target_len_id;
-        const float *t = batch(kT + l), *st = batch(kSqrtT + l);
-        // The stored light replaces the gathered light it is made of, cell by cell.
-        float *in_r = in(o, 0), *in_g = in(o, 1), *in_b = in(o, 2);
-        float *str = in_r, *stg = in_g, *stb = in_b;
-        float* lr = leave_.data() + size_t(3 * o) * size_t(nx);
-        float* lg = lr + nx;
-        float* lb = lg + nx;
-#pragma GCC ivdep
-        for (int m = 0; m < n; ++m) {
-          const float dr = qxr[m] * u.x + qyr[m] * u.y + qzr[m] * u.z;
-          const float dg = qxg[m] * u.x + qyg[m] * u.y + qzg[m] * u.z;
-          const float db = qxb[m] * u.x + qyb[m] * u.y + qzb[m] * u.z;
-          const float ref_r = (rr[m] * omega) * (fa[m] * sr[m] - fb[m] * dr);
-          const float ref_g = (rg[m] * omega) * (fa[m] * sg[m] - fb[m] * dg);
-          const float ref_b = (rb[m] * omega) * (fa[m] * sb[m] - fb[m] * db);
-          const float ir = in_r[m], ig = in_g[m], ib = in_b[m];
-          lr[m] = ir * t[m] + ref_r;
-          lg[m] = ig * t[m] + ref_g;
-          lb[m] = ib * t[m] + ref_b;
-          str[m] = ir * st[m] + 0.5f * ref_r;
-          stg[m] = ig * st[m] + 0.5f * ref_g;
-          stb[m] = ib * st[m] + 0.5f * ref_b;
-        }
+        float* leave = leave_.data() + size_t(3 * o) * size_t(nx);
+        reflectDown(n, rows, u.x, u.y, u.z, omega_[size_t(o)], batch(kT + l), batch(kSqrtT + l), in(o, 0), in(o, 1), in(o, 2), leave,
+                    leave + nx, leave + 2 * nx);
       } else {
-        float *er = batch(kEmission + 3 * (o - kSwept)), *eg = batch(kEmission + 3 * (o - kSwept) + 1),
-              *eb = batch(kEmission + 3 * (o - kSwept) + 2);
-#pragma GCC ivdep
-        for (int m = 0; m < n; ++m) {
-          const float dr = qxr[m] * u.x + qyr[m] * u.y + qzr[m] * u.z;
-          const float dg = qxg[m] * u.x + qyg[m] * u.y + qzg[m] * u.z;
-          const float db = qxb[m] * u.x + qyb[m] * u.y + qzb[m] * u.z;
-          er[m] = (rr[m] * omega) * (fa[m] * sr[m] - fb[m] * dr);
-          eg[m] = (rg[m] * omega) * (fa[m] * sg[m] - fb[m] * dg);
-          eb[m] = (rb[m] * omega) * (fa[m] * sb[m] - fb[m] * db);
-        }
+        const int e = kEmission + 3 * (o - kSwept);
+        reflectUp(n, rows, u.x, u.y, u.z, omega_[size_t(o)], batch(e), batch(e + 1), batch(e + 2));
       }
     }
     // The sun's unscattered light: the same attenuation, no reflection.
@@ -703,7 +751,7 @@ class Sweeper {
       const float* dr = d >= 0 ? direct_.dst.data() + size_t(3 * d) * plane_ + row : r;
       const float* dg = dr + (d >= 0 ? plane_ : 0);
       const float* db = dg + (d >= 0 ? plane_ : 0);
-      uint32_t* code = codes_.data() + size_t(b) * size_t(nx);
+      uint32_t* code = out.light.light.data() + cell0 * kDirections + size_t(b);  // every kDirections-th word
       float *vr = values_.data(), *vg = vr + nx, *vb = vg + nx;
       if (o_.direct_sun)
         storedLight<Stored::kAsIs>(nx, r, g, bl, dr, dg, db, vr, vg, vb, code);
@@ -713,10 +761,6 @@ class Sweeper {
         storedLight<Stored::kClamped>(nx, r, g, bl, dr, dg, db, vr, vg, vb, code);
       const glm::vec3 f = unit_from_[size_t(b)];
       addToSums(nx, vr, vg, vb, sums.r, sums.g, sums.b, sums.l, sums.x, sums.y, sums.z, f.x, f.y, f.z);
-    }
-    for (int x = 0; x < nx; ++x) {
-      uint32_t* dst = out.light.light.data() + (cell0 + size_t(x)) * kDirections;
-      for (int b = 0; b < kSwept; ++b) dst[b] = codes_[size_t(b) * size_t(nx) + size_t(x)];
     }
     if (out.direct)
       for (size_t d = 0; d < direct_.bins.size(); ++d) {
@@ -750,12 +794,7 @@ class Sweeper {
       uint32_t* dst = out.light.light.data() + (cell0 + size_t(lo + m)) * kDirections + kSwept;
       for (int o = 0; o < kUp; ++o) dst[o] = codes_[size_t(o) * size_t(nx) + size_t(m)];
     }
-    for (int x = 0; x < nx; ++x) {
-      const size_t cell = cell0 + size_t(x);
-      out.light.average[cell] = detail::packR11G11B10(sums.r[x] / kFourPi, sums.g[x] / kFourPi, sums.b[x] / kFourPi);
-      const float w = sums.l[x];
-      out.light.dominant[cell] = packDirection(w > 0 ? glm::vec3(sums.x[x] / w, sums.y[x] / w, sums.z[x] / w) : glm::vec3(0.f));
-    }
+    finishRow(nx, sums.r, sums.g, sums.b, sums.l, sums.x, sums.y, sums.z, out.light.average.data() + cell0, out.light.dominant.data() + cell0);
   }
 
   void add(glm::vec4& avg, glm::vec3& dom, int b, const glm::vec3& v) const {

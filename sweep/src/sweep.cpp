@@ -17,6 +17,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <memory>
 #include <vector>
 
 #include <glm/gtc/packing.hpp>
@@ -90,6 +91,17 @@ BinPath makePath(int bin, float smoothing) {
   return p;
 }
 
+// The paths of direction `bin` without their weights (makePath's crossed cells and lengths, which
+// do not depend on the smoothing), computed once. Thread-safe (a function-local static).
+const BinPath& pathGeometry(int bin) {
+  static const std::array<BinPath, kDirections> paths = [] {
+    std::array<BinPath, kDirections> a;
+    for (int b = 0; b < kDirections; ++b) a[size_t(b)] = makePath(b, 0.f);
+    return a;
+  }();
+  return paths[size_t(bin)];
+}
+
 float luminance(const glm::vec3& c) { return 0.2126f * c.r + 0.7152f * c.g + 0.0722f * c.b; }
 
 // The edges' light: the open sky, or a coarser grid decoded once around this one.
@@ -131,7 +143,7 @@ class Edges {
     int i, j;
     size_t plane;
   };
-  void fill(int k, bool direct, const std::vector<int>& bins, const std::vector<Cell>& cells, std::vector<float>& planes,
+  void fill(int k, bool direct, const std::vector<int>& bins, const std::vector<Cell>& cells, float* planes,
             size_t plane_size) {
     const size_t nb = bins.size();
     if (!parent_) {
@@ -193,7 +205,9 @@ struct Pass {
   std::vector<int> bins;
   std::vector<BinPath> paths;
   bool direct = false;
-  std::vector<float> src, dst;  // bins.size() * 3 planes
+  // bins.size() * 3 planes each. Not initialised: the edges' fill writes all of src above the top
+  // level and dst's ring, and the gather every interior row of dst before a level reads it.
+  std::unique_ptr<float[]> src, dst;
 };
 
 // Rows of n floats: a[x] = sum over the 5 taps of w_t s_t[x], in tap order (the reference's order
@@ -505,13 +519,13 @@ class Sweeper {
       }
     }
     for (Pass* p : {&full_, &direct_})
-      if (!p->bins.empty()) edges_.fill(nz, p->direct, p->bins, all_cells_, p->src, plane_);
+      if (!p->bins.empty()) edges_.fill(nz, p->direct, p->bins, all_cells_, p->src.get(), plane_);
     for (int k = nz - 1; k >= 0; --k) {
       // The open sky's ring is the same at every level, and the levels never write it: both
       // buffers have it once the first level's is filled.
       if (k == nz - 1 || !edges_.sameAtEveryLevel())
         for (Pass* p : {&full_, &direct_})
-          if (!p->bins.empty()) edges_.fill(k, p->direct, p->bins, ring_cells_, p->dst, plane_);
+          if (!p->bins.empty()) edges_.fill(k, p->direct, p->bins, ring_cells_, p->dst.get(), plane_);
       level(k, out);
       for (Pass* p : {&full_, &direct_}) std::swap(p->src, p->dst);
     }
@@ -522,15 +536,16 @@ class Sweeper {
  private:
   void setUp(Pass& p) {
     for (int b : p.bins) {
-      BinPath path = makePath(b, o_.smoothing);
+      BinPath path = pathGeometry(b);
+      for (int t = 0; t < kTaps; ++t) path.taps[size_t(t)].w = t == 0 ? o_.smoothing : (1.f - o_.smoothing) / 4.f;  // as makePath
       for (Tap& t : path.taps)
         for (Crossed& c : t.crossed) c.len_id = lengthId(crossed_len_, c.len);
       path.target_len_id = lengthId(target_len_, path.target_len);
       DRTV_CHECK_LE(target_len_.size(), kMaxTargetLengths);
       p.paths.push_back(std::move(path));
     }
-    p.src.assign(p.bins.size() * 3 * plane_, 0.f);
-    p.dst = p.src;
+    p.src.reset(new float[p.bins.size() * 3 * plane_]);
+    p.dst.reset(new float[p.bins.size() * 3 * plane_]);
   }
 
   static int lengthId(std::vector<float>& lengths, float len) {
@@ -619,13 +634,13 @@ class Sweeper {
     }
     const size_t row = size_t(j + kPad) * size_t(w_) + size_t(kPad);
     for (int c = 0; c < 3; ++c) {
-      const float* plane = p.src.data() + (b * 3 + size_t(c)) * plane_;
+      const float* plane = p.src.get() + (b * 3 + size_t(c)) * plane_;
       std::array<const float*, kTaps> s;
       for (int t = 0; t < kTaps; ++t) {
         const Tap& tap = path.taps[size_t(t)];
         s[size_t(t)] = plane + size_t(j + kPad + tap.oy) * size_t(w_) + size_t(kPad + tap.ox);
       }
-      float* a = p.dst.data() + (b * 3 + size_t(c)) * plane_ + row;
+      float* a = p.dst.get() + (b * 3 + size_t(c)) * plane_ + row;
       if (varying)
         weightedTaps(a, s, w, nx);
       else
@@ -642,7 +657,7 @@ class Sweeper {
       const size_t at = size_t(j + kPad) * size_t(w_) + size_t(kPad + span_lo_);
       for (const auto& [p, leave] : {std::pair{&full_, &leave_}, std::pair{&direct_, &direct_leave_}})
         for (size_t plane = 0; plane < p->bins.size() * 3; ++plane)
-          std::memcpy(p->dst.data() + plane * plane_ + at, leave->data() + plane * size_t(nx_), size_t(span_n_) * sizeof(float));
+          std::memcpy(p->dst.get() + plane * plane_ + at, leave->data() + plane * size_t(nx_), size_t(span_n_) * sizeof(float));
     }
   }
 
@@ -693,7 +708,7 @@ class Sweeper {
       const glm::vec3& rho = m_.reflectance[cell];
       for (int c = 0; c < 3; ++c) batch(kRho + c)[m] = rho[c];
     }
-    auto in = [&](int b, int c) { return full_.dst.data() + size_t(3 * b + c) * plane_ + row; };
+    auto in = [&](int b, int c) { return full_.dst.get() + size_t(3 * b + c) * plane_ + row; };
     // What each direction loses in the cell, I (1 - T), normalised, summed as sum and q (columns
     // x, y, z of sum_i q_i travel_i, per channel); then the reflected light per outgoing direction.
     ReflectionRows rows{tau, fa, fb, {batch(kRho), batch(kRho + 1), batch(kRho + 2)}, {}, {}};
@@ -721,7 +736,7 @@ class Sweeper {
       const int l = direct_.paths[d].target_len_id;
       const float *t = batch(kT + l), *st = batch(kSqrtT + l);
       for (int c = 0; c < 3; ++c) {
-        float* dst = direct_.dst.data() + (d * 3 + size_t(c)) * plane_ + row;
+        float* dst = direct_.dst.get() + (d * 3 + size_t(c)) * plane_ + row;
         float* leave = direct_leave_.data() + (d * 3 + size_t(c)) * size_t(nx);
         for (int m = 0; m < n; ++m) {
           const float v = dst[m];
@@ -751,11 +766,11 @@ class Sweeper {
     float* s = row_sums_.data();
     const RowSums sums{s, s + nx, s + 2 * nx, s + 3 * nx, s + 4 * nx, s + 5 * nx, s + 6 * nx};
     for (int b = 0; b < kSwept; ++b) {
-      const float* r = full_.dst.data() + size_t(3 * b) * plane_ + row;
+      const float* r = full_.dst.get() + size_t(3 * b) * plane_ + row;
       const float* g = r + plane_;
       const float* bl = g + plane_;
       const int d = direct_of_bin_[size_t(b)];
-      const float* dr = d >= 0 ? direct_.dst.data() + size_t(3 * d) * plane_ + row : r;
+      const float* dr = d >= 0 ? direct_.dst.get() + size_t(3 * d) * plane_ + row : r;
       const float* dg = dr + (d >= 0 ? plane_ : 0);
       const float* db = dg + (d >= 0 ? plane_ : 0);
       uint32_t* code = codes_.data() + size_t(b) * size_t(nx);
@@ -771,7 +786,7 @@ class Sweeper {
     }
     if (out.direct)
       for (size_t d = 0; d < direct_.bins.size(); ++d) {
-        const float* r = direct_.dst.data() + d * 3 * plane_ + row;
+        const float* r = direct_.dst.get() + d * 3 * plane_ + row;
         uint32_t* dst = out.direct->light.data() + cell0 * kDirections + size_t(direct_.bins[d]);
         for (int x = 0; x < nx; ++x) dst[size_t(x) * kDirections] = detail::packR11G11B10(r[x], r[plane_ + x], r[2 * plane_ + x]);
       }
@@ -825,9 +840,9 @@ class Sweeper {
       const int e = emission_index_[cell];
       return e < 0 ? glm::vec3(0.f) : emission_[size_t(e)][size_t(o)];
     };
-    std::fill(up_.src.begin(), up_.src.end(), 0.f);  // below the grid: nothing comes up
+    std::fill_n(up_.src.get(), up_.bins.size() * 3 * plane_, 0.f);  // below the grid: nothing comes up
     for (int k = 0; k < nz; ++k) {
-      edges_.fill(k, false, up_.bins, ring_cells_, up_.dst, plane_);
+      edges_.fill(k, false, up_.bins, ring_cells_, up_.dst.get(), plane_);
       const float* sig = sigma_.data() + size_t(k) * plane_;
       for (int j = 0; j < ny; ++j) {
         gather(up_, nullptr, k, k - 1, j);

@@ -437,7 +437,7 @@ class Sweeper {
         for (int i = 0; i < g_.size.x; ++i) {
           const float d = m.density[g_.index(i, j, k)];
           DRTV_CHECK(d >= 0.f && d <= 1.f);
-          const float s = d >= 1.f ? kInf : -std::log1p(-d);
+          const float s = d >= 1.f ? kInf : d == 0.f ? 0.f : -std::log1p(-d);  // -log1p(-0) is +0 too
           const size_t pi = size_t(j + kPad) * size_t(w_) + size_t(i + kPad);
           sigma_[size_t(k) * plane_ + pi] = s;
           if (s > 0) {

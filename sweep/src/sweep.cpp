@@ -243,7 +243,7 @@ struct RowSums {
 
 // What the light grid stores of one direction along a row of n cells: the stored light (rows r, g,
 // b), less the sun's unscattered part (dr, dg, db; kMinusDirect) or clamped at 0 (kClamped), or as
-// it is; into rows vr, vg, vb and packed into `code`. (Two loops with addToSums, not one: GCC
+// it is; into rows vr, vg, vb and packed into code[x * kDirections] (the light grid's layout). (Two loops with addToSums, not one: GCC
 // vectorises neither half when they are fused.)
 enum class Stored { kAsIs, kClamped, kMinusDirect };
 template <Stored kMode>
@@ -264,7 +264,7 @@ DRTV_SWEEP_CLONES void storedLight(int n, const float* __restrict r, const float
       vg[x] = g[x];
       vb[x] = b[x];
     }
-    code[x] = detail::packR11G11B10(vr[x], vg[x], vb[x]);
+    code[size_t(x) * kDirections] = detail::packR11G11B10(vr[x], vg[x], vb[x]);
   }
 }
 
@@ -404,13 +404,6 @@ DRTV_SWEEP_CLONES void multiplyRow(float* __restrict w, const float* __restrict 
 }
 DRTV_SWEEP_CLONES void scaleRow(float* __restrict w, float s, int n) {
   for (int x = 0; x < n; ++x) w[x] = s * w[x];
-}
-
-// The light grid's words of n cells (kDirections per cell, grid.h) from rows of codes, one per
-// direction (rows[b * stride + x]): written cell by cell, in the order they lie in memory.
-DRTV_SWEEP_CLONES void interleave(int n, const uint32_t* __restrict rows, int stride, uint32_t* __restrict out) {
-  for (int x = 0; x < n; ++x)
-    for (int b = 0; b < kDirections; ++b) out[x * kDirections + b] = rows[b * stride + x];
 }
 
 class Sweeper {
@@ -773,7 +766,7 @@ class Sweeper {
       const float* dr = d >= 0 ? direct_.dst.get() + size_t(3 * d) * plane_ + row : r;
       const float* dg = dr + (d >= 0 ? plane_ : 0);
       const float* db = dg + (d >= 0 ? plane_ : 0);
-      uint32_t* code = codes_.data() + size_t(b) * size_t(nx);
+      uint32_t* code = codes_.data() + size_t(b);
       float *vr = values_.data(), *vg = vr + nx, *vb = vg + nx;
       if (o_.direct_sun)
         storedLight<Stored::kAsIs>(nx, r, g, bl, dr, dg, db, vr, vg, vb, code);
@@ -791,8 +784,8 @@ class Sweeper {
         for (int x = 0; x < nx; ++x) dst[size_t(x) * kDirections] = detail::packR11G11B10(r[x], r[plane_ + x], r[2 * plane_ + x]);
       }
     if (o_.bottom_up) {  // the up-going light comes later (bottomUp)
-      std::fill(codes_.begin() + kSwept * nx, codes_.end(), 0u);
-      interleave(nx, codes_.data(), nx, out.light.light.data() + cell0 * kDirections);
+      clearUpGoing();
+      std::memcpy(out.light.light.data() + cell0 * kDirections, codes_.data(), codes_.size() * sizeof(uint32_t));
       for (int x = 0; x < nx; ++x) {
         avg_[cell0 + size_t(x)] = {sums.r[x], sums.g[x], sums.b[x], sums.l[x]};
         dom_[cell0 + size_t(x)] = {sums.x[x], sums.y[x], sums.z[x]};
@@ -802,21 +795,26 @@ class Sweeper {
     // The up-going directions without the bottom-up pass: the cells' own reflected light, halved
     // (0 in the span's empty cells, which adds nothing).
     const int n = span_n_, lo = span_lo_;
-    std::fill(codes_.begin() + kSwept * nx, codes_.end(), 0u);
+    clearUpGoing();
     for (int o = 0; o < kUp && n > 0; ++o) {
       float* half = batch(kHalf);
       for (int c = 0; c < 3; ++c) {
         const float* e = batch(kEmission + 3 * o + c);
         for (int m = 0; m < n; ++m) half[c * nx + m] = 0.5f * e[m];
       }
-      uint32_t* code = codes_.data() + size_t(kSwept + o) * size_t(nx) + size_t(lo);
-      for (int m = 0; m < n; ++m) code[m] = detail::packR11G11B10(half[m], half[nx + m], half[2 * nx + m]);
+      uint32_t* code = codes_.data() + size_t(lo) * kDirections + size_t(kSwept + o);
+      for (int m = 0; m < n; ++m) code[size_t(m) * kDirections] = detail::packR11G11B10(half[m], half[nx + m], half[2 * nx + m]);
       const glm::vec3 f = unit_from_[size_t(kSwept + o)];
       addToSums(n, half, half + nx, half + 2 * nx, sums.r + lo, sums.g + lo, sums.b + lo, sums.l + lo, sums.x + lo, sums.y + lo, sums.z + lo,
                 f.x, f.y, f.z);
     }
-    interleave(nx, codes_.data(), nx, out.light.light.data() + cell0 * kDirections);
+    std::memcpy(out.light.light.data() + cell0 * kDirections, codes_.data(), codes_.size() * sizeof(uint32_t));
     finishRow(nx, sums.r, sums.g, sums.b, sums.l, sums.x, sums.y, sums.z, out.light.average.data() + cell0, out.light.dominant.data() + cell0);
+  }
+
+  // The row's up-going words 0 (what the span's cells reflect up replaces them).
+  void clearUpGoing() {
+    for (int x = 0; x < nx_; ++x) std::fill_n(codes_.data() + size_t(x) * kDirections + kSwept, kUp, 0u);
   }
 
   void add(glm::vec4& avg, glm::vec3& dom, int b, const glm::vec3& v) const {
@@ -910,7 +908,9 @@ class Sweeper {
   Pass full_, direct_, up_;
   std::array<int, kSwept> direct_of_bin_{};
   std::vector<float> weights_;   // kTaps rows of nx: a direction's tap weights along the row
-  std::vector<uint32_t> codes_;  // kDirections rows of nx: the row's packed light
+  // The row's words in the light grid's layout (kDirections per cell), written with strides here
+  // in L1 and copied to the grid in one piece.
+  std::vector<uint32_t> codes_;
   std::vector<float> row_sums_;  // kSums rows of nx
   std::vector<float> values_;    // 3 rows of nx: a direction's stored light as the grid stores it
   int span_lo_ = 0, span_n_ = 0;  // the row's span of cells with material (interactRow)

@@ -1,32 +1,14 @@
 #include "drtv/sweep/grid.h"
 
 #include <algorithm>
-#include <bit>
 #include <cmath>
 
 #include <glm/gtc/packing.hpp>
 
+#include "small_float.h"
+
 namespace drtv::sweep {
 namespace {
-
-// One unsigned small float: `mant` mantissa bits, 5 exponent bits, bias 15, from a float's bits.
-template <int kMant>
-uint32_t packSmall(float v) {
-  if (!(v >= 6.103515625e-05f)) return 0;  // also NaN and negatives
-  constexpr uint32_t kMax = (30u << kMant) | ((1u << kMant) - 1u);  // 65024 (11-bit) / 64512 (10-bit)
-  const uint32_t b = std::bit_cast<uint32_t>(v);
-  constexpr int kShift = 23 - kMant;
-  // Rebias the exponent (127 -> 15) and round the mantissa to nearest (ties up).
-  const uint32_t r = ((b - (112u << 23)) + (1u << (kShift - 1))) >> kShift;
-  return std::min(r, kMax);
-}
-
-template <int kMant>
-float unpackSmall(uint32_t s) {
-  if (s == 0) return 0.f;
-  constexpr int kShift = 23 - kMant;
-  return std::bit_cast<float>((s << kShift) + (112u << 23));
-}
 
 template <class Get>
 auto trilinear(const GridShape& g, const glm::dvec3& p, Get get) {
@@ -66,12 +48,10 @@ struct Vec26 {
 
 }  // namespace
 
-uint32_t packR11G11B10(const glm::vec3& rgb) {
-  return packSmall<6>(rgb.r) | (packSmall<6>(rgb.g) << 11) | (packSmall<5>(rgb.b) << 22);
-}
+uint32_t packR11G11B10(const glm::vec3& rgb) { return detail::packR11G11B10(rgb.r, rgb.g, rgb.b); }
 
 glm::vec3 unpackR11G11B10(uint32_t bits) {
-  return {unpackSmall<6>(bits & 0x7ffu), unpackSmall<6>((bits >> 11) & 0x7ffu), unpackSmall<5>(bits >> 22)};
+  return {detail::unpackSmall<6>(bits & 0x7ffu), detail::unpackSmall<6>((bits >> 11) & 0x7ffu), detail::unpackSmall<5>(bits >> 22)};
 }
 
 LightVector LightGrid::cell(size_t index) const {

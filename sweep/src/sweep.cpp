@@ -1,19 +1,40 @@
-// The sweep (sweep.h). Layout: every per-level buffer is a padded plane of (nx + 2 kPad) x
-// (ny + 2 kPad) floats, one plane per direction and channel, so that a gather over a row is a
-// contiguous loop; the pad ring holds the edges' light.
+// The sweep (sweep.h), laid out for the loops that read it:
+//  - the light flowing from one level to the next is a padded plane of (nx + 2 kPad) x
+//    (ny + 2 kPad) floats per direction and channel (the pad ring holds the edges' light), so that
+//    a row's gather is a contiguous loop per tap;
+//  - a row's gathered light is structure-of-arrays (direction, channel, x): empty cells pass it on
+//    with row copies, packing and averaging are loops over x, and only the cells with material
+//    take the per-cell reflection;
+//  - a path's transmittance through the cells it crosses, the product of their (1 - d)^len, comes
+//    from factor planes made once per level, one per distinct crossed length (exp only in cells of
+//    fractional density), and is skipped where the rows crossed hold no material. The first
+//    version took exp of the summed optical depth per path, cell and channel: the same quantity up
+//    to float rounding (tests/sweep/sweep_reference_test.cpp compares the two);
+//  - the cell's own pass-through, (1 - d)^l, by its 5 distinct path lengths, not per direction.
 #include "drtv/sweep/sweep.h"
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
+#include <memory>
 #include <vector>
 
 #include <glm/gtc/packing.hpp>
 
 #include "drtv/formats/error.h"
+#include "small_float.h"
 
 namespace drtv::sweep {
 namespace {
+
+// The row loops are compiled twice, for the baseline and for AVX2 (without FMA: the same IEEE
+// operations in the same order, so the same results, 8 lanes instead of 4), chosen at load time.
+#if defined(__GNUC__) && defined(__x86_64__) && !defined(__SANITIZE_ADDRESS__)
+#define DRTV_SWEEP_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define DRTV_SWEEP_CLONES
+#endif
 
 constexpr int kPad = kNearHorizontalStep + 1;  // the farthest source: 4 sideways + 1 smoothing tap
 constexpr int kTaps = 5;
@@ -26,6 +47,7 @@ struct Crossed {
   int dx, dy;
   bool src_level;
   float len;
+  int len_id = -1;  // its length's factor plane (Sweeper::crossed_len_)
 };
 struct Tap {
   int ox, oy;  // source offset from the target, cells
@@ -35,7 +57,8 @@ struct Tap {
 struct BinPath {
   int bin;
   std::array<Tap, kTaps> taps;
-  float target_len;  // the path length the target cell itself attenuates
+  float target_len;      // the path length the target cell itself attenuates
+  int target_len_id = -1;  // Sweeper::target_len_
 };
 
 BinPath makePath(int bin, float smoothing) {
@@ -66,6 +89,17 @@ BinPath makePath(int bin, float smoothing) {
   for (const Crossed& c : p.taps[0].crossed) crossed += c.len;
   p.target_len = float(glm::length(glm::dvec3(st))) - crossed;
   return p;
+}
+
+// The paths of direction `bin` without their weights (makePath's crossed cells and lengths, which
+// do not depend on the smoothing), computed once. Thread-safe (a function-local static).
+const BinPath& pathGeometry(int bin) {
+  static const std::array<BinPath, kDirections> paths = [] {
+    std::array<BinPath, kDirections> a;
+    for (int b = 0; b < kDirections; ++b) a[size_t(b)] = makePath(b, 0.f);
+    return a;
+  }();
+  return paths[size_t(bin)];
 }
 
 float luminance(const glm::vec3& c) { return 0.2126f * c.r + 0.7152f * c.g + 0.0722f * c.b; }
@@ -100,13 +134,16 @@ class Edges {
         }
   }
 
+  // Whether the edges' light is the same at every level (the open sky).
+  bool sameAtEveryLevel() const { return parent_ == nullptr; }
+
   // The light of the cells (i, j) in `cells` at grid level k (may be -1 or size.z) for `bins`,
   // into planes[b * 3 + c][plane index].
   struct Cell {
     int i, j;
     size_t plane;
   };
-  void fill(int k, bool direct, const std::vector<int>& bins, const std::vector<Cell>& cells, std::vector<float>& planes,
+  void fill(int k, bool direct, const std::vector<int>& bins, const std::vector<Cell>& cells, float* planes,
             size_t plane_size) {
     const size_t nb = bins.size();
     if (!parent_) {
@@ -161,14 +198,213 @@ class Edges {
   std::vector<LightVector> full_, direct_, slice_;
 };
 
-// One stream of light through the grid: a set of directions, its ping-pong level buffers.
+// One stream of light through the grid: a set of directions, its ping-pong level buffers. While a
+// row is being swept, dst's row holds the light gathered into it, then what its cells store; the
+// light the cells with material send on replaces theirs once the row is stored.
 struct Pass {
   std::vector<int> bins;
   std::vector<BinPath> paths;
   bool direct = false;
-  std::vector<float> src, dst;  // bins.size() * 3 planes
-  std::vector<float> acc;       // bins.size() * 3 rows of nx: one row's gathered light
+  // bins.size() * 3 planes each. Not initialised: the edges' fill writes all of src above the top
+  // level and dst's ring, and the gather every interior row of dst before a level reads it.
+  std::unique_ptr<float[]> src, dst;
 };
+
+// Rows of n floats: a[x] = sum over the 5 taps of w_t s_t[x], in tap order (the reference's order
+// of accumulation), with per-x weights or, where no crossed cell holds material, constant ones.
+DRTV_SWEEP_CLONES void weightedTaps(float* __restrict a, const std::array<const float*, kTaps>& s, const std::array<const float*, kTaps>& w, int n) {
+  const float* __restrict s0 = s[0];
+  const float* __restrict s1 = s[1];
+  const float* __restrict s2 = s[2];
+  const float* __restrict s3 = s[3];
+  const float* __restrict s4 = s[4];
+  const float* __restrict w0 = w[0];
+  const float* __restrict w1 = w[1];
+  const float* __restrict w2 = w[2];
+  const float* __restrict w3 = w[3];
+  const float* __restrict w4 = w[4];
+  for (int x = 0; x < n; ++x) a[x] = w0[x] * s0[x] + w1[x] * s1[x] + w2[x] * s2[x] + w3[x] * s3[x] + w4[x] * s4[x];
+}
+DRTV_SWEEP_CLONES void constantTaps(float* __restrict a, const std::array<const float*, kTaps>& s, const std::array<float, kTaps>& w, int n) {
+  const float* __restrict s0 = s[0];
+  const float* __restrict s1 = s[1];
+  const float* __restrict s2 = s[2];
+  const float* __restrict s3 = s[3];
+  const float* __restrict s4 = s[4];
+  const float w0 = w[0], w1 = w[1], w2 = w[2], w3 = w[3], w4 = w[4];
+  for (int x = 0; x < n; ++x) a[x] = w0 * s0[x] + w1 * s1[x] + w2 * s2[x] + w3 * s3[x] + w4 * s4[x];
+}
+
+// A row's sums of its cells' stored light (Sweeper::add, in its order): rgb, luminance, and
+// luminance times the unit source direction.
+struct RowSums {
+  float *r, *g, *b, *l, *x, *y, *z;
+};
+
+// What the light grid stores of one direction along a row of n cells: the stored light (rows r, g,
+// b), less the sun's unscattered part (dr, dg, db; kMinusDirect) or clamped at 0 (kClamped), or as
+// it is; into rows vr, vg, vb and packed into code[x * kDirections] (the light grid's layout). (Two loops with addToSums, not one: GCC
+// vectorises neither half when they are fused.)
+enum class Stored { kAsIs, kClamped, kMinusDirect };
+template <Stored kMode>
+DRTV_SWEEP_CLONES void storedLight(int n, const float* __restrict r, const float* __restrict g, const float* __restrict b, const float* __restrict dr,
+                 const float* __restrict dg, const float* __restrict db, float* __restrict vr, float* __restrict vg, float* __restrict vb,
+                 uint32_t* __restrict code) {
+  for (int x = 0; x < n; ++x) {
+    if constexpr (kMode == Stored::kMinusDirect) {
+      vr[x] = std::max(r[x] - dr[x], 0.f);
+      vg[x] = std::max(g[x] - dg[x], 0.f);
+      vb[x] = std::max(b[x] - db[x], 0.f);
+    } else if constexpr (kMode == Stored::kClamped) {
+      vr[x] = std::max(r[x], 0.f);
+      vg[x] = std::max(g[x], 0.f);
+      vb[x] = std::max(b[x], 0.f);
+    } else {
+      vr[x] = r[x];
+      vg[x] = g[x];
+      vb[x] = b[x];
+    }
+    code[size_t(x) * kDirections] = detail::packR11G11B10(vr[x], vg[x], vb[x]);
+  }
+}
+
+// Adds one direction's stored light (rows vr, vg, vb of n) to a row's sums (Sweeper::add, in its
+// order): rgb, luminance, and luminance times the unit source direction (fx, fy, fz).
+DRTV_SWEEP_CLONES void addToSums(int n, const float* __restrict vr, const float* __restrict vg, const float* __restrict vb, float* __restrict sr,
+               float* __restrict sg, float* __restrict sb, float* __restrict sl, float* __restrict sx, float* __restrict sy,
+               float* __restrict sz, float fx, float fy, float fz) {
+  for (int x = 0; x < n; ++x) {
+    sr[x] += vr[x];
+    sg[x] += vg[x];
+    sb[x] += vb[x];
+    const float l = 0.2126f * vr[x] + 0.7152f * vg[x] + 0.0722f * vb[x];
+    sl[x] += l;
+    sx[x] += l * fx;
+    sy[x] += l * fy;
+    sz[x] += l * fz;
+  }
+}
+
+// One component of glm::packSnorm4x8 without libm's roundf: clamp to [-1, 1], times 127, rounded
+// half away from zero (std::round: v - trunc(v) is exact for |v| <= 127), as a byte.
+inline uint32_t snormByte(float d) {
+  const float v = std::min(std::max(d, -1.f), 1.f) * 127.f;
+  const int i = int(v);
+  const float f = v - float(i);
+  const int rounded = i + (f >= 0.5f ? 1 : 0) - (f <= -0.5f ? 1 : 0);
+  return uint32_t(rounded) & 0xffu;
+}
+
+// glm::packSnorm4x8(vec4(d, 0)).
+uint32_t packDirection(const glm::vec3& d) { return snormByte(d.x) | (snormByte(d.y) << 8) | (snormByte(d.z) << 16); }
+
+// A row's average light (the rgb sums over 4 pi) and dominant direction (the luminance-weighted
+// direction sums over the luminance sum, 0 without light), packed: Sweeper::finish for n cells.
+DRTV_SWEEP_CLONES void finishRow(int n, const float* __restrict sr, const float* __restrict sg, const float* __restrict sb,
+                                 const float* __restrict sl, const float* __restrict sx, const float* __restrict sy,
+                                 const float* __restrict sz, uint32_t* __restrict average, uint32_t* __restrict dominant) {
+  for (int x = 0; x < n; ++x) average[x] = detail::packR11G11B10(sr[x] / kFourPi, sg[x] / kFourPi, sb[x] / kFourPi);
+  for (int x = 0; x < n; ++x) {
+    const float w = sl[x];
+    const bool lit = w > 0;
+    const float dx = lit ? sx[x] / w : 0.f, dy = lit ? sy[x] / w : 0.f, dz = lit ? sz[x] / w : 0.f;
+    dominant[x] = snormByte(dx) | (snormByte(dy) << 8) | (snormByte(dz) << 16);
+  }
+}
+
+// The batch's rows for the reflection (Sweeper::interactRow), per cell of a span: the cell's
+// pass-through tau and (1 +- tau) / 2, its reflectance, and the sums of what it stops (sum, and q:
+// q[3 axis + channel] = sum_i q_i travel_i).
+struct ReflectionRows {
+  const float *tau, *fa, *fb;
+  const float* rho[3];
+  float* sum[3];
+  float* q[9];
+};
+
+// Adds what one direction loses in each cell of the span, its light I (rows in_*) times (1 - T)
+// (row t), normalised by the direction's norm, to the sums.
+DRTV_SWEEP_CLONES void addStopped(int n, const ReflectionRows& w, const float* __restrict in_r, const float* __restrict in_g,
+                                  const float* __restrict in_b, const float* __restrict t, float cos_sum, float ux, float uy, float uz) {
+  const float* __restrict tau = w.tau;
+  float *__restrict sr = w.sum[0], *__restrict sg = w.sum[1], *__restrict sb = w.sum[2];
+  float *__restrict qxr = w.q[0], *__restrict qxg = w.q[1], *__restrict qxb = w.q[2];
+  float *__restrict qyr = w.q[3], *__restrict qyg = w.q[4], *__restrict qyb = w.q[5];
+  float *__restrict qzr = w.q[6], *__restrict qzg = w.q[7], *__restrict qzb = w.q[8];
+#pragma GCC ivdep
+  for (int m = 0; m < n; ++m) {
+    const float norm = kFourPi - 0.5f * (1.f - tau[m]) * (kFourPi + cos_sum);
+    const float share = (1.f - t[m]) / norm;
+    const float qr = in_r[m] * share, qg = in_g[m] * share, qb = in_b[m] * share;
+    sr[m] += qr;
+    sg[m] += qg;
+    sb[m] += qb;
+    qxr[m] += qr * ux;
+    qxg[m] += qg * ux;
+    qxb[m] += qb * ux;
+    qyr[m] += qr * uy;
+    qyg[m] += qg * uy;
+    qyb[m] += qb * uy;
+    qzr[m] += qr * uz;
+    qzg[m] += qg * uz;
+    qzb[m] += qb * uz;
+  }
+}
+
+// The light reflected into outgoing direction (ux, uy, uz) of solid angle omega, in channel c of
+// cell m: rho Omega (fa sum - fb q . travel).
+#define DRTV_SWEEP_REFLECTED(c)                                                       \
+  ((rho##c[m] * omega) * (fa[m] * s##c[m] - fb[m] * (qx##c[m] * ux + qy##c[m] * uy + qz##c[m] * uz)))
+
+// A down-going direction's light in each cell of the span: what it stores (I sqrt(T) + reflected
+// / 2, replacing its gathered light in rows io_*) and what it sends on (I T + reflected, rows l*).
+DRTV_SWEEP_CLONES void reflectDown(int n, const ReflectionRows& w, float ux, float uy, float uz, float omega, const float* __restrict t,
+                                   const float* __restrict st, float* __restrict io_r, float* __restrict io_g, float* __restrict io_b,
+                                   float* __restrict lr, float* __restrict lg, float* __restrict lb) {
+  const float *__restrict fa = w.fa, *__restrict fb = w.fb;
+  const float *__restrict rhor = w.rho[0], *__restrict rhog = w.rho[1], *__restrict rhob = w.rho[2];
+  const float *__restrict sr = w.sum[0], *__restrict sg = w.sum[1], *__restrict sb = w.sum[2];
+  const float *__restrict qxr = w.q[0], *__restrict qxg = w.q[1], *__restrict qxb = w.q[2];
+  const float *__restrict qyr = w.q[3], *__restrict qyg = w.q[4], *__restrict qyb = w.q[5];
+  const float *__restrict qzr = w.q[6], *__restrict qzg = w.q[7], *__restrict qzb = w.q[8];
+#pragma GCC ivdep
+  for (int m = 0; m < n; ++m) {
+    const float ref_r = DRTV_SWEEP_REFLECTED(r), ref_g = DRTV_SWEEP_REFLECTED(g), ref_b = DRTV_SWEEP_REFLECTED(b);
+    const float ir = io_r[m], ig = io_g[m], ib = io_b[m];
+    lr[m] = ir * t[m] + ref_r;
+    lg[m] = ig * t[m] + ref_g;
+    lb[m] = ib * t[m] + ref_b;
+    io_r[m] = ir * st[m] + 0.5f * ref_r;
+    io_g[m] = ig * st[m] + 0.5f * ref_g;
+    io_b[m] = ib * st[m] + 0.5f * ref_b;
+  }
+}
+
+// An up-going direction's reflected light in each cell of the span, into rows e*.
+DRTV_SWEEP_CLONES void reflectUp(int n, const ReflectionRows& w, float ux, float uy, float uz, float omega, float* __restrict er,
+                                 float* __restrict eg, float* __restrict eb) {
+  const float *__restrict fa = w.fa, *__restrict fb = w.fb;
+  const float *__restrict rhor = w.rho[0], *__restrict rhog = w.rho[1], *__restrict rhob = w.rho[2];
+  const float *__restrict sr = w.sum[0], *__restrict sg = w.sum[1], *__restrict sb = w.sum[2];
+  const float *__restrict qxr = w.q[0], *__restrict qxg = w.q[1], *__restrict qxb = w.q[2];
+  const float *__restrict qyr = w.q[3], *__restrict qyg = w.q[4], *__restrict qyb = w.q[5];
+  const float *__restrict qzr = w.q[6], *__restrict qzg = w.q[7], *__restrict qzb = w.q[8];
+#pragma GCC ivdep
+  for (int m = 0; m < n; ++m) {
+    er[m] = DRTV_SWEEP_REFLECTED(r);
+    eg[m] = DRTV_SWEEP_REFLECTED(g);
+    eb[m] = DRTV_SWEEP_REFLECTED(b);
+  }
+}
+#undef DRTV_SWEEP_REFLECTED
+
+// w[x] *= f[x], and w[x] = s w[x]: a tap's weight along a row, crossed cell by crossed cell.
+DRTV_SWEEP_CLONES void multiplyRow(float* __restrict w, const float* __restrict f, int n) {
+  for (int x = 0; x < n; ++x) w[x] *= f[x];
+}
+DRTV_SWEEP_CLONES void scaleRow(float* __restrict w, float s, int n) {
+  for (int x = 0; x < n; ++x) w[x] = s * w[x];
+}
 
 class Sweeper {
  public:
@@ -177,20 +413,33 @@ class Sweeper {
     DRTV_CHECK(g_.size.x >= 1 && g_.size.y >= 1 && g_.size.z >= 1 && g_.cell_m > 0);
     DRTV_CHECK_EQ(m.density.size(), g_.cellCount());
     DRTV_CHECK_EQ(m.reflectance.size(), g_.cellCount());
+    nx_ = g_.size.x;
     w_ = g_.size.x + 2 * kPad;
     h_ = g_.size.y + 2 * kPad;
     plane_ = size_t(w_) * size_t(h_);
-    // Optical depth per cell length, padded; outside the grid's sides: clear.
+    // Optical depth per cell length, padded; outside the grid's sides: clear. Per level and padded
+    // row, the span of cells with material (row_lo_ > row_hi_: none), and the cells of fractional
+    // density (the only ones whose factors need exp).
     sigma_.assign(plane_ * size_t(g_.size.z), 0.f);
     level_has_material_.assign(size_t(g_.size.z), 0);
+    row_lo_.assign(size_t(g_.size.z) * size_t(h_), w_);
+    row_hi_.assign(size_t(g_.size.z) * size_t(h_), -1);
+    fractional_.resize(size_t(g_.size.z));
     for (int k = 0; k < g_.size.z; ++k)
       for (int j = 0; j < g_.size.y; ++j)
         for (int i = 0; i < g_.size.x; ++i) {
           const float d = m.density[g_.index(i, j, k)];
           DRTV_CHECK(d >= 0.f && d <= 1.f);
-          const float s = d >= 1.f ? kInf : -std::log1p(-d);
-          sigma_[size_t(k) * plane_ + size_t(j + kPad) * size_t(w_) + size_t(i + kPad)] = s;
-          if (s > 0) level_has_material_[size_t(k)] = 1;
+          const float s = d >= 1.f ? kInf : d == 0.f ? 0.f : -std::log1p(-d);  // -log1p(-0) is +0 too
+          const size_t pi = size_t(j + kPad) * size_t(w_) + size_t(i + kPad);
+          sigma_[size_t(k) * plane_ + pi] = s;
+          if (s > 0) {
+            level_has_material_[size_t(k)] = 1;
+            const size_t r = size_t(k) * size_t(h_) + size_t(j + kPad);
+            row_lo_[r] = std::min(row_lo_[r], i + kPad);
+            row_hi_[r] = std::max(row_hi_[r], i + kPad);
+            if (s < kInf) fractional_[size_t(k)].push_back(uint32_t(pi));
+          }
         }
     for (int j = -kPad; j < g_.size.y + kPad; ++j)
       for (int i = -kPad; i < g_.size.x + kPad; ++i) {
@@ -204,17 +453,31 @@ class Sweeper {
       for (int o = 0; o < kDirections; ++o)
         a += dirs[size_t(o)].solid_angle_sr * glm::dot(dirs[size_t(o)].travel, dirs[size_t(b)].travel);
       cos_sum_[size_t(b)] = a;
+      travel_[size_t(b)] = dirs[size_t(b)].travel;
+      omega_[size_t(b)] = dirs[size_t(b)].solid_angle_sr;
+      unit_from_[size_t(b)] = glm::normalize(dirs[size_t(b)].mean_from);
     }
     full_.direct = false;
     for (int b = 0; b < kSwept; ++b) full_.bins.push_back(b);
     direct_.direct = true;
+    direct_of_bin_.fill(-1);
     if (!o_.direct_sun || o_.keep_direct)
       for (int b = 0; b < kSwept; ++b)
-        if (sky.sun[size_t(b)] != glm::vec3(0.f)) direct_.bins.push_back(b);
+        if (sky.sun[size_t(b)] != glm::vec3(0.f)) {
+          direct_of_bin_[size_t(b)] = int(direct_.bins.size());
+          direct_.bins.push_back(b);
+        }
     for (Pass* p : {&full_, &direct_}) setUp(*p);
     up_.direct = false;
     for (int b = kSwept; b < kDirections; ++b) up_.bins.push_back(b);
     if (o_.bottom_up) setUp(up_);
+    weights_.assign(size_t(kTaps) * size_t(nx_), 0.f);
+    codes_.assign(size_t(kDirections) * size_t(nx_), 0u);
+    row_sums_.assign(size_t(kSums) * size_t(nx_), 0.f);
+    values_.assign(3 * size_t(nx_), 0.f);
+    batch_.assign(size_t(kBatchRows) * size_t(nx_), 0.f);
+    leave_.assign(size_t(3 * kSwept) * size_t(nx_), 0.f);
+    direct_leave_.assign(direct_.bins.size() * 3 * size_t(nx_), 0.f);
   }
 
   SweptGrid run(const SkyInput& sky) {
@@ -232,10 +495,13 @@ class Sweeper {
       out.direct->average.assign(g_.cellCount(), 0);
       out.direct->dominant.assign(g_.cellCount(), 0);
     }
-    avg_.assign(g_.cellCount(), glm::vec4(0.f));
-    dom_.assign(g_.cellCount(), glm::vec3(0.f));
-    emission_index_.assign(g_.cellCount(), -1);
-    emission_.clear();
+    if (o_.bottom_up) {
+      // The up-going pass adds to the cells' sums after the downward one: kept per cell.
+      avg_.assign(g_.cellCount(), glm::vec4(0.f));
+      dom_.assign(g_.cellCount(), glm::vec3(0.f));
+      emission_index_.assign(g_.cellCount(), -1);
+      emission_.clear();
+    }
     const int nz = g_.size.z;
     if (!m_.ground_z.empty()) {
       DRTV_CHECK_EQ(m_.ground_z.size(), size_t(g_.size.x) * size_t(g_.size.y));
@@ -246,212 +512,411 @@ class Sweeper {
       }
     }
     for (Pass* p : {&full_, &direct_})
-      if (!p->bins.empty()) edges_.fill(nz, p->direct, p->bins, all_cells_, p->src, plane_);
+      if (!p->bins.empty()) edges_.fill(nz, p->direct, p->bins, all_cells_, p->src.get(), plane_);
     for (int k = nz - 1; k >= 0; --k) {
-      for (Pass* p : {&full_, &direct_})
-        if (!p->bins.empty()) edges_.fill(k, p->direct, p->bins, ring_cells_, p->dst, plane_);
+      // The open sky's ring is the same at every level, and the levels never write it: both
+      // buffers have it once the first level's is filled.
+      if (k == nz - 1 || !edges_.sameAtEveryLevel())
+        for (Pass* p : {&full_, &direct_})
+          if (!p->bins.empty()) edges_.fill(k, p->direct, p->bins, ring_cells_, p->dst.get(), plane_);
       level(k, out);
       for (Pass* p : {&full_, &direct_}) std::swap(p->src, p->dst);
     }
-    upGoing(out);
+    if (o_.bottom_up) bottomUp(out);
     return out;
   }
 
  private:
   void setUp(Pass& p) {
-    for (int b : p.bins) p.paths.push_back(makePath(b, o_.smoothing));
-    p.src.assign(p.bins.size() * 3 * plane_, 0.f);
-    p.dst = p.src;
-    p.acc.assign(p.bins.size() * 3 * size_t(g_.size.x), 0.f);
+    for (int b : p.bins) {
+      BinPath path = pathGeometry(b);
+      for (int t = 0; t < kTaps; ++t) path.taps[size_t(t)].w = t == 0 ? o_.smoothing : (1.f - o_.smoothing) / 4.f;  // as makePath
+      for (Tap& t : path.taps)
+        for (Crossed& c : t.crossed) c.len_id = lengthId(crossed_len_, c.len);
+      path.target_len_id = lengthId(target_len_, path.target_len);
+      DRTV_CHECK_LE(target_len_.size(), kMaxTargetLengths);
+      p.paths.push_back(std::move(path));
+    }
+    p.src.reset(new float[p.bins.size() * 3 * plane_]);
+    p.dst.reset(new float[p.bins.size() * 3 * plane_]);
   }
 
-  // Gathers row j of level k (source level k_src) into p.acc.
-  void gather(Pass& p, int k, int k_src, int j) {
-    const int nx = g_.size.x;
-    std::fill(p.acc.begin(), p.acc.end(), 0.f);
-    const bool material = level_has_material_[size_t(k)] || (k_src >= 0 && k_src < g_.size.z && level_has_material_[size_t(k_src)]);
-    const float* sig_t = sigma_.data() + size_t(k) * plane_;
-    const float* sig_s = (k_src >= 0 && k_src < g_.size.z) ? sigma_.data() + size_t(k_src) * plane_ : nullptr;
-    od_.resize(size_t(nx));
+  static int lengthId(std::vector<float>& lengths, float len) {
+    const auto it = std::find(lengths.begin(), lengths.end(), len);
+    if (it != lengths.end()) return int(it - lengths.begin());
+    lengths.push_back(len);
+    return int(lengths.size()) - 1;
+  }
+
+  // Whether padded row r of level k holds material in padded columns [x0, x1].
+  bool hasMaterial(int k, int r, int x0, int x1) const {
+    const size_t i = size_t(k) * size_t(h_) + size_t(r);
+    return row_lo_[i] <= x1 && row_hi_[i] >= x0;
+  }
+
+  // Level k's factor planes, (1 - d)^len = exp(-len sigma) per crossed length, valid in the rows
+  // that hold material (the only ones read). Two levels are kept; the one holding `keep` stays.
+  const float* factors(int k, int keep) {
+    for (LevelFactors& f : factors_)
+      if (f.level == k) return f.planes.data();
+    LevelFactors& f = factors_[0].level == keep ? factors_[1] : factors_[0];
+    f.level = k;
+    f.planes.resize(crossed_len_.size() * plane_);
+    const float* sig = sigma_.data() + size_t(k) * plane_;
+    for (size_t l = 0; l < crossed_len_.size(); ++l) {
+      float* out = f.planes.data() + l * plane_;
+      for (int r = 0; r < h_; ++r) {
+        if (!hasMaterial(k, r, 0, w_ - 1)) continue;
+        const float* s = sig + size_t(r) * size_t(w_);
+        float* o = out + size_t(r) * size_t(w_);
+        for (int x = 0; x < w_; ++x) o[x] = s[x] == 0.f ? 1.f : 0.f;  // clear, or full (sigma inf)
+      }
+      const float len = crossed_len_[l];
+      for (uint32_t pi : fractional_[size_t(k)]) out[pi] = std::exp(-(len * sig[pi]));
+    }
+    return f.planes.data();
+  }
+
+  // Gathers row j of level k (source level k_src) into p.dst's row, and into q->dst's for the
+  // bins q shares with p (the direct pass: a subset of the same bins, the same paths).
+  void gather(Pass& p, Pass* q, int k, int k_src, int j) {
+    const int nx = nx_;
+    const bool src_in = k_src >= 0 && k_src < g_.size.z;
+    const bool target_material = level_has_material_[size_t(k)] != 0;
+    const bool src_material = src_in && level_has_material_[size_t(k_src)] != 0;
+    const float* f_target = target_material ? factors(k, src_material ? k_src : k) : nullptr;
+    const float* f_src = src_material ? factors(k_src, k) : nullptr;
     for (size_t b = 0; b < p.bins.size(); ++b) {
       const BinPath& path = p.paths[b];
-      for (const Tap& t : path.taps) {
-        const size_t row = size_t(j + kPad + t.oy) * size_t(w_) + size_t(kPad + t.ox);
-        bool any = false;
-        if (material && !t.crossed.empty()) {
-          std::fill(od_.begin(), od_.end(), 0.f);
-          for (const Crossed& c : t.crossed) {
-            const float* s = c.src_level ? sig_s : sig_t;
-            if (!s) continue;
-            s += size_t(j + kPad + c.dy) * size_t(w_) + size_t(kPad + c.dx);
-            for (int x = 0; x < nx; ++x) od_[size_t(x)] += c.len * s[x];
-          }
-          for (int x = 0; x < nx; ++x) any |= od_[size_t(x)] > 0.f;
-        }
-        for (int c = 0; c < 3; ++c) {
-          const float* s = p.src.data() + (b * 3 + size_t(c)) * plane_ + row;
-          float* a = p.acc.data() + (b * 3 + size_t(c)) * size_t(nx);
-          if (any)
-            for (int x = 0; x < nx; ++x) a[x] += t.w * std::exp(-od_[size_t(x)]) * s[x];
+      std::array<bool, kTaps> varying{};
+      bool any = false;
+      for (int t = 0; t < kTaps; ++t) {
+        const Tap& tap = path.taps[size_t(t)];
+        float* w = weights_.data() + size_t(t) * size_t(nx);
+        for (const Crossed& c : tap.crossed) {
+          const float* f = c.src_level ? f_src : f_target;
+          const int r = j + kPad + c.dy, x0 = kPad + c.dx;
+          if (!f || !hasMaterial(c.src_level ? k_src : k, r, x0, x0 + nx - 1)) continue;
+          const float* fr = f + size_t(c.len_id) * plane_ + size_t(r) * size_t(w_) + size_t(x0);
+          if (!varying[size_t(t)])
+            std::memcpy(w, fr, size_t(nx) * sizeof(float));
           else
-            for (int x = 0; x < nx; ++x) a[x] += t.w * s[x];
+            multiplyRow(w, fr, nx);
+          varying[size_t(t)] = true;
+        }
+        if (varying[size_t(t)]) {
+          scaleRow(w, tap.w, nx);
+          any = true;
         }
       }
+      if (any)
+        for (int t = 0; t < kTaps; ++t)
+          if (!varying[size_t(t)]) std::fill_n(weights_.data() + size_t(t) * size_t(nx), nx, path.taps[size_t(t)].w);
+      gatherDirection(p, b, path, any, j);
+      if (q && direct_of_bin_[size_t(path.bin)] >= 0) gatherDirection(*q, size_t(direct_of_bin_[size_t(path.bin)]), path, any, j);
+    }
+  }
+
+  void gatherDirection(Pass& p, size_t b, const BinPath& path, bool varying, int j) {
+    const int nx = nx_;
+    std::array<const float*, kTaps> w;
+    std::array<float, kTaps> wc;
+    for (int t = 0; t < kTaps; ++t) {
+      w[size_t(t)] = weights_.data() + size_t(t) * size_t(nx);
+      wc[size_t(t)] = path.taps[size_t(t)].w;
+    }
+    const size_t row = size_t(j + kPad) * size_t(w_) + size_t(kPad);
+    for (int c = 0; c < 3; ++c) {
+      const float* plane = p.src.get() + (b * 3 + size_t(c)) * plane_;
+      std::array<const float*, kTaps> s;
+      for (int t = 0; t < kTaps; ++t) {
+        const Tap& tap = path.taps[size_t(t)];
+        s[size_t(t)] = plane + size_t(j + kPad + tap.oy) * size_t(w_) + size_t(kPad + tap.ox);
+      }
+      float* a = p.dst.get() + (b * 3 + size_t(c)) * plane_ + row;
+      if (varying)
+        weightedTaps(a, s, w, nx);
+      else
+        constantTaps(a, s, wc, nx);
     }
   }
 
   void level(int k, SweptGrid& out) {
-    const int nx = g_.size.x, ny = g_.size.y;
-    const auto& dirs = directions();
-    const float* sig = sigma_.data() + size_t(k) * plane_;
-    std::array<glm::vec3, kSwept> stored_full, stored_direct, in, tr;
-    std::array<float, kSwept> trans{};
-    for (int j = 0; j < ny; ++j) {
-      gather(full_, k, k + 1, j);
-      if (!direct_.bins.empty()) gather(direct_, k, k + 1, j);
-      for (int i = 0; i < nx; ++i) {
-        const size_t cell = g_.index(i, j, k);
-        const size_t pi = size_t(j + kPad) * size_t(w_) + size_t(i + kPad);
-        const float s = sig[pi];
-        for (int b = 0; b < kSwept; ++b)
-          for (int c = 0; c < 3; ++c) in[size_t(b)][c] = full_.acc[(size_t(b) * 3 + size_t(c)) * size_t(nx) + size_t(i)];
-        if (s == 0.f) {
-          for (int b = 0; b < kSwept; ++b) {
-            stored_full[size_t(b)] = in[size_t(b)];
-            for (int c = 0; c < 3; ++c) full_.dst[(size_t(b) * 3 + size_t(c)) * plane_ + pi] = in[size_t(b)][c];
-          }
-        } else {
-          const float tau = std::exp(-s);
-          const glm::vec3 rho = m_.reflectance[cell];
-          glm::vec3 sum(0.f);
-          glm::mat3 q(0.f);  // columns x, y, z of sum_i q_i travel_i, per channel in rows
-          for (int b = 0; b < kSwept; ++b) {
-            const float t = std::exp(-s * full_.paths[size_t(b)].target_len);
-            trans[size_t(b)] = t;
-            tr[size_t(b)] = in[size_t(b)] * t;
-            const float norm = kFourPi - 0.5f * (1.f - tau) * (kFourPi + cos_sum_[size_t(b)]);
-            const glm::vec3 qi = in[size_t(b)] * ((1.f - t) / norm);
-            sum += qi;
-            const glm::vec3& u = dirs[size_t(b)].travel;
-            q[0] += qi * u.x;
-            q[1] += qi * u.y;
-            q[2] += qi * u.z;
-          }
-          const float fa = 0.5f * (1.f + tau), fb = 0.5f * (1.f - tau);
-          auto reflected = [&](int o) {
-            const glm::vec3& u = dirs[size_t(o)].travel;
-            const glm::vec3 dq = q[0] * u.x + q[1] * u.y + q[2] * u.z;
-            return rho * dirs[size_t(o)].solid_angle_sr * (fa * sum - fb * dq);
-          };
-          for (int b = 0; b < kSwept; ++b) {
-            const glm::vec3 r = reflected(b);
-            stored_full[size_t(b)] = in[size_t(b)] * std::sqrt(trans[size_t(b)]) + 0.5f * r;
-            const glm::vec3 o = tr[size_t(b)] + r;
-            for (int c = 0; c < 3; ++c) full_.dst[(size_t(b) * 3 + size_t(c)) * plane_ + pi] = o[c];
-          }
-          if (rho != glm::vec3(0.f)) {
-            emission_index_[cell] = int(emission_.size());
-            std::array<glm::vec3, kUp> e;
-            for (int o = 0; o < kUp; ++o) e[size_t(o)] = reflected(kSwept + o);
-            emission_.push_back(e);
-          }
-        }
-        // The sun's unscattered light: the same attenuation, no reflection.
-        for (int b = 0; b < kSwept; ++b) stored_direct[size_t(b)] = glm::vec3(0.f);
-        for (size_t d = 0; d < direct_.bins.size(); ++d) {
-          const int b = direct_.bins[d];
-          glm::vec3 v;
-          for (int c = 0; c < 3; ++c) v[c] = direct_.acc[(d * 3 + size_t(c)) * size_t(nx) + size_t(i)];
-          const float t = s == 0.f ? 1.f : std::exp(-s * direct_.paths[d].target_len);
-          stored_direct[size_t(b)] = v * std::sqrt(t);
-          const glm::vec3 o = v * t;
-          for (int c = 0; c < 3; ++c) direct_.dst[(d * 3 + size_t(c)) * plane_ + pi] = o[c];
-        }
-        uint32_t* dst = out.light.light.data() + cell * kDirections;
-        for (int b = 0; b < kSwept; ++b) {
-          const glm::vec3 v = o_.direct_sun ? stored_full[size_t(b)] : glm::max(stored_full[size_t(b)] - stored_direct[size_t(b)], glm::vec3(0.f));
-          dst[b] = packR11G11B10(v);
-          accumulate(cell, b, v);
-        }
-        if (out.direct) {
-          uint32_t* dd = out.direct->light.data() + cell * kDirections;
-          for (int b = 0; b < kSwept; ++b) dd[b] = packR11G11B10(stored_direct[size_t(b)]);
-        }
-      }
+    for (int j = 0; j < g_.size.y; ++j) {
+      gather(full_, direct_.bins.empty() ? nullptr : &direct_, k, k + 1, j);
+      interactRow(k, j);
+      storeRow(k, j, out);
+      // What the cells with material send on replaces what they stored.
+      const size_t at = size_t(j + kPad) * size_t(w_) + size_t(kPad + span_lo_);
+      for (const auto& [p, leave] : {std::pair{&full_, &leave_}, std::pair{&direct_, &direct_leave_}})
+        for (size_t plane = 0; plane < p->bins.size() * 3; ++plane)
+          std::memcpy(p->dst.get() + plane * plane_ + at, leave->data() + plane * size_t(nx_), size_t(span_n_) * sizeof(float));
     }
   }
 
-  void accumulate(size_t cell, int b, const glm::vec3& v) {
-    avg_[cell] += glm::vec4(v, 0.f);
-    const float l = luminance(v);
-    avg_[cell].w += l;
-    dom_[cell] += l * glm::normalize(directions()[size_t(b)].mean_from);
+  // Batch row `r` (of nx floats).
+  float* batch(int r) { return batch_.data() + size_t(r) * size_t(nx_); }
+
+  // The span of row j, level k, from its first to its last cell with material, as one batch: what
+  // passes and what is reflected (sweep.h), per cell in the reference's order of operations, as
+  // loops over the span. Its empty cells come out as they went in (T = 1 stops nothing, so nothing
+  // is reflected: exactly, in floats too). The stored light goes into dst's row in place (both
+  // passes), the light sent on into leave_ / direct_leave_, the up-going reflected light into the
+  // batch's emission rows.
+  void interactRow(int k, int j) {
+    const int nx = nx_;
+    const size_t r = size_t(k) * size_t(h_) + size_t(j + kPad);
+    span_lo_ = 0;
+    span_n_ = 0;
+    if (row_lo_[r] > row_hi_[r]) return;
+    const int lo = row_lo_[r] - kPad, n = row_hi_[r] - row_lo_[r] + 1;
+    span_lo_ = lo;
+    span_n_ = n;
+    const size_t row = size_t(j + kPad) * size_t(w_) + size_t(kPad + lo);  // the span's first cell
+    const float* sig = sigma_.data() + size_t(k) * plane_ + row;
+    float* tau = batch(kTau);
+    float* fa = batch(kFa);
+    float* fb = batch(kFb);
+    const size_t lengths = target_len_.size();
+    // The cells' own pass-through per distinct path length: 1 in an empty cell, 0 in a full one.
+    for (int m = 0; m < n; ++m) {
+      const float s = sig[m];
+      const size_t cell = g_.index(lo + m, j, k);
+      if (s == 0.f) {
+        tau[m] = 1.f;
+        for (size_t l = 0; l < lengths; ++l) batch(kT + int(l))[m] = batch(kSqrtT + int(l))[m] = 1.f;
+      } else if (s == kInf) {
+        tau[m] = 0.f;
+        for (size_t l = 0; l < lengths; ++l) batch(kT + int(l))[m] = batch(kSqrtT + int(l))[m] = 0.f;
+      } else {
+        tau[m] = std::exp(-s);
+        for (size_t l = 0; l < lengths; ++l) {
+          const float t = std::exp(-s * target_len_[l]);
+          batch(kT + int(l))[m] = t;
+          batch(kSqrtT + int(l))[m] = std::sqrt(t);
+        }
+      }
+      fa[m] = 0.5f * (1.f + tau[m]);
+      fb[m] = 0.5f * (1.f - tau[m]);
+      const glm::vec3& rho = m_.reflectance[cell];
+      for (int c = 0; c < 3; ++c) batch(kRho + c)[m] = rho[c];
+    }
+    auto in = [&](int b, int c) { return full_.dst.get() + size_t(3 * b + c) * plane_ + row; };
+    // What each direction loses in the cell, I (1 - T), normalised, summed as sum and q (columns
+    // x, y, z of sum_i q_i travel_i, per channel); then the reflected light per outgoing direction.
+    ReflectionRows rows{tau, fa, fb, {batch(kRho), batch(kRho + 1), batch(kRho + 2)}, {}, {}};
+    for (int c = 0; c < 3; ++c) rows.sum[c] = batch(kSum + c);
+    for (int p = 0; p < 9; ++p) rows.q[p] = batch(kQ + p);
+    for (int p = 0; p < 12; ++p) std::fill_n(batch(kSum + p), n, 0.f);
+    for (int b = 0; b < kSwept; ++b) {
+      const glm::vec3 u = travel_[size_t(b)];
+      addStopped(n, rows, in(b, 0), in(b, 1), in(b, 2), batch(kT + full_.paths[size_t(b)].target_len_id), cos_sum_[size_t(b)], u.x, u.y, u.z);
+    }
+    for (int o = 0; o < kDirections; ++o) {
+      const glm::vec3 u = travel_[size_t(o)];
+      if (o < kSwept) {
+        const int l = full_.paths[size_t(o)].target_len_id;
+        float* leave = leave_.data() + size_t(3 * o) * size_t(nx);
+        reflectDown(n, rows, u.x, u.y, u.z, omega_[size_t(o)], batch(kT + l), batch(kSqrtT + l), in(o, 0), in(o, 1), in(o, 2), leave,
+                    leave + nx, leave + 2 * nx);
+      } else {
+        const int e = kEmission + 3 * (o - kSwept);
+        reflectUp(n, rows, u.x, u.y, u.z, omega_[size_t(o)], batch(e), batch(e + 1), batch(e + 2));
+      }
+    }
+    // The sun's unscattered light: the same attenuation, no reflection.
+    for (size_t d = 0; d < direct_.bins.size(); ++d) {
+      const int l = direct_.paths[d].target_len_id;
+      const float *t = batch(kT + l), *st = batch(kSqrtT + l);
+      for (int c = 0; c < 3; ++c) {
+        float* dst = direct_.dst.get() + (d * 3 + size_t(c)) * plane_ + row;
+        float* leave = direct_leave_.data() + (d * 3 + size_t(c)) * size_t(nx);
+        for (int m = 0; m < n; ++m) {
+          const float v = dst[m];
+          leave[m] = v * t[m];
+          dst[m] = v * st[m];
+        }
+      }
+    }
+    if (o_.bottom_up)  // the up-going pass adds the cells' reflection to the light it carries
+      for (int m = 0; m < n; ++m) {
+        const size_t cell = g_.index(lo + m, j, k);
+        if (sig[m] == 0.f || m_.reflectance[cell] == glm::vec3(0.f)) continue;
+        emission_index_[cell] = int(emission_.size());
+        std::array<glm::vec3, kUp>& e = emission_.emplace_back();
+        for (int o = 0; o < kUp; ++o)
+          for (int c = 0; c < 3; ++c) e[size_t(o)][c] = batch(kEmission + 3 * o + c)[m];
+      }
   }
 
-  // The up-going directions: the cells' own reflected light (halved), or with bottom_up carried
-  // up from the bottom level; then the cells' average and dominant direction.
-  void upGoing(SweptGrid& out) {
-    const int nx = g_.size.x, ny = g_.size.y, nz = g_.size.z;
+  // Packs row j of level k's stored light (dst's rows) into the grids, with the cells' average and
+  // dominant direction.
+  void storeRow(int k, int j, SweptGrid& out) {
+    const int nx = nx_;
+    const size_t cell0 = g_.index(0, j, k);
+    const size_t row = size_t(j + kPad) * size_t(w_) + size_t(kPad);
+    std::fill(row_sums_.begin(), row_sums_.end(), 0.f);
+    float* s = row_sums_.data();
+    const RowSums sums{s, s + nx, s + 2 * nx, s + 3 * nx, s + 4 * nx, s + 5 * nx, s + 6 * nx};
+    for (int b = 0; b < kSwept; ++b) {
+      const float* r = full_.dst.get() + size_t(3 * b) * plane_ + row;
+      const float* g = r + plane_;
+      const float* bl = g + plane_;
+      const int d = direct_of_bin_[size_t(b)];
+      const float* dr = d >= 0 ? direct_.dst.get() + size_t(3 * d) * plane_ + row : r;
+      const float* dg = dr + (d >= 0 ? plane_ : 0);
+      const float* db = dg + (d >= 0 ? plane_ : 0);
+      uint32_t* code = codes_.data() + size_t(b);
+      float *vr = values_.data(), *vg = vr + nx, *vb = vg + nx;
+      if (o_.direct_sun)
+        storedLight<Stored::kAsIs>(nx, r, g, bl, dr, dg, db, vr, vg, vb, code);
+      else if (d >= 0)
+        storedLight<Stored::kMinusDirect>(nx, r, g, bl, dr, dg, db, vr, vg, vb, code);
+      else
+        storedLight<Stored::kClamped>(nx, r, g, bl, dr, dg, db, vr, vg, vb, code);
+      const glm::vec3 f = unit_from_[size_t(b)];
+      addToSums(nx, vr, vg, vb, sums.r, sums.g, sums.b, sums.l, sums.x, sums.y, sums.z, f.x, f.y, f.z);
+    }
+    if (out.direct)
+      for (size_t d = 0; d < direct_.bins.size(); ++d) {
+        const float* r = direct_.dst.get() + d * 3 * plane_ + row;
+        uint32_t* dst = out.direct->light.data() + cell0 * kDirections + size_t(direct_.bins[d]);
+        for (int x = 0; x < nx; ++x) dst[size_t(x) * kDirections] = detail::packR11G11B10(r[x], r[plane_ + x], r[2 * plane_ + x]);
+      }
+    if (o_.bottom_up) {  // the up-going light comes later (bottomUp)
+      clearUpGoing();
+      std::memcpy(out.light.light.data() + cell0 * kDirections, codes_.data(), codes_.size() * sizeof(uint32_t));
+      for (int x = 0; x < nx; ++x) {
+        avg_[cell0 + size_t(x)] = {sums.r[x], sums.g[x], sums.b[x], sums.l[x]};
+        dom_[cell0 + size_t(x)] = {sums.x[x], sums.y[x], sums.z[x]};
+      }
+      return;
+    }
+    // The up-going directions without the bottom-up pass: the cells' own reflected light, halved
+    // (0 in the span's empty cells, which adds nothing).
+    const int n = span_n_, lo = span_lo_;
+    clearUpGoing();
+    for (int o = 0; o < kUp && n > 0; ++o) {
+      float* half = batch(kHalf);
+      for (int c = 0; c < 3; ++c) {
+        const float* e = batch(kEmission + 3 * o + c);
+        for (int m = 0; m < n; ++m) half[c * nx + m] = 0.5f * e[m];
+      }
+      uint32_t* code = codes_.data() + size_t(lo) * kDirections + size_t(kSwept + o);
+      for (int m = 0; m < n; ++m) code[size_t(m) * kDirections] = detail::packR11G11B10(half[m], half[nx + m], half[2 * nx + m]);
+      const glm::vec3 f = unit_from_[size_t(kSwept + o)];
+      addToSums(n, half, half + nx, half + 2 * nx, sums.r + lo, sums.g + lo, sums.b + lo, sums.l + lo, sums.x + lo, sums.y + lo, sums.z + lo,
+                f.x, f.y, f.z);
+    }
+    std::memcpy(out.light.light.data() + cell0 * kDirections, codes_.data(), codes_.size() * sizeof(uint32_t));
+    finishRow(nx, sums.r, sums.g, sums.b, sums.l, sums.x, sums.y, sums.z, out.light.average.data() + cell0, out.light.dominant.data() + cell0);
+  }
+
+  // The row's up-going words 0 (what the span's cells reflect up replaces them).
+  void clearUpGoing() {
+    for (int x = 0; x < nx_; ++x) std::fill_n(codes_.data() + size_t(x) * kDirections + kSwept, kUp, 0u);
+  }
+
+  void add(glm::vec4& avg, glm::vec3& dom, int b, const glm::vec3& v) const {
+    avg += glm::vec4(v, 0.f);
+    const float l = luminance(v);
+    avg.w += l;
+    dom += l * unit_from_[size_t(b)];
+  }
+
+  static void finish(SweptGrid& out, size_t cell, const glm::vec4& avg, const glm::vec3& dom) {
+    const glm::vec3 mean = glm::vec3(avg) / kFourPi;
+    out.light.average[cell] = detail::packR11G11B10(mean.r, mean.g, mean.b);
+    out.light.dominant[cell] = packDirection(avg.w > 0 ? dom / avg.w : glm::vec3(0.f));
+  }
+
+  // The up-going directions carried up from the bottom level (bottom_up), then the cells'
+  // average and dominant direction.
+  void bottomUp(SweptGrid& out) {
+    const int nx = nx_, ny = g_.size.y, nz = g_.size.z;
     auto emission = [&](size_t cell, int o) {
       const int e = emission_index_[cell];
       return e < 0 ? glm::vec3(0.f) : emission_[size_t(e)][size_t(o)];
     };
-    if (o_.bottom_up) {
-      std::fill(up_.src.begin(), up_.src.end(), 0.f);  // below the grid: nothing comes up
-      for (int k = 0; k < nz; ++k) {
-        edges_.fill(k, false, up_.bins, ring_cells_, up_.dst, plane_);
-        const float* sig = sigma_.data() + size_t(k) * plane_;
-        for (int j = 0; j < ny; ++j) {
-          gather(up_, k, k - 1, j);
-          for (int i = 0; i < nx; ++i) {
-            const size_t cell = g_.index(i, j, k);
-            const size_t pi = size_t(j + kPad) * size_t(w_) + size_t(i + kPad);
-            const float s = sig[pi];
-            for (int o = 0; o < kUp; ++o) {
-              glm::vec3 v;
-              for (int c = 0; c < 3; ++c) v[c] = up_.acc[(size_t(o) * 3 + size_t(c)) * size_t(nx) + size_t(i)];
-              const float t = s == 0.f ? 1.f : std::exp(-s * up_.paths[size_t(o)].target_len);
-              const glm::vec3 e = emission(cell, o);
-              const glm::vec3 leave = v * t + e;
-              for (int c = 0; c < 3; ++c) up_.dst[(size_t(o) * 3 + size_t(c)) * plane_ + pi] = leave[c];
-              const glm::vec3 stored = v * std::sqrt(t) + 0.5f * e;
-              out.light.light[cell * kDirections + size_t(kSwept + o)] = packR11G11B10(stored);
-              accumulate(cell, kSwept + o, stored);
-            }
+    std::fill_n(up_.src.get(), up_.bins.size() * 3 * plane_, 0.f);  // below the grid: nothing comes up
+    for (int k = 0; k < nz; ++k) {
+      edges_.fill(k, false, up_.bins, ring_cells_, up_.dst.get(), plane_);
+      const float* sig = sigma_.data() + size_t(k) * plane_;
+      for (int j = 0; j < ny; ++j) {
+        gather(up_, nullptr, k, k - 1, j);
+        for (int i = 0; i < nx; ++i) {
+          const size_t cell = g_.index(i, j, k);
+          const size_t pi = size_t(j + kPad) * size_t(w_) + size_t(i + kPad);
+          const float s = sig[pi];
+          for (int o = 0; o < kUp; ++o) {
+            glm::vec3 v;
+            for (int c = 0; c < 3; ++c) v[c] = up_.dst[(size_t(o) * 3 + size_t(c)) * plane_ + pi];
+            const float t = s == 0.f ? 1.f : std::exp(-s * up_.paths[size_t(o)].target_len);
+            const glm::vec3 e = emission(cell, o);
+            const glm::vec3 leave = v * t + e;
+            for (int c = 0; c < 3; ++c) up_.dst[(size_t(o) * 3 + size_t(c)) * plane_ + pi] = leave[c];
+            const glm::vec3 stored = v * std::sqrt(t) + 0.5f * e;
+            out.light.light[cell * kDirections + size_t(kSwept + o)] = detail::packR11G11B10(stored.r, stored.g, stored.b);
+            add(avg_[cell], dom_[cell], kSwept + o, stored);
           }
         }
-        std::swap(up_.src, up_.dst);
       }
-    } else {
-      for (size_t cell = 0; cell < g_.cellCount(); ++cell) {
-        if (emission_index_[cell] < 0) continue;
-        for (int o = 0; o < kUp; ++o) {
-          const glm::vec3 stored = 0.5f * emission(cell, o);
-          out.light.light[cell * kDirections + size_t(kSwept + o)] = packR11G11B10(stored);
-          accumulate(cell, kSwept + o, stored);
-        }
-      }
+      std::swap(up_.src, up_.dst);
     }
-    for (size_t cell = 0; cell < g_.cellCount(); ++cell) {
-      out.light.average[cell] = packR11G11B10(glm::vec3(avg_[cell]) / kFourPi);
-      const glm::vec3 d = avg_[cell].w > 0 ? dom_[cell] / avg_[cell].w : glm::vec3(0.f);
-      out.light.dominant[cell] = glm::packSnorm4x8(glm::vec4(d, 0.f));
-    }
+    for (size_t cell = 0; cell < g_.cellCount(); ++cell) finish(out, cell, avg_[cell], dom_[cell]);
   }
+
+  // Distinct path lengths a cell attenuates itself: straight, the 4 side diagonals, the 4 corner
+  // diagonals, and the two kinds of near-horizontal path (directions.h), one way or the other.
+  static constexpr size_t kMaxTargetLengths = 8;
+  // Row sums of a cell's stored light: rgb, luminance, luminance-weighted unit source direction.
+  static constexpr int kSums = 7;
+  // The batch's rows (of nx floats), per cell of the span: pass-through, reflectance, the sums of
+  // what is stopped, the up-going reflected light, and one direction's halved emission.
+  static constexpr int kTau = 0;
+  static constexpr int kFa = kTau + 1;
+  static constexpr int kFb = kFa + 1;
+  static constexpr int kT = kFb + 1;
+  static constexpr int kSqrtT = kT + int(kMaxTargetLengths);
+  static constexpr int kRho = kSqrtT + int(kMaxTargetLengths);
+  static constexpr int kSum = kRho + 3;
+  static constexpr int kQ = kSum + 3;
+  static constexpr int kEmission = kQ + 9;
+  static constexpr int kHalf = kEmission + 3 * kUp;
+  static constexpr int kBatchRows = kHalf + 3;
+
+  struct LevelFactors {
+    int level = std::numeric_limits<int>::min();
+    std::vector<float> planes;  // crossed_len_.size() planes
+  };
 
   const MaterialGrid& m_;
   GridShape g_;
   SweepOptions o_;
   Edges edges_;
-  int w_ = 0, h_ = 0;
+  int nx_ = 0, w_ = 0, h_ = 0;
   size_t plane_ = 0;
   std::vector<float> sigma_;
   std::vector<uint8_t> level_has_material_;
+  std::vector<int> row_lo_, row_hi_;
+  std::vector<std::vector<uint32_t>> fractional_;
+  std::vector<float> crossed_len_, target_len_;
+  std::array<LevelFactors, 2> factors_;
   std::vector<Edges::Cell> all_cells_, ring_cells_;
-  std::array<float, kDirections> cos_sum_{};
+  std::array<float, kDirections> cos_sum_{}, omega_{};
+  std::array<glm::vec3, kDirections> travel_{}, unit_from_{};
   Pass full_, direct_, up_;
-  std::vector<float> od_;
-  std::vector<glm::vec4> avg_;  // rgb sum, luminance sum
+  std::array<int, kSwept> direct_of_bin_{};
+  std::vector<float> weights_;   // kTaps rows of nx: a direction's tap weights along the row
+  // The row's words in the light grid's layout (kDirections per cell), written with strides here
+  // in L1 and copied to the grid in one piece.
+  std::vector<uint32_t> codes_;
+  std::vector<float> row_sums_;  // kSums rows of nx
+  std::vector<float> values_;    // 3 rows of nx: a direction's stored light as the grid stores it
+  int span_lo_ = 0, span_n_ = 0;  // the row's span of cells with material (interactRow)
+  std::vector<float> batch_;     // kBatchRows rows of nx
+  std::vector<float> leave_, direct_leave_;  // per pass, bins * 3 rows of nx: what the batch sends on
+  std::vector<glm::vec4> avg_;  // bottom_up: per cell, rgb sum, luminance sum
   std::vector<glm::vec3> dom_;
   std::vector<int> emission_index_;
   std::vector<std::array<glm::vec3, kUp>> emission_;

@@ -346,23 +346,29 @@ TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
   struct Golden {
     const char* world;
     const char* threads;
+    const char* representation;  // fc3: the talk's bases, the bytes of every build before sh-l1
     uint64_t xxh3;
   };
   const Golden goldens[] = {
-      {"worlds/island.json", "2", 0x797f2f8433a8ec21ull},
-      {"worlds/island.json", "1", 0x797f2f8433a8ec21ull},
-      {"worlds/island_lit.json", "2", 0x906bc4b8292ce446ull},
+      {"worlds/island.json", "2", "fc3", 0x797f2f8433a8ec21ull},
+      {"worlds/island.json", "1", "fc3", 0x797f2f8433a8ec21ull},
+      {"worlds/island_lit.json", "2", "fc3", 0x906bc4b8292ce446ull},
+      {"worlds/island.json", "2", "sh-l1", 0x2b1af92851991495ull},
+      {"worlds/island.json", "1", "sh-l1", 0x2b1af92851991495ull},
+      {"worlds/island_lit.json", "2", "sh-l1", 0xf7af3b7704ba38f3ull},
   };
   for (const Golden& g : goldens) {
     const std::string out = scratch("golden.drtv");
-    const Outcome r = drtv("bake " + src(g.world) + " -o " + out + " --quality draft --threads " + g.threads,
+    const Outcome r = drtv("bake " + src(g.world) + " -o " + out + " --quality draft --threads " + g.threads +
+                               " --representation " + g.representation,
                            "DRTV_EMBREE_CONFIG=isa=sse2");
     ASSERT_EQ(r.status, 0) << r.out;
     const std::string bytes = slurp(out);
     char hex[32];
     std::snprintf(hex, sizeof hex, "0x%016llxull", (unsigned long long)XXH3_64bits(bytes.data(), bytes.size()));
     EXPECT_EQ(XXH3_64bits(bytes.data(), bytes.size()), g.xxh3)
-        << g.world << " --threads " << g.threads << " baked " << bytes.size() << " bytes hashing " << hex;
+        << g.world << " --threads " << g.threads << " --representation " << g.representation << " baked " << bytes.size()
+        << " bytes hashing " << hex;
   }
 }
 

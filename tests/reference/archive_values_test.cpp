@@ -170,6 +170,7 @@ void writeValue(std::vector<uint8_t>& bytes, const Field& f, double v) {
 // sector (0,0), at four hours: the count of non-finite components (0 is the contract).
 int nonFiniteAmbient(const Manifest& manifest, const std::vector<Sector>& sectors, std::string& first_bad) {
   runtime::RuntimeOptions options = runtime::optionsForEffects(manifest.effects);
+  options.representation = manifest.representation;  // as runtimeForArchive takes it
   auto rt = std::make_unique<runtime::Runtime>(options);
   if (auto r = rt->setLighting(manifest.sky, manifest.lights, manifest.interiors); !r) {
     first_bad = "setLighting refused what the reader accepted: " + r.error().message;

@@ -30,6 +30,7 @@ inline std::unique_ptr<runtime::Runtime> relit(const BakedWorld& baked, double h
                                                runtime::RuntimeOptions options = {}) {
   options.components = runtime::componentsFromEffects(baked.manifest.effects);
   options.effects = baked.manifest.effects;
+  options.representation = baked.manifest.representation;  // as runtimeForArchive takes it
   options.cache.max_sectors = std::max<int>(options.cache.max_sectors, int(baked.sectors.size()));
   auto rt = std::make_unique<runtime::Runtime>(options);
   EXPECT_TRUE(rt->setLighting(baked.manifest.sky, baked.manifest.lights, baked.manifest.interiors).has_value());

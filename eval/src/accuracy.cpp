@@ -248,8 +248,7 @@ std::vector<RowSpec> drtvRows(const BakeSettings& base, uint32_t effects, const 
   return rows;
 }
 
-// LPV's knobs (eval/techniques/lpv), one at a time around its defaults: only when `--techniques`
-// names lpv (each row re-renders its RSMs at every camera move: minutes on the island).
+// LPV's knobs (eval/techniques/lpv), one at a time around its defaults (AccuracyOptions::lpv_knobs).
 std::vector<RowSpec> lpvRows() {
   std::vector<RowSpec> rows;
   auto add = [&](const char* knob, const char* param, std::vector<std::string> values, const std::string& def, const std::string& note) {
@@ -577,7 +576,7 @@ Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::st
   if (!((base->manifest.effects & kEffectLocalLights) && !world.lights.empty()))
     report.skipped.push_back("lprt_sources: the world has no point lights (no LPRT baked)");
 
-  if (std::find(options.techniques.begin(), options.techniques.end(), "lpv") != options.techniques.end())
+  if (options.lpv_knobs)
     for (const RowSpec& spec : lpvRows())
       if (auto v = rows.evaluate(spec); !v) return std::unexpected(v.error());
 

@@ -19,6 +19,7 @@ struct AccuracyCliOptions {
   int points = 240, samples = 512, probe_samples = 256, threads = 0;
   uint64_t seed = 1;
   std::vector<std::string> techniques;
+  bool lpv_knobs = false;
 };
 
 Result<std::vector<double>> parseHours(const std::string& text) {
@@ -54,8 +55,10 @@ Command registerAccuracy(CLI::App& app) {
   const std::string names = eval::registeredTechniqueNames();
   sub->add_option("--techniques", o->techniques, "The techniques of the \"technique\" rows, comma-separated (default all: " + names + ")")
       ->delimiter(',');
+  sub->add_flag("--lpv-knobs", o->lpv_knobs, "Also LPV's knob rows (cells, cascades, iterations, RSM size, occlusion, ...): minutes each");
   return {sub, [o]() -> Result<void> {
             eval::AccuracyOptions opts;
+            opts.lpv_knobs = o->lpv_knobs;
             auto hours = parseHours(o->times);
             if (!hours) return std::unexpected(hours.error());
             opts.hours = *hours;

@@ -82,10 +82,12 @@ struct AccuracyOptions {
   uint64_t seed = 1;
   int threads = 0;                       // 0 = all hardware threads
   int timing_repeats = 5;                // relight + fill timings per row (median)
-  // The "technique" rows: these registered techniques (technique.h); empty = every one. Naming
-  // lpv here also adds its knob rows (lpv_cells, lpv_cascades, lpv_iterations, lpv_rsm,
-  // lpv_occlusion, lpv_sky_bounce), one at a time around its defaults.
+  // The "technique" rows: these registered techniques (technique.h); empty = every one.
   std::vector<std::string> techniques;
+  // LPV's knob rows (lpv_cells, lpv_cascades, lpv_iterations, lpv_rsm, lpv_occlusion,
+  // lpv_sky_bounce, lpv_lookup_offset, lpv_damping), one at a time around its defaults: each
+  // re-renders its RSMs at every camera move, minutes per row on the island.
+  bool lpv_knobs = false;
   // Progress lines ("bake rays_per_basis=32 ...") for a terminal; may be empty.
   std::function<void(const std::string&)> progress;
 };

@@ -23,10 +23,14 @@ std::vector<SectorKey> residentKeys() {
   return keys;  // 51
 }
 
-ProbeCache makeCache(int sources, int sources_per_light = 4, LightSources light_sources = LightSources::kVisibleFromLight) {
-  ProbeCache cache({.max_sectors = kMaxResidentSectors, .sources_per_light = sources_per_light, .light_sources = light_sources});
+ProbeCache makeCache(int sources, int sources_per_light = 4, LightSources light_sources = LightSources::kVisibleFromLight,
+                     Representation r = Representation::kFc3) {
+  ProbeCache cache({.max_sectors = kMaxResidentSectors, .sources_per_light = sources_per_light, .light_sources = light_sources,
+                    .representation = r});
+  const bool sh_l1 = r == Representation::kShL1;
   for (SectorKey k : residentKeys())
-    if (!cache.addSector(testing::makeSector(k, {.probes = 70, .sources = sources}, 1))) std::abort();
+    if (!cache.addSector(testing::makeSector(k, {.probes = 70, .sources = sources, .lprt_on_bases = !sh_l1, .sky_moments = sh_l1}, 1)))
+      std::abort();
   return cache;
 }
 
@@ -45,8 +49,9 @@ void BM_EvaluateSky(benchmark::State& state) {
 }
 BENCHMARK(BM_EvaluateSky);
 
+// Arg: the representation (0 fc3, 1 sh-l1; representation.h), side by side in one run.
 void BM_RelightWithoutLprt(benchmark::State& state) {
-  ProbeCache cache = makeCache(0);
+  ProbeCache cache = makeCache(0, 4, LightSources::kVisibleFromLight, Representation(state.range(0)));
   const RelightInput in = noonInput();
   for (auto _ : state) {
     cache.relightAll(in);
@@ -55,7 +60,7 @@ void BM_RelightWithoutLprt(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * cache.probeCount());
   state.counters["probes"] = cache.probeCount();
 }
-BENCHMARK(BM_RelightWithoutLprt)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_RelightWithoutLprt)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
 
 // LPRT baked (128 sources per sector, ~11 MB of coefficients) with `lights` lights of 12 m.
 void BM_RelightWithLprt(benchmark::State& state) {
@@ -126,15 +131,15 @@ void BM_PackAllProbes(benchmark::State& state) {
 }
 BENCHMARK(BM_PackAllProbes)->Unit(benchmark::kMicrosecond);
 
-ProbeCache makePackedCache() {
-  ProbeCache cache = makeCache(0);
+ProbeCache makePackedCache(Representation r = Representation::kFc3) {
+  ProbeCache cache = makeCache(0, 4, LightSources::kVisibleFromLight, r);
   cache.relightAll(noonInput());
   cache.pack(cache.maxColour() * 1.25f);
   return cache;
 }
 
 void fullRefill(benchmark::State& state, VolumeOptions o) {
-  const ProbeCache cache = makePackedCache();
+  const ProbeCache cache = makePackedCache(o.representation);
   Volume v(o);
   const glm::ivec3 origin = v.originFor({10.0, -20.0, 12.0});
   for (auto _ : state) {
@@ -149,6 +154,13 @@ void BM_FullRefillNearestBlurred(benchmark::State& state) { fullRefill(state, {.
 BENCHMARK(BM_FullRefillNearest)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_FullRefillSmooth)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_FullRefillNearestBlurred)->Unit(benchmark::kMicrosecond);
+// sh-l1's fills beside fc3's above (issue 13: within 1.3x).
+void BM_FullRefillNearestShL1(benchmark::State& state) { fullRefill(state, {.representation = Representation::kShL1}); }
+void BM_FullRefillSmoothShL1(benchmark::State& state) {
+  fullRefill(state, {.fill = FillMode::kSmooth, .representation = Representation::kShL1});
+}
+BENCHMARK(BM_FullRefillNearestShL1)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_FullRefillSmoothShL1)->Unit(benchmark::kMicrosecond);
 
 // One texel back and forth along an axis: each iteration computes one slab.
 void scrollOne(benchmark::State& state, int axis, VolumeOptions o) {

@@ -22,6 +22,7 @@ struct SectorSpec {
   bool lprt_on_bases = true;
   float no_probe_fraction = 0.1f;  // index-grid cells left at 255
   bool uniform = false;     // every probe identical (a uniform volume)
+  bool sky_moments = false; // an sh-l1 bake's records (kProbeSkyMoments, representation.h)
 };
 
 // A sector with `spec.probes` probes on a jittered 8 m lattice 1.5 m above the terrain, an index
@@ -47,6 +48,10 @@ inline Sector makeSector(SectorKey key, const SectorSpec& spec, uint32_t seed) {
     p.sky_vis[3] = 0.f;
     p.height_m = 1.5f;
     p.mean_hit_m = 10.f;
+    if (spec.sky_moments) {
+      p.flags |= kProbeSkyMoments;
+      p.sky_moments = spec.uniform ? glm::vec3(0.f, 0.3f, 0.f) : glm::vec3(0.1f * (u(rng) - 0.5f), 0.3f * u(rng), 0.1f * (u(rng) - 0.5f));
+    }
     s.probes.push_back(packProbe(p));
   }
   s.grid.z_min_m = 0.f;

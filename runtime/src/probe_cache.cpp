@@ -127,18 +127,27 @@ DRTV_HOT_CLONES int32_t relightPlanesShL1(const float* in, float* out, int n, in
       const float* __restrict p2 = in + (kTransferPlanes + 4 + i) * stride;
       float* __restrict o = out + (c * 4 + i) * stride;
       const float l0 = lc[c][0], l1 = lc[c][1], l2 = lc[c][2], l3 = lc[c][3], a = d0[c], b = d2[c];
-      for (int i0 = 0; i0 < n; i0 += 16)
-        for (int j = 0; j < 16; ++j) {
-          const int k = i0 + j;
-          const float x = l0 * t0[k] + l1 * t1[k] + l2 * t2[k] + l3 * t3[k] + a * p0[k] + b * p2[k];
-          if (!clamp) {
-            o[k] = x;
-            continue;
+      // The branches stay outside the loops, so that each loop vectorises (as relightPlanes').
+      if (!clamp) {
+        for (int k = 0; k < n; ++k) o[k] = l0 * t0[k] + l1 * t1[k] + l2 * t2[k] + l3 * t3[k] + a * p0[k] + b * p2[k];
+      } else if (i == 0) {
+        for (int i0 = 0; i0 < n; i0 += 16)
+          for (int j = 0; j < 16; ++j) {
+            const int k = i0 + j;
+            const float y = clampColour(l0 * t0[k] + l1 * t1[k] + l2 * t2[k] + l3 * t3[k] + a * p0[k] + b * p2[k]);
+            o[k] = y;
+            lane_max[j] = std::max(lane_max[j], std::bit_cast<int32_t>(y));
           }
-          const float y = i == 0 ? clampColour(x) : clampSigned(x);
-          o[k] = y;
-          lane_max[j] = std::max(lane_max[j], std::bit_cast<int32_t>(std::fabs(y)));
-        }
+      } else {
+        for (int i0 = 0; i0 < n; i0 += 16)
+          for (int j = 0; j < 16; ++j) {
+            const int k = i0 + j;
+            const float y = clampSigned(l0 * t0[k] + l1 * t1[k] + l2 * t2[k] + l3 * t3[k] + a * p0[k] + b * p2[k]);
+            o[k] = y;
+            // |y| as bits: the sign bit cleared (what std::fabs does, in integers so that it vectorises).
+            lane_max[j] = std::max(lane_max[j], std::bit_cast<int32_t>(y) & 0x7fffffff);
+          }
+      }
     }
   return *std::max_element(lane_max, lane_max + 16);
 }

@@ -9,6 +9,15 @@
 namespace drtv::lpv {
 namespace {
 
+// The propagation's loops compiled for the baseline and for AVX2 (no FMA: the same operations in
+// the same order, so the same bits), chosen at load time; not under the sanitizers, whose
+// run-time is not up when the ifunc resolvers run, nor off x86-64.
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(__SANITIZE_ADDRESS__)
+#define DRTV_LPV_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define DRTV_LPV_CLONES
+#endif
+
 constexpr int kPlanes = 12;  // 3 channels x 4 SH coefficients, plane p = channel * 4 + coefficient
 
 // The 6 propagation directions: the direction light travels from the source neighbour into the
@@ -337,7 +346,7 @@ namespace {
 // (`lit_src`, padded (n+2)^2 flags), and `lit_dst` records which rows the step lit. Slabs
 // [k0, k1) let threads share a step. AVX2 where the CPU has it (no FMA: -ffp-contract=off, so
 // the same bits as SSE2).
-__attribute__((target_clones("avx2", "default")))
+DRTV_LPV_CLONES
 void propagateChannel(int n, int k0, int k1, const std::array<const float*, 4>& src, const std::array<float*, 4>& dst,
                       const std::array<const float*, kDirs>& tr, const std::array<float*, 4>& light,
                       const uint8_t* lit_src, uint8_t* lit_dst) {

@@ -197,6 +197,7 @@ struct ReferenceScene::Impl {
   glm::dvec3 origin{0.0};
   raytrace::RayScene rays;
   std::vector<glm::vec3> albedo;  // per triangle
+  float top_z = 0.f;              // the gathered triangles' highest z (world metres)
   std::vector<std::string> notes;
   std::optional<raytrace::RayScene> view;
   std::vector<glm::vec3> view_albedo;
@@ -289,6 +290,7 @@ Result<ReferenceScene> ReferenceScene::build(const worlds::World& world, const s
   impl->albedo.resize(g.triangleCount());
   for (size_t i = 0; i < g.triangleCount(); ++i) impl->albedo[i] = glm::clamp(g.materials[g.material[i]], 0.f, 1.f);
   impl->notes = geometry->notes();
+  impl->top_z = g.z_max;
   if (region.camera_view) {
     std::vector<glm::vec3> vertices = g.vertices;
     impl->view_albedo = impl->albedo;
@@ -310,6 +312,7 @@ glm::vec3 ReferenceScene::albedo(uint32_t prim) const {
   return impl_->albedo[prim];
 }
 size_t ReferenceScene::triangleCount() const { return impl_->albedo.size(); }
+double ReferenceScene::topZ() const { return impl_->top_z; }
 const std::vector<std::string>& ReferenceScene::notes() const { return impl_->notes; }
 bool ReferenceScene::hasCameraView() const { return impl_->view.has_value(); }
 const raytrace::RayScene& ReferenceScene::viewRays() const {

@@ -31,7 +31,6 @@
 #include <thread>
 
 #include "drtv/lpv/lpv.h"
-#include "drtv/raytrace/world_geometry.h"
 #include "drtv/reference/reference.h"
 #include "techniques.h"
 
@@ -114,9 +113,7 @@ class LpvTechnique final : public Technique {
     auto scene = reference::ReferenceScene::build(in.world, in.where);
     if (!scene) return std::unexpected(scene.error());
     scene_ = std::make_unique<reference::ReferenceScene>(std::move(*scene));
-    auto geometry = raytrace::WorldGeometry::build(in.world, in.where);
-    if (!geometry) return std::unexpected(geometry.error());
-    z_top_ = geometry->boundsMax().z;
+    z_top_ = scene_->topZ();
     world_ = &in.world;
     // The propagation's threads: the same bits on any count (lpv.h).
     params_.lpv.threads = std::clamp(in.threads > 0 ? in.threads : int(std::thread::hardware_concurrency()), 1, 64);

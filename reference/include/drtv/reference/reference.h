@@ -121,6 +121,9 @@ class ReferenceScene {
   // Diffuse albedo (linear RGB in [0, 1]) of triangle `prim`. Precondition: prim < triangleCount().
   glm::vec3 albedo(uint32_t prim) const;
   size_t triangleCount() const;
+  // The highest z (world metres) of the triangles rays() holds (0 with none): where a ray from
+  // above must start to miss nothing (the LPV technique's RSMs).
+  double topZ() const;
   // Skips and repairs, one line each (world_geometry.h's, then the camera view's).
   const std::vector<std::string>& notes() const;
 

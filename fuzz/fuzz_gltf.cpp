@@ -5,14 +5,22 @@
 // embedded (data: URIs or the GLB chunk): relative URIs resolve against the current folder,
 // where the fuzzer has nothing to find. Properties: never an abort, an out-of-bounds read, a
 // leak or UB; what loads is a World whose instances name existing meshes, whose triangles index
-// existing vertices and whose positions are finite.
+// existing vertices and whose positions are finite. The loader's memory estimates (a Draco
+// bitstream may declare billions of points in 40 bytes) run against a 1.5 GiB limit, under the
+// 2 GiB -rss_limit_mb scripts/fuzz gives libFuzzer, so a refused input is an error, not an OOM.
 // After meshoptimizer's tools/codecfuzz.cpp. Run: docs/fuzzing.md.
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <span>
 
+#include "drtv/formats/memory_limit.h"
 #include "drtv/worlds/gltf.h"
+
+extern "C" int LLVMFuzzerInitialize(int*, char***) {
+  drtv::setMemoryLimit(uint64_t(1536) << 20);
+  return 0;
+}
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   drtv::worlds::GltfStats stats;

@@ -3,15 +3,19 @@
 // worlds/src/draco_mesh.h), each built by editing the JSON chunk of the shared Draco box.
 // Inputs the fuzzer (fuzz/fuzz_gltf.cpp, docs/fuzzing.md) found are kept here as regressions.
 #include <cstring>
+#include <initializer_list>
 #include <fstream>
 #include <functional>
 #include <iterator>
 #include <string>
 #include <vector>
 
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "drtv/formats/memory_limit.h"
 #include "drtv/worlds/gltf.h"
 
 namespace drtv::worlds {
@@ -112,6 +116,90 @@ TEST(GltfDraco, SkipsABitstreamThatIsNotDraco) {
 TEST(GltfDraco, SkipsATruncatedBitstream) {
   expectDracoPrimitiveSkipped(editGlbJson(dracoBox(), [](json& d) { d["bufferViews"][0]["byteLength"] = 40; }),
                               "Draco decoding failed");
+}
+
+// The Draco box with its bitstream replaced by `bitstream` (the BIN chunk, the buffer and the
+// Draco bufferView resized to it).
+std::vector<uint8_t> dracoBoxWithBitstream(std::vector<uint8_t> bitstream) {
+  while (bitstream.size() % 4) bitstream.push_back(0);
+  std::vector<uint8_t> glb = editGlbJson(dracoBox(), [&](json& d) {
+    d["buffers"][0]["byteLength"] = bitstream.size();
+    d["bufferViews"][0]["byteLength"] = bitstream.size();
+  });
+  uint32_t json_bytes;
+  std::memcpy(&json_bytes, glb.data() + 12, 4);
+  glb.resize(20 + json_bytes);
+  const uint32_t bin_bytes = uint32_t(bitstream.size()), bin_type = 0x004E4942;  // "BIN\0"
+  glb.insert(glb.end(), reinterpret_cast<const uint8_t*>(&bin_bytes), reinterpret_cast<const uint8_t*>(&bin_bytes) + 4);
+  glb.insert(glb.end(), reinterpret_cast<const uint8_t*>(&bin_type), reinterpret_cast<const uint8_t*>(&bin_type) + 4);
+  glb.insert(glb.end(), bitstream.begin(), bitstream.end());
+  const uint32_t total = uint32_t(glb.size());
+  std::memcpy(glb.data() + 8, &total, 4);
+  return glb;
+}
+
+void appendVarint(std::vector<uint8_t>& out, uint64_t v) {
+  do {
+    out.push_back(uint8_t((v & 0x7f) | (v >= 0x80 ? 0x80 : 0)));
+    v >>= 7;
+  } while (v);
+}
+
+// A Draco 2.2 mesh header ("DRACO", version, mesh, `method`, no flags) followed by `counts` as
+// varints and `tail` bytes of zeros: what the decoder reads before it allocates.
+std::vector<uint8_t> dracoHeader(uint8_t method, std::initializer_list<uint64_t> counts, size_t tail) {
+  std::vector<uint8_t> out = {'D', 'R', 'A', 'C', 'O', 2, 2, 1, method, 0, 0};
+  if (method == 1) out.push_back(0);  // edgebreaker: the standard traversal
+  size_t k = 0;
+  for (uint64_t c : counts) {
+    appendVarint(out, c);
+    if (method == 1 && ++k == 2) out.push_back(0);  // edgebreaker: no attribute connectivity data
+  }
+  out.resize(out.size() + tail, 0);
+  return out;
+}
+
+TEST(GltfDraco, ABitstreamDeclaringMoreThanTheMemoryLimitIsAnErrorNamingTheKey) {
+  // A 40-byte bitstream may declare 4 billion points (sequential) or 700 million faces
+  // (edgebreaker; Draco checks neither against the bytes left, and sizes its tables by them).
+  // Under an 8 GiB limit both are refused before Draco allocates; without the estimate each
+  // load succeeded after Draco failed, leaving a skipped primitive behind.
+  setMemoryLimit(uint64_t(8) << 30);
+  const auto sequential = loadGltfFromMemory(dracoBoxWithBitstream(dracoHeader(0, {1, 0xFFFFFFFFull}, 24)), "points.glb", "");
+  const auto edgebreaker = loadGltfFromMemory(dracoBoxWithBitstream(dracoHeader(1, {1000, 700'000'000, 0, 0}, 24)), "faces.glb", "");
+  // Counts within the limit still reach Draco, which rejects the bytes that are not there.
+  GltfStats stats;
+  const auto small = loadGltfFromMemory(dracoBoxWithBitstream(dracoHeader(0, {1, 1000}, 24)), "small.glb", "",
+                                        InstanceClass::kStatic, &stats);
+  setMemoryLimit(0);
+  ASSERT_FALSE(sequential.has_value());
+  EXPECT_EQ(sequential.error().message.rfind("points.glb: key 'meshes[0].primitives[0].extensions.KHR_draco_mesh_compression': "
+                                             "a Draco mesh of 1 triangles and 4294967295 points needs about ", 0), 0u)
+      << sequential.error().message;
+  ASSERT_FALSE(edgebreaker.has_value());
+  EXPECT_EQ(edgebreaker.error().message.rfind("faces.glb: key 'meshes[0].primitives[0].extensions.KHR_draco_mesh_compression': "
+                                              "a Draco mesh of 700000000 triangles and 1000 points needs about ", 0), 0u)
+      << edgebreaker.error().message;
+  EXPECT_NE(edgebreaker.error().message.find("(--max-memory)"), std::string::npos) << edgebreaker.error().message;
+  ASSERT_TRUE(small.has_value()) << small.error().message;
+  EXPECT_EQ(stats.primitives_skipped, 1u);
+}
+
+TEST(GltfDraco, TheSharedDracoFilesLoadUnderALimitOfOneMegabyteMore) {
+  // The box (sequential, 12 faces, 24 points) and the metadata box (edgebreaker, its metadata
+  // skipped, 12 faces, 8 vertices) estimate a few kilobytes: a header misread into other counts
+  // would be refused here.
+  std::ifstream statm("/proc/self/statm");
+  uint64_t pages = 0, resident_pages = 0;
+  statm >> pages >> resident_pages;
+  ASSERT_GT(resident_pages, 0u);
+  for (const char* path : {DRTV_SHARED_ASSETS "/draco_box/Box_Draco.glb", DRTV_SHARED_ASSETS "/draco_boxmeta/BoxMetaDraco.gltf"}) {
+    setMemoryLimit(resident_pages * uint64_t(sysconf(_SC_PAGESIZE)) + (uint64_t(1) << 20));
+    const auto w = loadGltf(path);
+    setMemoryLimit(0);
+    ASSERT_TRUE(w.has_value()) << w.error().message;
+    EXPECT_EQ(w->triangleCount(), 12u) << path;
+  }
 }
 
 // A glTF (JSON) with one triangle whose POSITION accessor has byte offset `offset`.

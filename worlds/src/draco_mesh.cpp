@@ -15,8 +15,13 @@
 #include <exception>
 #include <memory>
 
+#include <draco/compression/config/compression_shared.h>
 #include <draco/compression/decode.h>
+#include <draco/compression/point_cloud/point_cloud_decoder.h>
+#include <draco/core/varint_decoding.h>
 #include <draco/mesh/mesh.h>
+#include <draco/metadata/geometry_metadata.h>
+#include <draco/metadata/metadata_decoder.h>
 
 namespace drtv::worlds {
 namespace {
@@ -89,7 +94,73 @@ bool decode(const unsigned char* bytes, size_t size, int position_id, DracoMesh*
   return true;
 }
 
+// A count as the bitstream of version `version` stores it: uint32 before `varint_from`, varint
+// from it on (Draco 1.5's MeshSequentialDecoder and MeshEdgeBreakerDecoderImpl).
+bool readCount(draco::DecoderBuffer& buffer, uint16_t version, uint16_t varint_from, uint32_t* out) {
+  if (version < varint_from) return buffer.Decode(out);
+  return draco::DecodeVarint(out, &buffer);
+}
+
+bool declared(const unsigned char* bytes, size_t size, DracoDeclared* out, char* error, size_t error_size) {
+  draco::DecoderBuffer buffer;
+  buffer.Init(reinterpret_cast<const char*>(bytes), size);
+  draco::DracoHeader header;
+  if (!draco::PointCloudDecoder::DecodeHeader(&buffer, &header).ok()) return failWith(error, error_size, "not a Draco bitstream");
+  if (header.encoder_type != draco::TRIANGULAR_MESH) return failWith(error, error_size, "Draco bitstream is not a triangle mesh");
+  if (header.version_major < 1 || header.version_major > draco::kDracoMeshBitstreamVersionMajor ||
+      (header.version_major == draco::kDracoMeshBitstreamVersionMajor && header.version_minor > draco::kDracoMeshBitstreamVersionMinor))
+    return failWith(error, error_size, "unknown Draco bitstream version", header.version_major);
+  const uint16_t version = DRACO_BITSTREAM_VERSION(header.version_major, header.version_minor);
+  buffer.set_bitstream_version(version);
+  if (version >= DRACO_BITSTREAM_VERSION(1, 3) && (header.flags & METADATA_FLAG_MASK)) {
+    // Entries are read one by one and each is bounded by the bytes left, as in the decoder.
+    draco::GeometryMetadata metadata;
+    draco::MetadataDecoder metadata_decoder;
+    if (!metadata_decoder.DecodeGeometryMetadata(&buffer, &metadata)) return failWith(error, error_size, "Draco metadata unreadable");
+  }
+  uint32_t faces = 0, points = 0;
+  if (header.encoder_method == draco::MESH_SEQUENTIAL_ENCODING) {
+    if (!readCount(buffer, version, DRACO_BITSTREAM_VERSION(2, 2), &faces) ||
+        !readCount(buffer, version, DRACO_BITSTREAM_VERSION(2, 2), &points))
+      return failWith(error, error_size, "Draco sequential connectivity header truncated");
+    out->faces = faces;
+    out->points = points;
+    out->edgebreaker = false;
+    return true;
+  }
+  if (header.encoder_method != draco::MESH_EDGEBREAKER_ENCODING)
+    return failWith(error, error_size, "unknown Draco mesh encoding method", header.encoder_method);
+  uint8_t traversal = 0;
+  if (!buffer.Decode(&traversal)) return failWith(error, error_size, "Draco edgebreaker header truncated");
+  uint32_t new_vertices = 0, encoded_vertices = 0, symbols = 0, split_symbols = 0;
+  uint8_t attribute_data = 0;
+  const uint16_t v20 = DRACO_BITSTREAM_VERSION(2, 0);
+  if (version < DRACO_BITSTREAM_VERSION(2, 2) && !readCount(buffer, version, v20, &new_vertices))
+    return failWith(error, error_size, "Draco edgebreaker header truncated");
+  if (!readCount(buffer, version, v20, &encoded_vertices) || !readCount(buffer, version, v20, &faces) ||
+      !buffer.Decode(&attribute_data) || !readCount(buffer, version, v20, &symbols) ||
+      !readCount(buffer, version, v20, &split_symbols))
+    return failWith(error, error_size, "Draco edgebreaker header truncated");
+  out->faces = faces;
+  out->points = uint64_t(encoded_vertices) + split_symbols + new_vertices;
+  out->edgebreaker = true;
+  return true;
+}
+
 }  // namespace
+
+bool dracoDeclaredCounts(const unsigned char* bytes, size_t size, DracoDeclared* out, char* error,
+                         size_t error_size) noexcept {
+  *out = DracoDeclared{};
+  if (error && error_size) error[0] = '\0';
+  try {
+    return declared(bytes, size, out, error, error_size);
+  } catch (const std::exception& e) {  // std::bad_alloc from the metadata's strings
+    return failWith(error, error_size, e.what());
+  } catch (...) {
+    return failWith(error, error_size, "Draco threw an unknown exception");
+  }
+}
 
 bool decodeDracoMesh(const unsigned char* bytes, size_t size, int position_id, DracoMesh* out, char* error,
                      size_t error_size) noexcept {

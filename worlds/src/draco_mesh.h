@@ -32,6 +32,25 @@ struct DracoMesh {
 bool decodeDracoMesh(const unsigned char* bytes, size_t size, int position_id, DracoMesh* out, char* error,
                      size_t error_size) noexcept;
 
+// What a Draco bitstream declares before any of it is decoded: the counts the decoder sizes its
+// arrays by. `faces` is the connectivity's face count; `points` the point count the attribute
+// decoders allocate for (sequential meshes: the header's num_points; edgebreaker meshes: the
+// encoded vertices plus one per split symbol, the size of its vertex tables). `edgebreaker` says
+// which connectivity it is. Reads the header, skips the metadata with Draco's own decoder, and
+// reads the connectivity's leading counts as Draco 1.5 does for every bitstream version it takes
+// (1.0 to 2.2).
+struct DracoDeclared {
+  uint64_t faces = 0;
+  uint64_t points = 0;
+  bool edgebreaker = false;
+};
+
+// Fills `out` from the bitstream `bytes[0, size)` and returns true, or returns false with a reason
+// in error[0, error_size) when the header or the counts cannot be read (the same bitstream would
+// then fail to decode). Allocates nothing in proportion to the counts. Never aborts, never throws.
+bool dracoDeclaredCounts(const unsigned char* bytes, size_t size, DracoDeclared* out, char* error,
+                         size_t error_size) noexcept;
+
 // Frees what decodeDracoMesh allocated and empties `mesh`. Null arrays are fine.
 void freeDracoMesh(DracoMesh* mesh) noexcept;
 

@@ -28,6 +28,7 @@
 #include <tiny_gltf.h>
 
 #include "draco_mesh.h"
+#include "drtv/formats/memory_limit.h"
 #include "terrain.h"
 
 namespace drtv::worlds {
@@ -54,6 +55,19 @@ const glm::dmat4 kYupToZup(glm::dvec4(1, 0, 0, 0), glm::dvec4(0, 0, 1, 0), glm::
 
 glm::vec3 yUpToZup(glm::vec3 p) { return {p.x, -p.z, p.y}; }
 
+// The peak a Draco decode adds, per count its bitstream declares (dracoDeclaredCounts) and per
+// attribute the glTF maps, measured on Draco 1.5 with a counting operator new over grids of
+// 180,000 triangles with 1-3 attributes, both encodings (docs/formats.md, "Value ranges and
+// memory"): Draco's own arrays plus this loader's two copies of the positions and indices (24 B
+// a face, 24 a point). An edgebreaker mesh's attribute seams add points beyond its declared
+// vertices, up to 3 a face: hence its per-face cost per further attribute. On what was measured
+// the estimate errs high by 3-51 %, never low.
+constexpr uint64_t kDracoSequentialBytesPerFace = 48;               // 24 measured + the copies
+constexpr uint64_t kDracoEdgebreakerBytesPerFace = 96;              // 68 measured (corner tables) + 24
+constexpr uint64_t kDracoEdgebreakerBytesPerFacePerAttribute = 64;  // seams, from the second attribute on
+constexpr uint64_t kDracoBytesPerPoint = 40;                        // the copies and the point map
+constexpr uint64_t kDracoBytesPerPointAttribute = 24;   // 15-20 measured per attribute
+
 float srgbToLinear(float c) {  // [3]
   return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
 }
@@ -69,6 +83,7 @@ struct Loader {
   std::map<int, size_t> mesh_triangles_read;          // drtv mesh -> triangles before dropping
   std::map<int, glm::vec3> material_albedo;
   size_t visits = 0;
+  std::optional<Error> refused;  // the first input limit hit (a Draco mesh too large): ends the load
 
   void note(const std::string& what) { world.notes.push_back(what); }
 
@@ -186,6 +201,7 @@ struct Loader {
 
   // Builds the drtv mesh for one primitive, or returns -1 (with a note) when skipped.
   int primitiveMesh(int mesh_index, int prim_index) {
+    if (refused) return -1;
     const auto key = std::make_pair(mesh_index, prim_index);
     if (auto it = primitive_mesh.find(key); it != primitive_mesh.end()) return it->second;
     const int result = buildPrimitive(mesh_index, prim_index);
@@ -195,8 +211,10 @@ struct Loader {
 
   // Decodes a KHR_draco_mesh_compression extension object [2] into Z-up positions and a
   // triangle list; false (with `why`) when the object, its bufferView or the bitstream is bad.
-  bool dracoPrimitive(const tinygltf::Value& ext, std::vector<glm::vec3>& positions, std::vector<uint32_t>& indices,
-                      std::string& why) const {
+  // Before Draco allocates for the counts its bitstream declares, the peak is estimated
+  // (kDracoBytesPer*); beyond what the process may use, `refused` names the file and the key.
+  bool dracoPrimitive(const tinygltf::Value& ext, const std::string& key, std::vector<glm::vec3>& positions,
+                      std::vector<uint32_t>& indices, std::string& why) {
     const tinygltf::Value& view_value = ext.Get("bufferView");
     const tinygltf::Value& position_value = ext.Get("attributes").Get("POSITION");
     if (!view_value.IsInt()) return why = "no integer bufferView", false;
@@ -210,8 +228,23 @@ struct Loader {
     const std::vector<unsigned char>& data = model.buffers[size_t(view.buffer)].data;
     if (view.byteOffset > data.size() || view.byteLength > data.size() - view.byteOffset)
       return why = "bufferView " + std::to_string(view_index) + " exceeds its buffer", false;
-    DracoMesh mesh;
     char error[160];
+    DracoDeclared declared;
+    if (!dracoDeclaredCounts(data.data() + view.byteOffset, view.byteLength, &declared, error, sizeof error))
+      return why = error, false;
+    const uint64_t attributes = std::max<uint64_t>(1, ext.Get("attributes").Keys().size());
+    const uint64_t per_face = declared.edgebreaker
+                                  ? kDracoEdgebreakerBytesPerFace + kDracoEdgebreakerBytesPerFacePerAttribute * (attributes - 1)
+                                  : kDracoSequentialBytesPerFace;
+    const uint64_t estimate = declared.faces * per_face + declared.points * (kDracoBytesPerPoint + kDracoBytesPerPointAttribute * attributes);
+    if (auto ok = checkMemory(estimate, file + ": key '" + key + "'",
+                              "a Draco mesh of " + std::to_string(declared.faces) + " triangles and " +
+                                  std::to_string(declared.points) + " points");
+        !ok) {
+      refused = ok.error();
+      return why = ok.error().message, false;
+    }
+    DracoMesh mesh;
     if (!decodeDracoMesh(data.data() + view.byteOffset, view.byteLength, position_value.GetNumberAsInt(), &mesh, error,
                          sizeof error))
       return why = error, false;
@@ -305,7 +338,12 @@ struct Loader {
     if (const auto draco = prim.extensions.find("KHR_draco_mesh_compression"); draco != prim.extensions.end()) {
       // [2]: the positions and the triangle list come from the Draco bitstream, not from the
       // accessors' bufferViews (which a Draco file leaves out); it is a list whatever the mode.
-      if (!dracoPrimitive(draco->second, positions, indices, why)) return skip("KHR_draco_mesh_compression: " + why);
+      const std::string key = "meshes[" + std::to_string(mesh_index) + "].primitives[" + std::to_string(prim_index) +
+                              "].extensions.KHR_draco_mesh_compression";
+      if (!dracoPrimitive(draco->second, key, positions, indices, why)) {
+        if (refused) return -1;
+        return skip("KHR_draco_mesh_compression: " + why);
+      }
     } else if (!accessorPrimitive(prim, pos_acc, positions, indices, why)) {
       return skip(why);
     }
@@ -650,8 +688,9 @@ Result<World> loadGltfBytes(std::span<const uint8_t> bytes, bool binary, const s
   for (const std::string& e : model.extensionsRequired)
     if (e != "KHR_draco_mesh_compression" && e != "KHR_materials_pbrSpecularGlossiness" && e != "KHR_texture_transform")
       world.notes.push_back("warning: " + file + ": required extension " + e + " is not supported; loaded without it");
-  Loader l{model, file, cls, world, stats, {}, {}, {}, 0};
+  Loader l{model, file, cls, world, stats, {}, {}, {}, 0, std::nullopt};
   l.run();
+  if (l.refused) return std::unexpected(*l.refused);
   world.effects = defaultEffects(world);
   if (stats_out) *stats_out = stats;
   return world;

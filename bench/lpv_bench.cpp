@@ -75,6 +75,25 @@ void BM_LpvPropagate(benchmark::State& state) {
 }
 BENCHMARK(BM_LpvPropagate)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
 
+// The injection alone: one 256 x 256 RSM per cascade (cleared first), as in a full update.
+void BM_LpvInject(benchmark::State& state) {
+  LpvOptions o;
+  o.threads = int(state.range(0));
+  auto lpv = CascadedLpv::create(o);
+  lpv->setCamera(glm::dvec3(0.0));
+  std::vector<std::vector<Surfel>> rsm;
+  for (int c = 0; c < 3; ++c) rsm.push_back(groundRsm(lpv->box(c).cell_m * o.cells, 256));
+  for (auto _ : state) {
+    for (int c = 0; c < 3; ++c) {
+      lpv->clearLight(c);
+      lpv->injectLight(c, rsm[size_t(c)]);
+    }
+    benchmark::ClobberMemory();
+  }
+  state.SetItemsProcessed(int64_t(state.iterations()) * 3 * 256 * 256);
+}
+BENCHMARK(BM_LpvInject)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+
 // One camera step of one cell: the finest cascade moves, its geometry volume, transmittances, sky
 // and light are made again and propagated (the coarser ones stay).
 void BM_LpvCameraStep(benchmark::State& state) {

@@ -2,7 +2,11 @@
 #include "drtv/lpv/lpv.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <condition_variable>
+#include <functional>
+#include <mutex>
 #include <string>
 #include <thread>
 
@@ -13,12 +17,16 @@ namespace {
 // the same order, so the same bits), chosen at load time; not under the sanitizers, whose
 // run-time is not up when the ifunc resolvers run, nor off x86-64.
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(__SANITIZE_ADDRESS__)
-#define DRTV_LPV_CLONES __attribute__((target_clones("avx2", "default")))
+#define DRTV_LPV_CLONES __attribute__((target_clones("arch=x86-64-v4", "avx2", "default")))
 #else
 #define DRTV_LPV_CLONES
 #endif
 
 constexpr int kPlanes = 12;  // 3 channels x 4 SH coefficients, plane p = channel * 4 + coefficient
+
+// Propagation steps made in one sweep over the slabs (propagate): their ring buffers, 3 slabs
+// each, stay in the L2 cache (8 x 3 x 4 x 34^2 floats = 444 KB at 32 cells).
+constexpr int kWaveDepth = 8;
 
 // The 6 propagation directions: the direction light travels from the source neighbour into the
 // receiving cell. d = 2 * axis + (0: +, 1: -).
@@ -91,18 +99,106 @@ struct CascadedLpv::Cascade {
   CascadeBox box;
   int n = 0;
   size_t cells = 0;
-  std::vector<float> injected;   // kPlanes x cells
-  std::vector<float> light;      // kPlanes x cells: injected + every step
+  // kPlanes x (n+2)^3, padded by a zero cell on every side (the propagation reads it in place);
+  // inj_lit: per padded slab, channel and padded row (((k+1) * 3 + ch) * (n+2) + j+1), whether
+  // an injection added non-zero flux to the row (the propagation skips rows without light, and
+  // clearLight clears only the flagged ones).
+  std::vector<float> injected;
+  std::vector<uint8_t> inj_lit;
+  std::vector<float> light;        // kPlanes x cells: injected + every step
+  std::vector<uint8_t> light_lit;  // per slab, channel and row ((k * 3 + ch) * n + j): may be non-zero
   std::vector<float> last_step;  // band-0 of the last step, per channel (3 x cells): tests
   std::vector<float> geometry;   // 4 x (n+1)^3 blocking potential SH on the corners
   std::vector<float> face_t;     // kDirs x cells: transmittance of light entering through that face
   std::vector<uint8_t> sky_t;    // kSkyDirections x cells, T in 1/255
   std::vector<float> sky;        // kPlanes x cells: visible sky radiance SH
   size_t index(int i, int j, int k) const { return size_t(i) + size_t(n) * (size_t(j) + size_t(n) * size_t(k)); }
+  size_t padded() const { return size_t(n + 2) * size_t(n + 2) * size_t(n + 2); }
+  size_t paddedIndex(int i, int j, int k) const {
+    const size_t np = size_t(n) + 2;
+    return size_t(i + 1) + np * (size_t(j + 1) + np * size_t(k + 1));
+  }
   size_t corner(int i, int j, int k) const {
     const size_t m = size_t(n) + 1;
     return size_t(i) + m * (size_t(j) + m * size_t(k));
   }
+};
+
+// One thread's propagation scratch (see propagate): the ring buffers of the steps of a pass and,
+// for more than kWaveDepth iterations, two padded grids that carry a pass's last step to the next.
+struct CascadedLpv::Scratch {
+  std::vector<float> ring;        // kWaveDepth x 3 slots x 4 planes x (n+2)^2
+  std::vector<uint8_t> ring_lit;  // kWaveDepth x 3 slots x (n+2) rows
+  std::array<std::vector<float>, 2> grid;        // 4 planes x (n+2)^3 (allocated when needed)
+  std::array<std::vector<uint8_t>, 2> grid_lit;  // (n+2) slabs x (n+2) rows
+};
+
+// Threads beside the caller, started once and asleep between calls: a propagation has 3 jobs of
+// ~0.3 ms, and starting a thread per call cost about as much as it saved (DESIGN.md: waking an idle
+// worker costs 75-100 us, starting one more).
+class CascadedLpv::Workers {
+ public:
+  explicit Workers(int count) {
+    for (int w = 1; w <= count; ++w) threads_.emplace_back([this, w] { loop(w); });
+  }
+  ~Workers() {
+    {
+      std::lock_guard lock(mutex_);
+      stop_ = true;
+    }
+    wake_.notify_all();
+    for (std::thread& t : threads_) t.join();
+  }
+  int count() const { return int(threads_.size()); }
+  // Runs job(index, worker) for every index in [0, jobs), each once, on the caller (worker 0) and
+  // the workers (1..count()); returns when all have finished. Which thread runs which index is
+  // not fixed: jobs must not depend on it beyond choosing the worker's scratch.
+  void run(int jobs, const std::function<void(int, int)>& job) {
+    {
+      std::lock_guard lock(mutex_);
+      job_ = &job;
+      jobs_ = jobs;
+      next_.store(0);
+      busy_ = count();
+      ++generation_;
+    }
+    wake_.notify_all();
+    work(0);
+    std::unique_lock lock(mutex_);
+    done_.wait(lock, [&] { return busy_ == 0; });
+    job_ = nullptr;
+  }
+
+ private:
+  void work(int worker) {
+    for (int i = next_.fetch_add(1); i < jobs_; i = next_.fetch_add(1)) (*job_)(i, worker);
+  }
+  void loop(int worker) {
+    uint64_t seen = 0;
+    for (;;) {
+      {
+        std::unique_lock lock(mutex_);
+        wake_.wait(lock, [&] { return stop_ || generation_ != seen; });
+        if (stop_) return;
+        seen = generation_;
+      }
+      work(worker);
+      {
+        std::lock_guard lock(mutex_);
+        --busy_;
+      }
+      done_.notify_one();
+    }
+  }
+  std::vector<std::thread> threads_;
+  std::mutex mutex_;
+  std::condition_variable wake_, done_;
+  const std::function<void(int, int)>* job_ = nullptr;
+  int jobs_ = 0;
+  std::atomic<int> next_{0};
+  int busy_ = 0;
+  uint64_t generation_ = 0;
+  bool stop_ = false;
 };
 
 std::string validate(const LpvOptions& o) {
@@ -122,6 +218,7 @@ CascadedLpv::CascadedLpv(const LpvOptions& o) : options_(o) {
   const int n = o.cells;
   const size_t cells = size_t(n) * size_t(n) * size_t(n);
   const size_t corners = size_t(n + 1) * size_t(n + 1) * size_t(n + 1);
+  const size_t np = size_t(n) + 2;
   cascades_.resize(size_t(o.cascades));
   double s = o.cell_m;
   for (Cascade& c : cascades_) {
@@ -129,8 +226,10 @@ CascadedLpv::CascadedLpv(const LpvOptions& o) : options_(o) {
     c.cells = cells;
     c.box.cell_m = s;
     c.box.cells = n;
-    c.injected.assign(kPlanes * cells, 0.f);
+    c.injected.assign(kPlanes * c.padded(), 0.f);
+    c.inj_lit.assign(np * 3 * np, 0);
     c.light.assign(kPlanes * cells, 0.f);
+    c.light_lit.assign(size_t(n) * 3 * size_t(n), 0);
     c.last_step.assign(3 * cells, 0.f);
     c.geometry.assign(4 * corners, 0.f);
     c.face_t.assign(kDirs * cells, 1.f);
@@ -138,11 +237,14 @@ CascadedLpv::CascadedLpv(const LpvOptions& o) : options_(o) {
     c.sky.assign(kPlanes * cells, 0.f);
     s *= o.ratio;
   }
-  const size_t padded = size_t(n + 2) * size_t(n + 2) * size_t(n + 2);
-  step_a_.assign(kPlanes * padded, 0.f);
-  step_b_.assign(kPlanes * padded, 0.f);
-  lit_a_.assign(3 * size_t(n + 2) * size_t(n + 2), 0);
-  lit_b_.assign(3 * size_t(n + 2) * size_t(n + 2), 0);
+  // A propagation has 3 jobs (its channels); an injection one per thread.
+  const int threads = std::min(o.threads, 3);
+  scratch_.resize(size_t(threads));
+  for (Scratch& w : scratch_) {
+    w.ring.assign(size_t(kWaveDepth) * 3 * 4 * np * np, 0.f);
+    w.ring_lit.assign(size_t(kWaveDepth) * 3 * np, 0);
+  }
+  if (threads > 1) workers_ = std::make_unique<Workers>(threads - 1);
 }
 
 CascadedLpv::CascadedLpv(CascadedLpv&&) noexcept = default;
@@ -184,8 +286,23 @@ uint32_t CascadedLpv::setCamera(const glm::dvec3& camera) {
 
 void CascadedLpv::clearLight(int c) {
   Cascade& g = cascades_[size_t(c)];
-  std::fill(g.injected.begin(), g.injected.end(), 0.f);
-  std::fill(g.light.begin(), g.light.end(), 0.f);  // until the next propagate
+  const int n = g.n;
+  const size_t np = size_t(n) + 2, P = g.padded();
+  // Only the rows an injection or a propagation flagged can hold anything but zeros.
+  for (int k = 0; k < n; ++k)
+    for (int ch = 0; ch < 3; ++ch)
+      for (int j = 0; j < n; ++j) {
+        uint8_t& inj = g.inj_lit[(size_t(k + 1) * 3 + size_t(ch)) * np + size_t(j + 1)];
+        if (inj) {
+          for (int q = 0; q < 4; ++q) std::fill_n(g.injected.data() + size_t(ch * 4 + q) * P + g.paddedIndex(0, j, k), n, 0.f);
+          inj = 0;
+        }
+        uint8_t& lit = g.light_lit[(size_t(k) * 3 + size_t(ch)) * size_t(n) + size_t(j)];
+        if (lit) {  // until the next propagate
+          for (int q = 0; q < 4; ++q) std::fill_n(g.light.data() + size_t(ch * 4 + q) * g.cells + g.index(0, j, k), n, 0.f);
+          lit = 0;
+        }
+      }
 }
 
 void CascadedLpv::injectLight(int c, std::span<const Surfel> surfels) {
@@ -193,22 +310,54 @@ void CascadedLpv::injectLight(int c, std::span<const Surfel> surfels) {
   Cascade& g = cascades_[size_t(c)];
   const double s = g.box.cell_m, inv_s = 1.0 / s;
   const float scale = float(1.0 / (double(sh::kPi) * s * s));
-  float* planes = g.injected.data();
-  for (const Surfel& v : surfels) {
-    // Half a cell along the normal [1] sec. 4.1: the VPL lights the space in front of it.
-    const glm::dvec3 p = (v.position - g.box.min) * inv_s + 0.5 * glm::dvec3(v.normal);
-    if (!(p.x >= 0 && p.y >= 0 && p.z >= 0 && p.x < g.n && p.y < g.n && p.z < g.n)) continue;
-    const size_t idx = g.index(int(p.x), int(p.y), int(p.z));
-    const sh::Sh4 lobe = sh::cosineLobe(v.normal) * scale;
-    for (int ch = 0; ch < 3; ++ch) {
-      float* q = planes + size_t(ch * 4) * g.cells + idx;
-      const float f = v.flux[ch];
-      q[0] += f * lobe.x;
-      q[g.cells] += f * lobe.y;
-      q[2 * g.cells] += f * lobe.z;
-      q[3 * g.cells] += f * lobe.w;
+  const int n = g.n;
+  const glm::dvec3 box_min = g.box.min;
+  const size_t P = g.padded(), np = size_t(n) + 2;
+  float* const planes = g.injected.data();
+  uint8_t* const lit = g.inj_lit.data();
+  // With threads, each job takes the surfels landing in its blocks of 4 rows of y, in the given
+  // order, so every cell's sum is made in the same order whatever the count.
+  const int jobs = int(scratch_.size());
+  auto inject = [&, n, P, np, planes, lit, jobs](int job, int) {
+    // The cell of a run of surfels (an RSM's neighbouring texels share cells) is held in
+    // registers: the same additions in the same order as adding to memory, without waiting on
+    // each store before the next load of the same address.
+    size_t run = SIZE_MAX, run_row = 0;
+    float acc[kPlanes];
+    uint8_t run_lit = 0;
+    auto flush = [&] {
+      if (run == SIZE_MAX) return;
+      for (int p = 0; p < kPlanes; ++p) planes[size_t(p) * P + run] = acc[p];
+      for (int ch = 0; ch < 3; ++ch) lit[run_row + size_t(ch) * np] |= uint8_t((run_lit >> ch) & 1);
+    };
+    for (const Surfel& v : surfels) {
+      // Half a cell along the normal [1] sec. 4.1: the VPL lights the space in front of it.
+      const glm::dvec3 p = (v.position - box_min) * inv_s + 0.5 * glm::dvec3(v.normal);
+      if (!(p.x >= 0 && p.y >= 0 && p.z >= 0 && p.x < n && p.y < n && p.z < n)) continue;
+      const int i = int(p.x), j = int(p.y), k = int(p.z);
+      if (jobs > 1 && (j / 4) % jobs != job) continue;
+      const size_t idx = size_t(i + 1) + np * (size_t(j + 1) + np * size_t(k + 1));
+      if (idx != run) {
+        flush();
+        run = idx;
+        run_row = size_t(k + 1) * 3 * np + size_t(j + 1);
+        run_lit = 0;
+        for (int q = 0; q < kPlanes; ++q) acc[q] = planes[size_t(q) * P + idx];
+      }
+      const sh::Sh4 lobe = sh::cosineLobe(v.normal) * scale;
+      for (int ch = 0; ch < 3; ++ch) {
+        const float f = v.flux[ch];
+        acc[ch * 4] += f * lobe.x;
+        acc[ch * 4 + 1] += f * lobe.y;
+        acc[ch * 4 + 2] += f * lobe.z;
+        acc[ch * 4 + 3] += f * lobe.w;
+        run_lit |= uint8_t(f != 0.f) << ch;
+      }
     }
-  }
+    flush();
+  };
+  if (jobs == 1) inject(0, 0);
+  else workers_->run(jobs, inject);
 }
 
 void CascadedLpv::clearGeometry(int c) {
@@ -337,76 +486,96 @@ void CascadedLpv::setSkyRadiance(int c, const std::array<glm::vec3, kSkyDirectio
 
 namespace {
 
-// One propagation step of one channel over a grid padded by one zero cell on every side (so that
-// every interior cell has its 6 neighbours without a bounds check): out = sum over the 6
-// directions of transmittance x matrix x the neighbour's 4 coefficients (lpv.h, "Propagation").
-// `src[q]`, `dst[q]`: the padded planes of coefficient q; `tr[d]`: the unpadded transmittance
-// planes (null: no occlusion); `light[q]`: the unpadded accumulation planes, += the step.
-// Rows (j, k) are skipped when neither they nor their 4 neighbour rows hold light in `src`
-// (`lit_src`, padded (n+2)^2 flags), and `lit_dst` records which rows the step lit. Slabs
-// [k0, k1) let threads share a step. AVX2 where the CPU has it (no FMA: -ffp-contract=off, so
-// the same bits as SSE2).
+// One padded slab ((n+2)^2 cells, a zero cell around it) of a channel's 4 coefficient planes, and
+// its (n+2) row flags: a row whose flag is 0 holds only zeros.
+struct Slab {
+  std::array<float*, 4> q{};
+  uint8_t* lit = nullptr;
+};
+
+// Zeros the rows of `s` that may hold light (the slabs beyond the grid: nothing enters from there).
+void clearSlab(int n, const Slab& s) {
+  const size_t np = size_t(n) + 2;
+  for (int j = 1; j <= n; ++j) {
+    if (!s.lit[j]) continue;
+    for (int q = 0; q < 4; ++q) std::fill_n(s.q[size_t(q)] + 1 + np * size_t(j), n, 0.f);
+    s.lit[j] = 0;
+  }
+}
+
+// One propagation step of one channel on one slab z: dst = sum over the 6 directions of
+// transmittance x matrix x the neighbour's 4 coefficients (lpv.h, "Propagation"), the neighbours
+// read from the previous step's slabs z-1 (`below`), z (`mid`) and z+1 (`above`).
+// `tr[d]`: the unpadded transmittance plane of direction d at slab z (null: no occlusion);
+// `light[q]`: the unpadded accumulation at slab z, += the step; `light_lit`: its n row flags;
+// `last`: null, or the unpadded band-0 slab that receives the step (the last one).
+// Rows are skipped when neither they nor their 4 neighbour rows hold light in the previous step.
+// AVX-512 or AVX2 where the CPU has it (no FMA: -ffp-contract=off, so the same bits as SSE2).
 DRTV_LPV_CLONES
-void propagateChannel(int n, int k0, int k1, const std::array<const float*, 4>& src, const std::array<float*, 4>& dst,
-                      const std::array<const float*, kDirs>& tr, const std::array<float*, 4>& light,
-                      const uint8_t* lit_src, uint8_t* lit_dst) {
+void propagateSlab(int n, const Slab& below, const Slab& mid, const Slab& above, const Slab& dst,
+                   const std::array<const float*, kDirs>& tr, const std::array<float*, 4>& light, uint8_t* light_lit,
+                   float* last) {
   const auto& mats = matrices();
   const ptrdiff_t np = n + 2;
-  const ptrdiff_t off[kDirs] = {1, -1, np, -np, np * np, -np * np};  // source = cell - off
-  for (int k = k0; k < k1; ++k)
-    for (int j = 0; j < n; ++j) {
-      const size_t row_u = size_t(n) * (size_t(j) + size_t(n) * size_t(k));
-      const size_t row_p = size_t(1 + np * ((j + 1) + np * (k + 1)));
-      const size_t r = size_t((j + 1) + np * (k + 1));
-      if (!(lit_src[r] | lit_src[r - 1] | lit_src[r + 1] | lit_src[r - size_t(np)] | lit_src[r + size_t(np)])) {
-        if (lit_dst[r]) {  // what the buffer held two steps ago
-          for (int q = 0; q < 4; ++q) std::fill_n(dst[size_t(q)] + row_p, n, 0.f);
-        }
-        lit_dst[r] = 0;
-        continue;
+  for (int j = 0; j < n; ++j) {
+    const size_t row_u = size_t(n) * size_t(j);
+    const size_t row_p = size_t(1 + np * (j + 1));
+    const size_t r = size_t(j + 1);
+    if (!(mid.lit[r] | mid.lit[r - 1] | mid.lit[r + 1] | below.lit[r] | above.lit[r])) {
+      if (dst.lit[r]) {  // what the slot held three slabs ago
+        for (int q = 0; q < 4; ++q) std::fill_n(dst.q[size_t(q)] + row_p, n, 0.f);
       }
-      lit_dst[r] = 1;
-      float o[4][128];
-      for (int q = 0; q < 4; ++q)
-        for (int i = 0; i < n; ++i) o[q][i] = 0.f;
-      for (int d = 0; d < kDirs; ++d) {
-        const DirMatrix& m = mats[size_t(d)];
-        const float* __restrict s0 = src[0] + row_p - off[d];
-        const float* __restrict sa = src[size_t(m.a)] + row_p - off[d];
-        const float* __restrict s1 = src[size_t(m.o1)] + row_p - off[d];
-        const float* __restrict s2 = src[size_t(m.o2)] + row_p - off[d];
-        float* __restrict o0 = o[0];
-        float* __restrict oa = o[m.a];
-        float* __restrict o1 = o[m.o1];
-        float* __restrict o2 = o[m.o2];
-        if (tr[size_t(d)]) {
-          const float* __restrict t = tr[size_t(d)] + row_u;
-          for (int i = 0; i < n; ++i) {
-            const float f = t[i], a0 = s0[i], aa = sa[i];
-            o0[i] += f * (m.m00 * a0 + m.m0a * aa);
-            oa[i] += f * (m.ma0 * a0 + m.maa * aa);
-            o1[i] += f * m.moo * s1[i];
-            o2[i] += f * m.moo * s2[i];
-          }
-        } else {
-          for (int i = 0; i < n; ++i) {
-            const float a0 = s0[i], aa = sa[i];
-            o0[i] += m.m00 * a0 + m.m0a * aa;
-            oa[i] += m.ma0 * a0 + m.maa * aa;
-            o1[i] += m.moo * s1[i];
-            o2[i] += m.moo * s2[i];
-          }
-        }
-      }
-      for (int q = 0; q < 4; ++q) {
-        float* __restrict out = dst[size_t(q)] + row_p;
-        float* __restrict acc = light[size_t(q)] + row_u;
+      dst.lit[r] = 0;
+      if (last) std::fill_n(last + row_u, n, 0.f);
+      continue;
+    }
+    dst.lit[r] = 1;
+    light_lit[j] = 1;
+    float o[4][128];
+    for (int q = 0; q < 4; ++q)
+      for (int i = 0; i < n; ++i) o[q][i] = 0.f;
+    for (int d = 0; d < kDirs; ++d) {
+      const DirMatrix& m = mats[size_t(d)];
+      // The source of direction d: the cell - dirVector(d).
+      const Slab& from = d == 4 ? below : d == 5 ? above : mid;
+      const ptrdiff_t off = d == 0 ? -1 : d == 1 ? 1 : d == 2 ? -np : d == 3 ? np : 0;
+      const float* __restrict s0 = from.q[0] + ptrdiff_t(row_p) + off;
+      const float* __restrict sa = from.q[size_t(m.a)] + ptrdiff_t(row_p) + off;
+      const float* __restrict s1 = from.q[size_t(m.o1)] + ptrdiff_t(row_p) + off;
+      const float* __restrict s2 = from.q[size_t(m.o2)] + ptrdiff_t(row_p) + off;
+      float* __restrict o0 = o[0];
+      float* __restrict oa = o[m.a];
+      float* __restrict o1 = o[m.o1];
+      float* __restrict o2 = o[m.o2];
+      if (tr[size_t(d)]) {
+        const float* __restrict t = tr[size_t(d)] + row_u;
         for (int i = 0; i < n; ++i) {
-          out[i] = o[q][i];
-          acc[i] += o[q][i];
+          const float f = t[i], a0 = s0[i], aa = sa[i];
+          o0[i] += f * (m.m00 * a0 + m.m0a * aa);
+          oa[i] += f * (m.ma0 * a0 + m.maa * aa);
+          o1[i] += f * m.moo * s1[i];
+          o2[i] += f * m.moo * s2[i];
+        }
+      } else {
+        for (int i = 0; i < n; ++i) {
+          const float a0 = s0[i], aa = sa[i];
+          o0[i] += m.m00 * a0 + m.m0a * aa;
+          oa[i] += m.ma0 * a0 + m.maa * aa;
+          o1[i] += m.moo * s1[i];
+          o2[i] += m.moo * s2[i];
         }
       }
     }
+    for (int q = 0; q < 4; ++q) {
+      float* __restrict out = dst.q[size_t(q)] + row_p;
+      float* __restrict acc = light[size_t(q)] + row_u;
+      for (int i = 0; i < n; ++i) {
+        out[i] = o[q][i];
+        acc[i] += o[q][i];
+      }
+    }
+    if (last) std::copy_n(o[0], n, last + row_u);
+  }
 }
 
 }  // namespace
@@ -416,69 +585,101 @@ void CascadedLpv::propagate(int c) {
   Cascade& g = cascades_[size_t(c)];
   const int n = g.n;
   const size_t N = g.cells;
-  const size_t np = size_t(n) + 2, P = np * np * np;
-  g.light = g.injected;
-  // The padded step buffers: borders are never written (nothing enters from outside the grid);
-  // lit_a_ / lit_b_ say which interior rows of each may hold light, so rows that hold none are
-  // neither computed nor cleared. The injected light overwrites every interior row of step_a_.
-  for (int q = 0; q < kPlanes; ++q)
-    for (int k = 0; k < n; ++k)
+  const size_t np = size_t(n) + 2, P = g.padded(), S = np * np;
+  const int iterations = options_.iterations;
+  // Each channel is independent: one job each. Within a channel, the steps are made in sweeps
+  // over the slabs of z (temporal blocking): at time t, step s makes slab t - s from step s - 1's
+  // slabs t - s - 1 .. t - s + 1, the last of them made at the same t, so each step needs only a
+  // ring of its last 3 slabs, and the injected light, the accumulation and the transmittances
+  // are read once per sweep instead of once per step (a step over a whole grid moved about 8 MB
+  // through a cache too small for it). The accumulation takes every cell's steps in order, and
+  // each step's arithmetic is the whole-grid step's, so the bits are the same as step by step.
+  auto channel = [&](int ch, int worker) {
+    Scratch& w = scratch_[size_t(worker)];
+    std::array<float*, 4> light;
+    for (int q = 0; q < 4; ++q) light[size_t(q)] = g.light.data() + size_t(ch * 4 + q) * N;
+    auto lightLit = [&](int z) { return g.light_lit.data() + (size_t(z) * 3 + size_t(ch)) * size_t(n); };
+    // Step 0 of the first sweep: the injected grid; the first sweep starts the accumulation from it.
+    auto injectedSlab = [&](int z) {
+      Slab v;
+      for (int q = 0; q < 4; ++q) v.q[size_t(q)] = g.injected.data() + size_t(ch * 4 + q) * P + size_t(z + 1) * S;
+      v.lit = g.inj_lit.data() + (size_t(z + 1) * 3 + size_t(ch)) * np;
+      return v;
+    };
+    auto startLight = [&](int z) {  // light = injected, slab z (rows without light: zeros)
+      const Slab v = injectedSlab(z);
+      uint8_t* lit = lightLit(z);
       for (int j = 0; j < n; ++j) {
-        const float* in = g.injected.data() + size_t(q) * N + g.index(0, j, k);
-        std::copy_n(in, n, step_a_.data() + size_t(q) * P + 1 + np * (size_t(j + 1) + np * size_t(k + 1)));
-      }
-  for (int ch = 0; ch < 3; ++ch)
-    for (int k = 0; k < n; ++k)
-      for (int j = 0; j < n; ++j) {
-        bool any = false;
-        for (int q = 0; q < 4; ++q) {
-          const float* in = g.injected.data() + size_t(ch * 4 + q) * N + g.index(0, j, k);
-          any = any || std::any_of(in, in + n, [](float v) { return v != 0.f; });
+        const size_t row_p = 1 + np * size_t(j + 1);
+        if (v.lit[j + 1]) {
+          for (int q = 0; q < 4; ++q) std::copy_n(v.q[size_t(q)] + row_p, n, light[size_t(q)] + g.index(0, j, z));
+        } else if (lit[j]) {
+          for (int q = 0; q < 4; ++q) std::fill_n(light[size_t(q)] + g.index(0, j, z), n, 0.f);
         }
-        lit_a_[size_t(ch) * np * np + size_t(j + 1) + np * size_t(k + 1)] = any;
-      }
-  float* cur = step_a_.data();
-  float* next = step_b_.data();
-  uint8_t* lit_cur = lit_a_.data();
-  uint8_t* lit_next = lit_b_.data();
-  const int threads = std::clamp(options_.threads, 1, n);
-  for (int it = 1; it <= options_.iterations; ++it) {
-    const bool occluded = options_.occlusion && it >= 2;
-    std::array<const float*, kDirs> tr{};
-    for (int d = 0; d < kDirs; ++d) tr[size_t(d)] = occluded ? g.face_t.data() + size_t(d) * N : nullptr;
-    auto slab = [&](int k0, int k1) {
-      for (int ch = 0; ch < 3; ++ch) {
-        std::array<const float*, 4> src;
-        std::array<float*, 4> dst, light;
-        for (int q = 0; q < 4; ++q) {
-          src[size_t(q)] = cur + size_t(ch * 4 + q) * P;
-          dst[size_t(q)] = next + size_t(ch * 4 + q) * P;
-          light[size_t(q)] = g.light.data() + size_t(ch * 4 + q) * N;
-        }
-        propagateChannel(n, k0, k1, src, dst, tr, light, lit_cur + size_t(ch) * np * np, lit_next + size_t(ch) * np * np);
+        lit[j] = v.lit[j + 1];
       }
     };
-    if (threads == 1) {
-      slab(0, n);
-    } else {
-      // Slabs of z write disjoint rows of `next`, `light` and the flags: no synchronisation
-      // beyond the join; the sums per cell are the same whatever the slabs.
-      std::vector<std::thread> pool;
-      for (int t = 1; t < threads; ++t) pool.emplace_back(slab, n * t / threads, n * (t + 1) / threads);
-      slab(0, n / threads);
-      for (std::thread& th : pool) th.join();
+    if (iterations == 0) {
+      for (int z = 0; z < n; ++z) startLight(z);
+      std::fill_n(g.last_step.data() + size_t(ch) * N, N, 0.f);
     }
-    std::swap(cur, next);
-    std::swap(lit_cur, lit_next);
-  }
-  // The last step's band 0 (tests): what `cur` holds now, unpadded.
-  for (int ch = 0; ch < 3; ++ch)
-    for (int k = 0; k < n; ++k)
-      for (int j = 0; j < n; ++j) {
-        float* out = g.last_step.data() + size_t(ch) * N + g.index(0, j, k);
-        if (options_.iterations == 0) std::fill_n(out, n, 0.f);
-        else std::copy_n(cur + size_t(ch * 4) * P + 1 + np * (size_t(j + 1) + np * size_t(k + 1)), n, out);
+    // Sweeps of up to kWaveDepth steps; between two, a padded grid holds the earlier one's last.
+    auto ringSlab = [&](int s, int z) {  // step s (1..kWaveDepth) of the sweep, slab z in [-1, n]
+      const size_t slot = size_t(s - 1) * 3 + size_t(z + 1) % 3;
+      Slab v;
+      for (int q = 0; q < 4; ++q) v.q[size_t(q)] = w.ring.data() + (slot * 4 + size_t(q)) * S;
+      v.lit = w.ring_lit.data() + slot * np;
+      return v;
+    };
+    auto gridSlab = [&](int which, int z) {
+      Slab v;
+      for (int q = 0; q < 4; ++q) v.q[size_t(q)] = w.grid[size_t(which)].data() + size_t(q) * P + size_t(z + 1) * S;
+      v.lit = w.grid_lit[size_t(which)].data() + size_t(z + 1) * np;
+      return v;
+    };
+    int from_grid = -1;  // where the sweep's step 0 is: -1 the injected grid, else w.grid[from_grid]
+    for (int done = 0; done < iterations;) {
+      const int depth = std::min(kWaveDepth, iterations - done);
+      const bool final_sweep = done + depth == iterations;
+      const int to_grid = final_sweep ? -1 : (from_grid == 0 ? 1 : 0);
+      if (to_grid >= 0 && w.grid[size_t(to_grid)].empty()) {
+        w.grid[size_t(to_grid)].assign(4 * P, 0.f);
+        w.grid_lit[size_t(to_grid)].assign(np * np, 0);
       }
+      auto slab = [&](int s, int z) {
+        if (s == 0) return from_grid < 0 ? injectedSlab(z) : gridSlab(from_grid, z);
+        if (s == depth && to_grid >= 0) return gridSlab(to_grid, z);
+        return ringSlab(s, z);
+      };
+      for (int t = 0; t < n + depth; ++t) {
+        if (done == 0 && t < n) startLight(t);
+        for (int s = 1; s <= depth; ++s) {
+          const int z = t - s;
+          if (z < -1 || z > n) continue;
+          if (z == -1 || z == n) {
+            // Step s's slabs beyond the grid, read by step s + 1: zero (a grid's border always is).
+            if (s < depth) clearSlab(n, ringSlab(s, z));
+            continue;
+          }
+          const int step = done + s;
+          std::array<const float*, kDirs> tr{};
+          if (options_.occlusion && step >= 2)
+            for (int d = 0; d < kDirs; ++d) tr[size_t(d)] = g.face_t.data() + size_t(d) * N + size_t(z) * size_t(n) * size_t(n);
+          std::array<float*, 4> acc;
+          for (int q = 0; q < 4; ++q) acc[size_t(q)] = light[size_t(q)] + size_t(z) * size_t(n) * size_t(n);
+          float* last = step == iterations ? g.last_step.data() + size_t(ch) * N + size_t(z) * size_t(n) * size_t(n) : nullptr;
+          propagateSlab(n, slab(s - 1, z - 1), slab(s - 1, z), slab(s - 1, z + 1), slab(s, z), tr, acc, lightLit(z), last);
+        }
+      }
+      done += depth;
+      from_grid = to_grid;
+    }
+  };
+  if (!workers_) {
+    for (int ch = 0; ch < 3; ++ch) channel(ch, 0);
+  } else {
+    workers_->run(3, channel);
+  }
 }
 
 namespace {
@@ -596,11 +797,14 @@ glm::dvec3 CascadedLpv::lastStepLight(int c) const {
 }
 
 size_t CascadedLpv::bytes() const {
-  size_t b = (step_a_.size() + step_b_.size()) * sizeof(float);
+  size_t b = 0;
+  for (const Scratch& w : scratch_)
+    b += (w.ring.size() + w.grid[0].size() + w.grid[1].size()) * sizeof(float) + w.ring_lit.size() + w.grid_lit[0].size() +
+         w.grid_lit[1].size();
   for (const Cascade& c : cascades_)
     b += (c.injected.size() + c.light.size() + c.last_step.size() + c.geometry.size() + c.face_t.size() + c.sky.size()) *
              sizeof(float) +
-         c.sky_t.size();
+         c.sky_t.size() + c.inj_lit.size() + c.light_lit.size();
   return b;
 }
 

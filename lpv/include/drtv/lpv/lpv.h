@@ -58,12 +58,14 @@
 //    point and blend to the next over `blend_cells` cells at its border.
 //
 // Threading: one thread drives a CascadedLpv (setCamera, inject*, propagate, computeSky);
-// propagate() may use `threads` workers of its own; the const lookups may run from any number of
-// threads between those calls.
+// injectLight() and propagate() may use `threads` - 1 workers of its own (started with the
+// object, asleep between calls); the const lookups may run from any number of threads between
+// those calls.
 #pragma once
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <string>
 #include <vector>
@@ -110,8 +112,8 @@ struct LpvOptions {
   float lookup_offset_cells = 0.5f;  // the lookup point moves this far along the normal, cells
   float blend_cells = 3.f;     // width of the blend to the next cascade at a cascade's border, cells
   bool damping = true;         // damping of self-bleeding at lookups (indirect(); lpv.h, "Lookup")
-  int threads = 1;             // threads a propagation step runs on (slabs of z), [1, 64]; the
-                               // result is the same bits for any count
+  int threads = 1;             // threads injectLight (blocks of rows) and propagate (one colour
+                               // channel each) run on, [1, 64]; the same bits for any count
 };
 // What is wrong with `o` ("" if nothing), naming the field.
 std::string validate(const LpvOptions& o);
@@ -195,9 +197,11 @@ class CascadedLpv {
 
   LpvOptions options_;
   std::vector<Cascade> cascades_;
-  // Propagation scratch (two step buffers), shared by the cascades.
-  std::vector<float> step_a_, step_b_;
-  std::vector<uint8_t> lit_a_, lit_b_;  // per channel and padded row: may hold light
+  // Propagation scratch, one per thread (lpv.cpp), shared by the cascades; the workers.
+  struct Scratch;
+  class Workers;
+  std::vector<Scratch> scratch_;
+  std::unique_ptr<Workers> workers_;
   bool placed_ = false;
 
  public:

@@ -219,8 +219,13 @@ Result<FlyResult> fly(Streamer& streamer, const CatmullRomPath& path, const FlyO
   r.frames.reserve(size_t(frames));
   const bool moving = std::any_of(o.light_paths.begin(), o.light_paths.end(), [](const LightPath& p) { return !p.keys.empty(); });
   std::vector<PointLight> lights_now = o.lights;
+  // With I/O threads and a streamed technique's workers, the flight keeps to real time (a frame
+  // every 1/fps seconds, as a game would): the workers get the time the frames would leave them.
+  const bool pace = o.technique_sink && streamer.options().io_mode == IoMode::kThreads;
+  const auto flight_start = Clock::now();
   for (int f = 0; f < frames; ++f) {
     const double t = f * dt;
+    if (pace) std::this_thread::sleep_until(flight_start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(t)));
     const double s_m = o.speed_mps * t;
     Camera cam{path.position(s_m), path.direction(s_m) * o.speed_mps};
     if (!path.closed() && s_m >= path.lengthM()) cam.velocity_mps = glm::dvec3(0.0);

@@ -83,7 +83,9 @@ struct FlyOptions {
   // error that ends the flight. Set `runtime` false with it. `technique_bytes` is reported beside
   // the volume's. A streamed technique (eval::TechniqueStream, the sweep) is also called during the
   // warm-up, until it says it is idle, and gets the streamer's loads and evictions through
-  // `technique_sink` (their time counts as technique_ms).
+  // `technique_sink` (their time counts as technique_ms). With StreamerOptions::kThreads such a
+  // flight keeps to real time (frame f starts f / fps seconds after the first), so that the
+  // technique's workers get the time a game's frames would leave them.
   std::function<Result<TechniqueFrameCost>(const streamer::Camera& camera, double time_s, double hour,
                                            const std::vector<PointLight>& lights)>
       technique_frame;

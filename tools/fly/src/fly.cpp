@@ -158,7 +158,9 @@ Result<FlyResult> fly(Streamer& streamer, const CatmullRomPath& path, const FlyO
 
   std::unique_ptr<runtime::Runtime> rt;
   if (o.technique_frame) {
-    r.runtime_note = "technique " + o.technique + ": its own update per frame (drtv::runtime off); " +
+    r.runtime_note = "technique " + o.technique +
+                     (o.technique_sink ? ": streamed per sector (the streamer's loads and evictions go to it; drtv::runtime off); "
+                                       : ": its own update per frame (drtv::runtime off); ") +
                      std::to_string(o.technique_bytes) + " B of its state";
   } else if (o.runtime) {
     runtime::RuntimeOptions ro = o.runtime_options ? *o.runtime_options : runtime::optionsForEffects(m.effects);

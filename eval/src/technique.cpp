@@ -62,6 +62,10 @@ Result<std::vector<glm::vec3>> Technique::evaluate(std::span<const SurfacePoint>
 
 std::optional<runtime::RuntimeOptions> Technique::streamingRuntime(const Manifest&) const { return std::nullopt; }
 
+Result<TechniqueStream*> Technique::beginStreaming(const StreamingSetup&) {
+  return fail("technique " + describe() + ": does not stream per sector (no beginStreaming)");
+}
+
 Result<void> Technique::setParams(const TechniqueParams& params) {
   if (params.empty()) return {};
   return fail("technique " + describe() + " takes no parameters after prepare (" + params.begin()->first + ")");

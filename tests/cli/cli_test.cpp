@@ -393,6 +393,18 @@ TEST(Cli, FlyAndRenderTakeATechniqueByName) {
   const size_t at = lpv_fly.out.find("\"technique_ms_p99\": ");
   ASSERT_NE(at, std::string::npos) << lpv_fly.out;
   EXPECT_GT(std::stod(lpv_fly.out.substr(at + 20)), 0.0) << "its update is timed: " << lpv_fly.out;
+  // The sweep streams its fine grids per sector: the report counts the sectors in reach without one.
+  const Outcome sweep_fly = drtv("fly " + archive + " --frames 30 --technique sweep --world " + src("worlds/fc3_testbox.json") +
+                                 " --json -o " + scratch("fly-sweep"));
+  ASSERT_EQ(sweep_fly.status, 0) << sweep_fly.out;
+  EXPECT_NE(sweep_fly.out.find("technique sweep: streamed per sector"), std::string::npos) << sweep_fly.out;
+  const size_t ts = sweep_fly.out.find("\"technique_stream\": {");
+  ASSERT_NE(ts, std::string::npos) << sweep_fly.out;
+  const size_t mi = sweep_fly.out.find("\"misses\": ", ts), reach = sweep_fly.out.find("\"reach_max\": ", ts);
+  ASSERT_NE(mi, std::string::npos);
+  ASSERT_NE(reach, std::string::npos);
+  EXPECT_EQ(std::stoi(sweep_fly.out.substr(mi + 10)), 0) << "the warm-up swept the start's sectors: " << sweep_fly.out;
+  EXPECT_GT(std::stoi(sweep_fly.out.substr(reach + 13)), 0) << sweep_fly.out;
   const Outcome lpv_no_world = drtv("fly " + archive + " --frames 3 --technique lpv -o " + scratch("fly-lpv"));
   EXPECT_EQ(lpv_no_world.status, 1);
   EXPECT_NE(lpv_no_world.out.find("give the world file with --world"), std::string::npos) << lpv_no_world.out;

@@ -114,21 +114,43 @@ Result<void> runFly(const FlyCliOptions& o) {
     world = std::move(*loaded);
   }
   if (own_technique) {
-    // Set up once from the world, for the sectors the archive holds; then its own update per frame.
+    // Set up from the world for the sectors the archive holds. A technique that streams per sector
+    // (the sweep) then builds its sectors' state as the streamer brings them in, on its workers
+    // (deterministic with --io-threads 0, as the streamer's I/O); any other updates itself per frame.
     raytrace::SectorRange block{INT32_MAX, INT32_MIN, INT32_MAX, INT32_MIN};
     for (const SectorEntry& e : reader->manifest().sectors) {
       block.x0 = std::min(block.x0, e.key.ix), block.x1 = std::max(block.x1, e.key.ix);
       block.y0 = std::min(block.y0, e.key.iy), block.y1 = std::max(block.y1, e.key.iy);
     }
-    if (auto r = own_technique->prepare({*world, o.world, block, 1, 0, nullptr}); !r) return std::unexpected(r.error());
+    const bool streams = own_technique->streamsPerSector();
+    eval::PrepareInput in{*world, o.world, block, 1, 0, nullptr};
+    in.streaming = streams;
+    if (auto r = own_technique->prepare(in); !r) return std::unexpected(r.error());
     fo.runtime = false;
-    fo.technique_bytes = own_technique->costs().runtime_bytes;
     eval::Technique* t = own_technique.get();
-    fo.technique_frame = [t](const glm::dvec3& camera, double hour, const std::vector<PointLight>& lights) -> Result<double> {
-      if (auto r = t->setLighting(hour, lights); !r) return std::unexpected(r.error());
-      if (auto r = t->update(camera); !r) return std::unexpected(r.error());
-      return t->costs().update_ms;
-    };
+    if (streams) {
+      auto stream = t->beginStreaming({reader->manifest(), so.residency, o.start_hour, so.io_mode == streamer::IoMode::kDeterministic});
+      if (!stream) return std::unexpected(stream.error());
+      eval::TechniqueStream* ts = *stream;
+      fo.technique_sink = ts;
+      fo.technique_bytes = t->costs().stored_bytes;
+      fo.technique_frame = [ts](const streamer::Camera& cam, double time_s, double hour,
+                                const std::vector<PointLight>& lights) -> Result<fly::TechniqueFrameCost> {
+        auto f = ts->frame(cam, time_s, hour, lights);
+        if (!f) return std::unexpected(f.error());
+        return fly::TechniqueFrameCost{f->frame_ms, f->inline_ms, f->reach, f->missing, f->stale, f->held, f->bytes, f->idle};
+      };
+    } else {
+      fo.technique_bytes = t->costs().runtime_bytes;
+      fo.technique_frame = [t](const streamer::Camera& cam, double, double hour,
+                               const std::vector<PointLight>& lights) -> Result<fly::TechniqueFrameCost> {
+        if (auto r = t->setLighting(hour, lights); !r) return std::unexpected(r.error());
+        if (auto r = t->update(cam.position_m); !r) return std::unexpected(r.error());
+        fly::TechniqueFrameCost c;
+        c.ms = t->costs().update_ms;
+        return c;
+      };
+    }
     if (!world->lights.empty()) {
       fo.lights = world->lights;
       fo.light_paths = world->light_paths;
@@ -163,6 +185,12 @@ Result<void> runFly(const FlyCliOptions& o) {
               result->max_bytes, result->volume_bytes);
   std::printf("loads %lld, evictions %lld, failures %lld, misses %lld (in %lld frames)\n", (long long)sum.loads,
               (long long)sum.evictions, (long long)sum.failures, (long long)sum.misses, (long long)sum.frames_with_misses);
+  if (sum.technique_streamed)
+    std::printf("%s: sectors in the volume's reach without a fine grid: %lld sector-frames in %lld frames (reach up to %d); "
+                "fine grids held max %d (%.0f MiB), stale max %d\n",
+                technique_name.c_str(), (long long)sum.technique_misses, (long long)sum.technique_frames_with_misses,
+                sum.technique_reach_max, sum.technique_held_max, double(sum.technique_bytes_max) / (1024.0 * 1024.0),
+                sum.technique_stale_max);
   std::printf("frame CPU ms: p50 %.4f, p99 %.4f, max %.4f\n", sum.frame_ms_p50, sum.frame_ms_p99, sum.frame_ms_max);
   std::printf("report: %s/fly-report.md\n", o.outdir.c_str());
   return {};

@@ -12,6 +12,20 @@
 //   sun_disc_deg  (0, 45]                       the sun disc's angular radius (directions.h)
 //   offset        [0, 4]                        the lookup's offset along the normal, in cells
 //   ray_spacing_m (0, 64]                       VoxelOptions::ray_spacing_m
+// Streaming (beginStreaming, `drtv fly --technique sweep`; grid_streamer.h):
+//   workers       1 .. 16                       worker threads sweeping fine grids (deterministic
+//                                               mode: virtual workers)
+//   lead_s        [0, 10]                       a sector gets its fine grid when the volume's
+//                                               footprint will reach it within this many seconds
+//                                               at the camera's velocity (if it is resident)
+//   resweep_h     (0, 24]                       lighting step, hours (GridStreamerOptions)
+//   job_s         [0, 10]                       deterministic mode: seconds a fine sweep takes
+//   margin_m      [0, 256]                      ... and the footprint grown by this much, metres
+//   max_grids     1 .. 256                      fine grids held at most
+// prepare() voxelises every sector with geometry once (offline, Embree, on `threads` threads) and
+// keeps each sector's material grid compact (material_codec.h, lossless); with
+// PrepareInput::streaming it sweeps only the coarse grid, and the stream sweeps the fine grids of
+// the sectors the streamer brings near the camera on its workers.
 // Registered as "sweep" and as the variant "sweep-bottom-up" (bottom_up=1).
 // The world given to prepare() must outlive the technique.
 #include <chrono>
@@ -19,11 +33,19 @@
 #include <cmath>
 #include <map>
 #include <memory>
+#include <optional>
+#include <set>
 
 #include "drtv/formats/sector.h"
 #include "drtv/raytrace/world_geometry.h"
+#include "drtv/streamer/residency.h"
+#include "drtv/sweep/grid_streamer.h"
+#include "drtv/sweep/material_codec.h"
 #include "drtv/sweep/sweep.h"
 #include "sweep_material.h"
+
+#include <oneapi/tbb/parallel_for.h>
+#include <oneapi/tbb/task_arena.h>
 #include "techniques.h"
 
 namespace drtv::eval {
@@ -39,6 +61,12 @@ struct Params {
   double sun_disc_deg = 3.0;
   double offset_cells = 0.5;
   double ray_spacing_m = VoxelOptions{}.ray_spacing_m;
+  int workers = 1;
+  double lead_s = 1.0;
+  double resweep_h = sweep::GridStreamerOptions{}.resweep_hours;
+  double job_s = sweep::GridStreamerOptions{}.simulated_job_s;
+  int max_grids = 40;
+  double margin_m = 32.0;
   TechniqueParams given;
 };
 
@@ -84,8 +112,29 @@ Result<Params> parseParams(const TechniqueParams& p) {
     } else if (k == "ray_spacing_m") {
       x = number(k, v, 0, 64, true);
       if (x) out.ray_spacing_m = *x;
+    } else if (k == "workers") {
+      x = number(k, v, 1, 16, false);
+      if (x && *x != std::round(*x)) return fail(k + "=" + v + ": expected a whole number");
+      if (x) out.workers = int(*x);
+    } else if (k == "lead_s") {
+      x = number(k, v, 0, 10, false);
+      if (x) out.lead_s = *x;
+    } else if (k == "resweep_h") {
+      x = number(k, v, 0, 24, true);
+      if (x) out.resweep_h = *x;
+    } else if (k == "job_s") {
+      x = number(k, v, 0, 10, false);
+      if (x) out.job_s = *x;
+    } else if (k == "margin_m") {
+      x = number(k, v, 0, 256, false);
+      if (x) out.margin_m = *x;
+    } else if (k == "max_grids") {
+      x = number(k, v, 1, 256, false);
+      if (x && *x != std::round(*x)) return fail(k + "=" + v + ": expected a whole number");
+      if (x) out.max_grids = int(*x);
     } else {
-      return fail("no parameter '" + k + "' (sweep takes cell_m, coarse_m, bottom_up, smoothing, sun_disc_deg, offset, ray_spacing_m)");
+      return fail("no parameter '" + k + "' (sweep takes cell_m, coarse_m, bottom_up, smoothing, sun_disc_deg, offset, ray_spacing_m, "
+                  "workers, lead_s, margin_m, resweep_h, job_s, max_grids)");
     }
     if (!x) return std::unexpected(x.error());
   }
@@ -93,12 +142,130 @@ Result<Params> parseParams(const TechniqueParams& p) {
   return out;
 }
 
+double sunDiscRad(const Params& p) { return p.sun_disc_deg * 3.14159265358979323846 / 180.0; }
+
+// A sector's fine grid: its material, compact, and (not streamed) its light.
+struct Fine {
+  sweep::GridStreamer::MaterialBytes material;  // material_codec.h
+  std::unique_ptr<sweep::SweptGrid> light;
+};
+
+// The ambient from the finest grid holding the offset point (the fine grid of the point's
+// sector, else the coarse grid).
+glm::vec3 lookup(const sweep::SweptGrid* fine, const sweep::SweptGrid& coarse, double offset_cells, const glm::dvec3& position,
+                 const glm::vec3& normal) {
+  if (fine) {
+    const sweep::LightGrid& g = fine->light;
+    const glm::dvec3 q = position + glm::dvec3(normal) * (offset_cells * g.shape.cell_m);
+    if (g.shape.contains(q)) return g.ambient(q, normal);
+  }
+  const sweep::LightGrid& g = coarse.light;
+  return g.ambient(position + glm::dvec3(normal) * (offset_cells * g.shape.cell_m), normal);
+}
+
+// The streamed side (beginStreaming): which sectors are resident (the streamer's sink calls),
+// which of them the volume will reach within lead_s, and the grid streamer that sweeps those.
+class SweepStream final : public TechniqueStream {
+ public:
+  SweepStream(const Params& p, const Sky& sky, const sweep::MaterialGrid& coarse, const std::map<SectorKey, Fine>& fine,
+              const StreamingSetup& setup)
+      : params_(p), fine_(fine), manifest_(setup.manifest), residency_(setup.residency),
+        grids_(sky, coarse, options(p, setup.deterministic), setup.start_hour) {}
+
+  void onSectorLoaded(const Sector& sector, const streamer::OcclusionTile&) override { resident_.insert(sector.key); }
+  void onSectorEvicted(SectorKey key) override { resident_.erase(key); }
+
+  Result<StreamingFrame> frame(const streamer::Camera& cam, double time_s, double hour, const std::vector<PointLight>&) override {
+    if (!std::isfinite(hour)) return fail("sweep: hour must be finite");
+    const auto t0 = Clock::now();
+    // The reach now: the sectors under the volume's footprint about the camera.
+    streamer::footprintSectors(manifest_, cam.position_m, residency_, scratch_);
+    reach_.clear();
+    for (SectorKey k : scratch_)
+      if (fine_.count(k)) reach_.push_back(k);
+    // Wanted: every resident sector the footprint, grown by margin_m, covers from now to lead_s
+    // ahead (sampled every 16 m, a quarter sector), those in reach now first, then by distance to
+    // the camera. The margin catches what the straight look-ahead does not: a sector whose corner
+    // the footprint clips while moving sideways, and turns (on the island at 100 m/s, without it,
+    // 20 sector-frames in 17 frames were missing, all such).
+    const double ahead_m = glm::length(glm::dvec2(cam.velocity_mps)) * params_.lead_s;
+    const int samples = 1 + int(std::ceil(ahead_m / 16.0));
+    candidates_.clear();
+    for (int i = 0; i < samples; ++i) {
+      const double f = samples == 1 ? 0.0 : double(i) / double(samples - 1);
+      streamer::Footprint fp = streamer::volumeFootprint(cam.position_m + cam.velocity_mps * (params_.lead_s * f), residency_);
+      fp.min -= params_.margin_m;
+      fp.max += params_.margin_m;
+      const SectorKey k0 = sectorAt(fp.min.x, fp.min.y), k1 = sectorAt(fp.max.x, fp.max.y);
+      for (int32_t y = k0.iy; y <= k1.iy; ++y)
+        for (int32_t x = k0.ix; x <= k1.ix; ++x)
+          if (streamer::overlaps({x, y}, fp)) candidates_.push_back({x, y});
+    }
+    std::sort(candidates_.begin(), candidates_.end());
+    candidates_.erase(std::unique(candidates_.begin(), candidates_.end()), candidates_.end());
+    struct Rank {
+      bool later;
+      double distance_m;
+      SectorKey key;
+      auto operator<=>(const Rank&) const = default;
+    };
+    std::vector<Rank> ranks;
+    const glm::dvec2 c(cam.position_m);
+    for (SectorKey k : candidates_)
+      if (resident_.count(k) && fine_.count(k))
+        ranks.push_back({!std::binary_search(reach_.begin(), reach_.end(), k), streamer::distanceToSegment(k, c, c), k});
+    std::sort(ranks.begin(), ranks.end());
+    if (ranks.size() > size_t(params_.max_grids)) ranks.resize(size_t(params_.max_grids));
+    std::vector<sweep::GridStreamer::Wanted> wanted;
+    wanted.reserve(ranks.size());
+    for (const Rank& r : ranks) wanted.push_back({r.key, fine_.at(r.key).material});
+    grids_.setWanted(std::move(wanted));
+    const sweep::GridStreamerStats st = grids_.update(time_s, hour);
+    StreamingFrame out;
+    out.reach = int(reach_.size());
+    for (SectorKey k : reach_) out.missing += grids_.fine(k) == nullptr;
+    out.held = st.fine_grids;
+    out.stale = st.stale;
+    out.queued = st.queued;
+    out.bytes = st.bytes;
+    out.idle = st.idle;
+    out.inline_ms = st.inline_ms;
+    out.frame_ms = std::max(0.0, std::chrono::duration<double, std::milli>(Clock::now() - t0).count() - st.inline_ms);
+    if (st.failed) return fail(grids_.errors().back());
+    return out;
+  }
+
+  const sweep::GridStreamer& grids() const { return grids_; }
+
+ private:
+  static sweep::GridStreamerOptions options(const Params& p, bool deterministic) {
+    sweep::GridStreamerOptions o;
+    o.sweep.bottom_up = p.bottom_up;
+    o.sweep.smoothing = p.smoothing;
+    o.sun_disc_rad = sunDiscRad(p);
+    o.resweep_hours = p.resweep_h;
+    o.workers = deterministic ? 0 : p.workers;
+    o.simulated_workers = p.workers;
+    o.simulated_job_s = p.job_s;
+    return o;
+  }
+
+  Params params_;
+  const std::map<SectorKey, Fine>& fine_;
+  Manifest manifest_;
+  streamer::ResidencyOptions residency_;
+  sweep::GridStreamer grids_;
+  std::set<SectorKey> resident_;
+  std::vector<SectorKey> scratch_, reach_, candidates_;
+};
+
 class SweepTechnique final : public Technique {
  public:
   SweepTechnique(std::string name, Params p) : name_(std::move(name)), params_(std::move(p)) {}
 
   Result<void> prepare(const PrepareInput& in) override {
     const auto t0 = Clock::now();
+    stream_.reset();
     auto geo = raytrace::WorldGeometry::build(in.world, in.where);
     if (!geo) return std::unexpected(geo.error());
     sky_ = in.world.sky;
@@ -118,24 +285,36 @@ class SweepTechnique final : public Technique {
     if (!cm) return std::unexpected(cm.error().context(in.where));
     coarse_material_ = std::move(*cm);
     if (params_.cell_m > 0) {
-      const double f = params_.cell_m;
+      // Each sector of the block voxelised on its own (in parallel: each result lands in its own
+      // slot, so the grids do not depend on the threads), then kept compact.
+      std::vector<SectorKey> keys;
       for (int32_t y = in.block.y0; y <= in.block.y1; ++y)
-        for (int32_t x = in.block.x0; x <= in.block.x1; ++x) {
-          const SectorKey key{x, y};
-          const raytrace::SectorGeometry sg = geo->gather(key, vo.halo_m);
-          if (sg.triangleCount() == 0) continue;
-          // Two cells of air above the tallest geometry, one below the lowest.
-          const double lo = std::floor(double(sg.z_min) / f) * f - f, hi = std::ceil(double(sg.z_max) / f) * f + 2 * f;
-          sweep::GridShape fs{{kSectorSizeM * x, kSectorSizeM * y, lo}, f,
-                              {int(std::lround(kSectorSizeM / f)), int(std::lround(kSectorSizeM / f)), int(std::lround((hi - lo) / f))}};
-          auto fm = voxelise(*geo, fs, vo);
-          if (!fm) return std::unexpected(fm.error().context(in.where));
-          fine_[key].material = std::move(*fm);
-        }
+        for (int32_t x = in.block.x0; x <= in.block.x1; ++x) keys.push_back({x, y});
+      std::vector<std::optional<Result<sweep::GridStreamer::MaterialBytes>>> made(keys.size());
+      const double f = params_.cell_m;
+      auto one = [&](size_t i) -> Result<sweep::GridStreamer::MaterialBytes> {
+        const SectorKey key = keys[i];
+        const raytrace::SectorGeometry sg = geo->gather(key, vo.halo_m);
+        if (sg.triangleCount() == 0) return nullptr;
+        // Two cells of air above the tallest geometry, one below the lowest.
+        const double lo = std::floor(double(sg.z_min) / f) * f - f, hi = std::ceil(double(sg.z_max) / f) * f + 2 * f;
+        sweep::GridShape fs{{kSectorSizeM * key.ix, kSectorSizeM * key.iy, lo}, f,
+                            {int(std::lround(kSectorSizeM / f)), int(std::lround(kSectorSizeM / f)), int(std::lround((hi - lo) / f))}};
+        auto fm = voxelise(*geo, fs, vo);
+        if (!fm) return std::unexpected(fm.error().context(in.where));
+        return std::make_shared<const std::vector<uint8_t>>(sweep::encodeMaterial(*fm));
+      };
+      tbb::task_arena arena(in.threads > 0 ? in.threads : tbb::task_arena::automatic);
+      arena.execute([&] { tbb::parallel_for(size_t(0), keys.size(), [&](size_t i) { made[i] = one(i); }); });
+      for (size_t i = 0; i < keys.size(); ++i) {
+        if (!*made[i]) return std::unexpected(made[i]->error());
+        if (**made[i]) fine_[keys[i]].material = std::move(**made[i]);
+      }
     }
     costs_ = {};
     costs_.prepare_s = std::chrono::duration<double>(Clock::now() - t0).count();
     costs_.stored_bytes = materialBytes();
+    streaming_ = in.streaming;
     prepared_ = true;
     return sweepAll(12.0);
   }
@@ -145,6 +324,7 @@ class SweepTechnique final : public Technique {
     if (!p) return std::unexpected(p.error());
     if (prepared_ && (p->cell_m != params_.cell_m || p->coarse_m != params_.coarse_m || p->ray_spacing_m != params_.ray_spacing_m))
       return fail("sweep: cell_m, coarse_m and ray_spacing_m need another prepare");
+    if (stream_) return fail("sweep: parameters are fixed while streaming");
     params_ = std::move(*p);
     if (prepared_) return sweepAll(hour_);
     return {};
@@ -153,23 +333,30 @@ class SweepTechnique final : public Technique {
   Result<void> setLighting(double hour, const std::vector<PointLight>&) override {
     if (!prepared_) return fail("technique " + describe() + ": setLighting before prepare");
     if (!std::isfinite(hour)) return fail("sweep: hour must be finite");
+    if (stream_) return fail("sweep: streaming: the hour goes to TechniqueStream::frame");
     return sweepAll(hour);
   }
 
   Result<void> update(const glm::dvec3&) override { return {}; }
   bool preparesFromWorld() const override { return true; }
+  bool streamsPerSector() const override { return params_.cell_m > 0; }
+
+  Result<TechniqueStream*> beginStreaming(const StreamingSetup& setup) override {
+    if (!prepared_ || !streaming_) return fail("technique " + describe() + ": beginStreaming needs prepare() with streaming");
+    if (!std::isfinite(setup.start_hour)) return fail("sweep: start hour must be finite");
+    stream_.reset();
+    coarse_.reset();  // the stream sweeps its own
+    stream_ = std::make_unique<SweepStream>(params_, sky_, coarse_material_, fine_, setup);
+    costs_.runtime_bytes = stream_->grids().coarse().bytes();
+    return stream_.get();
+  }
 
   glm::vec3 ambient(const glm::dvec3& position, const glm::vec3& normal) const override {
-    if (!coarse_) return glm::vec3(0.f);
     const SectorKey key = sectorAt(position.x, position.y);
+    if (stream_) return lookup(stream_->grids().fine(key), stream_->grids().coarse(), params_.offset_cells, position, normal);
+    if (!coarse_) return glm::vec3(0.f);
     const auto it = fine_.find(key);
-    if (it != fine_.end() && it->second.light) {
-      const sweep::LightGrid& g = it->second.light->light;
-      const glm::dvec3 q = position + glm::dvec3(normal) * (params_.offset_cells * g.shape.cell_m);
-      if (g.shape.contains(q)) return g.ambient(q, normal);
-    }
-    const sweep::LightGrid& g = coarse_->light;
-    return g.ambient(position + glm::dvec3(normal) * (params_.offset_cells * g.shape.cell_m), normal);
+    return lookup(it != fine_.end() ? it->second.light.get() : nullptr, *coarse_, params_.offset_cells, position, normal);
   }
 
   TechniqueCosts costs() const override { return costs_; }
@@ -177,21 +364,16 @@ class SweepTechnique final : public Technique {
   std::string describe() const override { return describeTechnique(name_, params_.given); }
 
  private:
-  struct Fine {
-    sweep::MaterialGrid material;
-    std::unique_ptr<sweep::SweptGrid> light;
-  };
-
   size_t materialBytes() const {
-    size_t n = coarse_material_.shape.cellCount();
-    for (const auto& [k, f] : fine_) n += f.material.shape.cellCount();
-    return n * (sizeof(float) + sizeof(glm::vec3));
+    size_t n = coarse_material_.shape.cellCount() * (sizeof(float) + sizeof(glm::vec3));
+    for (const auto& [k, f] : fine_) n += f.material->size();
+    return n;
   }
 
   Result<void> sweepAll(double hour) {
     const auto t0 = Clock::now();
     hour_ = hour;
-    const sweep::SkyInput sky{sweep::skyLight(sky_, hour), sweep::sunLight(sky_, hour, params_.sun_disc_deg * 3.14159265358979323846 / 180.0)};
+    const sweep::SkyInput sky{sweep::skyLight(sky_, hour), sweep::sunLight(sky_, hour, sunDiscRad(params_))};
     sweep::SweepOptions o;
     o.bottom_up = params_.bottom_up;
     o.smoothing = params_.smoothing;
@@ -200,7 +382,10 @@ class SweepTechnique final : public Technique {
     size_t bytes = coarse_->bytes();
     o.keep_direct = false;
     for (auto& [k, f] : fine_) {
-      f.light = std::make_unique<sweep::SweptGrid>(sweep::sweep(f.material, sky, coarse_.get(), o));
+      if (streaming_) break;  // the stream sweeps them
+      auto m = sweep::decodeMaterial(*f.material);
+      if (!m) return std::unexpected(m.error().context("sweep: sector " + toString(k)));  // a bug: we encoded it
+      f.light = std::make_unique<sweep::SweptGrid>(sweep::sweep(*m, sky, coarse_.get(), o));
       bytes += f.light->bytes();
     }
     costs_.runtime_bytes = bytes;
@@ -211,11 +396,12 @@ class SweepTechnique final : public Technique {
   std::string name_;
   Params params_;
   Sky sky_;
-  bool prepared_ = false;
+  bool prepared_ = false, streaming_ = false;
   double hour_ = 12.0;
   sweep::MaterialGrid coarse_material_;
   std::unique_ptr<sweep::SweptGrid> coarse_;
   std::map<SectorKey, Fine> fine_;
+  std::unique_ptr<SweepStream> stream_;
   TechniqueCosts costs_;
 };
 

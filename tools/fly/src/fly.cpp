@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <fstream>
 #include <set>
+#include <thread>
 
 #include <nlohmann/json.hpp>
 
@@ -23,9 +24,14 @@ double msSince(Clock::time_point t0) { return std::chrono::duration<double, std:
 // Hands the streamer's sectors to the runtime and remembers what was ever loaded (for pictures).
 class FlySink final : public SectorSink {
  public:
-  explicit FlySink(runtime::Runtime* rt) : rt_(rt) {}
+  FlySink(runtime::Runtime* rt, SectorSink* technique) : rt_(rt), technique_(technique) {}
   void onSectorLoaded(const Sector& sector, const OcclusionTile& tile) override {
     ever_loaded.insert(sector.key);
+    if (technique_) {
+      const auto t0 = Clock::now();
+      technique_->onSectorLoaded(sector, tile);
+      technique_ms += msSince(t0);
+    }
     if (!rt_) return;
     const auto t0 = Clock::now();
     if (auto ok = rt_->addSector(sector, &tile); !ok) {
@@ -36,14 +42,20 @@ class FlySink final : public SectorSink {
   }
   void onSectorEvicted(SectorKey key) override {
     if (rt_) rt_->removeSector(key);
+    if (technique_) {
+      const auto t0 = Clock::now();
+      technique_->onSectorEvicted(key);
+      technique_ms += msSince(t0);
+    }
   }
   std::set<SectorKey> ever_loaded;
-  double relight_ms = 0.0;
+  double relight_ms = 0.0, technique_ms = 0.0;
   int runtime_errors = 0;
   std::string first_error;
 
  private:
   runtime::Runtime* rt_;
+  SectorSink* technique_;
 };
 
 struct KeyRange {
@@ -142,10 +154,13 @@ Result<FlyResult> fly(Streamer& streamer, const CatmullRomPath& path, const FlyO
         return fail("fly: lights[" + std::to_string(i) + "].path." + e);
   if (o.light_paths.size() > o.lights.size()) return fail("fly: more light paths than lights");
   if (o.technique_frame && o.runtime) return fail("fly: a technique of its own and drtv::runtime: give one");
+  if (o.technique_sink && !o.technique_frame) return fail("fly: a technique sink without its frame");
 
   std::unique_ptr<runtime::Runtime> rt;
   if (o.technique_frame) {
-    r.runtime_note = "technique " + o.technique + ": its own update per frame (drtv::runtime off); " +
+    r.runtime_note = "technique " + o.technique +
+                     (o.technique_sink ? ": streamed per sector (the streamer's loads and evictions go to it; drtv::runtime off); "
+                                       : ": its own update per frame (drtv::runtime off); ") +
                      std::to_string(o.technique_bytes) + " B of its state";
   } else if (o.runtime) {
     runtime::RuntimeOptions ro = o.runtime_options ? *o.runtime_options : runtime::optionsForEffects(m.effects);
@@ -167,7 +182,7 @@ Result<FlyResult> fly(Streamer& streamer, const CatmullRomPath& path, const FlyO
   } else {
     r.runtime_note = "runtime off (--no-runtime): streaming only; relight and volume times are 0";
   }
-  FlySink sink(rt.get());
+  FlySink sink(rt.get(), o.technique_sink);
 
   const double dt = 1.0 / o.fps;
   const double travel_s = o.speed_mps > 0 ? path.lengthM() / o.speed_mps : 0.0;
@@ -178,11 +193,22 @@ Result<FlyResult> fly(Streamer& streamer, const CatmullRomPath& path, const FlyO
   const int frames = o.frames > 0 ? o.frames : std::max(1, int(path_frames));
   if (o.warmup_frames > 0) {
     const Camera start{path.position(0.0), path.direction(0.0) * o.speed_mps};
-    // Warm-up time runs up to t = 0 so that back-off and simulated latency stay consistent.
+    // Warm-up time runs up to t = 0 so that back-off and simulated latency stay consistent. A
+    // streamed technique warms up with it (its sectors' state built before the flight starts);
+    // with worker threads, real time must pass for them.
+    const bool real_time = streamer.options().io_mode == IoMode::kThreads;
     for (int i = 0; i < o.warmup_frames; ++i) {
-      streamer.update(start, double(i - o.warmup_frames) * dt, sink);
+      const double t = double(i - o.warmup_frames) * dt;
+      streamer.update(start, t, sink);
       ++r.warmup_frames;
-      if (streamer.idle() && i > 0) break;
+      bool technique_idle = true;
+      if (o.technique_sink) {
+        auto c = o.technique_frame(start, t, std::fmod(o.start_hour, 24.0), o.lights.empty() ? m.lights : o.lights);
+        if (!c) return std::unexpected(c.error().context("fly: warm-up"));
+        technique_idle = c->idle;
+        if (!technique_idle && real_time) std::this_thread::sleep_for(std::chrono::duration<double>(dt));
+      }
+      if (streamer.idle() && technique_idle && i > 0) break;
     }
     if (rt) rt->update(start.position_m);
   }
@@ -195,8 +221,13 @@ Result<FlyResult> fly(Streamer& streamer, const CatmullRomPath& path, const FlyO
   r.frames.reserve(size_t(frames));
   const bool moving = std::any_of(o.light_paths.begin(), o.light_paths.end(), [](const LightPath& p) { return !p.keys.empty(); });
   std::vector<PointLight> lights_now = o.lights;
+  // With I/O threads and a streamed technique's workers, the flight keeps to real time (a frame
+  // every 1/fps seconds, as a game would): the workers get the time the frames would leave them.
+  const bool pace = o.technique_sink && streamer.options().io_mode == IoMode::kThreads;
+  const auto flight_start = Clock::now();
   for (int f = 0; f < frames; ++f) {
     const double t = f * dt;
+    if (pace) std::this_thread::sleep_until(flight_start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(t)));
     const double s_m = o.speed_mps * t;
     Camera cam{path.position(s_m), path.direction(s_m) * o.speed_mps};
     if (!path.closed() && s_m >= path.lengthM()) cam.velocity_mps = glm::dvec3(0.0);
@@ -204,6 +235,7 @@ Result<FlyResult> fly(Streamer& streamer, const CatmullRomPath& path, const FlyO
     ff.position_m = cam.position_m;
     ff.hour = std::fmod(o.start_hour + o.hours_per_s * t, 24.0);
     sink.relight_ms = 0.0;
+    sink.technique_ms = 0.0;
     ff.stats = streamer.update(cam, t, sink);
     ff.relight_ms = sink.relight_ms;
     if ((rt || o.technique_frame) && moving) {
@@ -214,9 +246,10 @@ Result<FlyResult> fly(Streamer& streamer, const CatmullRomPath& path, const FlyO
       ff.lights_ms = msSince(t0);
     }
     if (o.technique_frame) {
-      auto ms = o.technique_frame(cam.position_m, ff.hour, o.lights.empty() ? m.lights : lights_now);
-      if (!ms) return std::unexpected(ms.error().context("fly: frame " + std::to_string(f)));
-      ff.technique_ms = *ms;
+      auto c = o.technique_frame(cam, t, ff.hour, o.lights.empty() ? m.lights : lights_now);
+      if (!c) return std::unexpected(c.error().context("fly: frame " + std::to_string(f)));
+      ff.technique = *c;
+      ff.technique_ms = c->ms + sink.technique_ms;
     }
     if (rt) {
       const uint64_t relights = rt->relightCount();
@@ -267,6 +300,16 @@ FlySummary summarize(const FlyResult& r) {
     relight_ms.push_back(f.relight_ms);
     volume_ms.push_back(f.volume_ms);
     technique_ms.push_back(f.technique_ms);
+    if (f.technique.reach >= 0) {
+      s.technique_streamed = true;
+      s.technique_misses += f.technique.missing;
+      s.technique_frames_with_misses += f.technique.missing > 0;
+      s.technique_reach_max = std::max(s.technique_reach_max, f.technique.reach);
+      s.technique_stale_max = std::max(s.technique_stale_max, f.technique.stale);
+      s.technique_held_max = std::max(s.technique_held_max, f.technique.held);
+      s.technique_bytes_max = std::max(s.technique_bytes_max, f.technique.bytes);
+      s.technique_inline_ms_total += f.technique.inline_ms;
+    }
   }
   s.frame_ms_p50 = percentile(frame_ms, 0.5);
   s.frame_ms_p99 = percentile(frame_ms, 0.99);
@@ -296,15 +339,17 @@ Result<void> writeFlyReport(const FlyResult& r, const std::filesystem::path& dir
     std::ofstream f(p);
     if (!f) return fail(p.string() + ": cannot write");
     f << "frame,time_s,x_m,y_m,z_m,hour,resident,in_flight,wanted,loads,evictions,cancels,failures,misses,fallback,"
-         "resident_bytes,reserved_bytes,update_ms,relight_ms,volume_ms,frame_ms,full_relight,inline_io_ms,technique_ms\n";
+         "resident_bytes,reserved_bytes,update_ms,relight_ms,volume_ms,frame_ms,full_relight,inline_io_ms,technique_ms,"
+         "technique_reach,technique_missing,technique_stale,technique_held,technique_inline_ms\n";
     char line[512];
     for (const FlyFrame& x : r.frames) {
       const FrameStats& st = x.stats;
-      std::snprintf(line, sizeof line, "%llu,%.6f,%.3f,%.3f,%.3f,%.5f,%d,%d,%d,%d,%d,%d,%d,%d,%d,%zu,%zu,%.5f,%.5f,%.5f,%.5f,%d,%.5f,%.5f\n",
+      std::snprintf(line, sizeof line, "%llu,%.6f,%.3f,%.3f,%.3f,%.5f,%d,%d,%d,%d,%d,%d,%d,%d,%d,%zu,%zu,%.5f,%.5f,%.5f,%.5f,%d,%.5f,%.5f,%d,%d,%d,%d,%.5f\n",
                     (unsigned long long)st.frame, st.time_s, x.position_m.x, x.position_m.y, x.position_m.z, x.hour, st.resident,
                     st.in_flight, st.wanted, st.loads, st.evictions, st.cancels, st.failures, st.misses, st.fallback,
                     st.resident_bytes, st.reserved_bytes, st.update_ms, x.relight_ms, x.volume_ms, x.frame_ms, int(x.full_relight),
-                    st.inline_io_ms, x.technique_ms);
+                    st.inline_io_ms, x.technique_ms, x.technique.reach, x.technique.missing, x.technique.stale,
+                    x.technique.held, x.technique.inline_ms);
       f << line;
     }
     if (!f) return fail(p.string() + ": write failed");
@@ -368,6 +413,15 @@ Result<void> writeFlyReport(const FlyResult& r, const std::filesystem::path& dir
                   {"technique_ms_p99", s.technique_ms_p99},
                   {"full_relights", s.full_relights},
                   {"inline_io_ms_per_load", s.inline_io_ms_mean_per_load}};
+  if (s.technique_streamed)
+    j["technique_stream"] = {{"technique", r.options.technique},
+                             {"misses", s.technique_misses},
+                             {"frames_with_misses", s.technique_frames_with_misses},
+                             {"reach_max", s.technique_reach_max},
+                             {"held_max", s.technique_held_max},
+                             {"stale_max", s.technique_stale_max},
+                             {"bytes_max", s.technique_bytes_max},
+                             {"inline_ms_total", s.technique_inline_ms_total}};
   j["goals"] = {{"zero_misses", s.misses == 0}, {"p99_frame_ms_le_1", s.frame_ms_p99 <= 1.0},
                 {"within_sector_budget", s.max_resident <= r.streamer.residency.max_sectors},
                 {"within_byte_budget", s.max_reserved_bytes <= r.max_bytes}};
@@ -436,6 +490,21 @@ Result<void> writeFlyReport(const FlyResult& r, const std::filesystem::path& dir
     std::snprintf(buf, sizeof buf, "| technique %s: update ms p99, state bytes | %.4f, %zu B | |\n", r.options.technique.c_str(),
                   s.technique_ms_p99, r.options.technique_bytes);
     md << buf;
+  }
+  if (s.technique_streamed) {
+    std::snprintf(buf, sizeof buf,
+                  "| technique: sectors in the volume's reach without their fine state (sector-frames) | %lld in %lld frames "
+                  "(reach up to %d sectors) | 0 |\n",
+                  (long long)s.technique_misses, (long long)s.technique_frames_with_misses, s.technique_reach_max);
+    md << buf;
+    std::snprintf(buf, sizeof buf, "| technique: sectors holding fine state, max; stale (older time of day), max; its grids' bytes, max | %d; %d; %.1f MiB | |\n",
+                  s.technique_held_max, s.technique_stale_max, double(s.technique_bytes_max) / (1024.0 * 1024.0));
+    md << buf;
+    if (deterministic) {
+      std::snprintf(buf, sizeof buf, "| technique: per-sector jobs run inline (a worker's time), total | %.1f ms | off the frame |\n",
+                    s.technique_inline_ms_total);
+      md << buf;
+    }
   }
   if (deterministic) {
     std::snprintf(buf, sizeof buf, "| I/O work per load (read+hash+zstd+decode+tile), inline | %.4f ms | off the frame |\n",

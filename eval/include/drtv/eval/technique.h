@@ -36,6 +36,7 @@
 #include "drtv/formats/sector.h"
 #include "drtv/raytrace/world_geometry.h"
 #include "drtv/runtime/runtime.h"
+#include "drtv/streamer/streamer.h"
 #include "drtv/worlds/world.h"
 
 namespace drtv::eval {
@@ -61,6 +62,42 @@ struct PrepareInput {
   // own bake would be this one, bit for bit (same settings, same seed), may take it instead of
   // baking again; any other ignores it.
   const baker::InMemoryBake* baked = nullptr;
+  // The technique will be streamed (beginStreaming): what it builds per sector for a camera need
+  // not be built for the whole block now (the sweep voxelises every sector but sweeps none).
+  bool streaming = false;
+};
+
+// How a streamed technique is set up (beginStreaming): the archive the streamer streams and the
+// volume's reach, and where its per-sector work runs.
+struct StreamingSetup {
+  const Manifest& manifest;               // the streamer's archive (which sectors exist)
+  streamer::ResidencyOptions residency;   // the streamer's: the volume's footprint is the reach
+  double start_hour = 12.0;               // the time of day of the first frame
+  bool deterministic = true;              // per-sector jobs simulated in camera time (as the
+                                          // streamer's kDeterministic I/O), else worker threads
+};
+
+// One frame of a streamed technique.
+struct StreamingFrame {
+  double frame_ms = 0.0;      // the frame thread's time in frame(), less inline_ms
+  double inline_ms = 0.0;     // deterministic: the per-sector jobs run inline (a worker's time)
+  int reach = 0;              // sectors within the volume's footprint that get per-sector state
+  int missing = 0;            // of those, sectors without it (lookups fall back to coarser state)
+  int held = 0;               // sectors holding per-sector state
+  int stale = 0;              // of them, built for an older lighting than the current
+  int queued = 0;             // per-sector jobs waiting or running
+  size_t bytes = 0;           // the technique's runtime state
+  bool idle = false;          // nothing left to build for this camera and hour
+};
+
+// A streamed technique's per-frame side. The streamer's sink calls (SectorSink) tell it which
+// sectors are resident; frame() is called once per frame after the streamer's update.
+class TechniqueStream : public streamer::SectorSink {
+ public:
+  // The camera (position and velocity: the look-ahead), the camera clock (non-decreasing), the
+  // time of day and the lights. Errors end a flight.
+  virtual Result<StreamingFrame> frame(const streamer::Camera& camera, double time_s, double hour,
+                                       const std::vector<PointLight>& lights) = 0;
 };
 
 // A point to shade: world metres and a unit normal.
@@ -102,6 +139,13 @@ class Technique {
   // residency holds what that volume covers); nothing for a technique that does not run on
   // drtv::runtime (the default).
   virtual std::optional<runtime::RuntimeOptions> streamingRuntime(const Manifest& manifest) const;
+  // Streams a technique that runs on its own (no streamingRuntime): after prepare() with
+  // PrepareInput::streaming, it builds its per-sector state as the streamer brings sectors in and
+  // ambient() reads the finest state it holds. The stream is the technique's (valid while it
+  // lives; a second call replaces it). Default: an error naming the technique.
+  virtual Result<TechniqueStream*> beginStreaming(const StreamingSetup& setup);
+  // Whether beginStreaming is supported (default: false).
+  virtual bool streamsPerSector() const { return false; }
   // The registered name it was made under, and its parameters as text ("fill=smooth").
   virtual std::string describe() const = 0;
 };

@@ -42,6 +42,19 @@ namespace drtv::fly {
 // At most this many frames per flight (~3 days at 60 Hz; the per-frame records take ~170 B each).
 inline constexpr int kMaxFlyFrames = 10'000'000;
 
+// What a technique of its own (FlyOptions::technique_frame) did in one frame.
+struct TechniqueFrameCost {
+  double ms = 0.0;          // frame-thread milliseconds (in frame_ms)
+  double inline_ms = 0.0;   // deterministic streaming: per-sector jobs run inline, a worker's time
+                            // (not in frame_ms, as the streamer's inline I/O)
+  // Streamed techniques: sectors within the volume's footprint that get per-sector state (-1: the
+  // technique does not stream), and how many of them lack it this frame; stale: per-sector state
+  // built for an older time of day; held: sectors holding state.
+  int reach = -1, missing = 0, stale = 0, held = 0;
+  size_t bytes = 0;         // the technique's runtime state (streamed: its grids)
+  bool idle = true;         // nothing left to build (the warm-up waits for it)
+};
+
 struct FlyOptions {
   double speed_mps = 100.0;     // camera speed along the path, metres per second
   double fps = 60.0;            // fixed frame rate, frames per second
@@ -65,11 +78,18 @@ struct FlyOptions {
   std::optional<runtime::RuntimeOptions> runtime_options;
   std::string technique;
   // A technique that does not run on drtv::runtime (`drtv fly --technique lpv`): called every
-  // frame with the camera, the time of day and the lights (moved along their paths) after the
-  // streamer's update; returns the milliseconds its update took (in the frame time), or an error
-  // that ends the flight. Set `runtime` false with it. `technique_bytes` is reported beside the
-  // volume's.
-  std::function<Result<double>(const glm::dvec3& camera, double hour, const std::vector<PointLight>& lights)> technique_frame;
+  // frame with the camera, the camera clock, the time of day and the lights (moved along their
+  // paths) after the streamer's update; returns what its update cost (in the frame time), or an
+  // error that ends the flight. Set `runtime` false with it. `technique_bytes` is reported beside
+  // the volume's. A streamed technique (eval::TechniqueStream, the sweep) is also called during the
+  // warm-up, until it says it is idle, and gets the streamer's loads and evictions through
+  // `technique_sink` (their time counts as technique_ms). With StreamerOptions::kThreads such a
+  // flight keeps to real time (frame f starts f / fps seconds after the first), so that the
+  // technique's workers get the time a game's frames would leave them.
+  std::function<Result<TechniqueFrameCost>(const streamer::Camera& camera, double time_s, double hour,
+                                           const std::vector<PointLight>& lights)>
+      technique_frame;
+  streamer::SectorSink* technique_sink = nullptr;
   size_t technique_bytes = 0;
   // Called every ~1 % of the flight with (frames done, frames total): progress for a terminal.
   std::function<void(int, int)> progress;
@@ -84,6 +104,7 @@ struct FlyFrame {
   bool full_relight = false;    // the runtime relit every resident probe this frame
   double lights_ms = 0.0;       // Runtime::setLights of this frame's moving lights (0 without)
   double technique_ms = 0.0;    // FlyOptions::technique_frame's update (0 without)
+  TechniqueFrameCost technique; // its whole report (reach -1 unless streamed)
   double frame_ms = 0.0;        // stats.update_ms + relight_ms + lights_ms + volume_ms + technique_ms
 };
 
@@ -125,6 +146,13 @@ struct FlySummary {
   double update_ms_p99 = 0, relight_ms_p99 = 0, volume_ms_p99 = 0, technique_ms_p99 = 0;
   double inline_io_ms_mean_per_load = 0;  // kDeterministic: the I/O threads' work per sector
   int full_relights = 0;
+  // A streamed technique: sector-frames within the volume's reach without per-sector state, the
+  // frames with any, the most sectors in reach, the most stale, and the inline (worker) time.
+  bool technique_streamed = false;
+  int64_t technique_misses = 0, technique_frames_with_misses = 0;
+  int technique_reach_max = 0, technique_stale_max = 0, technique_held_max = 0;
+  size_t technique_bytes_max = 0;
+  double technique_inline_ms_total = 0;
 };
 FlySummary summarize(const FlyResult& result);
 

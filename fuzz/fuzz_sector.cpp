@@ -40,7 +40,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     const std::vector<uint8_t> again = drtv::encodeSector(*sector);
     DRTV_CHECK_EQ(again.size(), size);
     DRTV_CHECK(std::memcmp(again.data(), data, size) == 0);
-    DRTV_CHECK_EQ(again.size(), drtv::encodedSectorBytes(sector->probes.size(), sector->lprt.sources.size(), sector->has_ground));
+    DRTV_CHECK_EQ(again.size(), drtv::encodedSectorBytes(sector->probes.size(), sector->lprt.sources.size(), sector->has_ground,
+                                                             sector->sun ? sector->sun->samples() : 0));
   }
 
   // The archive path: compress, describe it as the manifest would, decode the payload.

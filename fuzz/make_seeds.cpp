@@ -39,7 +39,7 @@ int main(int argc, char** argv) {
   drtv::Sector no_ground = makeSector({-2, 5}, 3, 0, 11);
   no_ground.has_ground = false;
   drtv::Sector sh_lprt = makeSector({7, -7}, 2, 3, 12);
-  sh_lprt.lprt.on_bases = false;
+  sh_lprt.lprt_on_bases = false;
   const std::vector<std::pair<std::string, drtv::Sector>> sectors = {
       {"empty", empty},
       {"three_probes_no_ground", no_ground},

@@ -191,6 +191,7 @@ std::string validateSettings(const BakeSettings& s) {
   if (t.surfel_rays < 1 || t.surfel_rays > (1 << 16)) return "surfel_rays must be in [1, 65536]";
   if (!in(t.surfel_cell_m, 0.25, 64.0)) return "surfel_cell_m must be in [0.25, 64] m (cell keys assume >= 0.25 m)";
   if (t.bounces < 1 || t.bounces > 64) return "bounces must be in [1, 64]";
+  if (t.sun_samples != 0 && (t.sun_samples < 2 || t.sun_samples > kMaxSunSamples)) return "sun_samples must be 0 or in [2, 8]";
   if (s.grid.visibility_candidates < 1 || s.grid.visibility_candidates > 255) return "visibility_candidates must be in [1, 255]";
   if (!in(s.halo_m, 0.0, 1024.0) || !in(s.lprt_halo_m, 0.0, 1024.0)) return "halos must be in [0, 1024] m";
   return {};
@@ -281,6 +282,7 @@ std::vector<std::pair<std::string, std::string>> BakeSettings::describe() const 
   };
   // Only when not the talk's: a kFc3 bake describes itself (and hashes, and packs) as before.
   if (transfer.representation != Representation::kFc3) d.emplace_back("representation", representationName(transfer.representation));
+  if (transfer.representation == Representation::kShL1) d.emplace_back("sun_samples", std::to_string(transfer.sun_samples));
   return d;
 }
 
@@ -437,19 +439,23 @@ Result<Sector> bakeSector(const raytrace::WorldGeometry& geometry, const worlds:
   for (const PlacedProbe& p : placed) positions.push_back(p.position);
   std::vector<glm::vec3> source_positions;
   for (const Source& s : sources) source_positions.push_back(s.position);
-  std::vector<float> lprt_values;
-  std::vector<ProbeData> data = bakeTransfer(*scene, g, positions, ts, stats.transfer, source_positions, &lprt_values);
+  std::vector<float> lprt_values, sun_values;
+  const std::vector<glm::vec3> sun_directions =
+      (effects & kEffectSunBounce) && ts.representation == Representation::kShL1 ? sunSamples(world.sky, ts.sun_samples)
+                                                                                 : std::vector<glm::vec3>{};
+  std::vector<ProbeData> data =
+      bakeTransfer(*scene, g, positions, ts, stats.transfer, source_positions, &lprt_values, sun_directions, &sun_values);
   stats.transfer_s = since(t0);
 
   for (size_t i = 0; i < placed.size(); ++i) {
-    data[i].flags |= placed[i].flags;  // bakeTransfer may have set kProbeSkyMoments
+    data[i].flags |= placed[i].flags;  // bakeTransfer may have set kProbeSkyFit
     data[i].interior = placed[i].interior;
     sector.probes.push_back(packProbe(data[i]));
   }
   if (!sources.empty()) {
     const size_t S = sources.size();
     for (const Source& s : sources) sector.lprt.sources.push_back(s.ref);
-    sector.lprt.on_bases = ts.representation == Representation::kFc3;  // sh-l1: SH (transfer.h)
+    sector.lprt_on_bases = ts.representation == Representation::kFc3;  // sh-l1: SH (transfer.h)
     sector.lprt.coeffs.resize(placed.size() * S * 12);
     for (size_t p = 0; p < placed.size(); ++p) {
       float range = 0.f;
@@ -460,12 +466,30 @@ Result<Sector> bakeSector(const raytrace::WorldGeometry& geometry, const worlds:
     }
   }
 
+  if (!sun_values.empty()) {
+    const size_t K = sun_directions.size();
+    auto sun = std::make_unique<SunBlock>();
+    sun->directions = sun_directions;
+    sun->ranges.resize(placed.size());
+    sun->coeffs.resize(placed.size() * K * 12);
+    for (size_t p = 0; p < placed.size(); ++p) {
+      float range = 0.f;
+      for (size_t q = 0; q < K * 12; ++q) range = std::max(range, std::abs(sun_values[p * K * 12 + q]));
+      if (!(range >= kMinQuantizationRange) || !std::isfinite(range)) range = 1.f;  // all zero: any range decodes 0
+      range = std::min(range, kMaxPrtRange);
+      sun->ranges[p] = range;
+      for (size_t q = 0; q < K * 12; ++q) sun->coeffs[p * K * 12 + q] = quantizeSnorm8(sun_values[p * K * 12 + q], range);
+    }
+    sector.sun = std::move(sun);
+  }
+
   t0 = Clock::now();
   chooseGridExtent(positions, ground_min, sector.grid);
   fillIndexGrid(*scene, positions, settings.grid, sector.grid, stats.grid);
   stats.grid_s = since(t0);
-  stats.bytes = encodedSectorBytes(sector.probes.size(), sector.lprt.sources.size(), sector.has_ground);
-  stats.bytes_without_lprt = encodedSectorBytes(sector.probes.size(), 0, sector.has_ground);
+  stats.bytes = encodedSectorBytes(sector.probes.size(), sector.lprt.sources.size(), sector.has_ground,
+                                   sector.sun ? sector.sun->samples() : 0);
+  stats.bytes_without_lprt = encodedSectorBytes(sector.probes.size(), 0, sector.has_ground, sector.sun ? sector.sun->samples() : 0);
   stats.total_s = since(t_start);
   return sector;
 }
@@ -587,7 +611,7 @@ Result<void> packArchive(const raytrace::WorldGeometry& geometry, const worlds::
     st.probes = decoded->probes.size();
     st.lprt_sources = decoded->lprt.sources.size();
     st.bytes = bytes->size();
-    st.bytes_without_lprt = encodedSectorBytes(st.probes, 0, decoded->has_ground);
+    st.bytes_without_lprt = encodedSectorBytes(st.probes, 0, decoded->has_ground, decoded->sun ? decoded->sun->samples() : 0);
     if (auto a = out->addEncodedSector(*bytes); !a) return std::unexpected(a.error());
   }
   if (auto f = out->finish(manifestFor(geometry, world, world_name, report.settings, effects)); !f) return std::unexpected(f.error());

@@ -36,8 +36,8 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
   MinMeanMax probes, bytes, bytes_no_lprt, triangles;
   size_t total_probes = 0, relocated = 0, dropped = 0, rejected = 0, thinned = 0, veg = 0, interior = 0, resumed = 0;
   size_t cells_near = 0, cells_far = 0, cells_inside = 0, cells_unseen = 0, cells_searched = 0, surfels = 0, cached = 0;
-  uint64_t rays = 0, r_place = 0, r_probe = 0, r_surfel = 0, r_lprt = 0, r_grid = 0, r_other = 0;
-  double t_gather = 0, t_build = 0, t_place = 0, t_probe = 0, t_surfel = 0, t_lprt = 0, t_grid = 0, t_total = 0;
+  uint64_t rays = 0, r_place = 0, r_probe = 0, r_surfel = 0, r_lprt = 0, r_sun = 0, r_grid = 0, r_other = 0;
+  double t_gather = 0, t_build = 0, t_place = 0, t_probe = 0, t_surfel = 0, t_lprt = 0, t_sun = 0, t_grid = 0, t_total = 0;
   std::map<size_t, size_t> histogram;  // probes per sector, bucketed by 10
   for (const SectorStats& s : r.sectors) {
     resumed += s.resumed;
@@ -59,6 +59,7 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
     r_probe += s.transfer.probe_rays;
     r_surfel += s.transfer.surfel_rays;
     r_lprt += s.transfer.lprt_rays;
+    r_sun += s.transfer.sun_rays;
     r_grid += s.grid.rays;
     r_other += s.other_rays;
     t_gather += s.gather_s;
@@ -67,6 +68,7 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
     t_probe += s.transfer.probe_seconds;
     t_surfel += s.transfer.surfel_seconds;
     t_lprt += s.transfer.lprt_seconds;
+    t_sun += s.transfer.sun_seconds;
     t_grid += s.grid_s;
     t_total += s.total_s;
     if (s.probes == 0) continue;
@@ -110,7 +112,7 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
                      {"cells_none_visible_take_a_neighbours", cells_unseen}};
   j["surface_cache"] = {{"surfels", surfels}, {"probe_hits_reusing_a_cell", cached}};
   j["rays"] = {{"total", rays}, {"placement", r_place}, {"probe", r_probe}, {"surfel", r_surfel}, {"lprt", r_lprt},
-               {"grid", r_grid}, {"other", r_other}, {"per_second_wall", rays_per_s}};
+               {"sun", r_sun}, {"grid", r_grid}, {"other", r_other}, {"per_second_wall", rays_per_s}};
   j["placement_pass"] = {{"sectors", r.placement_pass.sectors}, {"resumed", r.placement_pass.resumed},
                          {"outside", r.placement_pass.outside}, {"outside_rays", r.placement_pass.outside_rays},
                          {"seconds", r.placement_pass.seconds}};
@@ -118,7 +120,7 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
                   {"bake", r.bake_s}, {"pack", r.pack_s},
                   {"sum_over_sectors",
                    {{"gather", t_gather}, {"scene_build", t_build}, {"placement", t_place}, {"probe_rays", t_probe},
-                    {"surface_cache", t_surfel}, {"lprt", t_lprt}, {"index_grid", t_grid}, {"total", t_total}}}};
+                    {"surface_cache", t_surfel}, {"lprt", t_lprt}, {"sun_transfer", t_sun}, {"index_grid", t_grid}, {"total", t_total}}}};
   nlohmann::json per = nlohmann::json::array();
   for (const SectorStats& s : r.sectors) per.push_back(toJson(s));
   j["per_sector"] = per;
@@ -176,7 +178,7 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
   md << "\nSummed over sectors (each a wall time within its sector's task):\n\n| stage | seconds |\n|---|---|\n";
   md << "| gather | " << fixed(t_gather, 2) << " |\n| scene build | " << fixed(t_build, 2) << " |\n| placement | " << fixed(t_place, 2)
      << " |\n| probe rays | " << fixed(t_probe, 2) << " |\n| surface cache + bounces | " << fixed(t_surfel, 2) << " |\n| LPRT | "
-     << fixed(t_lprt, 2) << " |\n| index grid | " << fixed(t_grid, 2) << " |\n";
+     << fixed(t_lprt, 2) << " |\n| sun transfer | " << fixed(t_sun, 2) << " |\n| index grid | " << fixed(t_grid, 2) << " |\n";
   md << "\n## Settings\n\n| key | value |\n|---|---|\n";
   for (const auto& [k, v] : r.settings.describe()) md << "| " << k << " | " << v << " |\n";
   {

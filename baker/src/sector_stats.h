@@ -35,11 +35,13 @@ void forEachStat(Stats& s, F&& f) {
   f("probe_rays", s.transfer.probe_rays);
   f("surfel_rays", s.transfer.surfel_rays);
   f("lprt_rays", s.transfer.lprt_rays);
+  f("sun_rays", s.transfer.sun_rays);
   f("surfels", s.transfer.surfels);
   f("probe_hits_cached", s.transfer.probe_hits_cached);
   f("probe_s", s.transfer.probe_seconds);
   f("surfel_s", s.transfer.surfel_seconds);
   f("lprt_s", s.transfer.lprt_seconds);
+  f("sun_s", s.transfer.sun_seconds);
   f("grid_rays", s.grid.rays);
   f("cells_nearest", s.grid.cells_nearest);
   f("cells_farther", s.grid.cells_farther);

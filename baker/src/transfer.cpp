@@ -130,6 +130,11 @@ RayResult classify(const raytrace::RayScene& scene, const raytrace::Ray& ray, co
   return r;
 }
 
+// K(w) of probe.h's kProbeSkyFit, in SH order [0, y, z, x].
+glm::vec4 skyFitKernel(const glm::vec3& w) {
+  return {(std::fabs(w.x) + std::fabs(w.y) + std::fabs(w.z)) / 6.f, 0.5f * w.y, 0.5f * w.z, 0.5f * w.x};
+}
+
 // What every step of one sector's transfer bake reads.
 struct TransferContext {
   const raytrace::RayScene& scene;
@@ -161,8 +166,7 @@ void traceProbes(const TransferContext& ctx, std::span<const glm::vec3> probes, 
       d.position = probes[p];
       size_t escaped_total = 0, back = 0, hit = 0;
       double hit_t = 0.0;
-      glm::dvec4 vis_sh(0.0);
-      glm::dvec3 moments(0.0);
+      glm::dvec4 vis_sh(0.0), fit_h(0.0), fit_delta(0.0);
       for (int b = 0; b < 4; ++b) {
         const raytrace::Frame frame(sh::kBasis[b]);
         const glm::vec2 shift = shiftFor(raytrace::hashKey(sector_key, p * 4 + b));
@@ -182,7 +186,10 @@ void traceProbes(const TransferContext& ctx, std::span<const glm::vec3> probes, 
             if (pdf > 0.f) {
               const glm::vec3& w = rays[i].dir;
               vis_sh += glm::dvec4(sh::evaluate(w) / pdf);
-              moments += glm::dvec3(glm::vec3(w.y * w.z, w.z * w.z, w.x * w.z) / pdf);
+              // The direct sky's fit kernel (probe.h, kProbeSkyFit), and its sqrt(z) gradient above the horizon.
+              const glm::dvec4 k = glm::dvec4(skyFitKernel(w)) / double(pdf);
+              fit_h += k;
+              if (w.z > 0.f) fit_delta += k * std::sqrt(double(w.z));
             }
           } else {
             ++hit;
@@ -195,8 +202,11 @@ void traceProbes(const TransferContext& ctx, std::span<const glm::vec3> probes, 
       }
       if (s.sky_visibility) d.sky_vis_sh = glm::vec4(vis_sh / double(4 * N));
       if (s.representation == Representation::kShL1) {
-        d.flags |= kProbeSkyMoments;
-        if (s.sky_visibility) d.sky_moments = glm::vec3(moments * (3.0 / (4.0 * double(kPi)) / double(4 * N)));
+        d.flags |= kProbeSkyFit;
+        if (s.sky_visibility) {
+          d.sky_fit_h = glm::vec4(fit_h / double(4 * N));
+          d.sky_fit_delta = glm::vec4(fit_delta / double(4 * N));
+        }
       }
       d.backface_frac = float(double(back) / double(4 * N));
       d.mean_hit_m = hit ? float(hit_t / double(hit)) : 0.f;
@@ -258,7 +268,9 @@ size_t levelOneSurfels(const TransferContext& ctx, const std::vector<RayResult>&
 // The surface cache: trace level by level from level 1 (cells found while tracing, new ones
 // created in (surfel, ray) order), then Jacobi sweeps for the bounces. Returns each traced
 // surfel's transfer.
-std::vector<Sh4Rgb> surfaceCache(const TransferContext& ctx, CellMap& cells, std::vector<Surfel>& surfels, TransferStats& stats) {
+// `direct_out` (optional) receives each traced surfel's direct part D_x (the sky it sees).
+std::vector<Sh4Rgb> surfaceCache(const TransferContext& ctx, CellMap& cells, std::vector<Surfel>& surfels, TransferStats& stats,
+                                 std::vector<sh::Sh4>* direct_out = nullptr) {
   const raytrace::RayScene& scene = ctx.scene;
   const raytrace::SectorGeometry& geometry = ctx.geometry;
   const TransferSettings& s = ctx.s;
@@ -348,8 +360,45 @@ std::vector<Sh4Rgb> surfaceCache(const TransferContext& ctx, CellMap& cells, std
     std::swap(transfer, next);
   }
   stats.surfels += count;
+  if (direct_out) *direct_out = std::move(direct);
   return transfer;
 }
+
+}  // namespace
+
+sh::Sh4 linearSunLobe(const glm::vec3& d) {
+  sh::Sh4 s = sh::evaluate(d) * 2.f;
+  s.x = 0.f;
+  return s;
+}
+
+std::vector<glm::vec3> sunSamples(const Sky& sky, int count) {
+  std::vector<glm::vec3> out;
+  if (count < 2) return out;
+  auto elevation = [&](double h) { return sky.sunDirection(h).z; };
+  if (!(elevation(12.0) > 0.0)) return out;  // the sun never rises
+  double rise = 0.0;
+  if (elevation(0.0) > 0.0) {
+    // It never sets: the whole day, midnight included once.
+    for (int k = 0; k < count; ++k) out.push_back(glm::vec3(sky.sunDirection(24.0 * k / count)));
+    return out;
+  }
+  double lo = 0.0, hi = 12.0;  // elevation(lo) <= 0 < elevation(hi): the path is symmetric about noon
+  for (int it = 0; it < 60; ++it) {
+    const double mid = 0.5 * (lo + hi);
+    (elevation(mid) > 0.0 ? hi : lo) = mid;
+  }
+  rise = hi;
+  const double set = 24.0 - rise;
+  for (int k = 0; k < count; ++k) {
+    glm::dvec3 d = sky.sunDirection(rise + (set - rise) * k / (count - 1));
+    d.z = std::max(d.z, 0.0);
+    out.push_back(glm::vec3(glm::normalize(d)));
+  }
+  return out;
+}
+
+namespace {
 
 // Gather: T[c][b] = (1/N) sum rho_c(x_i) T_{x_i}[c] over each probe basis' rays.
 // The sh-l1 weight of a probe ray towards `hit` from `probe`: Y(w) / S(w) (transfer.h).
@@ -398,6 +447,65 @@ void gatherPrt(const TransferContext& ctx, const std::vector<RayResult>& probe_r
         }
         for (int c = 0; c < 3; ++c) out[p].prt[c][b] = acc[c] * (1.f / float(N));
       }
+  });
+}
+
+// The sun transfer (transfer.h): per level-1 surfel and sun sample, the exact direct sun
+// irradiance V(x, d) max(0, n.d) less what the linear lobe gives it through D_x; then one bounce
+// to the probes with the sh-l1 gather's weights.
+void bakeSunTransfer(const TransferContext& ctx, std::span<const glm::vec3> probes, const std::vector<Surfel>& surfels,
+                     size_t level1, const std::vector<sh::Sh4>& direct, const std::vector<RayResult>& probe_res,
+                     const std::vector<uint32_t>& probe_surfel, std::span<const glm::vec3> sun, std::vector<float>& out,
+                     TransferStats& stats) {
+  const size_t P = ctx.P, N = ctx.N, K = sun.size();
+  std::vector<sh::Sh4> lobe(K);
+  for (size_t k = 0; k < K; ++k) lobe[k] = linearSunLobe(sun[k]);
+  std::vector<float> wrong(level1 * K, 0.f);
+  std::atomic<uint64_t> sun_rays{0};
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, level1, 64), [&](const tbb::blocked_range<size_t>& range) {
+    uint64_t cast = 0;
+    std::vector<raytrace::Ray> rays;
+    std::vector<uint32_t> which;
+    std::vector<uint8_t> blocked;
+    for (size_t si = range.begin(); si < range.end(); ++si) {
+      const Surfel& sf = surfels[si];
+      const glm::vec3 origin = sf.position + kRayOffsetM * sf.normal;
+      rays.clear();
+      which.clear();
+      for (size_t k = 0; k < K; ++k) {
+        wrong[si * K + k] = -glm::dot(direct[si], lobe[k]);
+        if (glm::dot(sf.normal, sun[k]) <= 0.f) continue;
+        rays.push_back(raytrace::Ray{origin, 0.f, sun[k], INFINITY});
+        which.push_back(uint32_t(k));
+      }
+      blocked.resize(rays.size());
+      ctx.scene.occluded(rays, blocked);
+      cast += rays.size();
+      for (size_t r = 0; r < rays.size(); ++r)
+        if (!blocked[r]) wrong[si * K + which[r]] += glm::dot(sf.normal, sun[which[r]]);
+    }
+    sun_rays += cast;
+  });
+  stats.sun_rays += sun_rays;
+  out.assign(P * K * 12, 0.f);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, P, 1), [&](const tbb::blocked_range<size_t>& range) {
+    std::vector<double> acc(K * 12);
+    for (size_t p = range.begin(); p < range.end(); ++p) {
+      std::fill(acc.begin(), acc.end(), 0.0);
+      for (size_t idx = p * 4 * N; idx < (p + 1) * 4 * N; ++idx) {
+        const uint32_t si = probe_surfel[idx];
+        if (si == kNoSurfel) continue;
+        const glm::vec3& rho = ctx.albedo(probe_res[idx].prim);
+        const sh::Sh4 y = sphereWeight(probes[p], probe_res[idx].position);
+        for (size_t k = 0; k < K; ++k) {
+          const float e = wrong[si * K + k];
+          if (e == 0.f) continue;
+          for (int c = 0; c < 3; ++c)
+            for (int i = 0; i < 4; ++i) acc[(k * 3 + c) * 4 + i] += double(rho[c] * e * y[i]);
+        }
+      }
+      for (size_t q = 0; q < K * 12; ++q) out[p * K * 12 + q] = float(acc[q] / double(N));
+    }
   });
 }
 
@@ -481,10 +589,13 @@ void bakeLprt(const TransferContext& ctx, std::span<const glm::vec3> probes, con
 std::vector<ProbeData> bakeTransfer(const raytrace::RayScene& scene, const raytrace::SectorGeometry& geometry,
                                     std::span<const glm::vec3> probes, const TransferSettings& s,
                                     TransferStats& stats, std::span<const glm::vec3> lprt_sources,
-                                    std::vector<float>* lprt) {
+                                    std::vector<float>* lprt, std::span<const glm::vec3> sun_directions,
+                                    std::vector<float>* sun) {
   DRTV_CHECK(s.probe_rays_per_basis > 0 && s.surfel_rays > 0 && s.bounces >= 1 && s.surfel_cell_m > 0.f);
   const size_t P = probes.size(), N = size_t(s.probe_rays_per_basis), M = size_t(s.surfel_rays);
   const bool want_lprt = !lprt_sources.empty() && lprt != nullptr;
+  const bool want_sun = s.prt && !sun_directions.empty() && sun != nullptr && s.representation == Representation::kShL1;
+  if (sun) sun->clear();
   const TransferContext ctx{scene, geometry, s, P, N, M, 1.f / s.surfel_cell_m,
                             raytrace::hashKey(s.seed, uint64_t(uint32_t(geometry.key.ix)), uint64_t(uint32_t(geometry.key.iy)), 0x7472616eull)};
 
@@ -501,14 +612,20 @@ std::vector<ProbeData> bakeTransfer(const raytrace::RayScene& scene, const raytr
   std::vector<Surfel> surfels;
   std::vector<uint32_t> probe_surfel;
   const size_t level1 = levelOneSurfels(ctx, probe_res, cells, surfels, probe_surfel, stats);
+  std::vector<sh::Sh4> direct;
   if (s.prt) {
-    const std::vector<Sh4Rgb> transfer = surfaceCache(ctx, cells, surfels, stats);
+    const std::vector<Sh4Rgb> transfer = surfaceCache(ctx, cells, surfels, stats, want_sun ? &direct : nullptr);
     if (s.representation == Representation::kShL1)
       gatherPrtShL1(ctx, probes, probe_res, probe_surfel, transfer, out);
     else
       gatherPrt(ctx, probe_res, probe_surfel, transfer, out);
   }
   stats.surfel_seconds += since(t0);
+  if (want_sun) {
+    t0 = Clock::now();
+    bakeSunTransfer(ctx, probes, surfels, level1, direct, probe_res, probe_surfel, sun_directions, *sun, stats);
+    stats.sun_seconds += since(t0);
+  }
   if (!want_lprt) return out;
 
   t0 = Clock::now();

@@ -79,7 +79,7 @@ inline Sector makeSector(SectorKey key, const SectorSpec& spec, uint32_t seed) {
   if (spec.sources > 0 && spec.probes > 0) {
     for (int j = 0; j < spec.sources; ++j)
       s.lprt.sources.push_back({int8_t(j % 3 - 1), int8_t((j / 3) % 3 - 1), uint8_t((j * 7) % spec.probes)});
-    s.lprt.on_bases = spec.lprt_on_bases;
+    s.lprt_on_bases = spec.lprt_on_bases;
     for (auto& r : s.probes) r.lprt_range = 0.05f + 0.1f * u(rng);
     s.lprt.coeffs.resize(size_t(spec.probes) * spec.sources * 12);
     for (auto& c : s.lprt.coeffs) c = int16_t(int(rng() % 40000) - 8000);
@@ -110,7 +110,7 @@ inline runtime::BasisColours referenceRelight(const Sector& sector, int probe, c
           auto it = light_at.find({SectorKey{sector.key.ix + src.dx, sector.key.iy + src.dy}, int(src.probe)});
           if (it == light_at.end()) continue;
           double e = 0.0;
-          if (sector.lprt.on_bases) {
+          if (sector.lprt_on_bases) {
             e = dequantizeSnorm16(sector.lprt.coeffs[sector.lprt.index(probe, j, c, b)], float(range));
           } else {
             for (int k = 0; k < 4; ++k)

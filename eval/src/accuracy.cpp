@@ -202,6 +202,10 @@ std::vector<RowSpec> drtvRows(const BakeSettings& base, uint32_t effects, const 
       std::pair{"direct_sky", uint32_t(runtime::kComponentDirectSky)}, std::pair{"local_lights", uint32_t(runtime::kComponentLocalLights)}};
   for (size_t k = 0; k < parts.size(); ++k)
     if (components & parts[k].second) rows.push_back({"part", parts[k].first, false, "drtv", {{"part", parts[k].first}}, "", int(k)});
+  // The same terms baked in sh-l1, so that its bias can be traced to a term too.
+  for (size_t k = 0; k < parts.size(); ++k)
+    if (components & parts[k].second)
+      rows.push_back({"part sh-l1", parts[k].first, false, "drtv", {{"part", parts[k].first}, {"representation", "sh-l1"}}, "", int(k)});
   for (const auto& [name, w] : {std::pair{"hanning", runtime::kHanningBand1}, std::pair{"lanczos", runtime::kLanczosBand1},
                                 std::pair{"none", runtime::kNoWindowBand1}})
     rows.push_back({"sun_window", name, w == runtime::kHanningBand1, "drtv", {{"sun_window", name}}, "band-1 factor " + fmt(w)});
@@ -416,7 +420,7 @@ class RowEvaluator {
         }
       row.abs_error = rel / std::max(terms_, 1.0);
       row.rel_error = rel / total_, row.bias = bias / total_;
-      if (spec.knob == "part") {
+      if (spec.knob.starts_with("part")) {
         char note[160];
         std::snprintf(note, sizeof note,
                       "this term alone vs the reference's, as a share of the total ambient (the reference's term: %.1f%% of it)",

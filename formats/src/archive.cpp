@@ -62,9 +62,10 @@ Result<Header> parseHeader(std::span<const uint8_t> bytes, uint64_t actual_file_
   if (std::memcmp(magic, kArchiveMagic, 8) != 0) return failAt(where, 0, "bad magic: not a drtv archive");
   Header h;
   if (!rd.get(h.version)) return failAt(where, 8, "truncated before the version");
-  if (h.version != kArchiveVersionTalkBasis && h.version != kArchiveVersion)
+  if (h.version != kArchiveVersionTalkBasis && h.version != kArchiveVersionShL1Moments && h.version != kArchiveVersion)
     return failAt(where, 8, "version " + std::to_string(h.version) + " unsupported (this build reads " +
-                                std::to_string(kArchiveVersionTalkBasis) + " and " + std::to_string(kArchiveVersion) + ")");
+                                std::to_string(kArchiveVersionTalkBasis) + " to " + std::to_string(kArchiveVersion) +
+                                "): rebake the world with this build's `drtv bake`");
   uint32_t header_bytes = 0;
   rd.get(header_bytes);
   rd.get(h.manifest_offset);
@@ -239,7 +240,7 @@ Result<Manifest> parseManifest(std::span<const uint8_t> bytes, uint32_t version,
                                         "): rebake the world with this build's `drtv bake --representation`");
     m.representation = Representation(code);
     if (m.representation == Representation::kFc3)
-      return failAt(where, repr_at, "representation fc3 in a version-2 manifest (fc3 archives are version 1)");
+      return failAt(where, repr_at, "representation fc3 in a version-" + std::to_string(version) + " manifest (fc3 archives are version 1)");
   }
   uint32_t n_settings = 0;
   const uint64_t settings_at = at();
@@ -292,9 +293,13 @@ Result<Manifest> parseManifest(std::span<const uint8_t> bytes, uint32_t version,
     if (e.compressed_bytes == 0) return failAt(where, entry_at + 16, name + "empty payload");
     if (e.probes > kMaxProbesPerSector || e.lprt_sources > kMaxLprtSources)
       return failAt(where, entry_at + 32, name + "probe or LPRT source count out of range");
-    const uint64_t lo = encodedSectorBytes(e.probes, e.lprt_sources, false);
-    const uint64_t hi = encodedSectorBytes(e.probes, e.lprt_sources, true);
-    if ((e.raw_bytes != lo && e.raw_bytes != hi) || e.raw_bytes > max_raw)
+    // One of the sizes a sector of these counts can have: with or without its ground map, and
+    // with a sun-transfer block of 2..8 samples or none.
+    bool fits = false;
+    for (size_t sun = 0; sun <= size_t(kMaxSunSamples) && !fits; sun += sun == 0 ? 2 : 1)
+      fits = e.raw_bytes == encodedSectorBytes(e.probes, e.lprt_sources, false, sun) ||
+             e.raw_bytes == encodedSectorBytes(e.probes, e.lprt_sources, true, sun);
+    if (!fits || e.raw_bytes > max_raw)
       return failAt(where, entry_at + 20, name + "raw size " + std::to_string(e.raw_bytes) + " does not fit " +
                                               std::to_string(e.probes) + " probes");
     if (zero != 0) return failAt(where, entry_at + 36, name + "reserved field is not zero");

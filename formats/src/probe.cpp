@@ -27,14 +27,18 @@ ProbeRecord packProbe(const ProbeData& p) {
     for (int b = 0; b < 4; ++b)
       for (int k = 0; k < 4; ++k) r.prt[c][b][k] = quantizeSnorm16(finiteOrZero(p.prt[c][b][k]), r.prt_range);
   for (int b = 0; b < 4; ++b) r.sky_vis[b] = quantizeUnorm16(p.sky_vis[b]);
-  for (int k = 0; k < 4; ++k) r.sky_vis_sh[k] = quantizeSnorm16(p.sky_vis_sh[k], kSkyVisShRange);
+  const bool fit = r.flags & kProbeSkyFit;
+  for (int k = 0; k < 4; ++k) r.sky_vis_sh[k] = quantizeSnorm16(fit ? p.sky_fit_h[k] : p.sky_vis_sh[k], kSkyVisShRange);
   r.lprt_range = 0.f;
   r.backface_frac = quantizeUnorm16(p.backface_frac);
   const float cm = std::clamp(finiteOrZero(p.height_m) * 100.f, 0.f, 65535.f);
   r.height_cm = static_cast<uint16_t>(std::lround(cm));
   r.mean_hit_m = std::max(0.f, finiteOrZero(p.mean_hit_m));
-  if (r.flags & kProbeSkyMoments)
-    for (int k = 0; k < 3; ++k) r.sky_moments[k] = quantizeSnorm16(finiteOrZero(p.sky_moments[k]), 1.f);
+  if (fit) {
+    for (int k = 0; k < 4; ++k) r.sky_terms[k] = quantizeSnorm16(finiteOrZero(p.sky_fit_delta[k]), kSkyFitRange);
+  } else if (r.flags & kProbeSkyMoments) {
+    for (int k = 0; k < 3; ++k) r.sky_terms[k] = quantizeSnorm16(finiteOrZero(p.sky_moments[k]), 1.f);
+  }
   return r;
 }
 
@@ -47,11 +51,16 @@ ProbeData unpackProbe(const ProbeRecord& r) {
     for (int b = 0; b < 4; ++b)
       for (int k = 0; k < 4; ++k) p.prt[c][b][k] = dequantizeSnorm16(r.prt[c][b][k], r.prt_range);
   for (int b = 0; b < 4; ++b) p.sky_vis[b] = dequantizeUnorm16(r.sky_vis[b]);
-  for (int k = 0; k < 4; ++k) p.sky_vis_sh[k] = dequantizeSnorm16(r.sky_vis_sh[k], kSkyVisShRange);
+  const bool fit = r.flags & kProbeSkyFit;
+  for (int k = 0; k < 4; ++k) (fit ? p.sky_fit_h : p.sky_vis_sh)[k] = dequantizeSnorm16(r.sky_vis_sh[k], kSkyVisShRange);
   p.backface_frac = dequantizeUnorm16(r.backface_frac);
   p.height_m = r.height_cm / 100.f;
   p.mean_hit_m = r.mean_hit_m;
-  for (int k = 0; k < 3; ++k) p.sky_moments[k] = dequantizeSnorm16(r.sky_moments[k], 1.f);
+  if (fit) {
+    for (int k = 0; k < 4; ++k) p.sky_fit_delta[k] = dequantizeSnorm16(r.sky_terms[k], kSkyFitRange);
+  } else {
+    for (int k = 0; k < 3; ++k) p.sky_moments[k] = dequantizeSnorm16(r.sky_terms[k], 1.f);
+  }
   return p;
 }
 
@@ -83,13 +92,13 @@ std::string validateProbe(const ProbeRecord& r) {
   if (min_prt == -32768) return "prt coefficient -32768 is never written";
   for (int k = 0; k < 4; ++k) min_sh = std::min(min_sh, r.sky_vis_sh[k]);
   if (min_sh == -32768) return "sky_vis_sh coefficient -32768 is never written";
-  int16_t min_moment = INT16_MAX, any_moment = 0;
-  for (int16_t v : r.sky_moments) min_moment = std::min(min_moment, v), any_moment |= v;
-  if (min_moment == -32768) return "sky_moments coefficient -32768 is never written";
-  if (any_moment != 0 && !(r.flags & kProbeSkyMoments)) return "sky_moments are not zero without the sky-moments flag";
-  uint8_t reserved = 0;
-  for (uint8_t b : r.reserved) reserved |= b;
-  if (reserved != 0) return "reserved bytes are not zero";
+  int16_t min_term = INT16_MAX, any_term = 0;
+  for (int16_t v : r.sky_terms) min_term = std::min(min_term, v), any_term |= v;
+  if (min_term == -32768) return "sky_terms coefficient -32768 is never written";
+  const bool moments = r.flags & kProbeSkyMoments, fit = r.flags & kProbeSkyFit;
+  if (moments && fit) return "both the sky-moments and the sky-fit flags are set";
+  if (any_term != 0 && !moments && !fit) return "sky_terms are not zero without the sky-moments or sky-fit flag";
+  if (moments && r.sky_terms[3] != 0) return "sky_terms[3] is not zero with the sky-moments flag";
   return {};
 }
 

@@ -36,8 +36,7 @@ void writeProbe(ByteWriter& w, const ProbeRecord& r) {
   w.put(r.backface_frac);
   w.put(r.height_cm);
   w.put(r.mean_hit_m);
-  for (int16_t v : r.sky_moments) w.put(v);
-  w.bytes(r.reserved, sizeof r.reserved);
+  for (int16_t v : r.sky_terms) w.put(v);
   DRTV_CHECK_EQ(w.size() - start, kProbeBytes);
 }
 
@@ -55,8 +54,7 @@ void readProbe(ByteReader& rd, ProbeRecord& r) {
   rd.get(r.backface_frac);
   rd.get(r.height_cm);
   rd.get(r.mean_hit_m);
-  for (int16_t& v : r.sky_moments) rd.get(v);
-  rd.bytes(r.reserved, sizeof r.reserved);
+  for (int16_t& v : r.sky_terms) rd.get(v);
 }
 
 std::unexpected<Error> failAt(const std::string& where, size_t offset, const std::string& what) {
@@ -79,7 +77,10 @@ SectorKey sectorAt(double x, double y) {
 
 size_t Sector::memoryBytes() const {
   return sizeof(Sector) + probes.capacity() * sizeof(ProbeRecord) + lprt.sources.capacity() * sizeof(LprtSource) +
-         lprt.coeffs.capacity() * sizeof(int16_t);
+         lprt.coeffs.capacity() * sizeof(int16_t) +
+         (sun ? sizeof(SunBlock) + sun->directions.capacity() * sizeof(glm::vec3) +
+                    sun->ranges.capacity() * sizeof(float) + sun->coeffs.capacity()
+              : 0);
 }
 
 float Sector::groundHeight(int x, int y) const {
@@ -87,14 +88,15 @@ float Sector::groundHeight(int x, int y) const {
   return ground_z_min_m + dequantizeUnorm16(q) * (ground_z_max_m - ground_z_min_m);
 }
 
-size_t encodedSectorBytes(size_t probes, size_t sources, bool has_ground) {
+size_t encodedSectorBytes(size_t probes, size_t sources, bool has_ground, size_t sun_samples) {
   size_t n = kSectorHeaderBytes + probes * kProbeBytes + kGridCells;
   if (has_ground) n += kGroundBytes;
   if (sources > 0) n += sources * kLprtSourceBytes + probes * sources * 3 * 4 * sizeof(int16_t);
+  if (sun_samples > 0) n += sun_samples * 12 + probes * (4 + sun_samples * 12);
   return n;
 }
 
-size_t maxEncodedSectorBytes() { return encodedSectorBytes(kMaxProbesPerSector, kMaxLprtSources, true); }
+size_t maxEncodedSectorBytes() { return encodedSectorBytes(kMaxProbesPerSector, kMaxLprtSources, true, kMaxSunSamples); }
 
 std::vector<uint8_t> encodeSector(const Sector& s) {
   const size_t n_probes = s.probes.size();
@@ -104,10 +106,17 @@ std::vector<uint8_t> encodeSector(const Sector& s) {
   if (n_sources > 0) {
     DRTV_CHECK_EQ(s.lprt.coeffs.size(), n_probes * n_sources * 12);
   }
+  const size_t n_sun = s.sun ? s.sun->samples() : 0;
+  DRTV_CHECK_LE(n_sun, size_t(kMaxSunSamples));
+  if (s.sun) {
+    DRTV_CHECK(n_sun > 0);
+    DRTV_CHECK_EQ(s.sun->ranges.size(), n_probes);
+    DRTV_CHECK_EQ(s.sun->coeffs.size(), n_probes * n_sun * 12);
+  }
   for (uint8_t c : s.grid.cells) DRTV_CHECK(c == kNoProbe || c < n_probes);
 
   std::vector<uint8_t> out;
-  out.reserve(encodedSectorBytes(n_probes, n_sources, s.has_ground));
+  out.reserve(encodedSectorBytes(n_probes, n_sources, s.has_ground, n_sun));
   ByteWriter w(out);
   w.bytes(kSectorMagic, 4);
   w.put<uint16_t>(kSectorVersion);
@@ -118,12 +127,13 @@ std::vector<uint8_t> encodeSector(const Sector& s) {
   w.put<uint16_t>(static_cast<uint16_t>(n_sources));
   uint32_t flags = 0;
   if (s.has_ground) flags |= kSectorHasGround;
-  if (n_sources > 0 && s.lprt.on_bases) flags |= kSectorLprtOnBases;
+  if (n_sources > 0 && s.lprt_on_bases) flags |= kSectorLprtOnBases;
   w.put<uint32_t>(flags);
   w.put<float>(s.grid.z_min_m);
   w.put<float>(s.grid.cell_height_m);
   w.put<float>(s.ground_z_min_m);
   w.put<float>(s.ground_z_max_m);
+  w.put<uint8_t>(static_cast<uint8_t>(n_sun));
   w.zeros(kSectorHeaderBytes - w.size());
   for (const ProbeRecord& r : s.probes) {
     DRTV_CHECK(n_sources > 0 || r.lprt_range == 0.f);
@@ -141,7 +151,16 @@ std::vector<uint8_t> encodeSector(const Sector& s) {
     }
     for (int16_t v : s.lprt.coeffs) w.put(v);
   }
-  DRTV_CHECK_EQ(out.size(), encodedSectorBytes(n_probes, n_sources, s.has_ground));
+  if (n_sun > 0) {
+    for (const glm::vec3& d : s.sun->directions) {
+      w.put(d.x);
+      w.put(d.y);
+      w.put(d.z);
+    }
+    for (float r : s.sun->ranges) w.put(r);
+    for (int8_t v : s.sun->coeffs) w.put(v);
+  }
+  DRTV_CHECK_EQ(out.size(), encodedSectorBytes(n_probes, n_sources, s.has_ground, n_sun));
   return out;
 }
 
@@ -195,11 +214,14 @@ Result<Sector> decodeSector(std::span<const uint8_t> bytes, const std::string& w
                         s.ground_z_min_m <= s.ground_z_max_m && std::fabs(s.ground_z_min_m) <= 1e6f &&
                         std::fabs(s.ground_z_max_m) <= 1e6f))
     return failAt(where, 32, "ground height range is not finite and ordered");
-  for (size_t i = 40; i < kSectorHeaderBytes; ++i)
+  const size_t n_sun = bytes[40];
+  if (n_sun > kMaxSunSamples)
+    return failAt(where, 40, "sun sample count " + std::to_string(n_sun) + " exceeds " + std::to_string(kMaxSunSamples));
+  for (size_t i = 41; i < kSectorHeaderBytes; ++i)
     if (bytes[i] != 0) return failAt(where, i, "reserved header byte is not zero");
 
   // The counts are now bounded, so the expected size is too: compare before any allocation.
-  const size_t expected = encodedSectorBytes(n_probes, n_sources, s.has_ground);
+  const size_t expected = encodedSectorBytes(n_probes, n_sources, s.has_ground, n_sun);
   if (bytes.size() < expected)
     return failAt(where, bytes.size(), "truncated: " + std::to_string(bytes.size()) + " bytes, the header promises " +
                                            std::to_string(expected));
@@ -240,7 +262,7 @@ Result<Sector> decodeSector(std::span<const uint8_t> bytes, const std::string& w
   if (s.has_ground)
     for (uint16_t& q : s.ground) rd.get(q);
   if (n_sources > 0) {
-    s.lprt.on_bases = flags & kSectorLprtOnBases;
+    s.lprt_on_bases = flags & kSectorLprtOnBases;
     s.lprt.sources.resize(n_sources);
     for (size_t j = 0; j < n_sources; ++j) {
       const size_t at = rd.offset();
@@ -262,6 +284,33 @@ Result<Sector> decodeSector(std::span<const uint8_t> bytes, const std::string& w
       if (s.lprt.coeffs[i] == -32768)
         return failAt(where, coeff_at + 2 * i, "LPRT coefficient -32768 is never written");
     }
+  }
+  if (n_sun > 0) {
+    auto sun = std::make_unique<SunBlock>();
+    sun->directions.resize(n_sun);
+    for (size_t k = 0; k < n_sun; ++k) {
+      const size_t at = rd.offset();
+      glm::vec3& d = sun->directions[k];
+      rd.get(d.x);
+      rd.get(d.y);
+      rd.get(d.z);
+      // NaN fails both comparisons.
+      if (!(std::fabs(glm::length(d) - 1.f) <= 1e-3f && d.z >= -0.05f))
+        return failAt(where, at, "sun sample " + std::to_string(k) + ": not a unit vector at or above the horizon");
+    }
+    sun->ranges.resize(n_probes);
+    for (size_t i = 0; i < n_probes; ++i) {
+      const size_t at = rd.offset();
+      rd.get(sun->ranges[i]);
+      if (!(sun->ranges[i] >= kMinQuantizationRange && sun->ranges[i] <= kMaxPrtRange))
+        return failAt(where, at, "probe " + std::to_string(i) + ": sun-transfer range outside [1e-30, 1e4]");
+    }
+    sun->coeffs.resize(size_t(n_probes) * n_sun * 12);
+    const size_t coeff_at = rd.offset();
+    rd.bytes(sun->coeffs.data(), sun->coeffs.size());
+    for (size_t i = 0; i < sun->coeffs.size(); ++i)
+      if (sun->coeffs[i] == -128) return failAt(where, coeff_at + i, "sun-transfer coefficient -128 is never written");
+    s.sun = std::move(sun);
   }
   DRTV_CHECK(rd.ok());
   DRTV_CHECK_EQ(rd.offset(), bytes.size());

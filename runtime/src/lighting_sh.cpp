@@ -59,6 +59,33 @@ SkyLighting evaluateSky(const Sky& sky, double hour, float band1_window, float b
   return s;
 }
 
+void sunTransferWeights(std::span<const glm::vec3> samples, const glm::vec3& d, std::span<float> w) {
+  DRTV_CHECK_EQ(w.size(), samples.size());
+  std::fill(w.begin(), w.end(), 0.f);
+  const size_t K = samples.size();
+  if (K < 2 || !(std::isfinite(d.x) && std::isfinite(d.y) && std::isfinite(d.z))) return;
+  // atan2 of sine and cosine: exact near 0, where acos of a dot product loses half its digits.
+  auto angle = [](const glm::vec3& a, const glm::vec3& b) { return std::atan2(glm::length(glm::cross(a, b)), glm::dot(a, b)); };
+  float longest = 0.f;
+  for (size_t k = 0; k + 1 < K; ++k) longest = std::max(longest, angle(samples[k], samples[k + 1]));
+  const bool ring = K > 2 && angle(samples[K - 1], samples[0]) <= 1.5f * longest;
+  float best_detour = INFINITY, best_t = 0.f, best_len = 0.f;
+  size_t best_a = 0, best_b = 1;
+  for (size_t k = 0; k < (ring ? K : K - 1); ++k) {
+    const size_t b = (k + 1) % K;
+    const float len = angle(samples[k], samples[b]), da = angle(d, samples[k]), db = angle(d, samples[b]);
+    const float detour = da + db - len;
+    if (detour < best_detour) {
+      best_detour = detour, best_a = k, best_b = b, best_len = len;
+      best_t = da + db > 0.f ? da / (da + db) : 0.f;
+    }
+  }
+  if (!(best_len > 0.f)) return;
+  const float fade = std::clamp(1.f - best_detour / best_len, 0.f, 1.f);
+  w[best_a] += (1.f - best_t) * fade;
+  w[best_b] += best_t * fade;
+}
+
 float lightingChange(const SkyLighting& from, const SkyLighting& to) {
   float scale = 0.f, change = 0.f;
   for (int c = 0; c < 3; ++c) {

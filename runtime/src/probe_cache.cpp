@@ -8,6 +8,7 @@
 #include <limits>
 #include <new>
 
+#include "drtv/runtime/lighting_sh.h"
 #include "pack.h"
 
 namespace drtv::runtime {
@@ -54,6 +55,10 @@ struct Slot {
   std::vector<float> lprt_scale;    // lprt_range / 32767 per probe, padded to the stride with 0
   bool on_bases = true;
   std::vector<int32_t> source_ids;  // global probe id (slot * kSlotProbes + index) or -1
+  // Sun transfer (sector.h SunBlock)
+  std::vector<glm::vec3> sun_dirs;  // its samples; empty = none
+  std::vector<int8_t> sun;          // [sample][channel * 4 + i][probe], planes of the slot stride
+  std::vector<float> sun_scale;     // range / 127 per probe, padded to the stride with 0
   float max_colour = 0.f;
 };
 
@@ -293,13 +298,20 @@ Result<void> ProbeCache::addSector(const Sector& sector) {
     if (std::string e = validateProbe(sector.probes[i]); !e.empty()) return fail(where + ": probe " + std::to_string(i) + ": " + e);
   const Representation want = m.opt.representation;
   for (int i = 0; i < n; ++i) {
-    const Representation got = (sector.probes[i].flags & kProbeSkyMoments) ? Representation::kShL1 : Representation::kFc3;
+    const Representation got =
+        (sector.probes[i].flags & (kProbeSkyMoments | kProbeSkyFit)) ? Representation::kShL1 : Representation::kFc3;
     if (got != want)
       return fail(where + ": probe " + std::to_string(i) + " was baked as " + representationName(got) + ", the runtime reads " +
                   representationName(want) + " (set it up from the archive's manifest)");
   }
-  if (want == Representation::kShL1 && sources > 0 && sector.lprt.on_bases)
+  if (want == Representation::kShL1 && sources > 0 && sector.lprt_on_bases)
     return fail(where + ": sh-l1 needs its LPRT block in SH, this one is on the talk's bases");
+  if (sector.sun) {
+    const size_t K = sector.sun->samples();
+    if (want != Representation::kShL1) return fail(where + ": a sun-transfer block is sh-l1's, the runtime reads " + representationName(want));
+    if (K > size_t(kMaxSunSamples) || sector.sun->ranges.size() != size_t(n) || sector.sun->coeffs.size() != size_t(n) * K * 12)
+      return fail(where + ": sun-transfer block size does not match its probes and samples");
+  }
   int s = -1;
   for (size_t k = 0; k < m.slots.size(); ++k)
     if (!m.slots[k].used) {
@@ -341,6 +353,16 @@ Result<void> ProbeCache::addSector(const Sector& sector) {
       for (int c = 0; c < 3; ++c)
         for (int r = 0; r < 4; ++r)
           for (int k = 0; k < 4; ++k) m.inPlane(s, (c * 4 + r) * 4 + k)[i] = kLobe[r] * d.prt[c][r][k];
+      if (d.flags & kProbeSkyFit) {
+        // e = H a + (Z - H) b (probe.h) in the relight's terms: with the sky continued through the
+        // horizon, SkyDirectSH[c][0] = 4 pi Y0 (H + (Z - H) / 3) and SkyDirectSH[c][2] = (4 pi / 5) Y1 (Z - H)
+        // (lighting_sh.h), so P0 = a / (4 pi Y0) and P2 = 5 (b - a / 3) / (4 pi Y1).
+        for (int r = 0; r < 4; ++r) {
+          m.inPlane(s, kTransferPlanes + r)[i] = d.sky_fit_h[r] / (4.f * sh::kPi * sh::kY0);
+          m.inPlane(s, kTransferPlanes + 4 + r)[i] = 5.f * (d.sky_fit_delta[r] - d.sky_fit_h[r] / 3.f) / (4.f * sh::kPi * sh::kY1);
+        }
+        continue;
+      }
       const float p2[4] = {sh::kY0 * d.sky_vis_sh[2], d.sky_moments[0], d.sky_moments[1], d.sky_moments[2]};
       for (int r = 0; r < 4; ++r) {
         m.inPlane(s, kTransferPlanes + r)[i] = kLobe[r] * sh::kY0 * d.sky_vis_sh[r];
@@ -376,13 +398,25 @@ Result<void> ProbeCache::addSector(const Sector& sector) {
     // Transposed once to planes per source, so that a lit source is 12 streams over the probes.
     const int stride = m.stride(s);
     sl.sources = sector.lprt.sources;
-    sl.on_bases = sector.lprt.on_bases;
+    sl.on_bases = sector.lprt_on_bases;
     sl.lprt.assign(sources * 12 * size_t(stride), 0);
     for (int i = 0; i < n; ++i)
       for (size_t j = 0; j < sources; ++j)
         for (int k = 0; k < 12; ++k) sl.lprt[(j * 12 + k) * stride + i] = sector.lprt.coeffs[(size_t(i) * sources + j) * 12 + k];
     sl.lprt_scale.assign(stride, 0.f);
     for (int i = 0; i < n; ++i) sl.lprt_scale[i] = sector.probes[i].lprt_range / kSnorm16Max;
+  }
+  if (sector.sun && sh_l1) {
+    const SunBlock& sun = *sector.sun;
+    const size_t K = sun.samples();
+    const int stride = m.stride(s);
+    sl.sun_dirs = sun.directions;
+    sl.sun.assign(K * 12 * size_t(stride), 0);
+    for (int i = 0; i < n; ++i)
+      for (size_t k = 0; k < K; ++k)
+        for (int q = 0; q < 12; ++q) sl.sun[(k * 12 + q) * stride + i] = sun.coeffs[sun.index(size_t(i), k, q / 4, q % 4)];
+    sl.sun_scale.assign(stride, 0.f);
+    for (int i = 0; i < n; ++i) sl.sun_scale[i] = sun.ranges[size_t(i)] / kSnorm8Max;
   }
   m.resolveSources();
   return {};
@@ -541,7 +575,25 @@ void ProbeCache::Impl::relightSlot(int s, const RelightInput& li) {
       d0[c] = on ? li.sky_direct_sh[c][0] : 0.f;
       d2[c] = on ? li.sky_direct_sh[c][2] : 0.f;
     }
-    int32_t bits = relightPlanesShL1(inPlane(s, 0), outPlane(s, 0), n16, stride, lc, d0, d2, !lprt);
+    float sun_w[kMaxSunSamples] = {};
+    const size_t K = sl.sun_dirs.size();
+    const bool sun = K > 0 && li.sun_transfer && (li.components & kComponentSunBounce) && li.sun_irradiance != glm::vec3(0.f);
+    if (sun) sunTransferWeights(sl.sun_dirs, li.sun_direction, std::span<float>(sun_w, K));
+    int32_t bits = relightPlanesShL1(inPlane(s, 0), outPlane(s, 0), n16, stride, lc, d0, d2, !lprt && !sun);
+    if (sun) {
+      // e_i += kLobe_i E_c sum_k w_k C[k][c][i] (sector.h SunBlock), the int8 planes scaled per probe.
+      for (size_t k = 0; k < K; ++k) {
+        if (sun_w[k] == 0.f) continue;
+        for (int q = 0; q < 12; ++q) {
+          const float a = sun_w[k] * li.sun_irradiance[q / 4] * kLobe[q % 4];
+          float* __restrict o = outPlane(s, q);
+          const int8_t* __restrict x = sl.sun.data() + (k * 12 + size_t(q)) * stride;
+          const float* __restrict scale = sl.sun_scale.data();
+          for (int i = 0; i < n16; ++i) o[i] += a * scale[i] * float(x[i]);
+        }
+      }
+      if (!lprt) bits = clampPlanesShL1(outPlane(s, 0), n16, stride);
+    }
     if (lprt) {
       thread_local std::vector<float> scratch;
       scratch.assign(size_t(12) * stride, 0.f);

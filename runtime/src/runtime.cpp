@@ -83,7 +83,13 @@ Result<void> Runtime::setLights(std::vector<PointLight> lights) {
   return {};
 }
 
-RelightInput Runtime::relightInput() const { return {applied_.sky_sh, applied_.sun_sh, applied_.sky_direct_sh, lights_, options_.components};
+RelightInput Runtime::relightInput() const {
+  RelightInput in{applied_.sky_sh, applied_.sun_sh, applied_.sky_direct_sh, lights_, options_.components};
+  in.sun_direction = applied_.sun_direction;
+  in.sun_irradiance = applied_.sun_irradiance;
+  // The bake corrected the linear lobe (transfer.h "The sun transfer"): any other lobe goes without.
+  in.sun_transfer = options_.sun_band1_window == kLinearSunBand1 && options_.sun_band0_scale == 0.f;
+  return in;
 }
 
 void Runtime::rescale() {

@@ -150,7 +150,7 @@ TEST(Bake, LprtAddsAtMost210KiBPerSectorOfAbout70Probes) {
   auto s = reader->readSector(reader->manifest().sectors[0].key);
   ASSERT_TRUE(s);
   EXPECT_TRUE(s->hasLprt());
-  EXPECT_EQ(s->lprt.on_bases, reader->manifest().representation == Representation::kFc3) << "fc3 bakes LPRT on the bases, sh-l1 in SH";
+  EXPECT_EQ(s->lprt_on_bases, reader->manifest().representation == Representation::kFc3) << "fc3 bakes LPRT on the bases, sh-l1 in SH";
   float biggest = 0.f;
   for (int16_t q : s->lprt.coeffs) biggest = std::max(biggest, float(std::abs(q)));
   EXPECT_GT(biggest, 0.f) << "the lamp's sources bounce light";

@@ -88,9 +88,12 @@ TEST(ProbeRecord, ValidateRejectsWhatPackNeverWrites) {
   EXPECT_TRUE(bad([](ProbeRecord& x) { x.prt_range = INFINITY; }));
   EXPECT_TRUE(bad([](ProbeRecord& x) { x.lprt_range = -1.f; }));
   EXPECT_TRUE(bad([](ProbeRecord& x) { x.prt[1][2][3] = -32768; }));
-  EXPECT_TRUE(bad([](ProbeRecord& x) { x.reserved[1] = 1; }));
-  EXPECT_TRUE(bad([](ProbeRecord& x) { x.sky_moments[1] = 5; }));  // moments without kProbeSkyMoments
-  EXPECT_FALSE(bad([](ProbeRecord& x) { x.flags |= kProbeSkyMoments, x.sky_moments[1] = 5; }));
+  EXPECT_TRUE(bad([](ProbeRecord& x) { x.sky_terms[3] = 1; }));
+  EXPECT_TRUE(bad([](ProbeRecord& x) { x.flags |= kProbeSkyMoments; x.sky_terms[3] = 1; }));
+  EXPECT_TRUE(bad([](ProbeRecord& x) { x.flags |= kProbeSkyMoments | kProbeSkyFit; }));
+  EXPECT_FALSE(bad([](ProbeRecord& x) { x.flags |= kProbeSkyFit; x.sky_terms[3] = 1; }));
+  EXPECT_TRUE(bad([](ProbeRecord& x) { x.sky_terms[1] = 5; }));  // moments without kProbeSkyMoments
+  EXPECT_FALSE(bad([](ProbeRecord& x) { x.flags |= kProbeSkyMoments, x.sky_terms[1] = 5; }));
 }
 
 }  // namespace

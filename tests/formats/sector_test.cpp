@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <functional>
+#include <memory>
 #include <new>
 
 #include <gtest/gtest.h>
@@ -144,6 +146,63 @@ TEST(SectorReader, RejectsBadMagicVersionAndAbsurdCounts) {
   auto v = peekSectorVersion(good, "x");
   ASSERT_TRUE(v.has_value());
   EXPECT_EQ(*v, kSectorVersion);
+}
+
+// A sector with a sun-transfer block of `samples` samples (sector.h SunBlock).
+Sector withSun(Sector s, size_t samples) {
+  auto sun = std::make_unique<SunBlock>();
+  for (size_t k = 0; k < samples; ++k) {
+    const float a = float(k) * 0.5f;
+    sun->directions.push_back(glm::normalize(glm::vec3(std::cos(a), std::sin(a) * 0.3f, 0.2f + 0.1f * float(k))));
+  }
+  for (size_t p = 0; p < s.probes.size(); ++p) sun->ranges.push_back(0.01f * float(p + 1));
+  for (size_t q = 0; q < s.probes.size() * samples * 12; ++q) sun->coeffs.push_back(int8_t(int(q % 255) - 127));
+  s.sun = std::move(sun);
+  return s;
+}
+
+TEST(Sector, RoundTripsItsSunTransferBitForBit) {
+  for (int lprt : {0, 128}) {
+    const Sector s = withSun(testing::makeSector({2, 5}, 70, lprt, 3), 6);
+    const std::vector<uint8_t> bytes = encodeSector(s);
+    // 6 directions and, per probe, a range and 6 x 12 int8: 76 bytes a probe, half the record.
+    EXPECT_EQ(bytes.size(), encodedSectorBytes(70, size_t(lprt), true) + 6 * 12 + 70 * 76);
+    EXPECT_EQ(bytes.size(), encodedSectorBytes(70, size_t(lprt), true, 6));
+    auto d = decodeSector(bytes, "mem");
+    ASSERT_TRUE(d.has_value()) << d.error().message;
+    ASSERT_TRUE(d->sun);
+    EXPECT_EQ(d->sun->directions, s.sun->directions);
+    EXPECT_EQ(d->sun->ranges, s.sun->ranges);
+    EXPECT_EQ(d->sun->coeffs, s.sun->coeffs);
+    EXPECT_EQ(encodeSector(*d), bytes);
+  }
+  // Without one, nothing is allocated for it and the bytes are version 1's as before.
+  auto plain = decodeSector(encodeSector(testing::makeSector({0, 0}, 3, 0, 5)), "mem");
+  ASSERT_TRUE(plain.has_value());
+  EXPECT_FALSE(plain->sun);
+}
+
+TEST(SectorReader, RejectsABadSunTransferNamingTheByte) {
+  const std::vector<uint8_t> good = encodeSector(withSun(testing::makeSector({0, 0}, 3, 0, 5), 4));
+  const size_t sun_at = good.size() - (4 * 12 + 3 * 4 + 3 * 4 * 12);  // its directions
+  auto expectError = [&](const std::function<void(std::vector<uint8_t>&)>& edit, const std::string& says) {
+    std::vector<uint8_t> b = good;
+    edit(b);
+    auto d = decodeSector(b, "w.drtv: sector (0,0)");
+    ASSERT_FALSE(d.has_value()) << says;
+    EXPECT_NE(d.error().message.find(says), std::string::npos) << d.error().message;
+  };
+  expectError([](std::vector<uint8_t>& b) { b[40] = 9; }, "byte 40: sun sample count 9 exceeds 8");
+  expectError([](std::vector<uint8_t>& b) { b[40] = 3; }, "trailing bytes");
+  expectError([&](std::vector<uint8_t>& b) {
+    const float twice = 2.f;
+    std::memcpy(&b[sun_at + 12], &twice, 4);  // sample 1's x: no longer a unit vector
+  }, "byte " + std::to_string(sun_at + 12) + ": sun sample 1: not a unit vector");
+  expectError([&](std::vector<uint8_t>& b) {
+    const float nan = NAN;
+    std::memcpy(&b[sun_at + 48 + 4], &nan, 4);  // probe 1's range
+  }, "probe 1: sun-transfer range");
+  expectError([&](std::vector<uint8_t>& b) { b[b.size() - 1] = 0x80; }, "sun-transfer coefficient -128 is never written");
 }
 
 TEST(SectorReader, RejectsGridIndicesPastTheProbeCount) {

@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <vector>
+
 #include "drtv/runtime/lighting_sh.h"
 
 namespace drtv::runtime {
@@ -111,4 +113,48 @@ TEST(LightingChange, IsZeroForTheSameLightingAndGrowsWithTime) {
 }
 
 }  // namespace
+// The sun transfer's interpolation along the baked path (lighting_sh.h, sunTransferWeights).
+TEST(SunTransferWeights, AreOneOnASampleLinearByAngleBetweenAndNoneOffThePath) {
+  // Five samples along a quarter great circle in the x-z plane, 22.5 deg apart.
+  std::vector<glm::vec3> path;
+  for (int k = 0; k < 5; ++k) {
+    const float a = float(k) * 0.3926991f;
+    path.push_back({std::cos(a), 0.f, std::sin(a)});
+  }
+  std::vector<float> w(path.size());
+  sunTransferWeights(path, path[2], w);
+  EXPECT_NEAR(w[2], 1.f, 1e-5f);
+  EXPECT_NEAR(w[0] + w[1] + w[3] + w[4], 0.f, 1e-5f);
+  // A quarter of the way from sample 1 to sample 2.
+  const float a = 1.25f * 0.3926991f;
+  sunTransferWeights(path, glm::vec3(std::cos(a), 0.f, std::sin(a)), w);
+  EXPECT_NEAR(w[1], 0.75f, 1e-3f);
+  EXPECT_NEAR(w[2], 0.25f, 1e-3f);
+  // Off the path by a little: both weights shrink together; by a segment's length: nothing.
+  const glm::vec3 off_a = glm::normalize(glm::vec3(std::cos(a), 0.1f, std::sin(a)));
+  sunTransferWeights(path, off_a, w);
+  EXPECT_GT(w[1] + w[2], 0.5f);
+  EXPECT_LT(w[1] + w[2], 1.f);
+  EXPECT_NEAR(w[1] / (w[1] + w[2]), 0.75f, 0.1f);
+  sunTransferWeights(path, glm::vec3(0.f, 1.f, 0.f), w);
+  for (float x : w) EXPECT_EQ(x, 0.f);
+  // Not finite: nothing.
+  sunTransferWeights(path, glm::vec3(NAN), w);
+  for (float x : w) EXPECT_EQ(x, 0.f);
+}
+
+TEST(SunTransferWeights, CloseARingUnderAMidnightSun) {
+  // Eight samples around the whole day at 10 deg elevation: the last and the first are neighbours.
+  std::vector<glm::vec3> ring;
+  for (int k = 0; k < 8; ++k) {
+    const float a = float(k) * 0.7853982f;
+    ring.push_back(glm::normalize(glm::vec3(std::cos(a), std::sin(a), 0.1763f)));
+  }
+  std::vector<float> w(ring.size());
+  const float a = 7.5f * 0.7853982f;  // halfway from sample 7 back to sample 0
+  sunTransferWeights(ring, glm::normalize(glm::vec3(std::cos(a), std::sin(a), 0.1763f)), w);
+  EXPECT_NEAR(w[7], 0.5f, 1e-3f);
+  EXPECT_NEAR(w[0], 0.5f, 1e-3f);
+}
+
 }  // namespace drtv::runtime

@@ -169,7 +169,7 @@ std::vector<Sector> truncateLprt(const std::vector<Sector>& sectors, size_t keep
 
 size_t storedBytes(const std::vector<Sector>& sectors) {
   size_t n = 0;
-  for (const Sector& s : sectors) n += encodedSectorBytes(s.probes.size(), s.lprt.sources.size(), s.has_ground);
+  for (const Sector& s : sectors) n += encodedSectorBytes(s.probes.size(), s.lprt.sources.size(), s.has_ground, s.sun ? s.sun->samples() : 0);
   return n;
 }
 

@@ -93,7 +93,7 @@ struct SectorStats {
   double gather_s = 0, build_s = 0, placement_s = 0, transfer_s = 0, grid_s = 0, total_s = 0;
   bool resumed = false;                 // read back from a sector file of an earlier run
   uint64_t rays() const {
-    return placement.rays + transfer.probe_rays + transfer.surfel_rays + transfer.lprt_rays + grid.rays + other_rays;
+    return placement.rays + transfer.probe_rays + transfer.surfel_rays + transfer.lprt_rays + transfer.sun_rays + grid.rays + other_rays;
   }
 };
 

@@ -53,6 +53,16 @@
 //   LPRT[p][j][c][i] = 1/N sum rho_c(x) E_j(x) Y_i(w) / S(w).
 // sky_vis keeps its kFc3 meaning (the distant-occlusion tile and the tools read it).
 //
+// The sun transfer (sh-l1 only; sector.h SunBlock): the linear sun lobe s(d) = 2 [0, Y1(d)]
+// makes dot(D_x, s(d)) = n.d exactly on a surface point that sees the whole sky, but it ignores
+// where the point is shadowed from d (a roof's shade on the ground, a wall's) and lights points
+// facing away negatively. For each sun sample d_k along the world's sun path (sunSamples) and each
+// level-1 surfel x, one shadow ray gives the exact direct sun irradiance
+// E_k(x) = V(x, d_k) max(0, n_x.d_k); the correction to the probe's bounced radiance SH is
+//   C[p][k][c][i] = 1/N sum rho_c(x) (E_k(x) - dot(D_x, s(d_k))) Y_i(w) / S(w)
+// over the probe's 4N rays (the sh-l1 gather's weights), D_x the direct part of T_x. The sun's
+// first bounce is then exact along the path; its later bounces stay those of the linear lobe.
+//
 // Determinism: ray directions are R2 points [pbrt sec. 8.2] (CosineSampler) with a shift keyed by (seed, sector,
 // probe, basis) or (seed, sector, surfel index); all sums run in a fixed order.
 #pragma once
@@ -65,6 +75,7 @@
 
 #include "drtv/raytrace/ray_scene.h"
 #include "drtv/raytrace/world_geometry.h"
+#include "drtv/formats/lighting.h"
 #include "drtv/formats/probe.h"
 #include "drtv/formats/representation.h"
 
@@ -83,26 +94,40 @@ struct TransferSettings {
   bool sky_visibility = true;      // bake v and sky_vis_sh (direct sky asked for); else 0
   uint64_t seed = 1;
   Representation representation = Representation::kFc3;  // what prt and LPRT hold (see above)
+  int sun_samples = 6;  // sun-transfer samples along the sun path (sh-l1; 0 = none), <= kMaxSunSamples
 };
+
+// The linear sun lobe per unit irradiance from unit direction `d`: 2 [0, Y1(d)] (lighting_sh.h's
+// projectSun with band1_window 2, band0_scale 0).
+sh::Sh4 linearSunLobe(const glm::vec3& d);
+
+// `count` unit directions towards the sun along `sky`'s path, from sunrise to sunset at equal
+// hour steps (both ends on the horizon, z clamped to 0), or over the whole day when the sun never
+// sets; none when it never rises or count < 2. Thread-safe.
+std::vector<glm::vec3> sunSamples(const Sky& sky, int count);
 
 struct TransferStats {
   uint64_t probe_rays = 0;    // probes' basis rays and height rays
   uint64_t surfel_rays = 0;   // rays of the surface cache
   uint64_t lprt_rays = 0;     // LPRT shadow rays
+  uint64_t sun_rays = 0;      // sun-transfer shadow rays
   size_t surfels = 0;         // cache cells traced
   size_t probe_hits_cached = 0;  // probe rays that reused a cell another ray had created
-  double probe_seconds = 0, surfel_seconds = 0, lprt_seconds = 0;  // thread-time of each stage
+  double probe_seconds = 0, surfel_seconds = 0, lprt_seconds = 0, sun_seconds = 0;  // thread-time of each stage
 };
 
 // Bakes `probes` (positions in `geometry`'s local frame, which is sector-relative) against
 // `scene`, built over `geometry`. Returns one ProbeData per probe with position, prt, sky_vis,
 // sky_vis_sh, backface_frac, height_m and mean_hit_m filled (flags and interior left 0).
 // When `lprt_sources` is non-empty, `lprt` receives probes.size() x sources x 3 x 4 floats in
-// LprtBlock order ([probe][source][channel][basis]). Uses TBB inside; the result does not depend
+// LprtBlock order ([probe][source][channel][basis]). When `sun_directions` is non-empty, the
+// representation sh-l1 and PRT on, `sun` receives probes.size() x samples x 3 x 4 floats in
+// SunBlock order (the correction above); else it is emptied. Uses TBB inside; the result does not depend
 // on the number of threads. Thread-safe (reads only its arguments).
 std::vector<ProbeData> bakeTransfer(const raytrace::RayScene& scene, const raytrace::SectorGeometry& geometry,
                                     std::span<const glm::vec3> probes, const TransferSettings& settings,
                                     TransferStats& stats, std::span<const glm::vec3> lprt_sources = {},
-                                    std::vector<float>* lprt = nullptr);
+                                    std::vector<float>* lprt = nullptr, std::span<const glm::vec3> sun_directions = {},
+                                    std::vector<float>* sun = nullptr);
 
 }  // namespace drtv::baker

@@ -56,8 +56,12 @@
 
 namespace drtv {
 
-inline constexpr uint32_t kArchiveVersion = 2;          // the newest version this build reads and writes
+inline constexpr uint32_t kArchiveVersion = 3;          // the newest version this build reads and writes
 inline constexpr uint32_t kArchiveVersionTalkBasis = 1;  // written for kFc3 bakes (no representation field)
+// Version 2: sh-l1 with the direct sky as visibility moments (kProbeSkyMoments), no sun transfer;
+// still read. Version 3: sh-l1 with the fitted direct sky (kProbeSkyFit) and the sector's sun
+// transfer (sector.h SunBlock).
+inline constexpr uint32_t kArchiveVersionShL1Moments = 2;
 // The version a writer writes for `r`.
 inline uint32_t archiveVersionFor(Representation r) { return r == Representation::kFc3 ? kArchiveVersionTalkBasis : kArchiveVersion; }
 inline constexpr size_t kArchiveHeaderBytes = 64;
@@ -74,7 +78,7 @@ struct SectorEntry {
 };
 
 struct Manifest {
-  uint32_t version = kArchiveVersion;            // as read (1 or 2); the writer sets it from the representation
+  uint32_t version = kArchiveVersion;            // as read (1, 2 or 3); the writer sets it from the representation
   glm::dvec3 bounds_min{0.0}, bounds_max{0.0};  // world metres
   double sector_size_m = kSectorSizeM;
   uint32_t effects = 0;                         // drtv::Effect mask baked

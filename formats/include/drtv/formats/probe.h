@@ -15,17 +15,26 @@
 //                                      with normal B_b = dot(L_sh[c], T[c][b]) (sun and sky)
 //   116     8  uint16  sky_vis[4]      unorm16: cosine-weighted sky visibility about B0..B3
 //   124     8  int16   sky_vis_sh[4]   snorm16 x 4: SH of the 0/1 sky-visibility function
-//                                      (|c0| <= sqrt(4 pi) = 3.545, so the range 4 suffices)
+//                                      (|c0| <= sqrt(4 pi) = 3.545, so the range 4 suffices);
+//                                      with kProbeSkyFit the direct sky's a (below) instead
 //   132     4  float32 lprt_range      dequantisation range of this probe's LPRT row, [1e-30, 1e4]; 0 = none
 //   136     2  uint16  backface_frac   unorm16: fraction of bake rays that hit back faces
 //   138     2  uint16  height_cm       height above the surface below the probe, centimetres
 //                                      (0 .. 655.35 m), for the distant-occlusion tile
 //   140     4  float32 mean_hit_m      mean distance to the first hit of the bake rays that hit, [0, 1e7] m
-//   144     6  int16   sky_moments[3]  snorm16 x 1: (3/4pi) integral of (y z, z z, x z) V dw, the sky
-//                                      visibility's second moments (representation.h, sh-l1);
-//                                      non-zero only with kProbeSkyMoments, else rejected
-//   150     2  uint8   reserved[2]     zero; rejected when non-zero
+//   144     8  int16   sky_terms[4]    kProbeSkyMoments: snorm16 x 1, (3/4pi) integral of
+//                                      (y z, z z, x z) V dw, the sky visibility's second moments,
+//                                      and a zero (representation.h, sh-l1 archives of version 2);
+//                                      kProbeSkyFit: snorm16 x 4, the direct sky's b (below);
+//                                      zero without either flag, else rejected
 //   152
+//
+// The direct sky with kProbeSkyFit (sh-l1 from archive version 3; representation.h): for the
+// world's sky L(w) = H + (Z - H) sqrt(w.z) above the horizon and H below (the horizon colour
+// continued, lighting_sh.h), the direct-sky irradiance SH is e = H a + (Z - H) b with
+//   a_i = integral K_i(w) V(w) dw,  b_i = integral over w.z > 0 of K_i(w) sqrt(w.z) V(w) dw,
+// K = [(|x| + |y| + |z|) / 6, y / 2, z / 2, x / 2]: the least-squares band-1 fit of the
+// irradiance at the six axis normals, so that E(n) = e0 + e1 n.y + e2 n.z + e3 n.x.
 #pragma once
 
 #include <array>
@@ -45,9 +54,12 @@ enum ProbeFlag : uint16_t {
   kProbeVegetation = 1u << 1,    // placed on a vegetation bounding box
   kProbeInterior = 1u << 2,      // the designated probe of an interior volume
   kProbeManual = 1u << 3,        // added by hand rather than by placement rays
-  kProbeSkyMoments = 1u << 4,    // sky_moments holds the visibility moments (an sh-l1 bake)
+  kProbeSkyMoments = 1u << 4,    // sky_terms hold the visibility moments (an sh-l1 bake of archive version 2)
+  kProbeSkyFit = 1u << 5,        // sky_vis_sh and sky_terms hold the direct sky's a and b (sh-l1, version 3)
 };
-inline constexpr uint16_t kProbeKnownFlags = 0x001f;
+inline constexpr uint16_t kProbeKnownFlags = 0x003f;
+// Snorm range of the direct sky's b with kProbeSkyFit (|b_i| <= 0.8 pi / 2 + ... < 1.3).
+inline constexpr float kSkyFitRange = 4.f;
 
 // Snorm range of sky_vis_sh (see the table above).
 inline constexpr float kSkyVisShRange = 4.f;
@@ -79,13 +91,11 @@ struct ProbeRecord {
   uint16_t backface_frac;
   uint16_t height_cm;
   float mean_hit_m;
-  int16_t sky_moments[3];
-  uint8_t reserved[2];
+  int16_t sky_terms[4];
 };
 static_assert(sizeof(ProbeRecord) == 152, "probe record is 152 bytes (talk slide 22)");
 static_assert(offsetof(ProbeRecord, prt) == 20 && offsetof(ProbeRecord, sky_vis) == 116 &&
-                  offsetof(ProbeRecord, lprt_range) == 132 && offsetof(ProbeRecord, sky_moments) == 144 &&
-                  offsetof(ProbeRecord, reserved) == 150,
+                  offsetof(ProbeRecord, lprt_range) == 132 && offsetof(ProbeRecord, sky_terms) == 144,
               "byte layout as drawn above");
 
 // The unpacked, float form of a probe: what the baker produces and the runtime reads.
@@ -100,13 +110,16 @@ struct ProbeData {
   float height_m = 0.f;                          // [0, 655.35]
   float mean_hit_m = 0.f;
   glm::vec3 sky_moments{0.f};                    // (yz, zz, xz) moments in [-1, 1] (with kProbeSkyMoments)
+  sh::Sh4 sky_fit_h{0.f};                        // the direct sky's a (with kProbeSkyFit; then sky_vis_sh is 0)
+  sh::Sh4 sky_fit_delta{0.f};                    // the direct sky's b (with kProbeSkyFit)
 };
 
 // Packs `p`, choosing prt_range as the largest |coefficient| (or 1 when all are 0), kept in
 // [kMinQuantizationRange, kMaxPrtRange]. Values are clamped to their documented ranges; NaN
 // becomes 0 (a bug upstream; packing stays total).
 // lprt_range is set to 0: the LPRT block's packer fills it. sky_moments are written only when
-// flags has kProbeSkyMoments (else the bytes stay zero, as a talk-basis record has them).
+// flags has kProbeSkyMoments, sky_fit_h and sky_fit_delta (in place of sky_vis_sh) only with
+// kProbeSkyFit (else those bytes stay zero, as a talk-basis record has them).
 ProbeRecord packProbe(const ProbeData& p);
 
 // Unpacks a record. Precondition: the record was validated (validateProbe) or packed here.
@@ -114,8 +127,8 @@ ProbeData unpackProbe(const ProbeRecord& r);
 
 // Checks a record read from untrusted bytes: finite position with x, y in [0, 64] and |z| < 1e6,
 // known flags, prt_range in [kMinQuantizationRange, kMaxPrtRange], lprt_range 0 or in
-// [kMinQuantizationRange, kMaxLprtRange], mean_hit_m in [0, kMaxMeanHitM], zero reserved bytes, zero sky_moments
-// without kProbeSkyMoments,
+// [kMinQuantizationRange, kMaxLprtRange], mean_hit_m in [0, kMaxMeanHitM], zero sky_terms
+// without kProbeSkyMoments or kProbeSkyFit (never both), sky_terms[3] zero with kProbeSkyMoments,
 // and no int16 -32768 (never written). NaN fails every range. Returns an empty string when valid,
 // else what is wrong, naming the field (the caller adds file, sector and byte offset).
 std::string validateProbe(const ProbeRecord& r);

@@ -37,4 +37,16 @@ inline int16_t quantizeSnorm16(float v, float range) {
 }
 inline float dequantizeSnorm16(int16_t q, float range) { return float(q) * range / kSnorm16Max; }
 
+inline constexpr float kSnorm8Max = 127.f;
+inline constexpr float snorm8MaxError(float range) { return 0.5f * range / kSnorm8Max; }
+// `range` > 0. -128 is never produced; readers reject it.
+inline int8_t quantizeSnorm8(float v, float range) {
+  const float x = v / range;
+  if (!(x == x)) return 0;
+  if (x >= 1.f) return 127;
+  if (x <= -1.f) return -127;
+  return static_cast<int8_t>(std::lround(x * kSnorm8Max));
+}
+inline float dequantizeSnorm8(int8_t q, float range) { return float(q) * range / kSnorm8Max; }
+
 }  // namespace drtv

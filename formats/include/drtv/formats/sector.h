@@ -19,7 +19,8 @@
 //   28   4  float32 grid cell height metres, in [0.01, 1e5] (horizontal cells are 64/16 = 4 m)
 //   32   4  float32 ground z min    range of the ground-height map, metres: |z| <= 1e6,
 //   36   4  float32 ground z max    min <= max (checked when kSectorHasGround)
-//   40  24  uint8   reserved        zero
+//   40   1  uint8   sun samples     K in 0..8; 0 = no sun-transfer block
+//   41  23  uint8   reserved        zero
 //   64        probes      probe count x 152 bytes (probe.h)
 //   ..  4096  index grid  uint8 cells[z][y][x], 16^3, the index of the nearest probe; 255 = none
 //   .. (128)  ground      uint16 unorm [y][x], 8x8: ground height at each 8 m cell centre, as
@@ -32,11 +33,18 @@
 //                        transfer bases: the bounced irradiance at a surface facing B_k from a
 //                        unit white point light at the source (the runtime does one multiply per
 //                        source and basis). Without it, k is the SH4 of the incoming radiance.
+//   ..        sun transfer, present iff sun samples K > 0 (sh-l1 bakes; SunBlock below):
+//               directions K x 3 float32: unit vectors towards the sun along the baked sun path,
+//                          in path order, z >= -0.05
+//               ranges     probe count x float32, each in [1e-30, 1e4]
+//               coeffs     probe count x K x 3 x 4 int8, [probe][sample][channel][SH4], snorm8 x
+//                          that probe's range (-128 never written)
 //   No trailing bytes.
 #pragma once
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <string>
 #include <vector>
@@ -97,12 +105,52 @@ struct LprtSource {
 struct LprtBlock {
   // Each probe's snorm16 range is its ProbeRecord::lprt_range (no copy here: memory budget).
   std::vector<LprtSource> sources;      // S <= 128
-  std::vector<int16_t> coeffs;          // probe count x S x 3 x 4
-  bool on_bases = true;                 // k indexes transfer bases (true) or SH4 (false)
+  std::vector<int16_t> coeffs;          // probe count x S x 3 x 4 (k: Sector::lprt_on_bases)
 
   size_t index(size_t probe, size_t source, int channel, int k) const {
     return ((probe * sources.size() + source) * 3 + channel) * 4 + k;
   }
+};
+
+// The sun's first bounce along the baked sun path (issue 13; representation.h, "sh-l1 sun
+// transfer"): for each of K sun directions d_k, per probe and channel, the SH4 of the bounced
+// radiance arriving at the probe per unit of sun irradiance that the band-1 transfer's linear sun
+// lobe gets wrong: the exact first bounce (each surface point's sun visibility traced along d_k)
+// less what M L_sun(d_k) gives for it. The runtime adds the correction interpolated between the
+// two samples nearest the sun's direction. 8 samples at most.
+inline constexpr int kMaxSunSamples = 8;
+struct SunBlock {
+  std::vector<glm::vec3> directions;  // K unit vectors towards the sun, in path order
+  std::vector<float> ranges;          // per probe: the snorm8 range of its coefficients
+  std::vector<int8_t> coeffs;         // probe count x K x 3 x 4
+
+  size_t samples() const { return directions.size(); }
+  size_t index(size_t probe, size_t sample, int channel, int k) const {
+    return ((probe * directions.size() + sample) * 3 + channel) * 4 + k;
+  }
+};
+
+// An owning pointer to a SunBlock that copies it with the sector (so that Sector stays a value
+// type), 8 bytes: a sector without one stays within the talk's 15 KB for 70 probes and the
+// streamer's 51 within its 760 KiB.
+class SunBlockPtr {
+ public:
+  SunBlockPtr() = default;
+  SunBlockPtr(std::unique_ptr<SunBlock> p) : p_(std::move(p)) {}  // NOLINT: implicit, as unique_ptr's
+  SunBlockPtr(const SunBlockPtr& o) : p_(o.p_ ? std::make_unique<SunBlock>(*o.p_) : nullptr) {}
+  SunBlockPtr& operator=(const SunBlockPtr& o) {
+    if (this != &o) p_ = o.p_ ? std::make_unique<SunBlock>(*o.p_) : nullptr;
+    return *this;
+  }
+  SunBlockPtr(SunBlockPtr&&) noexcept = default;
+  SunBlockPtr& operator=(SunBlockPtr&&) noexcept = default;
+  explicit operator bool() const { return p_ != nullptr; }
+  const SunBlock& operator*() const { return *p_; }
+  const SunBlock* operator->() const { return p_.get(); }
+  SunBlock* get() { return p_.get(); }
+
+ private:
+  std::unique_ptr<SunBlock> p_;
 };
 
 // A sector in memory: the decoded form of the bytes above. Value type.
@@ -111,9 +159,11 @@ struct Sector {
   std::vector<ProbeRecord> probes;        // <= 255
   IndexGrid grid;
   bool has_ground = false;
+  bool lprt_on_bases = true;              // LPRT k indexes transfer bases (true) or SH4 (false)
   float ground_z_min_m = 0.f, ground_z_max_m = 0.f;
   std::array<uint16_t, kGroundDim * kGroundDim> ground{};  // [y][x] unorm in the range above
   LprtBlock lprt;                         // empty sources = no LPRT
+  SunBlockPtr sun;                        // null = no sun transfer
 
   bool hasLprt() const { return !lprt.sources.empty(); }
   // Bytes this sector occupies in memory: the struct plus the capacity of its vectors.
@@ -122,8 +172,9 @@ struct Sector {
   float groundHeight(int x, int y) const;
 };
 
-// Size of the encoded form of a sector with `probes` probes and `sources` LPRT sources.
-size_t encodedSectorBytes(size_t probes, size_t sources, bool has_ground);
+// Size of the encoded form of a sector with `probes` probes, `sources` LPRT sources and
+// `sun_samples` sun-transfer samples.
+size_t encodedSectorBytes(size_t probes, size_t sources, bool has_ground, size_t sun_samples = 0);
 // The largest encoded sector (255 probes, 128 sources, ground map): a bound for readers.
 size_t maxEncodedSectorBytes();
 

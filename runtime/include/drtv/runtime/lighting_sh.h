@@ -48,6 +48,8 @@
 // sunset does not light the world from below, and so that sunset is not a one-frame pop.
 #pragma once
 
+#include <span>
+
 #include <glm/glm.hpp>
 
 #include "drtv/formats/lighting.h"
@@ -96,6 +98,14 @@ struct SkyLighting {
 // validateLighting and `hour` is finite (bugs otherwise; Runtime checks both and returns errors).
 // Thread-safe.
 SkyLighting evaluateSky(const Sky& sky, double hour, float band1_window = kHanningBand1, float band0_scale = 1.f);
+
+// Weights of a sun transfer's samples (sector.h SunBlock) for the sun in unit direction `d`:
+// the samples are a path of directions; of its segments (consecutive samples, and last-to-first
+// when they close a ring, as under a midnight sun) the one whose great-circle detour through d is
+// shortest is interpolated by angle, w_a = 1 - t, w_b = t, and both are faded to 0 as the detour
+// grows to the segment's length (a sun off the baked path gets no correction). `w` receives
+// samples.size() weights (at most two non-zero), summing to at most 1. Thread-safe.
+void sunTransferWeights(std::span<const glm::vec3> samples, const glm::vec3& d, std::span<float> w);
 
 // How far lighting moved from `from` to `to`: the largest absolute change of any sky or sun SH
 // coefficient divided by the largest band-0 coefficient of either (so 1/255 is about one step of

@@ -101,6 +101,11 @@ struct RelightInput {
   sh::Sh4Rgb sky_direct_sh{};             // sky masked by v[b] in the direct-sky term (lighting_sh.h)
   std::span<const PointLight> lights;     // validated (validateLighting)
   uint32_t components = kAllComponents;
+  // The sun transfer (sector.h SunBlock, sh-l1): added to the sun bounce when `sun_transfer` and
+  // the sector has one; meant for the linear sun lobe the bake corrected (lighting_sh.h).
+  glm::vec3 sun_direction{0.f, 0.f, 1.f};  // unit, towards the sun
+  glm::vec3 sun_irradiance{0.f};          // after the horizon fade
+  bool sun_transfer = false;
 };
 
 // A resident probe: its slot and its index in that sector.

@@ -22,6 +22,10 @@
 
 #include <glm/gtc/packing.hpp>
 
+#if defined(__GNUC__) && defined(__x86_64__)
+#include <immintrin.h>
+#endif
+
 #include "drtv/formats/error.h"
 #include "small_float.h"
 
@@ -138,20 +142,21 @@ class Edges {
   bool sameAtEveryLevel() const { return parent_ == nullptr; }
 
   // The light of the cells (i, j) in `cells` at grid level k (may be -1 or size.z) for `bins`,
-  // into planes[b * 3 + c][plane index].
+  // into planes[cell.r * row_stride + (b * 3 + c) * plane_stride + cell.x] (r, x: the cell's padded
+  // row and column).
   struct Cell {
     int i, j;
-    size_t plane;
+    size_t r, x;
   };
   void fill(int k, bool direct, const std::vector<int>& bins, const std::vector<Cell>& cells, float* planes,
-            size_t plane_size) {
+            size_t plane_stride, size_t row_stride) {
     const size_t nb = bins.size();
     if (!parent_) {
       for (size_t b = 0; b < nb; ++b) {
         const int bin = bins[b];
         const glm::vec3 v = direct ? sky_.sun[size_t(bin)] : sky_.sky[size_t(bin)] + sky_.sun[size_t(bin)];
         for (int c = 0; c < 3; ++c)
-          for (const Cell& cell : cells) planes[(b * 3 + size_t(c)) * plane_size + cell.plane] = v[c];
+          for (const Cell& cell : cells) planes[cell.r * row_stride + (b * 3 + size_t(c)) * plane_stride + cell.x] = v[c];
       }
       return;
     }
@@ -185,7 +190,7 @@ class Edges {
       for (size_t b = 0; b < nb; ++b) {
         const size_t bin = size_t(bins[b]);
         const glm::vec3 v = (s00[bin] * (1 - fx) + s10[bin] * fx) * (1 - fy) + (s01[bin] * (1 - fx) + s11[bin] * fx) * fy;
-        for (int c = 0; c < 3; ++c) planes[(b * 3 + size_t(c)) * plane_size + cell.plane] = v[c];
+        for (int c = 0; c < 3; ++c) planes[cell.r * row_stride + (b * 3 + size_t(c)) * plane_stride + cell.x] = v[c];
       }
     }
   }
@@ -205,9 +210,19 @@ struct Pass {
   std::vector<int> bins;
   std::vector<BinPath> paths;
   bool direct = false;
-  // bins.size() * 3 planes each. Not initialised: the edges' fill writes all of src above the top
-  // level and dst's ring, and the gather every interior row of dst before a level reads it.
+  // A level's bins.size() * 3 planes (plane 3 b + c: bin b's channel c) of padded rows of w floats,
+  // interleaved by row: padded row r of every plane, then row r + 1 of every plane. A row's gather
+  // reads 11 source rows of every plane at once (the near-horizontal taps reach 5 rows away);
+  // interleaved, those are 11 contiguous runs that the prefetcher follows, not 11 x 51 separate
+  // streams (plane by plane, the gathers waited on memory: 44 % of their time on one tap's load).
+  // Not initialised: the edges' fill writes all of src above the top level and dst's ring, and
+  // the gather every interior row of dst before a level reads it.
   std::unique_ptr<float[]> src, dst;
+  size_t w = 0;  // padded row length
+  size_t planes() const { return bins.size() * 3; }
+  size_t rowStride() const { return planes() * w; }
+  float* srcRow(size_t plane, int r) const { return src.get() + size_t(r) * rowStride() + plane * w; }
+  float* dstRow(size_t plane, int r) const { return dst.get() + size_t(r) * rowStride() + plane * w; }
 };
 
 // Rows of n floats: a[x] = sum over the 5 taps of w_t s_t[x], in tap order (the reference's order
@@ -243,8 +258,9 @@ struct RowSums {
 
 // What the light grid stores of one direction along a row of n cells: the stored light (rows r, g,
 // b), less the sun's unscattered part (dr, dg, db; kMinusDirect) or clamped at 0 (kClamped), or as
-// it is; into rows vr, vg, vb and packed into code[x * kDirections] (the light grid's layout). (Two loops with addToSums, not one: GCC
-// vectorises neither half when they are fused.)
+// it is; into rows vr, vg, vb and packed into row `code` (transposeCodes puts the row's words in
+// the light grid's layout). (Two loops with addToSums, not one: GCC vectorises neither half when
+// they are fused.)
 enum class Stored { kAsIs, kClamped, kMinusDirect };
 template <Stored kMode>
 DRTV_SWEEP_CLONES void storedLight(int n, const float* __restrict r, const float* __restrict g, const float* __restrict b, const float* __restrict dr,
@@ -264,8 +280,53 @@ DRTV_SWEEP_CLONES void storedLight(int n, const float* __restrict r, const float
       vg[x] = g[x];
       vb[x] = b[x];
     }
-    code[size_t(x) * kDirections] = detail::packR11G11B10(vr[x], vg[x], vb[x]);
+    code[x] = detail::packR11G11B10(vr[x], vg[x], vb[x]);
   }
+}
+
+// A row's words from direction-major (codes[d * n + x]) to the light grid's cell-major layout
+// (grid[x * kDirections + d]). Word by word, each store was a lane extracted from a vector: the
+// packing's strided stores and the copy of the row into the grid took 15 % of the sweep. With
+// AVX2, 8 x 8 blocks are transposed in registers and stored 8 words at a time. Data movement
+// only: both versions write the same words.
+void transposeCodesScalar(const uint32_t* codes, int n, uint32_t* grid, int x0) {
+  for (int x = x0; x < n; ++x)
+    for (int d = 0; d < kDirections; ++d) grid[size_t(x) * kDirections + size_t(d)] = codes[size_t(d) * size_t(n) + size_t(x)];
+}
+#if defined(__GNUC__) && defined(__x86_64__)
+__attribute__((target("avx2"))) void transposeCodesAvx2(const uint32_t* codes, int n, uint32_t* grid) {
+  int x = 0;
+  for (; x + 8 <= n; x += 8) {
+    for (int d0 = 0; d0 + 8 <= kDirections; d0 += 8) {
+      __m256 r[8];  // directions d0..d0 + 7 of cells x..x + 7
+      for (int i = 0; i < 8; ++i) r[i] = _mm256_loadu_ps(reinterpret_cast<const float*>(codes + size_t(d0 + i) * size_t(n) + size_t(x)));
+      const __m256 t0 = _mm256_unpacklo_ps(r[0], r[1]), t1 = _mm256_unpackhi_ps(r[0], r[1]);
+      const __m256 t2 = _mm256_unpacklo_ps(r[2], r[3]), t3 = _mm256_unpackhi_ps(r[2], r[3]);
+      const __m256 t4 = _mm256_unpacklo_ps(r[4], r[5]), t5 = _mm256_unpackhi_ps(r[4], r[5]);
+      const __m256 t6 = _mm256_unpacklo_ps(r[6], r[7]), t7 = _mm256_unpackhi_ps(r[6], r[7]);
+      const __m256 u0 = _mm256_shuffle_ps(t0, t2, 0x44), u1 = _mm256_shuffle_ps(t0, t2, 0xee);
+      const __m256 u2 = _mm256_shuffle_ps(t1, t3, 0x44), u3 = _mm256_shuffle_ps(t1, t3, 0xee);
+      const __m256 u4 = _mm256_shuffle_ps(t4, t6, 0x44), u5 = _mm256_shuffle_ps(t4, t6, 0xee);
+      const __m256 u6 = _mm256_shuffle_ps(t5, t7, 0x44), u7 = _mm256_shuffle_ps(t5, t7, 0xee);
+      // Cell x + i's directions d0..d0 + 7.
+      const __m256 c[8] = {_mm256_permute2f128_ps(u0, u4, 0x20), _mm256_permute2f128_ps(u1, u5, 0x20),
+                           _mm256_permute2f128_ps(u2, u6, 0x20), _mm256_permute2f128_ps(u3, u7, 0x20),
+                           _mm256_permute2f128_ps(u0, u4, 0x31), _mm256_permute2f128_ps(u1, u5, 0x31),
+                           _mm256_permute2f128_ps(u2, u6, 0x31), _mm256_permute2f128_ps(u3, u7, 0x31)};
+      for (int i = 0; i < 8; ++i) _mm256_storeu_ps(reinterpret_cast<float*>(grid + size_t(x + i) * kDirections + size_t(d0)), c[i]);
+    }
+    for (int d = kDirections / 8 * 8; d < kDirections; ++d)
+      for (int i = 0; i < 8; ++i) grid[size_t(x + i) * kDirections + size_t(d)] = codes[size_t(d) * size_t(n) + size_t(x + i)];
+  }
+  transposeCodesScalar(codes, n, grid, x);
+}
+#endif
+void transposeCodes(const uint32_t* codes, int n, uint32_t* grid) {
+#if defined(__GNUC__) && defined(__x86_64__)
+  static const bool avx2 = __builtin_cpu_supports("avx2");
+  if (avx2) return transposeCodesAvx2(codes, n, grid);
+#endif
+  transposeCodesScalar(codes, n, grid, 0);
 }
 
 // Adds one direction's stored light (rows vr, vg, vb of n) to a row's sums (Sweeper::add, in its
@@ -443,9 +504,9 @@ class Sweeper {
         }
     for (int j = -kPad; j < g_.size.y + kPad; ++j)
       for (int i = -kPad; i < g_.size.x + kPad; ++i) {
-        const size_t pi = size_t(j + kPad) * size_t(w_) + size_t(i + kPad);
-        all_cells_.push_back({i, j, pi});
-        if (i < 0 || j < 0 || i >= g_.size.x || j >= g_.size.y) ring_cells_.push_back({i, j, pi});
+        const Edges::Cell cell{i, j, size_t(j + kPad), size_t(i + kPad)};
+        all_cells_.push_back(cell);
+        if (i < 0 || j < 0 || i >= g_.size.x || j >= g_.size.y) ring_cells_.push_back(cell);
       }
     const auto& dirs = directions();
     for (int b = 0; b < kDirections; ++b) {
@@ -480,21 +541,26 @@ class Sweeper {
     direct_leave_.assign(direct_.bins.size() * 3 * size_t(nx_), 0.f);
   }
 
-  SweptGrid run(const SkyInput& sky) {
-    SweptGrid out;
+  // Sweeps into `out` (sweepInto). The light grid's words are all written below (each row's 26
+  // words per cell, every cell's average and dominant direction), so a buffer of the right size
+  // is kept as it is; the direct grid's words outside the sun's bins stay 0, so it is zeroed.
+  void run(const SkyInput& sky, SweptGrid& out) {
     out.sky = sky;
     out.light_has_direct = o_.direct_sun;
     out.light.shape = g_;
-    out.light.light.assign(g_.cellCount() * kDirections, 0);
-    out.light.average.assign(g_.cellCount(), 0);
-    out.light.dominant.assign(g_.cellCount(), 0);
+    for (auto [v, n] : {std::pair{&out.light.light, g_.cellCount() * kDirections}, std::pair{&out.light.average, g_.cellCount()},
+                        std::pair{&out.light.dominant, g_.cellCount()}})
+      if (v->size() != n) v->assign(n, 0);
     if (o_.keep_direct) {
-      out.direct.emplace();
+      if (!out.direct) out.direct.emplace();
       out.direct->shape = g_;
       out.direct->light.assign(g_.cellCount() * kDirections, 0);
       out.direct->average.assign(g_.cellCount(), 0);
       out.direct->dominant.assign(g_.cellCount(), 0);
+    } else {
+      out.direct.reset();
     }
+    out.clear_z.clear();
     if (o_.bottom_up) {
       // The up-going pass adds to the cells' sums after the downward one: kept per cell.
       avg_.assign(g_.cellCount(), glm::vec4(0.f));
@@ -512,18 +578,17 @@ class Sweeper {
       }
     }
     for (Pass* p : {&full_, &direct_})
-      if (!p->bins.empty()) edges_.fill(nz, p->direct, p->bins, all_cells_, p->src.get(), plane_);
+      if (!p->bins.empty()) edges_.fill(nz, p->direct, p->bins, all_cells_, p->src.get(), p->w, p->rowStride());
     for (int k = nz - 1; k >= 0; --k) {
       // The open sky's ring is the same at every level, and the levels never write it: both
       // buffers have it once the first level's is filled.
       if (k == nz - 1 || !edges_.sameAtEveryLevel())
         for (Pass* p : {&full_, &direct_})
-          if (!p->bins.empty()) edges_.fill(k, p->direct, p->bins, ring_cells_, p->dst.get(), plane_);
+          if (!p->bins.empty()) edges_.fill(k, p->direct, p->bins, ring_cells_, p->dst.get(), p->w, p->rowStride());
       level(k, out);
       for (Pass* p : {&full_, &direct_}) std::swap(p->src, p->dst);
     }
     if (o_.bottom_up) bottomUp(out);
-    return out;
   }
 
  private:
@@ -537,6 +602,7 @@ class Sweeper {
       DRTV_CHECK_LE(target_len_.size(), kMaxTargetLengths);
       p.paths.push_back(std::move(path));
     }
+    p.w = size_t(w_);
     p.src.reset(new float[p.bins.size() * 3 * plane_]);
     p.dst.reset(new float[p.bins.size() * 3 * plane_]);
   }
@@ -625,15 +691,14 @@ class Sweeper {
       w[size_t(t)] = weights_.data() + size_t(t) * size_t(nx);
       wc[size_t(t)] = path.taps[size_t(t)].w;
     }
-    const size_t row = size_t(j + kPad) * size_t(w_) + size_t(kPad);
     for (int c = 0; c < 3; ++c) {
-      const float* plane = p.src.get() + (b * 3 + size_t(c)) * plane_;
+      const size_t plane = b * 3 + size_t(c);
       std::array<const float*, kTaps> s;
       for (int t = 0; t < kTaps; ++t) {
         const Tap& tap = path.taps[size_t(t)];
-        s[size_t(t)] = plane + size_t(j + kPad + tap.oy) * size_t(w_) + size_t(kPad + tap.ox);
+        s[size_t(t)] = p.srcRow(plane, j + kPad + tap.oy) + kPad + tap.ox;
       }
-      float* a = p.dst.get() + (b * 3 + size_t(c)) * plane_ + row;
+      float* a = p.dstRow(plane, j + kPad) + kPad;
       if (varying)
         weightedTaps(a, s, w, nx);
       else
@@ -647,10 +712,9 @@ class Sweeper {
       interactRow(k, j);
       storeRow(k, j, out);
       // What the cells with material send on replaces what they stored.
-      const size_t at = size_t(j + kPad) * size_t(w_) + size_t(kPad + span_lo_);
       for (const auto& [p, leave] : {std::pair{&full_, &leave_}, std::pair{&direct_, &direct_leave_}})
-        for (size_t plane = 0; plane < p->bins.size() * 3; ++plane)
-          std::memcpy(p->dst.get() + plane * plane_ + at, leave->data() + plane * size_t(nx_), size_t(span_n_) * sizeof(float));
+        for (size_t plane = 0; plane < p->planes(); ++plane)
+          std::memcpy(p->dstRow(plane, j + kPad) + kPad + span_lo_, leave->data() + plane * size_t(nx_), size_t(span_n_) * sizeof(float));
     }
   }
 
@@ -701,7 +765,7 @@ class Sweeper {
       const glm::vec3& rho = m_.reflectance[cell];
       for (int c = 0; c < 3; ++c) batch(kRho + c)[m] = rho[c];
     }
-    auto in = [&](int b, int c) { return full_.dst.get() + size_t(3 * b + c) * plane_ + row; };
+    auto in = [&](int b, int c) { return full_.dstRow(size_t(3 * b + c), j + kPad) + kPad + lo; };
     // What each direction loses in the cell, I (1 - T), normalised, summed as sum and q (columns
     // x, y, z of sum_i q_i travel_i, per channel); then the reflected light per outgoing direction.
     ReflectionRows rows{tau, fa, fb, {batch(kRho), batch(kRho + 1), batch(kRho + 2)}, {}, {}};
@@ -729,7 +793,7 @@ class Sweeper {
       const int l = direct_.paths[d].target_len_id;
       const float *t = batch(kT + l), *st = batch(kSqrtT + l);
       for (int c = 0; c < 3; ++c) {
-        float* dst = direct_.dst.get() + (d * 3 + size_t(c)) * plane_ + row;
+        float* dst = direct_.dstRow(d * 3 + size_t(c), j + kPad) + kPad + lo;
         float* leave = direct_leave_.data() + (d * 3 + size_t(c)) * size_t(nx);
         for (int m = 0; m < n; ++m) {
           const float v = dst[m];
@@ -754,19 +818,18 @@ class Sweeper {
   void storeRow(int k, int j, SweptGrid& out) {
     const int nx = nx_;
     const size_t cell0 = g_.index(0, j, k);
-    const size_t row = size_t(j + kPad) * size_t(w_) + size_t(kPad);
     std::fill(row_sums_.begin(), row_sums_.end(), 0.f);
     float* s = row_sums_.data();
     const RowSums sums{s, s + nx, s + 2 * nx, s + 3 * nx, s + 4 * nx, s + 5 * nx, s + 6 * nx};
     for (int b = 0; b < kSwept; ++b) {
-      const float* r = full_.dst.get() + size_t(3 * b) * plane_ + row;
-      const float* g = r + plane_;
-      const float* bl = g + plane_;
+      const float* r = full_.dstRow(size_t(3 * b), j + kPad) + kPad;
+      const float* g = r + w_;
+      const float* bl = g + w_;
       const int d = direct_of_bin_[size_t(b)];
-      const float* dr = d >= 0 ? direct_.dst.get() + size_t(3 * d) * plane_ + row : r;
-      const float* dg = dr + (d >= 0 ? plane_ : 0);
-      const float* db = dg + (d >= 0 ? plane_ : 0);
-      uint32_t* code = codes_.data() + size_t(b);
+      const float* dr = d >= 0 ? direct_.dstRow(size_t(3 * d), j + kPad) + kPad : r;
+      const float* dg = dr + (d >= 0 ? w_ : 0);
+      const float* db = dg + (d >= 0 ? w_ : 0);
+      uint32_t* code = codes_.data() + size_t(b) * size_t(nx);
       float *vr = values_.data(), *vg = vr + nx, *vb = vg + nx;
       if (o_.direct_sun)
         storedLight<Stored::kAsIs>(nx, r, g, bl, dr, dg, db, vr, vg, vb, code);
@@ -779,13 +842,13 @@ class Sweeper {
     }
     if (out.direct)
       for (size_t d = 0; d < direct_.bins.size(); ++d) {
-        const float* r = direct_.dst.get() + d * 3 * plane_ + row;
+        const float* r = direct_.dstRow(d * 3, j + kPad) + kPad;
         uint32_t* dst = out.direct->light.data() + cell0 * kDirections + size_t(direct_.bins[d]);
-        for (int x = 0; x < nx; ++x) dst[size_t(x) * kDirections] = detail::packR11G11B10(r[x], r[plane_ + x], r[2 * plane_ + x]);
+        for (int x = 0; x < nx; ++x) dst[size_t(x) * kDirections] = detail::packR11G11B10(r[x], r[w_ + x], r[2 * w_ + x]);
       }
     if (o_.bottom_up) {  // the up-going light comes later (bottomUp)
       clearUpGoing();
-      std::memcpy(out.light.light.data() + cell0 * kDirections, codes_.data(), codes_.size() * sizeof(uint32_t));
+      transposeCodes(codes_.data(), nx, out.light.light.data() + cell0 * kDirections);
       for (int x = 0; x < nx; ++x) {
         avg_[cell0 + size_t(x)] = {sums.r[x], sums.g[x], sums.b[x], sums.l[x]};
         dom_[cell0 + size_t(x)] = {sums.x[x], sums.y[x], sums.z[x]};
@@ -802,19 +865,19 @@ class Sweeper {
         const float* e = batch(kEmission + 3 * o + c);
         for (int m = 0; m < n; ++m) half[c * nx + m] = 0.5f * e[m];
       }
-      uint32_t* code = codes_.data() + size_t(lo) * kDirections + size_t(kSwept + o);
-      for (int m = 0; m < n; ++m) code[size_t(m) * kDirections] = detail::packR11G11B10(half[m], half[nx + m], half[2 * nx + m]);
+      uint32_t* code = codes_.data() + size_t(kSwept + o) * size_t(nx) + size_t(lo);
+      for (int m = 0; m < n; ++m) code[m] = detail::packR11G11B10(half[m], half[nx + m], half[2 * nx + m]);
       const glm::vec3 f = unit_from_[size_t(kSwept + o)];
       addToSums(n, half, half + nx, half + 2 * nx, sums.r + lo, sums.g + lo, sums.b + lo, sums.l + lo, sums.x + lo, sums.y + lo, sums.z + lo,
                 f.x, f.y, f.z);
     }
-    std::memcpy(out.light.light.data() + cell0 * kDirections, codes_.data(), codes_.size() * sizeof(uint32_t));
+    transposeCodes(codes_.data(), nx, out.light.light.data() + cell0 * kDirections);
     finishRow(nx, sums.r, sums.g, sums.b, sums.l, sums.x, sums.y, sums.z, out.light.average.data() + cell0, out.light.dominant.data() + cell0);
   }
 
   // The row's up-going words 0 (what the span's cells reflect up replaces them).
   void clearUpGoing() {
-    for (int x = 0; x < nx_; ++x) std::fill_n(codes_.data() + size_t(x) * kDirections + kSwept, kUp, 0u);
+    std::fill_n(codes_.data() + size_t(kSwept) * size_t(nx_), size_t(kUp) * size_t(nx_), 0u);
   }
 
   void add(glm::vec4& avg, glm::vec3& dom, int b, const glm::vec3& v) const {
@@ -840,7 +903,7 @@ class Sweeper {
     };
     std::fill_n(up_.src.get(), up_.bins.size() * 3 * plane_, 0.f);  // below the grid: nothing comes up
     for (int k = 0; k < nz; ++k) {
-      edges_.fill(k, false, up_.bins, ring_cells_, up_.dst.get(), plane_);
+      edges_.fill(k, false, up_.bins, ring_cells_, up_.dst.get(), up_.w, up_.rowStride());
       const float* sig = sigma_.data() + size_t(k) * plane_;
       for (int j = 0; j < ny; ++j) {
         gather(up_, nullptr, k, k - 1, j);
@@ -850,11 +913,11 @@ class Sweeper {
           const float s = sig[pi];
           for (int o = 0; o < kUp; ++o) {
             glm::vec3 v;
-            for (int c = 0; c < 3; ++c) v[c] = up_.dst[(size_t(o) * 3 + size_t(c)) * plane_ + pi];
+            for (int c = 0; c < 3; ++c) v[c] = up_.dstRow(size_t(o) * 3 + size_t(c), j + kPad)[i + kPad];
             const float t = s == 0.f ? 1.f : std::exp(-s * up_.paths[size_t(o)].target_len);
             const glm::vec3 e = emission(cell, o);
             const glm::vec3 leave = v * t + e;
-            for (int c = 0; c < 3; ++c) up_.dst[(size_t(o) * 3 + size_t(c)) * plane_ + pi] = leave[c];
+            for (int c = 0; c < 3; ++c) up_.dstRow(size_t(o) * 3 + size_t(c), j + kPad)[i + kPad] = leave[c];
             const glm::vec3 stored = v * std::sqrt(t) + 0.5f * e;
             out.light.light[cell * kDirections + size_t(kSwept + o)] = detail::packR11G11B10(stored.r, stored.g, stored.b);
             add(avg_[cell], dom_[cell], kSwept + o, stored);
@@ -908,8 +971,8 @@ class Sweeper {
   Pass full_, direct_, up_;
   std::array<int, kSwept> direct_of_bin_{};
   std::vector<float> weights_;   // kTaps rows of nx: a direction's tap weights along the row
-  // The row's words in the light grid's layout (kDirections per cell), written with strides here
-  // in L1 and copied to the grid in one piece.
+  // The row's words, direction-major (kDirections rows of nx), transposed into the grid
+  // (transposeCodes).
   std::vector<uint32_t> codes_;
   std::vector<float> row_sums_;  // kSums rows of nx
   std::vector<float> values_;    // 3 rows of nx: a direction's stored light as the grid stores it
@@ -924,10 +987,18 @@ class Sweeper {
 
 }  // namespace
 
-SweptGrid sweep(const MaterialGrid& material, const SkyInput& sky, const SweptGrid* parent, const SweepOptions& options) {
+void sweepInto(const MaterialGrid& material, const SkyInput& sky, const SweptGrid* parent, const SweepOptions& options,
+               SweptGrid& out) {
   DRTV_CHECK(options.smoothing >= 0.f && options.smoothing <= 1.f);
+  DRTV_CHECK(parent != &out);
   Sweeper s(material, sky, parent, options);
-  return s.run(sky);
+  s.run(sky, out);
+}
+
+SweptGrid sweep(const MaterialGrid& material, const SkyInput& sky, const SweptGrid* parent, const SweepOptions& options) {
+  SweptGrid out;
+  sweepInto(material, sky, parent, options, out);
+  return out;
 }
 
 }  // namespace drtv::sweep

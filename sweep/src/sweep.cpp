@@ -14,6 +14,7 @@
 #include "drtv/sweep/sweep.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -28,6 +29,10 @@
 
 #include "drtv/formats/error.h"
 #include "small_float.h"
+
+// The 8-lane helpers below are inlined into the row loops (always_inline), so how a 32-byte vector
+// is passed to a function without AVX, which GCC warns about here, never arises.
+#pragma GCC diagnostic ignored "-Wpsabi"
 
 namespace drtv::sweep {
 namespace {
@@ -250,56 +255,22 @@ DRTV_SWEEP_CLONES void constantTaps(float* __restrict a, const std::array<const 
   for (int x = 0; x < n; ++x) a[x] = w0 * s0[x] + w1 * s1[x] + w2 * s2[x] + w3 * s3[x] + w4 * s4[x];
 }
 
-// A row's sums of its cells' stored light (Sweeper::add, in its order): rgb, luminance, and
-// luminance times the unit source direction.
-struct RowSums {
-  float *r, *g, *b, *l, *x, *y, *z;
-};
-
-// What the light grid stores of one direction along a row of n cells: the stored light (rows r, g,
-// b), less the sun's unscattered part (dr, dg, db; kMinusDirect) or clamped at 0 (kClamped), or as
-// it is; into rows vr, vg, vb and packed into row `code` (transposeCodes puts the row's words in
-// the light grid's layout). (Two loops with addToSums, not one: GCC vectorises neither half when
-// they are fused.)
-enum class Stored { kAsIs, kClamped, kMinusDirect };
-template <Stored kMode>
-DRTV_SWEEP_CLONES void storedLight(int n, const float* __restrict r, const float* __restrict g, const float* __restrict b, const float* __restrict dr,
-                 const float* __restrict dg, const float* __restrict db, float* __restrict vr, float* __restrict vg, float* __restrict vb,
-                 uint32_t* __restrict code) {
-  for (int x = 0; x < n; ++x) {
-    if constexpr (kMode == Stored::kMinusDirect) {
-      vr[x] = std::max(r[x] - dr[x], 0.f);
-      vg[x] = std::max(g[x] - dg[x], 0.f);
-      vb[x] = std::max(b[x] - db[x], 0.f);
-    } else if constexpr (kMode == Stored::kClamped) {
-      vr[x] = std::max(r[x], 0.f);
-      vg[x] = std::max(g[x], 0.f);
-      vb[x] = std::max(b[x], 0.f);
-    } else {
-      vr[x] = r[x];
-      vg[x] = g[x];
-      vb[x] = b[x];
-    }
-    code[x] = detail::packR11G11B10(vr[x], vg[x], vb[x]);
-  }
-}
-
-// A row's words from direction-major (codes[d * n + x]) to the light grid's cell-major layout
+// A row's words from direction-major (codes[d * stride + x]) to the light grid's cell-major layout
 // (grid[x * kDirections + d]). Word by word, each store was a lane extracted from a vector: the
 // packing's strided stores and the copy of the row into the grid took 15 % of the sweep. With
 // AVX2, 8 x 8 blocks are transposed in registers and stored 8 words at a time. Data movement
 // only: both versions write the same words.
-void transposeCodesScalar(const uint32_t* codes, int n, uint32_t* grid, int x0) {
+void transposeCodesScalar(const uint32_t* codes, size_t stride, int n, uint32_t* grid, int x0) {
   for (int x = x0; x < n; ++x)
-    for (int d = 0; d < kDirections; ++d) grid[size_t(x) * kDirections + size_t(d)] = codes[size_t(d) * size_t(n) + size_t(x)];
+    for (int d = 0; d < kDirections; ++d) grid[size_t(x) * kDirections + size_t(d)] = codes[size_t(d) * stride + size_t(x)];
 }
 #if defined(__GNUC__) && defined(__x86_64__)
-__attribute__((target("avx2"))) void transposeCodesAvx2(const uint32_t* codes, int n, uint32_t* grid) {
+__attribute__((target("avx2"))) void transposeCodesAvx2(const uint32_t* codes, size_t stride, int n, uint32_t* grid) {
   int x = 0;
   for (; x + 8 <= n; x += 8) {
     for (int d0 = 0; d0 + 8 <= kDirections; d0 += 8) {
       __m256 r[8];  // directions d0..d0 + 7 of cells x..x + 7
-      for (int i = 0; i < 8; ++i) r[i] = _mm256_loadu_ps(reinterpret_cast<const float*>(codes + size_t(d0 + i) * size_t(n) + size_t(x)));
+      for (int i = 0; i < 8; ++i) r[i] = _mm256_loadu_ps(reinterpret_cast<const float*>(codes + size_t(d0 + i) * stride + size_t(x)));
       const __m256 t0 = _mm256_unpacklo_ps(r[0], r[1]), t1 = _mm256_unpackhi_ps(r[0], r[1]);
       const __m256 t2 = _mm256_unpacklo_ps(r[2], r[3]), t3 = _mm256_unpackhi_ps(r[2], r[3]);
       const __m256 t4 = _mm256_unpacklo_ps(r[4], r[5]), t5 = _mm256_unpackhi_ps(r[4], r[5]);
@@ -316,34 +287,17 @@ __attribute__((target("avx2"))) void transposeCodesAvx2(const uint32_t* codes, i
       for (int i = 0; i < 8; ++i) _mm256_storeu_ps(reinterpret_cast<float*>(grid + size_t(x + i) * kDirections + size_t(d0)), c[i]);
     }
     for (int d = kDirections / 8 * 8; d < kDirections; ++d)
-      for (int i = 0; i < 8; ++i) grid[size_t(x + i) * kDirections + size_t(d)] = codes[size_t(d) * size_t(n) + size_t(x + i)];
+      for (int i = 0; i < 8; ++i) grid[size_t(x + i) * kDirections + size_t(d)] = codes[size_t(d) * stride + size_t(x + i)];
   }
-  transposeCodesScalar(codes, n, grid, x);
+  transposeCodesScalar(codes, stride, n, grid, x);
 }
 #endif
-void transposeCodes(const uint32_t* codes, int n, uint32_t* grid) {
+void transposeCodes(const uint32_t* codes, size_t stride, int n, uint32_t* grid) {
 #if defined(__GNUC__) && defined(__x86_64__)
   static const bool avx2 = __builtin_cpu_supports("avx2");
-  if (avx2) return transposeCodesAvx2(codes, n, grid);
+  if (avx2) return transposeCodesAvx2(codes, stride, n, grid);
 #endif
-  transposeCodesScalar(codes, n, grid, 0);
-}
-
-// Adds one direction's stored light (rows vr, vg, vb of n) to a row's sums (Sweeper::add, in its
-// order): rgb, luminance, and luminance times the unit source direction (fx, fy, fz).
-DRTV_SWEEP_CLONES void addToSums(int n, const float* __restrict vr, const float* __restrict vg, const float* __restrict vb, float* __restrict sr,
-               float* __restrict sg, float* __restrict sb, float* __restrict sl, float* __restrict sx, float* __restrict sy,
-               float* __restrict sz, float fx, float fy, float fz) {
-  for (int x = 0; x < n; ++x) {
-    sr[x] += vr[x];
-    sg[x] += vg[x];
-    sb[x] += vb[x];
-    const float l = 0.2126f * vr[x] + 0.7152f * vg[x] + 0.0722f * vb[x];
-    sl[x] += l;
-    sx[x] += l * fx;
-    sy[x] += l * fy;
-    sz[x] += l * fz;
-  }
+  transposeCodesScalar(codes, stride, n, grid, 0);
 }
 
 // One component of glm::packSnorm4x8 without libm's roundf: clamp to [-1, 1], times 127, rounded
@@ -359,17 +313,108 @@ inline uint32_t snormByte(float d) {
 // glm::packSnorm4x8(vec4(d, 0)).
 uint32_t packDirection(const glm::vec3& d) { return snormByte(d.x) | (snormByte(d.y) << 8) | (snormByte(d.z) << 16); }
 
-// A row's average light (the rgb sums over 4 pi) and dominant direction (the luminance-weighted
-// direction sums over the luminance sum, 0 without light), packed: Sweeper::finish for n cells.
-DRTV_SWEEP_CLONES void finishRow(int n, const float* __restrict sr, const float* __restrict sg, const float* __restrict sb,
-                                 const float* __restrict sl, const float* __restrict sx, const float* __restrict sy,
-                                 const float* __restrict sz, uint32_t* __restrict average, uint32_t* __restrict dominant) {
-  for (int x = 0; x < n; ++x) average[x] = detail::packR11G11B10(sr[x] / kFourPi, sg[x] / kFourPi, sb[x] / kFourPi);
-  for (int x = 0; x < n; ++x) {
-    const float w = sl[x];
-    const bool lit = w > 0;
-    const float dx = lit ? sx[x] / w : 0.f, dy = lit ? sy[x] / w : 0.f, dz = lit ? sz[x] / w : 0.f;
-    dominant[x] = snormByte(dx) | (snormByte(dy) << 8) | (snormByte(dz) << 16);
+// 8 lanes of GCC's vector extensions (GCC and Clang): in the AVX2 clone one register, in the
+// baseline two SSE ones; either way the same IEEE operations lane by lane as the scalar
+// functions they mirror (snormByte, detail::packR11G11B10), so the same bits.
+using V8f = float __attribute__((vector_size(32)));
+using V8i = int32_t __attribute__((vector_size(32)));
+using V8u = uint32_t __attribute__((vector_size(32)));
+constexpr int kLanes = 8;
+
+[[gnu::always_inline]] inline V8f load8(const float* p) {
+  V8f v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+template <class V, class T>
+[[gnu::always_inline]] inline void store8(T* p, V v) {
+  static_assert(sizeof(V) == kLanes * sizeof(T));
+  std::memcpy(p, &v, sizeof v);
+}
+
+// detail::packSmall, 8 lanes.
+template <int kMant>
+[[gnu::always_inline]] inline V8u packSmall8(V8f v) {
+  constexpr int kShift = 23 - kMant;
+  constexpr int32_t kMax = (30 << kMant) | ((1 << kMant) - 1);
+  const V8u b = std::bit_cast<V8u>(v);
+  const V8i r = V8i(((b - (112u << 23)) + (1u << (kShift - 1))) >> kShift);
+  const V8i clamped = r < kMax ? r : V8i{} + kMax;
+  return V8u(v >= 6.103515625e-05f ? clamped : V8i{});
+}
+[[gnu::always_inline]] inline V8u packR11G11B10x8(V8f r, V8f g, V8f b) {
+  return packSmall8<6>(r) | (packSmall8<6>(g) << 11) | (packSmall8<5>(b) << 22);
+}
+
+// snormByte, 8 lanes (a comparison's lanes are -1 where true).
+[[gnu::always_inline]] inline V8u snormByte8(V8f d) {
+  const V8f lo = d < -1.f ? V8f{} - 1.f : d;      // std::max(d, -1)
+  const V8f hi = 1.f < lo ? V8f{} + 1.f : lo;     // std::min(lo, 1)
+  const V8f v = hi * 127.f;
+  const V8i i = __builtin_convertvector(v, V8i);  // truncates, as int(v)
+  const V8f f = v - __builtin_convertvector(i, V8f);
+  const V8i rounded = i - V8i(f >= 0.5f) + V8i(f <= -0.5f);
+  return V8u(rounded) & 0xffu;
+}
+
+// One row's stored light, per direction d and channel c a row of n floats (light[d][c]); for the
+// down-going directions also the sun's unscattered part to take off (direct[d][c], a row of 0
+// where the bin has none). Rows are read, and written, in whole groups of kLanes: each has room
+// up to n rounded up (what lies there is computed and not used).
+struct StoreRows {
+  std::array<std::array<const float*, 3>, kDirections> light;
+  std::array<std::array<const float*, 3>, kSwept> direct;
+  std::array<glm::vec3, kDirections> from;  // unit source directions
+  int directions = kDirections;             // the first ones stored (kSwept: the up-going ones come later)
+};
+
+// The light grid's words for a row of n cells, in one pass over the cells kLanes at a time, the
+// sums of the cell's light in registers (Sweeper::add's order: direction by direction, rgb,
+// luminance, luminance times the unit source direction):
+//  - each direction's stored light, less the sun's unscattered part and clamped at 0 for the
+//    down-going ones (kSubtract; without it, as it is: direct_sun), packed into row d of
+//    `codes` (direction-major, `code_stride` words a row; transposeCodes puts them in the grid's
+//    layout);
+//  - kFinish: the cells' average light (the rgb sums over 4 pi) and dominant direction (the
+//    luminance-weighted direction sums over the luminance sum, 0 without light), packed
+//    (Sweeper::finish); otherwise the 7 sums, rows of `sum_stride` (bottom_up adds to them).
+// Was one loop per direction for the packing and one for the sums, which loaded and stored the 7
+// sums per direction, then a loop to finish: 23 % of the sweep's instructions.
+template <bool kSubtract, bool kFinish>
+DRTV_SWEEP_CLONES void storeCells(int n, const StoreRows& s, uint32_t* __restrict codes, size_t code_stride, float* __restrict sums,
+                                  size_t sum_stride, uint32_t* __restrict average, uint32_t* __restrict dominant) {
+  for (int x = 0; x < n; x += kLanes) {
+    V8f sr{}, sg{}, sb{}, sl{}, sx{}, sy{}, sz{};
+    for (int d = 0; d < s.directions; ++d) {
+      V8f r = load8(s.light[size_t(d)][0] + x), g = load8(s.light[size_t(d)][1] + x), b = load8(s.light[size_t(d)][2] + x);
+      if (kSubtract && d < kSwept) {  // std::max(light - direct, 0)
+        r = r - load8(s.direct[size_t(d)][0] + x);
+        g = g - load8(s.direct[size_t(d)][1] + x);
+        b = b - load8(s.direct[size_t(d)][2] + x);
+        r = r < 0.f ? V8f{} : r;
+        g = g < 0.f ? V8f{} : g;
+        b = b < 0.f ? V8f{} : b;
+      }
+      store8(codes + size_t(d) * code_stride + size_t(x), packR11G11B10x8(r, g, b));
+      sr += r;
+      sg += g;
+      sb += b;
+      const V8f l = 0.2126f * r + 0.7152f * g + 0.0722f * b;
+      const glm::vec3 f = s.from[size_t(d)];
+      sl += l;
+      sx += l * f.x;
+      sy += l * f.y;
+      sz += l * f.z;
+    }
+    if constexpr (kFinish) {
+      store8(average + x, packR11G11B10x8(sr / kFourPi, sg / kFourPi, sb / kFourPi));
+      const auto lit = sl > 0.f;
+      const V8f dx = lit ? sx / sl : V8f{}, dy = lit ? sy / sl : V8f{}, dz = lit ? sz / sl : V8f{};
+      store8(dominant + x, snormByte8(dx) | (snormByte8(dy) << 8) | (snormByte8(dz) << 16));
+    } else {
+      int row = 0;
+      for (const V8f v : {sr, sg, sb, sl, sx, sy, sz}) store8(sums + size_t(row++) * sum_stride + size_t(x), v);
+    }
   }
 }
 
@@ -533,9 +578,18 @@ class Sweeper {
     for (int b = kSwept; b < kDirections; ++b) up_.bins.push_back(b);
     if (o_.bottom_up) setUp(up_);
     weights_.assign(size_t(kTaps) * size_t(nx_), 0.f);
-    codes_.assign(size_t(kDirections) * size_t(nx_), 0u);
-    row_sums_.assign(size_t(kSums) * size_t(nx_), 0.f);
-    values_.assign(3 * size_t(nx_), 0.f);
+    stride_ = (size_t(nx_) + kLanes - 1) / kLanes * kLanes;
+    codes_.assign(size_t(kDirections) * stride_, 0u);
+    row_sums_.assign(size_t(kSums) * stride_, 0.f);
+    up_half_.assign(size_t(3 * kUp) * stride_, 0.f);
+    zeros_.assign(stride_, 0.f);
+    average_.assign(stride_, 0u);
+    dominant_.assign(stride_, 0u);
+    for (int o = 0; o < kUp; ++o) {
+      const float* h = up_half_.data() + size_t(3 * o) * stride_;
+      store_rows_.light[size_t(kSwept + o)] = {h, h + stride_, h + 2 * stride_};
+    }
+    for (int b = 0; b < kDirections; ++b) store_rows_.from[size_t(b)] = unit_from_[size_t(b)];
     batch_.assign(size_t(kBatchRows) * size_t(nx_), 0.f);
     leave_.assign(size_t(3 * kSwept) * size_t(nx_), 0.f);
     direct_leave_.assign(direct_.bins.size() * 3 * size_t(nx_), 0.f);
@@ -603,8 +657,9 @@ class Sweeper {
       p.paths.push_back(std::move(path));
     }
     p.w = size_t(w_);
-    p.src.reset(new float[p.bins.size() * 3 * plane_]);
-    p.dst.reset(new float[p.bins.size() * 3 * plane_]);
+    // kLanes more: storeCells reads rows in whole groups of kLanes, past the last row's end.
+    p.src.reset(new float[p.bins.size() * 3 * plane_ + kLanes]);
+    p.dst.reset(new float[p.bins.size() * 3 * plane_ + kLanes]);
   }
 
   static int lengthId(std::vector<float>& lengths, float len) {
@@ -818,27 +873,13 @@ class Sweeper {
   void storeRow(int k, int j, SweptGrid& out) {
     const int nx = nx_;
     const size_t cell0 = g_.index(0, j, k);
-    std::fill(row_sums_.begin(), row_sums_.end(), 0.f);
-    float* s = row_sums_.data();
-    const RowSums sums{s, s + nx, s + 2 * nx, s + 3 * nx, s + 4 * nx, s + 5 * nx, s + 6 * nx};
+    StoreRows& rows = store_rows_;
     for (int b = 0; b < kSwept; ++b) {
       const float* r = full_.dstRow(size_t(3 * b), j + kPad) + kPad;
-      const float* g = r + w_;
-      const float* bl = g + w_;
+      rows.light[size_t(b)] = {r, r + w_, r + 2 * w_};
       const int d = direct_of_bin_[size_t(b)];
-      const float* dr = d >= 0 ? direct_.dstRow(size_t(3 * d), j + kPad) + kPad : r;
-      const float* dg = dr + (d >= 0 ? w_ : 0);
-      const float* db = dg + (d >= 0 ? w_ : 0);
-      uint32_t* code = codes_.data() + size_t(b) * size_t(nx);
-      float *vr = values_.data(), *vg = vr + nx, *vb = vg + nx;
-      if (o_.direct_sun)
-        storedLight<Stored::kAsIs>(nx, r, g, bl, dr, dg, db, vr, vg, vb, code);
-      else if (d >= 0)
-        storedLight<Stored::kMinusDirect>(nx, r, g, bl, dr, dg, db, vr, vg, vb, code);
-      else
-        storedLight<Stored::kClamped>(nx, r, g, bl, dr, dg, db, vr, vg, vb, code);
-      const glm::vec3 f = unit_from_[size_t(b)];
-      addToSums(nx, vr, vg, vb, sums.r, sums.g, sums.b, sums.l, sums.x, sums.y, sums.z, f.x, f.y, f.z);
+      const float* dr = d >= 0 ? direct_.dstRow(size_t(3 * d), j + kPad) + kPad : zeros_.data();
+      rows.direct[size_t(b)] = {dr, d >= 0 ? dr + w_ : dr, d >= 0 ? dr + 2 * w_ : dr};
     }
     if (out.direct)
       for (size_t d = 0; d < direct_.bins.size(); ++d) {
@@ -846,38 +887,41 @@ class Sweeper {
         uint32_t* dst = out.direct->light.data() + cell0 * kDirections + size_t(direct_.bins[d]);
         for (int x = 0; x < nx; ++x) dst[size_t(x) * kDirections] = detail::packR11G11B10(r[x], r[w_ + x], r[2 * w_ + x]);
       }
-    if (o_.bottom_up) {  // the up-going light comes later (bottomUp)
-      clearUpGoing();
-      transposeCodes(codes_.data(), nx, out.light.light.data() + cell0 * kDirections);
+    uint32_t* grid = out.light.light.data() + cell0 * kDirections;
+    if (o_.bottom_up) {  // the up-going light comes later (bottomUp); its words are 0 in codes_
+      rows.directions = kSwept;
+      if (o_.direct_sun)
+        storeCells<false, false>(nx, rows, codes_.data(), stride_, row_sums_.data(), stride_, nullptr, nullptr);
+      else
+        storeCells<true, false>(nx, rows, codes_.data(), stride_, row_sums_.data(), stride_, nullptr, nullptr);
+      transposeCodes(codes_.data(), stride_, nx, grid);
+      const float* sum = row_sums_.data();
       for (int x = 0; x < nx; ++x) {
-        avg_[cell0 + size_t(x)] = {sums.r[x], sums.g[x], sums.b[x], sums.l[x]};
-        dom_[cell0 + size_t(x)] = {sums.x[x], sums.y[x], sums.z[x]};
+        const auto at = [&](int row) { return sum[size_t(row) * stride_ + size_t(x)]; };
+        avg_[cell0 + size_t(x)] = {at(0), at(1), at(2), at(3)};
+        dom_[cell0 + size_t(x)] = {at(4), at(5), at(6)};
       }
       return;
     }
-    // The up-going directions without the bottom-up pass: the cells' own reflected light, halved
-    // (0 in the span's empty cells, which adds nothing).
+    // The up-going directions without the bottom-up pass: the cells' own reflected light, halved;
+    // 0 outside the span (the rows' previous span is cleared), which adds nothing to the sums.
     const int n = span_n_, lo = span_lo_;
-    clearUpGoing();
-    for (int o = 0; o < kUp && n > 0; ++o) {
-      float* half = batch(kHalf);
-      for (int c = 0; c < 3; ++c) {
-        const float* e = batch(kEmission + 3 * o + c);
-        for (int m = 0; m < n; ++m) half[c * nx + m] = 0.5f * e[m];
-      }
-      uint32_t* code = codes_.data() + size_t(kSwept + o) * size_t(nx) + size_t(lo);
-      for (int m = 0; m < n; ++m) code[m] = detail::packR11G11B10(half[m], half[nx + m], half[2 * nx + m]);
-      const glm::vec3 f = unit_from_[size_t(kSwept + o)];
-      addToSums(n, half, half + nx, half + 2 * nx, sums.r + lo, sums.g + lo, sums.b + lo, sums.l + lo, sums.x + lo, sums.y + lo, sums.z + lo,
-                f.x, f.y, f.z);
+    for (int row = 0; row < 3 * kUp; ++row) {
+      float* half = up_half_.data() + size_t(row) * stride_;
+      std::fill_n(half + half_lo_, half_n_, 0.f);
+      const float* e = batch(kEmission + row);
+      for (int m = 0; m < n; ++m) half[lo + m] = 0.5f * e[m];
     }
-    transposeCodes(codes_.data(), nx, out.light.light.data() + cell0 * kDirections);
-    finishRow(nx, sums.r, sums.g, sums.b, sums.l, sums.x, sums.y, sums.z, out.light.average.data() + cell0, out.light.dominant.data() + cell0);
-  }
-
-  // The row's up-going words 0 (what the span's cells reflect up replaces them).
-  void clearUpGoing() {
-    std::fill_n(codes_.data() + size_t(kSwept) * size_t(nx_), size_t(kUp) * size_t(nx_), 0u);
+    half_lo_ = lo;
+    half_n_ = n;
+    rows.directions = kDirections;
+    if (o_.direct_sun)
+      storeCells<false, true>(nx, rows, codes_.data(), stride_, nullptr, 0, average_.data(), dominant_.data());
+    else
+      storeCells<true, true>(nx, rows, codes_.data(), stride_, nullptr, 0, average_.data(), dominant_.data());
+    transposeCodes(codes_.data(), stride_, nx, grid);
+    std::memcpy(out.light.average.data() + cell0, average_.data(), size_t(nx) * sizeof(uint32_t));
+    std::memcpy(out.light.dominant.data() + cell0, dominant_.data(), size_t(nx) * sizeof(uint32_t));
   }
 
   void add(glm::vec4& avg, glm::vec3& dom, int b, const glm::vec3& v) const {
@@ -945,8 +989,7 @@ class Sweeper {
   static constexpr int kSum = kRho + 3;
   static constexpr int kQ = kSum + 3;
   static constexpr int kEmission = kQ + 9;
-  static constexpr int kHalf = kEmission + 3 * kUp;
-  static constexpr int kBatchRows = kHalf + 3;
+  static constexpr int kBatchRows = kEmission + 3 * kUp;
 
   struct LevelFactors {
     int level = std::numeric_limits<int>::min();
@@ -974,8 +1017,13 @@ class Sweeper {
   // The row's words, direction-major (kDirections rows of nx), transposed into the grid
   // (transposeCodes).
   std::vector<uint32_t> codes_;
-  std::vector<float> row_sums_;  // kSums rows of nx
-  std::vector<float> values_;    // 3 rows of nx: a direction's stored light as the grid stores it
+  size_t stride_ = 0;             // nx_ rounded up to kLanes: the rows below
+  std::vector<float> row_sums_;  // kSums rows: bottom_up, the cells' sums (storeCells)
+  std::vector<float> up_half_;   // 3 kUp rows: the up-going light stored without bottom_up
+  int half_lo_ = 0, half_n_ = 0;  // the cells of up_half_ not 0: the last row's span
+  std::vector<float> zeros_;     // one row of 0: the sun's unscattered light of a bin without it
+  std::vector<uint32_t> average_, dominant_;  // one row each: storeCells' words before the grid's
+  StoreRows store_rows_;
   int span_lo_ = 0, span_n_ = 0;  // the row's span of cells with material (interactRow)
   std::vector<float> batch_;     // kBatchRows rows of nx
   std::vector<float> leave_, direct_leave_;  // per pass, bins * 3 rows of nx: what the batch sends on

@@ -230,31 +230,6 @@ struct Pass {
   float* dstRow(size_t plane, int r) const { return dst.get() + size_t(r) * rowStride() + plane * w; }
 };
 
-// Rows of n floats: a[x] = sum over the 5 taps of w_t s_t[x], in tap order (the reference's order
-// of accumulation), with per-x weights or, where no crossed cell holds material, constant ones.
-DRTV_SWEEP_CLONES void weightedTaps(float* __restrict a, const std::array<const float*, kTaps>& s, const std::array<const float*, kTaps>& w, int n) {
-  const float* __restrict s0 = s[0];
-  const float* __restrict s1 = s[1];
-  const float* __restrict s2 = s[2];
-  const float* __restrict s3 = s[3];
-  const float* __restrict s4 = s[4];
-  const float* __restrict w0 = w[0];
-  const float* __restrict w1 = w[1];
-  const float* __restrict w2 = w[2];
-  const float* __restrict w3 = w[3];
-  const float* __restrict w4 = w[4];
-  for (int x = 0; x < n; ++x) a[x] = w0[x] * s0[x] + w1[x] * s1[x] + w2[x] * s2[x] + w3[x] * s3[x] + w4[x] * s4[x];
-}
-DRTV_SWEEP_CLONES void constantTaps(float* __restrict a, const std::array<const float*, kTaps>& s, const std::array<float, kTaps>& w, int n) {
-  const float* __restrict s0 = s[0];
-  const float* __restrict s1 = s[1];
-  const float* __restrict s2 = s[2];
-  const float* __restrict s3 = s[3];
-  const float* __restrict s4 = s[4];
-  const float w0 = w[0], w1 = w[1], w2 = w[2], w3 = w[3], w4 = w[4];
-  for (int x = 0; x < n; ++x) a[x] = w0 * s0[x] + w1 * s1[x] + w2 * s2[x] + w3 * s3[x] + w4 * s4[x];
-}
-
 // A row's words from direction-major (codes[d * stride + x]) to the light grid's cell-major layout
 // (grid[x * kDirections + d]). Word by word, each store was a lane extracted from a vector: the
 // packing's strided stores and the copy of the row into the grid took 15 % of the sweep. With
@@ -418,6 +393,68 @@ DRTV_SWEEP_CLONES void storeCells(int n, const StoreRows& s, uint32_t* __restric
   }
 }
 
+// The most material cells one tap's path crosses (makePath; checked in Sweeper::setUp).
+constexpr int kMaxCrossed = 8;
+
+// One direction's gather along a row of n cells, its 3 channels at once (channel c's rows are
+// c * stride after channel 0's): a[x] = the sum over the taps t, in tap order (the reference's
+// order of accumulation), of w_t[x] s[t][x], where
+// w_t[x] is the tap's weight times the product, in order, of its crossed material cells' factors
+// (rows f[t][0..nf[t]), or the weight alone (all of them without kVarying). Rows are read in whole
+// groups of kLanes (room up to n rounded up); the stores stop at n.
+struct TapRows {
+  std::array<float, kTaps> w{};
+  std::array<int, kTaps> nf{};
+  std::array<std::array<const float*, kMaxCrossed>, kTaps> f{};
+  std::array<const float*, kTaps> s{};
+  float* a = nullptr;
+  size_t stride = 0;
+};
+
+[[gnu::always_inline]] inline V8f splat8(float v) {
+  V8f r;
+  for (int i = 0; i < kLanes; ++i) r[i] = v;
+  return r;
+}
+
+// Tap t's weights at cells x..x + kLanes - 1 (gatherRow).
+[[gnu::always_inline]] inline V8f tapWeight(const TapRows& g, int nf, int t, int x, V8f w) {
+  if (nf == 0) return w;
+  const std::array<const float*, kMaxCrossed>& f = g.f[size_t(t)];
+  V8f p = load8(f[0] + x);
+  for (int c = 1; c < nf; ++c) p = p * load8(f[size_t(c)] + x);
+  return w * p;
+}
+
+// The weights' rows of the first version: a row of each crossed factor, multiplied in, then the
+// tap's weight; one loop per tap and channel: with 3 channels and the weights in registers, 8 %
+// of the sweep's instructions go.
+template <bool kVarying>
+DRTV_SWEEP_CLONES void gatherRow(int n, const TapRows& g) {
+  const float *s0 = g.s[0], *s1 = g.s[1], *s2 = g.s[2], *s3 = g.s[3], *s4 = g.s[4];
+  float* __restrict a = g.a;
+  const size_t stride = g.stride;
+  // Copies: the stores through `a` could alias g's weights for all the compiler knows.
+  const V8f c0 = splat8(g.w[0]), c1 = splat8(g.w[1]), c2 = splat8(g.w[2]), c3 = splat8(g.w[3]), c4 = splat8(g.w[4]);
+  const int nf0 = g.nf[0], nf1 = g.nf[1], nf2 = g.nf[2], nf3 = g.nf[3], nf4 = g.nf[4];
+  for (int x = 0; x < n; x += kLanes) {
+    const V8f w[kTaps] = {kVarying ? tapWeight(g, nf0, 0, x, c0) : c0, kVarying ? tapWeight(g, nf1, 1, x, c1) : c1,
+                          kVarying ? tapWeight(g, nf2, 2, x, c2) : c2, kVarying ? tapWeight(g, nf3, 3, x, c3) : c3,
+                          kVarying ? tapWeight(g, nf4, 4, x, c4) : c4};
+    for (size_t c = 0; c < 3; ++c) {
+      const size_t at = c * stride + size_t(x);
+      const V8f v = w[0] * load8(s0 + at) + w[1] * load8(s1 + at) + w[2] * load8(s2 + at) + w[3] * load8(s3 + at) + w[4] * load8(s4 + at);
+      if (x + kLanes <= n) {
+        store8(a + at, v);
+      } else {
+        float tail[kLanes];
+        store8(tail, v);
+        std::copy_n(tail, n - x, a + at);
+      }
+    }
+  }
+}
+
 // The batch's rows for the reflection (Sweeper::interactRow), per cell of a span: the cell's
 // pass-through tau and (1 +- tau) / 2, its reflectance, and the sums of what it stops (sum, and q:
 // q[3 axis + channel] = sum_i q_i travel_i).
@@ -504,14 +541,6 @@ DRTV_SWEEP_CLONES void reflectUp(int n, const ReflectionRows& w, float ux, float
 }
 #undef DRTV_SWEEP_REFLECTED
 
-// w[x] *= f[x], and w[x] = s w[x]: a tap's weight along a row, crossed cell by crossed cell.
-DRTV_SWEEP_CLONES void multiplyRow(float* __restrict w, const float* __restrict f, int n) {
-  for (int x = 0; x < n; ++x) w[x] *= f[x];
-}
-DRTV_SWEEP_CLONES void scaleRow(float* __restrict w, float s, int n) {
-  for (int x = 0; x < n; ++x) w[x] = s * w[x];
-}
-
 class Sweeper {
  public:
   Sweeper(const MaterialGrid& m, const SkyInput& sky, const SweptGrid* parent, const SweepOptions& o)
@@ -577,7 +606,6 @@ class Sweeper {
     up_.direct = false;
     for (int b = kSwept; b < kDirections; ++b) up_.bins.push_back(b);
     if (o_.bottom_up) setUp(up_);
-    weights_.assign(size_t(kTaps) * size_t(nx_), 0.f);
     stride_ = (size_t(nx_) + kLanes - 1) / kLanes * kLanes;
     codes_.assign(size_t(kDirections) * stride_, 0u);
     row_sums_.assign(size_t(kSums) * stride_, 0.f);
@@ -650,8 +678,10 @@ class Sweeper {
     for (int b : p.bins) {
       BinPath path = pathGeometry(b);
       for (int t = 0; t < kTaps; ++t) path.taps[size_t(t)].w = t == 0 ? o_.smoothing : (1.f - o_.smoothing) / 4.f;  // as makePath
-      for (Tap& t : path.taps)
+      for (Tap& t : path.taps) {
+        DRTV_CHECK_LE(t.crossed.size(), size_t(kMaxCrossed));
         for (Crossed& c : t.crossed) c.len_id = lengthId(crossed_len_, c.len);
+      }
       path.target_len_id = lengthId(target_len_, path.target_len);
       DRTV_CHECK_LE(target_len_.size(), kMaxTargetLengths);
       p.paths.push_back(std::move(path));
@@ -682,7 +712,7 @@ class Sweeper {
       if (f.level == k) return f.planes.data();
     LevelFactors& f = factors_[0].level == keep ? factors_[1] : factors_[0];
     f.level = k;
-    f.planes.resize(crossed_len_.size() * plane_);
+    f.planes.resize(crossed_len_.size() * plane_ + kLanes);  // kLanes: gatherRow reads whole groups
     const float* sig = sigma_.data() + size_t(k) * plane_;
     for (size_t l = 0; l < crossed_len_.size(); ++l) {
       float* out = f.planes.data() + l * plane_;
@@ -707,58 +737,40 @@ class Sweeper {
     const bool src_material = src_in && level_has_material_[size_t(k_src)] != 0;
     const float* f_target = target_material ? factors(k, src_material ? k_src : k) : nullptr;
     const float* f_src = src_material ? factors(k_src, k) : nullptr;
+    TapRows g;
     for (size_t b = 0; b < p.bins.size(); ++b) {
       const BinPath& path = p.paths[b];
-      std::array<bool, kTaps> varying{};
       bool any = false;
       for (int t = 0; t < kTaps; ++t) {
         const Tap& tap = path.taps[size_t(t)];
-        float* w = weights_.data() + size_t(t) * size_t(nx);
+        g.w[size_t(t)] = tap.w;
+        int nf = 0;
         for (const Crossed& c : tap.crossed) {
           const float* f = c.src_level ? f_src : f_target;
           const int r = j + kPad + c.dy, x0 = kPad + c.dx;
           if (!f || !hasMaterial(c.src_level ? k_src : k, r, x0, x0 + nx - 1)) continue;
-          const float* fr = f + size_t(c.len_id) * plane_ + size_t(r) * size_t(w_) + size_t(x0);
-          if (!varying[size_t(t)])
-            std::memcpy(w, fr, size_t(nx) * sizeof(float));
-          else
-            multiplyRow(w, fr, nx);
-          varying[size_t(t)] = true;
+          g.f[size_t(t)][size_t(nf++)] = f + size_t(c.len_id) * plane_ + size_t(r) * size_t(w_) + size_t(x0);
         }
-        if (varying[size_t(t)]) {
-          scaleRow(w, tap.w, nx);
-          any = true;
-        }
+        g.nf[size_t(t)] = nf;
+        any = any || nf > 0;
       }
-      if (any)
-        for (int t = 0; t < kTaps; ++t)
-          if (!varying[size_t(t)]) std::fill_n(weights_.data() + size_t(t) * size_t(nx), nx, path.taps[size_t(t)].w);
-      gatherDirection(p, b, path, any, j);
-      if (q && direct_of_bin_[size_t(path.bin)] >= 0) gatherDirection(*q, size_t(direct_of_bin_[size_t(path.bin)]), path, any, j);
+      gatherDirection(p, b, path, any, j, g);
+      if (q && direct_of_bin_[size_t(path.bin)] >= 0) gatherDirection(*q, size_t(direct_of_bin_[size_t(path.bin)]), path, any, j, g);
     }
   }
 
-  void gatherDirection(Pass& p, size_t b, const BinPath& path, bool varying, int j) {
-    const int nx = nx_;
-    std::array<const float*, kTaps> w;
-    std::array<float, kTaps> wc;
+  // Direction b of pass p along row j, with the taps' weights in g.
+  void gatherDirection(Pass& p, size_t b, const BinPath& path, bool varying, int j, TapRows& g) {
     for (int t = 0; t < kTaps; ++t) {
-      w[size_t(t)] = weights_.data() + size_t(t) * size_t(nx);
-      wc[size_t(t)] = path.taps[size_t(t)].w;
+      const Tap& tap = path.taps[size_t(t)];
+      g.s[size_t(t)] = p.srcRow(b * 3, j + kPad + tap.oy) + kPad + tap.ox;
     }
-    for (int c = 0; c < 3; ++c) {
-      const size_t plane = b * 3 + size_t(c);
-      std::array<const float*, kTaps> s;
-      for (int t = 0; t < kTaps; ++t) {
-        const Tap& tap = path.taps[size_t(t)];
-        s[size_t(t)] = p.srcRow(plane, j + kPad + tap.oy) + kPad + tap.ox;
-      }
-      float* a = p.dstRow(plane, j + kPad) + kPad;
-      if (varying)
-        weightedTaps(a, s, w, nx);
-      else
-        constantTaps(a, s, wc, nx);
-    }
+    g.a = p.dstRow(b * 3, j + kPad) + kPad;
+    g.stride = p.w;  // a row's planes follow each other (Pass)
+    if (varying)
+      gatherRow<true>(nx_, g);
+    else
+      gatherRow<false>(nx_, g);
   }
 
   void level(int k, SweptGrid& out) {
@@ -1013,7 +1025,6 @@ class Sweeper {
   std::array<glm::vec3, kDirections> travel_{}, unit_from_{};
   Pass full_, direct_, up_;
   std::array<int, kSwept> direct_of_bin_{};
-  std::vector<float> weights_;   // kTaps rows of nx: a direction's tap weights along the row
   // The row's words, direction-major (kDirections rows of nx), transposed into the grid
   // (transposeCodes).
   std::vector<uint32_t> codes_;

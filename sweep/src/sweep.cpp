@@ -57,6 +57,8 @@ struct Crossed {
   bool src_level;
   float len;
   int len_id = -1;  // its length's factor plane (Sweeper::crossed_len_)
+  // Its factor row's offset from the target's row in a level's factor planes (Sweeper::setUp).
+  ptrdiff_t offset = 0;
 };
 struct Tap {
   int ox, oy;  // source offset from the target, cells
@@ -157,11 +159,18 @@ class Edges {
             size_t plane_stride, size_t row_stride) {
     const size_t nb = bins.size();
     if (!parent_) {
+      // The same light in every cell: runs of cells along a row are filled at once (the top
+      // level's fill, cell by cell, was 3 % of the sector's sweep).
       for (size_t b = 0; b < nb; ++b) {
         const int bin = bins[b];
         const glm::vec3 v = direct ? sky_.sun[size_t(bin)] : sky_.sky[size_t(bin)] + sky_.sun[size_t(bin)];
-        for (int c = 0; c < 3; ++c)
-          for (const Cell& cell : cells) planes[cell.r * row_stride + (b * 3 + size_t(c)) * plane_stride + cell.x] = v[c];
+        for (size_t first = 0; first < cells.size();) {
+          size_t last = first + 1;
+          while (last < cells.size() && cells[last].r == cells[first].r && cells[last].x == cells[last - 1].x + 1) ++last;
+          for (int c = 0; c < 3; ++c)
+            std::fill_n(planes + cells[first].r * row_stride + (b * 3 + size_t(c)) * plane_stride + cells[first].x, last - first, v[c]);
+          first = last;
+        }
       }
       return;
     }
@@ -302,14 +311,14 @@ constexpr int kLanes = 8;
   return v;
 }
 template <class V, class T>
-[[gnu::always_inline]] inline void store8(T* p, V v) {
+[[gnu::always_inline]] inline void store8(T* p, const V& v) {
   static_assert(sizeof(V) == kLanes * sizeof(T));
   std::memcpy(p, &v, sizeof v);
 }
 
 // detail::packSmall, 8 lanes.
 template <int kMant>
-[[gnu::always_inline]] inline V8u packSmall8(V8f v) {
+[[gnu::always_inline]] inline V8u packSmall8(const V8f& v) {
   constexpr int kShift = 23 - kMant;
   constexpr int32_t kMax = (30 << kMant) | ((1 << kMant) - 1);
   const V8u b = std::bit_cast<V8u>(v);
@@ -317,12 +326,12 @@ template <int kMant>
   const V8i clamped = r < kMax ? r : V8i{} + kMax;
   return V8u(v >= 6.103515625e-05f ? clamped : V8i{});
 }
-[[gnu::always_inline]] inline V8u packR11G11B10x8(V8f r, V8f g, V8f b) {
+[[gnu::always_inline]] inline V8u packR11G11B10x8(const V8f& r, const V8f& g, const V8f& b) {
   return packSmall8<6>(r) | (packSmall8<6>(g) << 11) | (packSmall8<5>(b) << 22);
 }
 
 // snormByte, 8 lanes (a comparison's lanes are -1 where true).
-[[gnu::always_inline]] inline V8u snormByte8(V8f d) {
+[[gnu::always_inline]] inline V8u snormByte8(const V8f& d) {
   const V8f lo = d < -1.f ? V8f{} - 1.f : d;      // std::max(d, -1)
   const V8f hi = 1.f < lo ? V8f{} + 1.f : lo;     // std::min(lo, 1)
   const V8f v = hi * 127.f;
@@ -418,7 +427,7 @@ struct TapRows {
 }
 
 // Tap t's weights at cells x..x + kLanes - 1 (gatherRow).
-[[gnu::always_inline]] inline V8f tapWeight(const TapRows& g, int nf, int t, int x, V8f w) {
+[[gnu::always_inline]] inline V8f tapWeight(const TapRows& g, int nf, int t, int x, const V8f& w) {
   if (nf == 0) return w;
   const std::array<const float*, kMaxCrossed>& f = g.f[size_t(t)];
   V8f p = load8(f[0] + x);
@@ -558,6 +567,7 @@ class Sweeper {
     sigma_.assign(plane_ * size_t(g_.size.z), 0.f);
     level_has_material_.assign(size_t(g_.size.z), 0);
     row_lo_.assign(size_t(g_.size.z) * size_t(h_), w_);
+    row_has_material_.assign(size_t(g_.size.z) * size_t(h_), 0);
     row_hi_.assign(size_t(g_.size.z) * size_t(h_), -1);
     fractional_.resize(size_t(g_.size.z));
     for (int k = 0; k < g_.size.z; ++k)
@@ -571,6 +581,7 @@ class Sweeper {
           if (s > 0) {
             level_has_material_[size_t(k)] = 1;
             const size_t r = size_t(k) * size_t(h_) + size_t(j + kPad);
+            row_has_material_[r] = 1;
             row_lo_[r] = std::min(row_lo_[r], i + kPad);
             row_hi_[r] = std::max(row_hi_[r], i + kPad);
             if (s < kInf) fractional_[size_t(k)].push_back(uint32_t(pi));
@@ -680,7 +691,10 @@ class Sweeper {
       for (int t = 0; t < kTaps; ++t) path.taps[size_t(t)].w = t == 0 ? o_.smoothing : (1.f - o_.smoothing) / 4.f;  // as makePath
       for (Tap& t : path.taps) {
         DRTV_CHECK_LE(t.crossed.size(), size_t(kMaxCrossed));
-        for (Crossed& c : t.crossed) c.len_id = lengthId(crossed_len_, c.len);
+        for (Crossed& c : t.crossed) {
+          c.len_id = lengthId(crossed_len_, c.len);
+          c.offset = ptrdiff_t(c.len_id) * ptrdiff_t(plane_) + ptrdiff_t(c.dy) * w_ + kPad + c.dx;
+        }
       }
       path.target_len_id = lengthId(target_len_, path.target_len);
       DRTV_CHECK_LE(target_len_.size(), kMaxTargetLengths);
@@ -731,12 +745,18 @@ class Sweeper {
   // Gathers row j of level k (source level k_src) into p.dst's row, and into q->dst's for the
   // bins q shares with p (the direct pass: a subset of the same bins, the same paths).
   void gather(Pass& p, Pass* q, int k, int k_src, int j) {
-    const int nx = nx_;
     const bool src_in = k_src >= 0 && k_src < g_.size.z;
     const bool target_material = level_has_material_[size_t(k)] != 0;
     const bool src_material = src_in && level_has_material_[size_t(k_src)] != 0;
     const float* f_target = target_material ? factors(k, src_material ? k_src : k) : nullptr;
     const float* f_src = src_material ? factors(k_src, k) : nullptr;
+    // A crossed cell is taken if its row holds material at all: where it holds none within the
+    // row's cells, its factors there are 1, and multiplying by 1 changes nothing.
+    const size_t row = size_t(j + kPad) * size_t(w_);
+    const float* rows_target = f_target ? f_target + row : nullptr;
+    const float* rows_src = f_src ? f_src + row : nullptr;
+    const uint8_t* lit_target = row_has_material_.data() + size_t(k) * size_t(h_) + size_t(j + kPad);
+    const uint8_t* lit_src = src_in ? row_has_material_.data() + size_t(k_src) * size_t(h_) + size_t(j + kPad) : nullptr;
     TapRows g;
     for (size_t b = 0; b < p.bins.size(); ++b) {
       const BinPath& path = p.paths[b];
@@ -746,10 +766,8 @@ class Sweeper {
         g.w[size_t(t)] = tap.w;
         int nf = 0;
         for (const Crossed& c : tap.crossed) {
-          const float* f = c.src_level ? f_src : f_target;
-          const int r = j + kPad + c.dy, x0 = kPad + c.dx;
-          if (!f || !hasMaterial(c.src_level ? k_src : k, r, x0, x0 + nx - 1)) continue;
-          g.f[size_t(t)][size_t(nf++)] = f + size_t(c.len_id) * plane_ + size_t(r) * size_t(w_) + size_t(x0);
+          const float* f = c.src_level ? rows_src : rows_target;
+          if (f && (c.src_level ? lit_src : lit_target)[c.dy]) g.f[size_t(t)][size_t(nf++)] = f + c.offset;
         }
         g.nf[size_t(t)] = nf;
         any = any || nf > 0;
@@ -1017,6 +1035,7 @@ class Sweeper {
   std::vector<float> sigma_;
   std::vector<uint8_t> level_has_material_;
   std::vector<int> row_lo_, row_hi_;
+  std::vector<uint8_t> row_has_material_;  // per level and padded row: row_lo_ <= row_hi_
   std::vector<std::vector<uint32_t>> fractional_;
   std::vector<float> crossed_len_, target_len_;
   std::array<LevelFactors, 2> factors_;

@@ -341,15 +341,16 @@ template <int kMant>
   return V8u(rounded) & 0xffu;
 }
 
-// One row's stored light, per direction d and channel c a row of n floats (light[d][c]); for the
-// down-going directions also the sun's unscattered part to take off (direct[d][c], a row of 0
-// where the bin has none). Rows are read, and written, in whole groups of kLanes: each has room
-// up to n rounded up (what lies there is computed and not used).
+// One row's stored light, per direction d a row of n floats of each channel c at light[d] + c
+// stride; for the down-going directions also the sun's unscattered part to take off (direct[d],
+// likewise; rows of 0 where the bin has none). Rows are read, and written, in whole groups of
+// kLanes: each has room up to n rounded up (what lies there is computed and not used).
 struct StoreRows {
-  std::array<std::array<const float*, 3>, kDirections> light;
-  std::array<std::array<const float*, 3>, kSwept> direct;
-  std::array<glm::vec3, kDirections> from;  // unit source directions
-  int directions = kDirections;             // the first ones stored (kSwept: the up-going ones come later)
+  std::array<const float*, kDirections> light;
+  std::array<const float*, kSwept> direct;
+  size_t stride = 0;
+  std::array<float, kDirections> from_x, from_y, from_z;  // unit source directions
+  int directions = kDirections;  // the first ones stored (kSwept: the up-going ones come later)
 };
 
 // The light grid's words for a row of n cells, in one pass over the cells kLanes at a time, the
@@ -367,14 +368,17 @@ struct StoreRows {
 template <bool kSubtract, bool kFinish>
 DRTV_SWEEP_CLONES void storeCells(int n, const StoreRows& s, uint32_t* __restrict codes, size_t code_stride, float* __restrict sums,
                                   size_t sum_stride, uint32_t* __restrict average, uint32_t* __restrict dominant) {
+  const size_t stride = s.stride;
   for (int x = 0; x < n; x += kLanes) {
     V8f sr{}, sg{}, sb{}, sl{}, sx{}, sy{}, sz{};
     for (int d = 0; d < s.directions; ++d) {
-      V8f r = load8(s.light[size_t(d)][0] + x), g = load8(s.light[size_t(d)][1] + x), b = load8(s.light[size_t(d)][2] + x);
+      const float* light = s.light[size_t(d)] + x;
+      V8f r = load8(light), g = load8(light + stride), b = load8(light + 2 * stride);
       if (kSubtract && d < kSwept) {  // std::max(light - direct, 0)
-        r = r - load8(s.direct[size_t(d)][0] + x);
-        g = g - load8(s.direct[size_t(d)][1] + x);
-        b = b - load8(s.direct[size_t(d)][2] + x);
+        const float* direct = s.direct[size_t(d)] + x;
+        r = r - load8(direct);
+        g = g - load8(direct + stride);
+        b = b - load8(direct + 2 * stride);
         r = r < 0.f ? V8f{} : r;
         g = g < 0.f ? V8f{} : g;
         b = b < 0.f ? V8f{} : b;
@@ -384,11 +388,10 @@ DRTV_SWEEP_CLONES void storeCells(int n, const StoreRows& s, uint32_t* __restric
       sg += g;
       sb += b;
       const V8f l = 0.2126f * r + 0.7152f * g + 0.0722f * b;
-      const glm::vec3 f = s.from[size_t(d)];
       sl += l;
-      sx += l * f.x;
-      sy += l * f.y;
-      sz += l * f.z;
+      sx += l * s.from_x[size_t(d)];
+      sy += l * s.from_y[size_t(d)];
+      sz += l * s.from_z[size_t(d)];
     }
     if constexpr (kFinish) {
       store8(average + x, packR11G11B10x8(sr / kFourPi, sg / kFourPi, sb / kFourPi));
@@ -620,15 +623,21 @@ class Sweeper {
     stride_ = (size_t(nx_) + kLanes - 1) / kLanes * kLanes;
     codes_.assign(size_t(kDirections) * stride_, 0u);
     row_sums_.assign(size_t(kSums) * stride_, 0.f);
-    up_half_.assign(size_t(3 * kUp) * stride_, 0.f);
-    zeros_.assign(stride_, 0.f);
+    // Rows of w_ floats like the level buffers', so that every row storeCells reads has its
+    // channels w_ apart.
+    up_half_.assign(size_t(3 * kUp) * size_t(w_), 0.f);
+    zeros_.assign(3 * size_t(w_), 0.f);
+    store_rows_.stride = size_t(w_);
     average_.assign(stride_, 0u);
     dominant_.assign(stride_, 0u);
     for (int o = 0; o < kUp; ++o) {
-      const float* h = up_half_.data() + size_t(3 * o) * stride_;
-      store_rows_.light[size_t(kSwept + o)] = {h, h + stride_, h + 2 * stride_};
+      store_rows_.light[size_t(kSwept + o)] = up_half_.data() + size_t(3 * o) * size_t(w_);
     }
-    for (int b = 0; b < kDirections; ++b) store_rows_.from[size_t(b)] = unit_from_[size_t(b)];
+    for (int b = 0; b < kDirections; ++b) {
+      store_rows_.from_x[size_t(b)] = unit_from_[size_t(b)].x;
+      store_rows_.from_y[size_t(b)] = unit_from_[size_t(b)].y;
+      store_rows_.from_z[size_t(b)] = unit_from_[size_t(b)].z;
+    }
     batch_.assign(size_t(kBatchRows) * size_t(nx_), 0.f);
     leave_.assign(size_t(3 * kSwept) * size_t(nx_), 0.f);
     direct_leave_.assign(direct_.bins.size() * 3 * size_t(nx_), 0.f);
@@ -906,10 +915,9 @@ class Sweeper {
     StoreRows& rows = store_rows_;
     for (int b = 0; b < kSwept; ++b) {
       const float* r = full_.dstRow(size_t(3 * b), j + kPad) + kPad;
-      rows.light[size_t(b)] = {r, r + w_, r + 2 * w_};
+      rows.light[size_t(b)] = r;
       const int d = direct_of_bin_[size_t(b)];
-      const float* dr = d >= 0 ? direct_.dstRow(size_t(3 * d), j + kPad) + kPad : zeros_.data();
-      rows.direct[size_t(b)] = {dr, d >= 0 ? dr + w_ : dr, d >= 0 ? dr + 2 * w_ : dr};
+      rows.direct[size_t(b)] = d >= 0 ? direct_.dstRow(size_t(3 * d), j + kPad) + kPad : zeros_.data();
     }
     if (out.direct)
       for (size_t d = 0; d < direct_.bins.size(); ++d) {
@@ -937,7 +945,7 @@ class Sweeper {
     // 0 outside the span (the rows' previous span is cleared), which adds nothing to the sums.
     const int n = span_n_, lo = span_lo_;
     for (int row = 0; row < 3 * kUp; ++row) {
-      float* half = up_half_.data() + size_t(row) * stride_;
+      float* half = up_half_.data() + size_t(row) * size_t(w_);
       std::fill_n(half + half_lo_, half_n_, 0.f);
       const float* e = batch(kEmission + row);
       for (int m = 0; m < n; ++m) half[lo + m] = 0.5f * e[m];
@@ -1051,7 +1059,7 @@ class Sweeper {
   std::vector<float> row_sums_;  // kSums rows: bottom_up, the cells' sums (storeCells)
   std::vector<float> up_half_;   // 3 kUp rows: the up-going light stored without bottom_up
   int half_lo_ = 0, half_n_ = 0;  // the cells of up_half_ not 0: the last row's span
-  std::vector<float> zeros_;     // one row of 0: the sun's unscattered light of a bin without it
+  std::vector<float> zeros_;     // 3 rows of 0: the sun's unscattered light of a bin without it
   std::vector<uint32_t> average_, dominant_;  // one row each: storeCells' words before the grid's
   StoreRows store_rows_;
   int span_lo_ = 0, span_n_ = 0;  // the row's span of cells with material (interactRow)

@@ -113,7 +113,6 @@ const BinPath& pathGeometry(int bin) {
   return paths[size_t(bin)];
 }
 
-float luminance(const glm::vec3& c) { return 0.2126f * c.r + 0.7152f * c.g + 0.0722f * c.b; }
 
 // The edges' light: the open sky, or a coarser grid decoded once around this one.
 class Edges {
@@ -285,7 +284,8 @@ void transposeCodes(const uint32_t* codes, size_t stride, int n, uint32_t* grid)
 }
 
 // One component of glm::packSnorm4x8 without libm's roundf: clamp to [-1, 1], times 127, rounded
-// half away from zero (std::round: v - trunc(v) is exact for |v| <= 127), as a byte.
+// half away from zero (std::round: v - trunc(v) is exact for |v| <= 127), as a byte. The scalar
+// definition that snormByte8 computes 8 lanes at a time.
 inline uint32_t snormByte(float d) {
   const float v = std::min(std::max(d, -1.f), 1.f) * 127.f;
   const int i = int(v);
@@ -294,8 +294,6 @@ inline uint32_t snormByte(float d) {
   return uint32_t(rounded) & 0xffu;
 }
 
-// glm::packSnorm4x8(vec4(d, 0)).
-uint32_t packDirection(const glm::vec3& d) { return snormByte(d.x) | (snormByte(d.y) << 8) | (snormByte(d.z) << 16); }
 
 // 8 lanes of GCC's vector extensions (GCC and Clang): in the AVX2 clone one register, in the
 // baseline two SSE ones; either way the same IEEE operations lane by lane as the scalar
@@ -350,7 +348,7 @@ struct StoreRows {
   std::array<const float*, kSwept> direct;
   size_t stride = 0;
   std::array<float, kDirections> from_x, from_y, from_z;  // unit source directions
-  int directions = kDirections;  // the first ones stored (kSwept: the up-going ones come later)
+  int first = 0, end = kDirections;  // the directions stored (bottom_up: the down-going ones first)
 };
 
 // The light grid's words for a row of n cells, in one pass over the cells kLanes at a time, the
@@ -362,16 +360,21 @@ struct StoreRows {
 //    layout);
 //  - kFinish: the cells' average light (the rgb sums over 4 pi) and dominant direction (the
 //    luminance-weighted direction sums over the luminance sum, 0 without light), packed
-//    (Sweeper::finish); otherwise the 7 sums, rows of `sum_stride` (bottom_up adds to them).
+//    otherwise the 7 sums, rows of `sum_stride` (bottom_up adds to them later);
+//  - kResume: the sums start from those rows (bottom_up's up-going directions), not from 0.
 // Was one loop per direction for the packing and one for the sums, which loaded and stored the 7
 // sums per direction, then a loop to finish: 23 % of the sweep's instructions.
-template <bool kSubtract, bool kFinish>
+template <bool kSubtract, bool kFinish, bool kResume = false>
 DRTV_SWEEP_CLONES void storeCells(int n, const StoreRows& s, uint32_t* __restrict codes, size_t code_stride, float* __restrict sums,
                                   size_t sum_stride, uint32_t* __restrict average, uint32_t* __restrict dominant) {
   const size_t stride = s.stride;
   for (int x = 0; x < n; x += kLanes) {
     V8f sr{}, sg{}, sb{}, sl{}, sx{}, sy{}, sz{};
-    for (int d = 0; d < s.directions; ++d) {
+    if constexpr (kResume) {
+      int row = 0;
+      for (V8f* v : {&sr, &sg, &sb, &sl, &sx, &sy, &sz}) *v = load8(sums + size_t(row++) * sum_stride + size_t(x));
+    }
+    for (int d = s.first; d < s.end; ++d) {
       const float* light = s.light[size_t(d)] + x;
       V8f r = load8(light), g = load8(light + stride), b = load8(light + 2 * stride);
       if (kSubtract && d < kSwept) {  // std::max(light - direct, 0)
@@ -401,6 +404,24 @@ DRTV_SWEEP_CLONES void storeCells(int n, const StoreRows& s, uint32_t* __restric
     } else {
       int row = 0;
       for (const V8f v : {sr, sg, sb, sl, sx, sy, sz}) store8(sums + size_t(row++) * sum_stride + size_t(x), v);
+    }
+  }
+}
+
+// The bottom-up pass in a row of n cells, for one up-going direction: its gathered light v (3 rows,
+// channels `stride` apart) passes the cell as T (row t) plus what the cell reflects up (e, 3 rows
+// of `e_stride`), and leaves as v T + e (into v); what is stored is v sqrt(T) + e / 2 (rows
+// `stored`, channels `stride` apart). As Sweeper::bottomUp did it cell by cell.
+DRTV_SWEEP_CLONES void upCells(int n, float* __restrict v, size_t stride, const float* __restrict t, const float* __restrict st,
+                               const float* __restrict e, size_t e_stride, float* __restrict stored) {
+  for (size_t c = 0; c < 3; ++c) {
+    float* __restrict vc = v + c * stride;
+    const float* __restrict ec = e + c * e_stride;
+    float* __restrict sc = stored + c * stride;
+    for (int x = 0; x < n; ++x) {
+      const float in = vc[x];
+      vc[x] = in * t[x] + ec[x];
+      sc[x] = in * st[x] + 0.5f * ec[x];
     }
   }
 }
@@ -664,9 +685,8 @@ class Sweeper {
     }
     out.clear_z.clear();
     if (o_.bottom_up) {
-      // The up-going pass adds to the cells' sums after the downward one: kept per cell.
-      avg_.assign(g_.cellCount(), glm::vec4(0.f));
-      dom_.assign(g_.cellCount(), glm::vec3(0.f));
+      // The up-going pass adds to the cells' sums after the downward one: kept per row.
+      down_sums_.resize(size_t(g_.size.y) * size_t(g_.size.z) * size_t(kSums) * stride_);
       emission_index_.assign(g_.cellCount(), -1);
       emission_.clear();
     }
@@ -926,19 +946,15 @@ class Sweeper {
         for (int x = 0; x < nx; ++x) dst[size_t(x) * kDirections] = detail::packR11G11B10(r[x], r[w_ + x], r[2 * w_ + x]);
       }
     uint32_t* grid = out.light.light.data() + cell0 * kDirections;
+    rows.first = 0;
     if (o_.bottom_up) {  // the up-going light comes later (bottomUp); its words are 0 in codes_
-      rows.directions = kSwept;
+      rows.end = kSwept;
+      float* sums = down_sums_.data() + (size_t(k) * size_t(g_.size.y) + size_t(j)) * size_t(kSums) * stride_;
       if (o_.direct_sun)
-        storeCells<false, false>(nx, rows, codes_.data(), stride_, row_sums_.data(), stride_, nullptr, nullptr);
+        storeCells<false, false>(nx, rows, codes_.data(), stride_, sums, stride_, nullptr, nullptr);
       else
-        storeCells<true, false>(nx, rows, codes_.data(), stride_, row_sums_.data(), stride_, nullptr, nullptr);
+        storeCells<true, false>(nx, rows, codes_.data(), stride_, sums, stride_, nullptr, nullptr);
       transposeCodes(codes_.data(), stride_, nx, grid);
-      const float* sum = row_sums_.data();
-      for (int x = 0; x < nx; ++x) {
-        const auto at = [&](int row) { return sum[size_t(row) * stride_ + size_t(x)]; };
-        avg_[cell0 + size_t(x)] = {at(0), at(1), at(2), at(3)};
-        dom_[cell0 + size_t(x)] = {at(4), at(5), at(6)};
-      }
       return;
     }
     // The up-going directions without the bottom-up pass: the cells' own reflected light, halved;
@@ -952,7 +968,7 @@ class Sweeper {
     }
     half_lo_ = lo;
     half_n_ = n;
-    rows.directions = kDirections;
+    rows.end = kDirections;
     if (o_.direct_sun)
       storeCells<false, true>(nx, rows, codes_.data(), stride_, nullptr, 0, average_.data(), dominant_.data());
     else
@@ -962,53 +978,56 @@ class Sweeper {
     std::memcpy(out.light.dominant.data() + cell0, dominant_.data(), size_t(nx) * sizeof(uint32_t));
   }
 
-  void add(glm::vec4& avg, glm::vec3& dom, int b, const glm::vec3& v) const {
-    avg += glm::vec4(v, 0.f);
-    const float l = luminance(v);
-    avg.w += l;
-    dom += l * unit_from_[size_t(b)];
-  }
-
-  static void finish(SweptGrid& out, size_t cell, const glm::vec4& avg, const glm::vec3& dom) {
-    const glm::vec3 mean = glm::vec3(avg) / kFourPi;
-    out.light.average[cell] = detail::packR11G11B10(mean.r, mean.g, mean.b);
-    out.light.dominant[cell] = packDirection(avg.w > 0 ? dom / avg.w : glm::vec3(0.f));
-  }
-
   // The up-going directions carried up from the bottom level (bottom_up), then the cells'
   // average and dominant direction.
   void bottomUp(SweptGrid& out) {
     const int nx = nx_, ny = g_.size.y, nz = g_.size.z;
-    auto emission = [&](size_t cell, int o) {
-      const int e = emission_index_[cell];
-      return e < 0 ? glm::vec3(0.f) : emission_[size_t(e)][size_t(o)];
-    };
+    // Per row: the up-going paths' pass-through T and sqrt T per distinct path length, and what
+    // the cells reflect up (0 where they reflect nothing), 3 rows per direction.
+    std::vector<float> lengths;
+    std::array<int, kUp> length_of{};
+    for (int o = 0; o < kUp; ++o) length_of[size_t(o)] = lengthId(lengths, up_.paths[size_t(o)].target_len);
+    std::vector<float> t(2 * lengths.size() * stride_), e(size_t(3 * kUp) * stride_, 0.f);
     std::fill_n(up_.src.get(), up_.bins.size() * 3 * plane_, 0.f);  // below the grid: nothing comes up
+    StoreRows& rows = store_rows_;  // light[kSwept + o]: up_half_'s rows, the stored light
+    rows.first = kSwept;
+    rows.end = kDirections;
     for (int k = 0; k < nz; ++k) {
       edges_.fill(k, false, up_.bins, ring_cells_, up_.dst.get(), up_.w, up_.rowStride());
-      const float* sig = sigma_.data() + size_t(k) * plane_;
       for (int j = 0; j < ny; ++j) {
         gather(up_, nullptr, k, k - 1, j);
-        for (int i = 0; i < nx; ++i) {
-          const size_t cell = g_.index(i, j, k);
-          const size_t pi = size_t(j + kPad) * size_t(w_) + size_t(i + kPad);
-          const float s = sig[pi];
-          for (int o = 0; o < kUp; ++o) {
-            glm::vec3 v;
-            for (int c = 0; c < 3; ++c) v[c] = up_.dstRow(size_t(o) * 3 + size_t(c), j + kPad)[i + kPad];
-            const float t = s == 0.f ? 1.f : std::exp(-s * up_.paths[size_t(o)].target_len);
-            const glm::vec3 e = emission(cell, o);
-            const glm::vec3 leave = v * t + e;
-            for (int c = 0; c < 3; ++c) up_.dstRow(size_t(o) * 3 + size_t(c), j + kPad)[i + kPad] = leave[c];
-            const glm::vec3 stored = v * std::sqrt(t) + 0.5f * e;
-            out.light.light[cell * kDirections + size_t(kSwept + o)] = detail::packR11G11B10(stored.r, stored.g, stored.b);
-            add(avg_[cell], dom_[cell], kSwept + o, stored);
+        const float* sig = sigma_.data() + size_t(k) * plane_ + size_t(j + kPad) * size_t(w_) + size_t(kPad);
+        for (size_t l = 0; l < lengths.size(); ++l) {
+          float* tl = t.data() + 2 * l * stride_;
+          float* stl = tl + stride_;
+          for (int x = 0; x < nx; ++x) {
+            const float s = sig[x];
+            tl[x] = s == 0.f ? 1.f : std::exp(-s * lengths[l]);
+            stl[x] = std::sqrt(tl[x]);
           }
         }
+        const size_t cell0 = g_.index(0, j, k);
+        for (int x = 0; x < nx; ++x) {
+          const int at = emission_index_[cell0 + size_t(x)];
+          for (int o = 0; o < kUp; ++o)
+            for (int c = 0; c < 3; ++c)
+              e[size_t(3 * o + c) * stride_ + size_t(x)] = at < 0 ? 0.f : emission_[size_t(at)][size_t(o)][c];
+        }
+        for (int o = 0; o < kUp; ++o) {
+          const float* tl = t.data() + 2 * size_t(length_of[size_t(o)]) * stride_;
+          upCells(nx, up_.dstRow(size_t(3 * o), j + kPad) + kPad, size_t(w_), tl, tl + stride_, e.data() + size_t(3 * o) * stride_, stride_,
+                  up_half_.data() + size_t(3 * o) * size_t(w_));
+        }
+        float* sums = down_sums_.data() + (size_t(k) * size_t(ny) + size_t(j)) * size_t(kSums) * stride_;
+        storeCells<false, true, true>(nx, rows, codes_.data(), stride_, sums, stride_, average_.data(), dominant_.data());
+        uint32_t* grid = out.light.light.data() + cell0 * kDirections;
+        for (int x = 0; x < nx; ++x)
+          for (int o = kSwept; o < kDirections; ++o) grid[size_t(x) * kDirections + size_t(o)] = codes_[size_t(o) * stride_ + size_t(x)];
+        std::memcpy(out.light.average.data() + cell0, average_.data(), size_t(nx) * sizeof(uint32_t));
+        std::memcpy(out.light.dominant.data() + cell0, dominant_.data(), size_t(nx) * sizeof(uint32_t));
       }
       std::swap(up_.src, up_.dst);
     }
-    for (size_t cell = 0; cell < g_.cellCount(); ++cell) finish(out, cell, avg_[cell], dom_[cell]);
   }
 
   // Distinct path lengths a cell attenuates itself: straight, the 4 side diagonals, the 4 corner
@@ -1065,8 +1084,7 @@ class Sweeper {
   int span_lo_ = 0, span_n_ = 0;  // the row's span of cells with material (interactRow)
   std::vector<float> batch_;     // kBatchRows rows of nx
   std::vector<float> leave_, direct_leave_;  // per pass, bins * 3 rows of nx: what the batch sends on
-  std::vector<glm::vec4> avg_;  // bottom_up: per cell, rgb sum, luminance sum
-  std::vector<glm::vec3> dom_;
+  std::vector<float> down_sums_;  // bottom_up: per row of the grid, the kSums rows of its cells' sums
   std::vector<int> emission_index_;
   std::vector<std::array<glm::vec3, kUp>> emission_;
 };

@@ -643,7 +643,6 @@ class Sweeper {
     if (o_.bottom_up) setUp(up_);
     stride_ = (size_t(nx_) + kLanes - 1) / kLanes * kLanes;
     codes_.assign(size_t(kDirections) * stride_, 0u);
-    row_sums_.assign(size_t(kSums) * stride_, 0.f);
     // Rows of w_ floats like the level buffers', so that every row storeCells reads has its
     // channels w_ apart.
     up_half_.assign(size_t(3 * kUp) * size_t(w_), 0.f);
@@ -1074,9 +1073,10 @@ class Sweeper {
   // The row's words, direction-major (kDirections rows of nx), transposed into the grid
   // (transposeCodes).
   std::vector<uint32_t> codes_;
-  size_t stride_ = 0;             // nx_ rounded up to kLanes: the rows below
-  std::vector<float> row_sums_;  // kSums rows: bottom_up, the cells' sums (storeCells)
-  std::vector<float> up_half_;   // 3 kUp rows: the up-going light stored without bottom_up
+  size_t stride_ = 0;             // nx_ rounded up to kLanes: the rows of codes_, average_, down_sums_
+  // 3 kUp rows of w_: the up-going light as stored (the cells' reflection halved, or with
+  // bottom_up what bottomUp carried up), read by storeCells.
+  std::vector<float> up_half_;
   int half_lo_ = 0, half_n_ = 0;  // the cells of up_half_ not 0: the last row's span
   std::vector<float> zeros_;     // 3 rows of 0: the sun's unscattered light of a bin without it
   std::vector<uint32_t> average_, dominant_;  // one row each: storeCells' words before the grid's

@@ -855,28 +855,31 @@ class Sweeper {
     float* fa = batch(kFa);
     float* fb = batch(kFb);
     const size_t lengths = target_len_.size();
-    // The cells' own pass-through per distinct path length: 1 in an empty cell, 0 in a full one.
+    // The cells' own pass-through per distinct path length: 1 in an empty cell, 0 in a full one
+    // (row loops), exp in the cells of fractional density (patched in after).
+    for (int m = 0; m < n; ++m) tau[m] = sig[m] == 0.f ? 1.f : 0.f;
+    for (size_t l = 0; l < lengths; ++l) {
+      std::copy_n(tau, n, batch(kT + int(l)));
+      std::copy_n(tau, n, batch(kSqrtT + int(l)));
+    }
     for (int m = 0; m < n; ++m) {
       const float s = sig[m];
-      const size_t cell = g_.index(lo + m, j, k);
-      if (s == 0.f) {
-        tau[m] = 1.f;
-        for (size_t l = 0; l < lengths; ++l) batch(kT + int(l))[m] = batch(kSqrtT + int(l))[m] = 1.f;
-      } else if (s == kInf) {
-        tau[m] = 0.f;
-        for (size_t l = 0; l < lengths; ++l) batch(kT + int(l))[m] = batch(kSqrtT + int(l))[m] = 0.f;
-      } else {
-        tau[m] = std::exp(-s);
-        for (size_t l = 0; l < lengths; ++l) {
-          const float t = std::exp(-s * target_len_[l]);
-          batch(kT + int(l))[m] = t;
-          batch(kSqrtT + int(l))[m] = std::sqrt(t);
-        }
+      if (s == 0.f || s == kInf) continue;
+      tau[m] = std::exp(-s);
+      for (size_t l = 0; l < lengths; ++l) {
+        const float t = std::exp(-s * target_len_[l]);
+        batch(kT + int(l))[m] = t;
+        batch(kSqrtT + int(l))[m] = std::sqrt(t);
       }
+    }
+    for (int m = 0; m < n; ++m) {
       fa[m] = 0.5f * (1.f + tau[m]);
       fb[m] = 0.5f * (1.f - tau[m]);
-      const glm::vec3& rho = m_.reflectance[cell];
-      for (int c = 0; c < 3; ++c) batch(kRho + c)[m] = rho[c];
+    }
+    const glm::vec3* rho = m_.reflectance.data() + g_.index(lo, j, k);
+    for (int c = 0; c < 3; ++c) {
+      float* row_rho = batch(kRho + c);
+      for (int m = 0; m < n; ++m) row_rho[m] = rho[m][c];
     }
     auto in = [&](int b, int c) { return full_.dstRow(size_t(3 * b + c), j + kPad) + kPad + lo; };
     // What each direction loses in the cell, I (1 - T), normalised, summed as sum and q (columns

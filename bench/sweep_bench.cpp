@@ -48,14 +48,23 @@ SkyInput morning() {
   return {skyLight(sky, 9.0), sunLight(sky, 9.0, 0.05)};
 }
 
-void run(benchmark::State& state, const GridShape& shape, const SweptGrid* parent, SweepOptions o) {
+// `refill`: every iteration sweeps into the same grid (sweepInto, as a re-sweep under new lighting
+// does), not into a fresh one.
+void run(benchmark::State& state, const GridShape& shape, const SweptGrid* parent, SweepOptions o, bool refill = false) {
   const MaterialGrid m = makeMaterial(shape);
   const SkyInput sky = morning();
   size_t bytes = 0;
+  SweptGrid kept;
   for (auto _ : state) {
-    SweptGrid g = sweep(m, sky, parent, o);
-    bytes = g.bytes();
-    benchmark::DoNotOptimize(g.light.light.data());
+    if (refill) {
+      sweepInto(m, sky, parent, o, kept);
+      bytes = kept.bytes();
+      benchmark::DoNotOptimize(kept.light.light.data());
+    } else {
+      SweptGrid g = sweep(m, sky, parent, o);
+      bytes = g.bytes();
+      benchmark::DoNotOptimize(g.light.light.data());
+    }
   }
   state.SetItemsProcessed(int64_t(state.iterations()) * int64_t(shape.cellCount()));
   state.counters["cells"] = double(shape.cellCount());
@@ -68,6 +77,10 @@ const GridShape kIsland{{-512.0, -512.0, -32.0}, 16.0, {64, 64, 6}};
 
 void BM_SweepSector1m(benchmark::State& state) { run(state, kSector, nullptr, {}); }
 BENCHMARK(BM_SweepSector1m)->Unit(benchmark::kMillisecond);
+
+// The same sector re-swept into the grid of the sweep before (sweepInto).
+void BM_ResweepSector1m(benchmark::State& state) { run(state, kSector, nullptr, {}, true); }
+BENCHMARK(BM_ResweepSector1m)->Unit(benchmark::kMillisecond);
 
 void BM_SweepSector1mBottomUp(benchmark::State& state) {
   SweepOptions o;

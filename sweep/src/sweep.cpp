@@ -14,6 +14,7 @@
 #include "drtv/sweep/sweep.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -22,8 +23,16 @@
 
 #include <glm/gtc/packing.hpp>
 
+#if defined(__GNUC__) && defined(__x86_64__)
+#include <immintrin.h>
+#endif
+
 #include "drtv/formats/error.h"
 #include "small_float.h"
+
+// The 8-lane helpers below are inlined into the row loops (always_inline), so how a 32-byte vector
+// is passed to a function without AVX, which GCC warns about here, never arises.
+#pragma GCC diagnostic ignored "-Wpsabi"
 
 namespace drtv::sweep {
 namespace {
@@ -48,6 +57,8 @@ struct Crossed {
   bool src_level;
   float len;
   int len_id = -1;  // its length's factor plane (Sweeper::crossed_len_)
+  // Its factor row's offset from the target's row in a level's factor planes (Sweeper::setUp).
+  ptrdiff_t offset = 0;
 };
 struct Tap {
   int ox, oy;  // source offset from the target, cells
@@ -102,7 +113,6 @@ const BinPath& pathGeometry(int bin) {
   return paths[size_t(bin)];
 }
 
-float luminance(const glm::vec3& c) { return 0.2126f * c.r + 0.7152f * c.g + 0.0722f * c.b; }
 
 // The edges' light: the open sky, or a coarser grid decoded once around this one.
 class Edges {
@@ -138,20 +148,28 @@ class Edges {
   bool sameAtEveryLevel() const { return parent_ == nullptr; }
 
   // The light of the cells (i, j) in `cells` at grid level k (may be -1 or size.z) for `bins`,
-  // into planes[b * 3 + c][plane index].
+  // into planes[cell.r * row_stride + (b * 3 + c) * plane_stride + cell.x] (r, x: the cell's padded
+  // row and column).
   struct Cell {
     int i, j;
-    size_t plane;
+    size_t r, x;
   };
   void fill(int k, bool direct, const std::vector<int>& bins, const std::vector<Cell>& cells, float* planes,
-            size_t plane_size) {
+            size_t plane_stride, size_t row_stride) {
     const size_t nb = bins.size();
     if (!parent_) {
+      // The same light in every cell: runs of cells along a row are filled at once (the top
+      // level's fill, cell by cell, was 3 % of the sector's sweep).
       for (size_t b = 0; b < nb; ++b) {
         const int bin = bins[b];
         const glm::vec3 v = direct ? sky_.sun[size_t(bin)] : sky_.sky[size_t(bin)] + sky_.sun[size_t(bin)];
-        for (int c = 0; c < 3; ++c)
-          for (const Cell& cell : cells) planes[(b * 3 + size_t(c)) * plane_size + cell.plane] = v[c];
+        for (size_t first = 0; first < cells.size();) {
+          size_t last = first + 1;
+          while (last < cells.size() && cells[last].r == cells[first].r && cells[last].x == cells[last - 1].x + 1) ++last;
+          for (int c = 0; c < 3; ++c)
+            std::fill_n(planes + cells[first].r * row_stride + (b * 3 + size_t(c)) * plane_stride + cells[first].x, last - first, v[c]);
+          first = last;
+        }
       }
       return;
     }
@@ -185,7 +203,7 @@ class Edges {
       for (size_t b = 0; b < nb; ++b) {
         const size_t bin = size_t(bins[b]);
         const glm::vec3 v = (s00[bin] * (1 - fx) + s10[bin] * fx) * (1 - fy) + (s01[bin] * (1 - fx) + s11[bin] * fx) * fy;
-        for (int c = 0; c < 3; ++c) planes[(b * 3 + size_t(c)) * plane_size + cell.plane] = v[c];
+        for (int c = 0; c < 3; ++c) planes[cell.r * row_stride + (b * 3 + size_t(c)) * plane_stride + cell.x] = v[c];
       }
     }
   }
@@ -205,88 +223,69 @@ struct Pass {
   std::vector<int> bins;
   std::vector<BinPath> paths;
   bool direct = false;
-  // bins.size() * 3 planes each. Not initialised: the edges' fill writes all of src above the top
-  // level and dst's ring, and the gather every interior row of dst before a level reads it.
+  // A level's bins.size() * 3 planes (plane 3 b + c: bin b's channel c) of padded rows of w floats,
+  // interleaved by row: padded row r of every plane, then row r + 1 of every plane. A row's gather
+  // reads 11 source rows of every plane at once (the near-horizontal taps reach 5 rows away);
+  // interleaved, those are 11 contiguous runs that the prefetcher follows, not 11 x 51 separate
+  // streams (plane by plane, the gathers waited on memory: 44 % of their time on one tap's load).
+  // Not initialised: the edges' fill writes all of src above the top level and dst's ring, and
+  // the gather every interior row of dst before a level reads it.
   std::unique_ptr<float[]> src, dst;
+  size_t w = 0;  // padded row length
+  size_t planes() const { return bins.size() * 3; }
+  size_t rowStride() const { return planes() * w; }
+  float* srcRow(size_t plane, int r) const { return src.get() + size_t(r) * rowStride() + plane * w; }
+  float* dstRow(size_t plane, int r) const { return dst.get() + size_t(r) * rowStride() + plane * w; }
 };
 
-// Rows of n floats: a[x] = sum over the 5 taps of w_t s_t[x], in tap order (the reference's order
-// of accumulation), with per-x weights or, where no crossed cell holds material, constant ones.
-DRTV_SWEEP_CLONES void weightedTaps(float* __restrict a, const std::array<const float*, kTaps>& s, const std::array<const float*, kTaps>& w, int n) {
-  const float* __restrict s0 = s[0];
-  const float* __restrict s1 = s[1];
-  const float* __restrict s2 = s[2];
-  const float* __restrict s3 = s[3];
-  const float* __restrict s4 = s[4];
-  const float* __restrict w0 = w[0];
-  const float* __restrict w1 = w[1];
-  const float* __restrict w2 = w[2];
-  const float* __restrict w3 = w[3];
-  const float* __restrict w4 = w[4];
-  for (int x = 0; x < n; ++x) a[x] = w0[x] * s0[x] + w1[x] * s1[x] + w2[x] * s2[x] + w3[x] * s3[x] + w4[x] * s4[x];
+// A row's words from direction-major (codes[d * stride + x]) to the light grid's cell-major layout
+// (grid[x * kDirections + d]). Word by word, each store was a lane extracted from a vector: the
+// packing's strided stores and the copy of the row into the grid took 15 % of the sweep. With
+// AVX2, 8 x 8 blocks are transposed in registers and stored 8 words at a time. Data movement
+// only: both versions write the same words.
+void transposeCodesScalar(const uint32_t* codes, size_t stride, int n, uint32_t* grid, int x0) {
+  for (int x = x0; x < n; ++x)
+    for (int d = 0; d < kDirections; ++d) grid[size_t(x) * kDirections + size_t(d)] = codes[size_t(d) * stride + size_t(x)];
 }
-DRTV_SWEEP_CLONES void constantTaps(float* __restrict a, const std::array<const float*, kTaps>& s, const std::array<float, kTaps>& w, int n) {
-  const float* __restrict s0 = s[0];
-  const float* __restrict s1 = s[1];
-  const float* __restrict s2 = s[2];
-  const float* __restrict s3 = s[3];
-  const float* __restrict s4 = s[4];
-  const float w0 = w[0], w1 = w[1], w2 = w[2], w3 = w[3], w4 = w[4];
-  for (int x = 0; x < n; ++x) a[x] = w0 * s0[x] + w1 * s1[x] + w2 * s2[x] + w3 * s3[x] + w4 * s4[x];
-}
-
-// A row's sums of its cells' stored light (Sweeper::add, in its order): rgb, luminance, and
-// luminance times the unit source direction.
-struct RowSums {
-  float *r, *g, *b, *l, *x, *y, *z;
-};
-
-// What the light grid stores of one direction along a row of n cells: the stored light (rows r, g,
-// b), less the sun's unscattered part (dr, dg, db; kMinusDirect) or clamped at 0 (kClamped), or as
-// it is; into rows vr, vg, vb and packed into code[x * kDirections] (the light grid's layout). (Two loops with addToSums, not one: GCC
-// vectorises neither half when they are fused.)
-enum class Stored { kAsIs, kClamped, kMinusDirect };
-template <Stored kMode>
-DRTV_SWEEP_CLONES void storedLight(int n, const float* __restrict r, const float* __restrict g, const float* __restrict b, const float* __restrict dr,
-                 const float* __restrict dg, const float* __restrict db, float* __restrict vr, float* __restrict vg, float* __restrict vb,
-                 uint32_t* __restrict code) {
-  for (int x = 0; x < n; ++x) {
-    if constexpr (kMode == Stored::kMinusDirect) {
-      vr[x] = std::max(r[x] - dr[x], 0.f);
-      vg[x] = std::max(g[x] - dg[x], 0.f);
-      vb[x] = std::max(b[x] - db[x], 0.f);
-    } else if constexpr (kMode == Stored::kClamped) {
-      vr[x] = std::max(r[x], 0.f);
-      vg[x] = std::max(g[x], 0.f);
-      vb[x] = std::max(b[x], 0.f);
-    } else {
-      vr[x] = r[x];
-      vg[x] = g[x];
-      vb[x] = b[x];
+#if defined(__GNUC__) && defined(__x86_64__)
+__attribute__((target("avx2"))) void transposeCodesAvx2(const uint32_t* codes, size_t stride, int n, uint32_t* grid) {
+  int x = 0;
+  for (; x + 8 <= n; x += 8) {
+    for (int d0 = 0; d0 + 8 <= kDirections; d0 += 8) {
+      __m256 r[8];  // directions d0..d0 + 7 of cells x..x + 7
+      for (int i = 0; i < 8; ++i) r[i] = _mm256_loadu_ps(reinterpret_cast<const float*>(codes + size_t(d0 + i) * stride + size_t(x)));
+      const __m256 t0 = _mm256_unpacklo_ps(r[0], r[1]), t1 = _mm256_unpackhi_ps(r[0], r[1]);
+      const __m256 t2 = _mm256_unpacklo_ps(r[2], r[3]), t3 = _mm256_unpackhi_ps(r[2], r[3]);
+      const __m256 t4 = _mm256_unpacklo_ps(r[4], r[5]), t5 = _mm256_unpackhi_ps(r[4], r[5]);
+      const __m256 t6 = _mm256_unpacklo_ps(r[6], r[7]), t7 = _mm256_unpackhi_ps(r[6], r[7]);
+      const __m256 u0 = _mm256_shuffle_ps(t0, t2, 0x44), u1 = _mm256_shuffle_ps(t0, t2, 0xee);
+      const __m256 u2 = _mm256_shuffle_ps(t1, t3, 0x44), u3 = _mm256_shuffle_ps(t1, t3, 0xee);
+      const __m256 u4 = _mm256_shuffle_ps(t4, t6, 0x44), u5 = _mm256_shuffle_ps(t4, t6, 0xee);
+      const __m256 u6 = _mm256_shuffle_ps(t5, t7, 0x44), u7 = _mm256_shuffle_ps(t5, t7, 0xee);
+      // Cell x + i's directions d0..d0 + 7.
+      const __m256 c[8] = {_mm256_permute2f128_ps(u0, u4, 0x20), _mm256_permute2f128_ps(u1, u5, 0x20),
+                           _mm256_permute2f128_ps(u2, u6, 0x20), _mm256_permute2f128_ps(u3, u7, 0x20),
+                           _mm256_permute2f128_ps(u0, u4, 0x31), _mm256_permute2f128_ps(u1, u5, 0x31),
+                           _mm256_permute2f128_ps(u2, u6, 0x31), _mm256_permute2f128_ps(u3, u7, 0x31)};
+      for (int i = 0; i < 8; ++i) _mm256_storeu_ps(reinterpret_cast<float*>(grid + size_t(x + i) * kDirections + size_t(d0)), c[i]);
     }
-    code[size_t(x) * kDirections] = detail::packR11G11B10(vr[x], vg[x], vb[x]);
+    for (int d = kDirections / 8 * 8; d < kDirections; ++d)
+      for (int i = 0; i < 8; ++i) grid[size_t(x + i) * kDirections + size_t(d)] = codes[size_t(d) * stride + size_t(x + i)];
   }
+  transposeCodesScalar(codes, stride, n, grid, x);
 }
-
-// Adds one direction's stored light (rows vr, vg, vb of n) to a row's sums (Sweeper::add, in its
-// order): rgb, luminance, and luminance times the unit source direction (fx, fy, fz).
-DRTV_SWEEP_CLONES void addToSums(int n, const float* __restrict vr, const float* __restrict vg, const float* __restrict vb, float* __restrict sr,
-               float* __restrict sg, float* __restrict sb, float* __restrict sl, float* __restrict sx, float* __restrict sy,
-               float* __restrict sz, float fx, float fy, float fz) {
-  for (int x = 0; x < n; ++x) {
-    sr[x] += vr[x];
-    sg[x] += vg[x];
-    sb[x] += vb[x];
-    const float l = 0.2126f * vr[x] + 0.7152f * vg[x] + 0.0722f * vb[x];
-    sl[x] += l;
-    sx[x] += l * fx;
-    sy[x] += l * fy;
-    sz[x] += l * fz;
-  }
+#endif
+void transposeCodes(const uint32_t* codes, size_t stride, int n, uint32_t* grid) {
+#if defined(__GNUC__) && defined(__x86_64__)
+  static const bool avx2 = __builtin_cpu_supports("avx2");
+  if (avx2) return transposeCodesAvx2(codes, stride, n, grid);
+#endif
+  transposeCodesScalar(codes, stride, n, grid, 0);
 }
 
 // One component of glm::packSnorm4x8 without libm's roundf: clamp to [-1, 1], times 127, rounded
-// half away from zero (std::round: v - trunc(v) is exact for |v| <= 127), as a byte.
+// half away from zero (std::round: v - trunc(v) is exact for |v| <= 127), as a byte. The scalar
+// definition that snormByte8 computes 8 lanes at a time.
 inline uint32_t snormByte(float d) {
   const float v = std::min(std::max(d, -1.f), 1.f) * 127.f;
   const int i = int(v);
@@ -295,20 +294,197 @@ inline uint32_t snormByte(float d) {
   return uint32_t(rounded) & 0xffu;
 }
 
-// glm::packSnorm4x8(vec4(d, 0)).
-uint32_t packDirection(const glm::vec3& d) { return snormByte(d.x) | (snormByte(d.y) << 8) | (snormByte(d.z) << 16); }
 
-// A row's average light (the rgb sums over 4 pi) and dominant direction (the luminance-weighted
-// direction sums over the luminance sum, 0 without light), packed: Sweeper::finish for n cells.
-DRTV_SWEEP_CLONES void finishRow(int n, const float* __restrict sr, const float* __restrict sg, const float* __restrict sb,
-                                 const float* __restrict sl, const float* __restrict sx, const float* __restrict sy,
-                                 const float* __restrict sz, uint32_t* __restrict average, uint32_t* __restrict dominant) {
-  for (int x = 0; x < n; ++x) average[x] = detail::packR11G11B10(sr[x] / kFourPi, sg[x] / kFourPi, sb[x] / kFourPi);
-  for (int x = 0; x < n; ++x) {
-    const float w = sl[x];
-    const bool lit = w > 0;
-    const float dx = lit ? sx[x] / w : 0.f, dy = lit ? sy[x] / w : 0.f, dz = lit ? sz[x] / w : 0.f;
-    dominant[x] = snormByte(dx) | (snormByte(dy) << 8) | (snormByte(dz) << 16);
+// 8 lanes of GCC's vector extensions (GCC and Clang): in the AVX2 clone one register, in the
+// baseline two SSE ones; either way the same IEEE operations lane by lane as the scalar
+// functions they mirror (snormByte, detail::packR11G11B10), so the same bits.
+using V8f = float __attribute__((vector_size(32)));
+using V8i = int32_t __attribute__((vector_size(32)));
+using V8u = uint32_t __attribute__((vector_size(32)));
+constexpr int kLanes = 8;
+
+[[gnu::always_inline]] inline V8f load8(const float* p) {
+  V8f v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+template <class V, class T>
+[[gnu::always_inline]] inline void store8(T* p, const V& v) {
+  static_assert(sizeof(V) == kLanes * sizeof(T));
+  std::memcpy(p, &v, sizeof v);
+}
+
+// detail::packSmall, 8 lanes.
+template <int kMant>
+[[gnu::always_inline]] inline V8u packSmall8(const V8f& v) {
+  constexpr int kShift = 23 - kMant;
+  constexpr int32_t kMax = (30 << kMant) | ((1 << kMant) - 1);
+  const V8u b = std::bit_cast<V8u>(v);
+  const V8i r = V8i(((b - (112u << 23)) + (1u << (kShift - 1))) >> kShift);
+  const V8i clamped = r < kMax ? r : V8i{} + kMax;
+  return V8u(v >= 6.103515625e-05f ? clamped : V8i{});
+}
+[[gnu::always_inline]] inline V8u packR11G11B10x8(const V8f& r, const V8f& g, const V8f& b) {
+  return packSmall8<6>(r) | (packSmall8<6>(g) << 11) | (packSmall8<5>(b) << 22);
+}
+
+// snormByte, 8 lanes (a comparison's lanes are -1 where true).
+[[gnu::always_inline]] inline V8u snormByte8(const V8f& d) {
+  const V8f lo = d < -1.f ? V8f{} - 1.f : d;      // std::max(d, -1)
+  const V8f hi = 1.f < lo ? V8f{} + 1.f : lo;     // std::min(lo, 1)
+  const V8f v = hi * 127.f;
+  const V8i i = __builtin_convertvector(v, V8i);  // truncates, as int(v)
+  const V8f f = v - __builtin_convertvector(i, V8f);
+  const V8i rounded = i - V8i(f >= 0.5f) + V8i(f <= -0.5f);
+  return V8u(rounded) & 0xffu;
+}
+
+// One row's stored light, per direction d a row of n floats of each channel c at light[d] + c
+// stride; for the down-going directions also the sun's unscattered part to take off (direct[d],
+// likewise; rows of 0 where the bin has none). Rows are read, and written, in whole groups of
+// kLanes: each has room up to n rounded up (what lies there is computed and not used).
+struct StoreRows {
+  std::array<const float*, kDirections> light;
+  std::array<const float*, kSwept> direct;
+  size_t stride = 0;
+  std::array<float, kDirections> from_x, from_y, from_z;  // unit source directions
+  int first = 0, end = kDirections;  // the directions stored (bottom_up: the down-going ones first)
+};
+
+// The light grid's words for a row of n cells, in one pass over the cells kLanes at a time, the
+// sums of the cell's light in registers (Sweeper::add's order: direction by direction, rgb,
+// luminance, luminance times the unit source direction):
+//  - each direction's stored light, less the sun's unscattered part and clamped at 0 for the
+//    down-going ones (kSubtract; without it, as it is: direct_sun), packed into row d of
+//    `codes` (direction-major, `code_stride` words a row; transposeCodes puts them in the grid's
+//    layout);
+//  - kFinish: the cells' average light (the rgb sums over 4 pi) and dominant direction (the
+//    luminance-weighted direction sums over the luminance sum, 0 without light), packed
+//    otherwise the 7 sums, rows of `sum_stride` (bottom_up adds to them later);
+//  - kResume: the sums start from those rows (bottom_up's up-going directions), not from 0.
+// Was one loop per direction for the packing and one for the sums, which loaded and stored the 7
+// sums per direction, then a loop to finish: 23 % of the sweep's instructions.
+template <bool kSubtract, bool kFinish, bool kResume = false>
+DRTV_SWEEP_CLONES void storeCells(int n, const StoreRows& s, uint32_t* __restrict codes, size_t code_stride, float* __restrict sums,
+                                  size_t sum_stride, uint32_t* __restrict average, uint32_t* __restrict dominant) {
+  const size_t stride = s.stride;
+  for (int x = 0; x < n; x += kLanes) {
+    V8f sr{}, sg{}, sb{}, sl{}, sx{}, sy{}, sz{};
+    if constexpr (kResume) {
+      int row = 0;
+      for (V8f* v : {&sr, &sg, &sb, &sl, &sx, &sy, &sz}) *v = load8(sums + size_t(row++) * sum_stride + size_t(x));
+    }
+    for (int d = s.first; d < s.end; ++d) {
+      const float* light = s.light[size_t(d)] + x;
+      V8f r = load8(light), g = load8(light + stride), b = load8(light + 2 * stride);
+      if (kSubtract && d < kSwept) {  // std::max(light - direct, 0)
+        const float* direct = s.direct[size_t(d)] + x;
+        r = r - load8(direct);
+        g = g - load8(direct + stride);
+        b = b - load8(direct + 2 * stride);
+        r = r < 0.f ? V8f{} : r;
+        g = g < 0.f ? V8f{} : g;
+        b = b < 0.f ? V8f{} : b;
+      }
+      store8(codes + size_t(d) * code_stride + size_t(x), packR11G11B10x8(r, g, b));
+      sr += r;
+      sg += g;
+      sb += b;
+      const V8f l = 0.2126f * r + 0.7152f * g + 0.0722f * b;
+      sl += l;
+      sx += l * s.from_x[size_t(d)];
+      sy += l * s.from_y[size_t(d)];
+      sz += l * s.from_z[size_t(d)];
+    }
+    if constexpr (kFinish) {
+      store8(average + x, packR11G11B10x8(sr / kFourPi, sg / kFourPi, sb / kFourPi));
+      const auto lit = sl > 0.f;
+      const V8f dx = lit ? sx / sl : V8f{}, dy = lit ? sy / sl : V8f{}, dz = lit ? sz / sl : V8f{};
+      store8(dominant + x, snormByte8(dx) | (snormByte8(dy) << 8) | (snormByte8(dz) << 16));
+    } else {
+      int row = 0;
+      for (const V8f v : {sr, sg, sb, sl, sx, sy, sz}) store8(sums + size_t(row++) * sum_stride + size_t(x), v);
+    }
+  }
+}
+
+// The bottom-up pass in a row of n cells, for one up-going direction: its gathered light v (3 rows,
+// channels `stride` apart) passes the cell as T (row t) plus what the cell reflects up (e, 3 rows
+// of `e_stride`), and leaves as v T + e (into v); what is stored is v sqrt(T) + e / 2 (rows
+// `stored`, channels `stride` apart). As Sweeper::bottomUp did it cell by cell.
+DRTV_SWEEP_CLONES void upCells(int n, float* __restrict v, size_t stride, const float* __restrict t, const float* __restrict st,
+                               const float* __restrict e, size_t e_stride, float* __restrict stored) {
+  for (size_t c = 0; c < 3; ++c) {
+    float* __restrict vc = v + c * stride;
+    const float* __restrict ec = e + c * e_stride;
+    float* __restrict sc = stored + c * stride;
+    for (int x = 0; x < n; ++x) {
+      const float in = vc[x];
+      vc[x] = in * t[x] + ec[x];
+      sc[x] = in * st[x] + 0.5f * ec[x];
+    }
+  }
+}
+
+// The most material cells one tap's path crosses (makePath; checked in Sweeper::setUp).
+constexpr int kMaxCrossed = 8;
+
+// One direction's gather along a row of n cells, its 3 channels at once (channel c's rows are
+// c * stride after channel 0's): a[x] = the sum over the taps t, in tap order (the reference's
+// order of accumulation), of w_t[x] s[t][x], where
+// w_t[x] is the tap's weight times the product, in order, of its crossed material cells' factors
+// (rows f[t][0..nf[t]), or the weight alone (all of them without kVarying). Rows are read in whole
+// groups of kLanes (room up to n rounded up); the stores stop at n.
+struct TapRows {
+  std::array<float, kTaps> w{};
+  std::array<int, kTaps> nf{};
+  std::array<std::array<const float*, kMaxCrossed>, kTaps> f{};
+  std::array<const float*, kTaps> s{};
+  float* a = nullptr;
+  size_t stride = 0;
+};
+
+[[gnu::always_inline]] inline V8f splat8(float v) {
+  V8f r;
+  for (int i = 0; i < kLanes; ++i) r[i] = v;
+  return r;
+}
+
+// Tap t's weights at cells x..x + kLanes - 1 (gatherRow).
+[[gnu::always_inline]] inline V8f tapWeight(const TapRows& g, int nf, int t, int x, const V8f& w) {
+  if (nf == 0) return w;
+  const std::array<const float*, kMaxCrossed>& f = g.f[size_t(t)];
+  V8f p = load8(f[0] + x);
+  for (int c = 1; c < nf; ++c) p = p * load8(f[size_t(c)] + x);
+  return w * p;
+}
+
+// The weights' rows of the first version: a row of each crossed factor, multiplied in, then the
+// tap's weight; one loop per tap and channel: with 3 channels and the weights in registers, 8 %
+// of the sweep's instructions go.
+template <bool kVarying>
+DRTV_SWEEP_CLONES void gatherRow(int n, const TapRows& g) {
+  const float *s0 = g.s[0], *s1 = g.s[1], *s2 = g.s[2], *s3 = g.s[3], *s4 = g.s[4];
+  float* __restrict a = g.a;
+  const size_t stride = g.stride;
+  // Copies: the stores through `a` could alias g's weights for all the compiler knows.
+  const V8f c0 = splat8(g.w[0]), c1 = splat8(g.w[1]), c2 = splat8(g.w[2]), c3 = splat8(g.w[3]), c4 = splat8(g.w[4]);
+  const int nf0 = g.nf[0], nf1 = g.nf[1], nf2 = g.nf[2], nf3 = g.nf[3], nf4 = g.nf[4];
+  for (int x = 0; x < n; x += kLanes) {
+    const V8f w[kTaps] = {kVarying ? tapWeight(g, nf0, 0, x, c0) : c0, kVarying ? tapWeight(g, nf1, 1, x, c1) : c1,
+                          kVarying ? tapWeight(g, nf2, 2, x, c2) : c2, kVarying ? tapWeight(g, nf3, 3, x, c3) : c3,
+                          kVarying ? tapWeight(g, nf4, 4, x, c4) : c4};
+    for (size_t c = 0; c < 3; ++c) {
+      const size_t at = c * stride + size_t(x);
+      const V8f v = w[0] * load8(s0 + at) + w[1] * load8(s1 + at) + w[2] * load8(s2 + at) + w[3] * load8(s3 + at) + w[4] * load8(s4 + at);
+      if (x + kLanes <= n) {
+        store8(a + at, v);
+      } else {
+        float tail[kLanes];
+        store8(tail, v);
+        std::copy_n(tail, n - x, a + at);
+      }
+    }
   }
 }
 
@@ -398,14 +574,6 @@ DRTV_SWEEP_CLONES void reflectUp(int n, const ReflectionRows& w, float ux, float
 }
 #undef DRTV_SWEEP_REFLECTED
 
-// w[x] *= f[x], and w[x] = s w[x]: a tap's weight along a row, crossed cell by crossed cell.
-DRTV_SWEEP_CLONES void multiplyRow(float* __restrict w, const float* __restrict f, int n) {
-  for (int x = 0; x < n; ++x) w[x] *= f[x];
-}
-DRTV_SWEEP_CLONES void scaleRow(float* __restrict w, float s, int n) {
-  for (int x = 0; x < n; ++x) w[x] = s * w[x];
-}
-
 class Sweeper {
  public:
   Sweeper(const MaterialGrid& m, const SkyInput& sky, const SweptGrid* parent, const SweepOptions& o)
@@ -423,6 +591,7 @@ class Sweeper {
     sigma_.assign(plane_ * size_t(g_.size.z), 0.f);
     level_has_material_.assign(size_t(g_.size.z), 0);
     row_lo_.assign(size_t(g_.size.z) * size_t(h_), w_);
+    row_has_material_.assign(size_t(g_.size.z) * size_t(h_), 0);
     row_hi_.assign(size_t(g_.size.z) * size_t(h_), -1);
     fractional_.resize(size_t(g_.size.z));
     for (int k = 0; k < g_.size.z; ++k)
@@ -436,6 +605,7 @@ class Sweeper {
           if (s > 0) {
             level_has_material_[size_t(k)] = 1;
             const size_t r = size_t(k) * size_t(h_) + size_t(j + kPad);
+            row_has_material_[r] = 1;
             row_lo_[r] = std::min(row_lo_[r], i + kPad);
             row_hi_[r] = std::max(row_hi_[r], i + kPad);
             if (s < kInf) fractional_[size_t(k)].push_back(uint32_t(pi));
@@ -443,9 +613,9 @@ class Sweeper {
         }
     for (int j = -kPad; j < g_.size.y + kPad; ++j)
       for (int i = -kPad; i < g_.size.x + kPad; ++i) {
-        const size_t pi = size_t(j + kPad) * size_t(w_) + size_t(i + kPad);
-        all_cells_.push_back({i, j, pi});
-        if (i < 0 || j < 0 || i >= g_.size.x || j >= g_.size.y) ring_cells_.push_back({i, j, pi});
+        const Edges::Cell cell{i, j, size_t(j + kPad), size_t(i + kPad)};
+        all_cells_.push_back(cell);
+        if (i < 0 || j < 0 || i >= g_.size.x || j >= g_.size.y) ring_cells_.push_back(cell);
       }
     const auto& dirs = directions();
     for (int b = 0; b < kDirections; ++b) {
@@ -471,34 +641,51 @@ class Sweeper {
     up_.direct = false;
     for (int b = kSwept; b < kDirections; ++b) up_.bins.push_back(b);
     if (o_.bottom_up) setUp(up_);
-    weights_.assign(size_t(kTaps) * size_t(nx_), 0.f);
-    codes_.assign(size_t(kDirections) * size_t(nx_), 0u);
-    row_sums_.assign(size_t(kSums) * size_t(nx_), 0.f);
-    values_.assign(3 * size_t(nx_), 0.f);
+    stride_ = (size_t(nx_) + kLanes - 1) / kLanes * kLanes;
+    codes_.assign(size_t(kDirections) * stride_, 0u);
+    // Rows of w_ floats like the level buffers', so that every row storeCells reads has its
+    // channels w_ apart.
+    up_half_.assign(size_t(3 * kUp) * size_t(w_), 0.f);
+    zeros_.assign(3 * size_t(w_), 0.f);
+    store_rows_.stride = size_t(w_);
+    average_.assign(stride_, 0u);
+    dominant_.assign(stride_, 0u);
+    for (int o = 0; o < kUp; ++o) {
+      store_rows_.light[size_t(kSwept + o)] = up_half_.data() + size_t(3 * o) * size_t(w_);
+    }
+    for (int b = 0; b < kDirections; ++b) {
+      store_rows_.from_x[size_t(b)] = unit_from_[size_t(b)].x;
+      store_rows_.from_y[size_t(b)] = unit_from_[size_t(b)].y;
+      store_rows_.from_z[size_t(b)] = unit_from_[size_t(b)].z;
+    }
     batch_.assign(size_t(kBatchRows) * size_t(nx_), 0.f);
     leave_.assign(size_t(3 * kSwept) * size_t(nx_), 0.f);
     direct_leave_.assign(direct_.bins.size() * 3 * size_t(nx_), 0.f);
   }
 
-  SweptGrid run(const SkyInput& sky) {
-    SweptGrid out;
+  // Sweeps into `out` (sweepInto). The light grid's words are all written below (each row's 26
+  // words per cell, every cell's average and dominant direction), so a buffer of the right size
+  // is kept as it is; the direct grid's words outside the sun's bins stay 0, so it is zeroed.
+  void run(const SkyInput& sky, SweptGrid& out) {
     out.sky = sky;
     out.light_has_direct = o_.direct_sun;
     out.light.shape = g_;
-    out.light.light.assign(g_.cellCount() * kDirections, 0);
-    out.light.average.assign(g_.cellCount(), 0);
-    out.light.dominant.assign(g_.cellCount(), 0);
+    for (auto [v, n] : {std::pair{&out.light.light, g_.cellCount() * kDirections}, std::pair{&out.light.average, g_.cellCount()},
+                        std::pair{&out.light.dominant, g_.cellCount()}})
+      if (v->size() != n) v->assign(n, 0);
     if (o_.keep_direct) {
-      out.direct.emplace();
+      if (!out.direct) out.direct.emplace();
       out.direct->shape = g_;
       out.direct->light.assign(g_.cellCount() * kDirections, 0);
       out.direct->average.assign(g_.cellCount(), 0);
       out.direct->dominant.assign(g_.cellCount(), 0);
+    } else {
+      out.direct.reset();
     }
+    out.clear_z.clear();
     if (o_.bottom_up) {
-      // The up-going pass adds to the cells' sums after the downward one: kept per cell.
-      avg_.assign(g_.cellCount(), glm::vec4(0.f));
-      dom_.assign(g_.cellCount(), glm::vec3(0.f));
+      // The up-going pass adds to the cells' sums after the downward one: kept per row.
+      down_sums_.resize(size_t(g_.size.y) * size_t(g_.size.z) * size_t(kSums) * stride_);
       emission_index_.assign(g_.cellCount(), -1);
       emission_.clear();
     }
@@ -512,18 +699,17 @@ class Sweeper {
       }
     }
     for (Pass* p : {&full_, &direct_})
-      if (!p->bins.empty()) edges_.fill(nz, p->direct, p->bins, all_cells_, p->src.get(), plane_);
+      if (!p->bins.empty()) edges_.fill(nz, p->direct, p->bins, all_cells_, p->src.get(), p->w, p->rowStride());
     for (int k = nz - 1; k >= 0; --k) {
       // The open sky's ring is the same at every level, and the levels never write it: both
       // buffers have it once the first level's is filled.
       if (k == nz - 1 || !edges_.sameAtEveryLevel())
         for (Pass* p : {&full_, &direct_})
-          if (!p->bins.empty()) edges_.fill(k, p->direct, p->bins, ring_cells_, p->dst.get(), plane_);
+          if (!p->bins.empty()) edges_.fill(k, p->direct, p->bins, ring_cells_, p->dst.get(), p->w, p->rowStride());
       level(k, out);
       for (Pass* p : {&full_, &direct_}) std::swap(p->src, p->dst);
     }
     if (o_.bottom_up) bottomUp(out);
-    return out;
   }
 
  private:
@@ -531,14 +717,21 @@ class Sweeper {
     for (int b : p.bins) {
       BinPath path = pathGeometry(b);
       for (int t = 0; t < kTaps; ++t) path.taps[size_t(t)].w = t == 0 ? o_.smoothing : (1.f - o_.smoothing) / 4.f;  // as makePath
-      for (Tap& t : path.taps)
-        for (Crossed& c : t.crossed) c.len_id = lengthId(crossed_len_, c.len);
+      for (Tap& t : path.taps) {
+        DRTV_CHECK_LE(t.crossed.size(), size_t(kMaxCrossed));
+        for (Crossed& c : t.crossed) {
+          c.len_id = lengthId(crossed_len_, c.len);
+          c.offset = ptrdiff_t(c.len_id) * ptrdiff_t(plane_) + ptrdiff_t(c.dy) * w_ + kPad + c.dx;
+        }
+      }
       path.target_len_id = lengthId(target_len_, path.target_len);
       DRTV_CHECK_LE(target_len_.size(), kMaxTargetLengths);
       p.paths.push_back(std::move(path));
     }
-    p.src.reset(new float[p.bins.size() * 3 * plane_]);
-    p.dst.reset(new float[p.bins.size() * 3 * plane_]);
+    p.w = size_t(w_);
+    // kLanes more: storeCells reads rows in whole groups of kLanes, past the last row's end.
+    p.src.reset(new float[p.bins.size() * 3 * plane_ + kLanes]);
+    p.dst.reset(new float[p.bins.size() * 3 * plane_ + kLanes]);
   }
 
   static int lengthId(std::vector<float>& lengths, float len) {
@@ -561,7 +754,7 @@ class Sweeper {
       if (f.level == k) return f.planes.data();
     LevelFactors& f = factors_[0].level == keep ? factors_[1] : factors_[0];
     f.level = k;
-    f.planes.resize(crossed_len_.size() * plane_);
+    f.planes.resize(crossed_len_.size() * plane_ + kLanes);  // kLanes: gatherRow reads whole groups
     const float* sig = sigma_.data() + size_t(k) * plane_;
     for (size_t l = 0; l < crossed_len_.size(); ++l) {
       float* out = f.planes.data() + l * plane_;
@@ -580,65 +773,50 @@ class Sweeper {
   // Gathers row j of level k (source level k_src) into p.dst's row, and into q->dst's for the
   // bins q shares with p (the direct pass: a subset of the same bins, the same paths).
   void gather(Pass& p, Pass* q, int k, int k_src, int j) {
-    const int nx = nx_;
     const bool src_in = k_src >= 0 && k_src < g_.size.z;
     const bool target_material = level_has_material_[size_t(k)] != 0;
     const bool src_material = src_in && level_has_material_[size_t(k_src)] != 0;
     const float* f_target = target_material ? factors(k, src_material ? k_src : k) : nullptr;
     const float* f_src = src_material ? factors(k_src, k) : nullptr;
+    // A crossed cell is taken if its row holds material at all: where it holds none within the
+    // row's cells, its factors there are 1, and multiplying by 1 changes nothing.
+    const size_t row = size_t(j + kPad) * size_t(w_);
+    const float* rows_target = f_target ? f_target + row : nullptr;
+    const float* rows_src = f_src ? f_src + row : nullptr;
+    const uint8_t* lit_target = row_has_material_.data() + size_t(k) * size_t(h_) + size_t(j + kPad);
+    const uint8_t* lit_src = src_in ? row_has_material_.data() + size_t(k_src) * size_t(h_) + size_t(j + kPad) : nullptr;
+    TapRows g;
     for (size_t b = 0; b < p.bins.size(); ++b) {
       const BinPath& path = p.paths[b];
-      std::array<bool, kTaps> varying{};
       bool any = false;
       for (int t = 0; t < kTaps; ++t) {
         const Tap& tap = path.taps[size_t(t)];
-        float* w = weights_.data() + size_t(t) * size_t(nx);
+        g.w[size_t(t)] = tap.w;
+        int nf = 0;
         for (const Crossed& c : tap.crossed) {
-          const float* f = c.src_level ? f_src : f_target;
-          const int r = j + kPad + c.dy, x0 = kPad + c.dx;
-          if (!f || !hasMaterial(c.src_level ? k_src : k, r, x0, x0 + nx - 1)) continue;
-          const float* fr = f + size_t(c.len_id) * plane_ + size_t(r) * size_t(w_) + size_t(x0);
-          if (!varying[size_t(t)])
-            std::memcpy(w, fr, size_t(nx) * sizeof(float));
-          else
-            multiplyRow(w, fr, nx);
-          varying[size_t(t)] = true;
+          const float* f = c.src_level ? rows_src : rows_target;
+          if (f && (c.src_level ? lit_src : lit_target)[c.dy]) g.f[size_t(t)][size_t(nf++)] = f + c.offset;
         }
-        if (varying[size_t(t)]) {
-          scaleRow(w, tap.w, nx);
-          any = true;
-        }
+        g.nf[size_t(t)] = nf;
+        any = any || nf > 0;
       }
-      if (any)
-        for (int t = 0; t < kTaps; ++t)
-          if (!varying[size_t(t)]) std::fill_n(weights_.data() + size_t(t) * size_t(nx), nx, path.taps[size_t(t)].w);
-      gatherDirection(p, b, path, any, j);
-      if (q && direct_of_bin_[size_t(path.bin)] >= 0) gatherDirection(*q, size_t(direct_of_bin_[size_t(path.bin)]), path, any, j);
+      gatherDirection(p, b, path, any, j, g);
+      if (q && direct_of_bin_[size_t(path.bin)] >= 0) gatherDirection(*q, size_t(direct_of_bin_[size_t(path.bin)]), path, any, j, g);
     }
   }
 
-  void gatherDirection(Pass& p, size_t b, const BinPath& path, bool varying, int j) {
-    const int nx = nx_;
-    std::array<const float*, kTaps> w;
-    std::array<float, kTaps> wc;
+  // Direction b of pass p along row j, with the taps' weights in g.
+  void gatherDirection(Pass& p, size_t b, const BinPath& path, bool varying, int j, TapRows& g) {
     for (int t = 0; t < kTaps; ++t) {
-      w[size_t(t)] = weights_.data() + size_t(t) * size_t(nx);
-      wc[size_t(t)] = path.taps[size_t(t)].w;
+      const Tap& tap = path.taps[size_t(t)];
+      g.s[size_t(t)] = p.srcRow(b * 3, j + kPad + tap.oy) + kPad + tap.ox;
     }
-    const size_t row = size_t(j + kPad) * size_t(w_) + size_t(kPad);
-    for (int c = 0; c < 3; ++c) {
-      const float* plane = p.src.get() + (b * 3 + size_t(c)) * plane_;
-      std::array<const float*, kTaps> s;
-      for (int t = 0; t < kTaps; ++t) {
-        const Tap& tap = path.taps[size_t(t)];
-        s[size_t(t)] = plane + size_t(j + kPad + tap.oy) * size_t(w_) + size_t(kPad + tap.ox);
-      }
-      float* a = p.dst.get() + (b * 3 + size_t(c)) * plane_ + row;
-      if (varying)
-        weightedTaps(a, s, w, nx);
-      else
-        constantTaps(a, s, wc, nx);
-    }
+    g.a = p.dstRow(b * 3, j + kPad) + kPad;
+    g.stride = p.w;  // a row's planes follow each other (Pass)
+    if (varying)
+      gatherRow<true>(nx_, g);
+    else
+      gatherRow<false>(nx_, g);
   }
 
   void level(int k, SweptGrid& out) {
@@ -647,10 +825,9 @@ class Sweeper {
       interactRow(k, j);
       storeRow(k, j, out);
       // What the cells with material send on replaces what they stored.
-      const size_t at = size_t(j + kPad) * size_t(w_) + size_t(kPad + span_lo_);
       for (const auto& [p, leave] : {std::pair{&full_, &leave_}, std::pair{&direct_, &direct_leave_}})
-        for (size_t plane = 0; plane < p->bins.size() * 3; ++plane)
-          std::memcpy(p->dst.get() + plane * plane_ + at, leave->data() + plane * size_t(nx_), size_t(span_n_) * sizeof(float));
+        for (size_t plane = 0; plane < p->planes(); ++plane)
+          std::memcpy(p->dstRow(plane, j + kPad) + kPad + span_lo_, leave->data() + plane * size_t(nx_), size_t(span_n_) * sizeof(float));
     }
   }
 
@@ -678,30 +855,33 @@ class Sweeper {
     float* fa = batch(kFa);
     float* fb = batch(kFb);
     const size_t lengths = target_len_.size();
-    // The cells' own pass-through per distinct path length: 1 in an empty cell, 0 in a full one.
+    // The cells' own pass-through per distinct path length: 1 in an empty cell, 0 in a full one
+    // (row loops), exp in the cells of fractional density (patched in after).
+    for (int m = 0; m < n; ++m) tau[m] = sig[m] == 0.f ? 1.f : 0.f;
+    for (size_t l = 0; l < lengths; ++l) {
+      std::copy_n(tau, n, batch(kT + int(l)));
+      std::copy_n(tau, n, batch(kSqrtT + int(l)));
+    }
     for (int m = 0; m < n; ++m) {
       const float s = sig[m];
-      const size_t cell = g_.index(lo + m, j, k);
-      if (s == 0.f) {
-        tau[m] = 1.f;
-        for (size_t l = 0; l < lengths; ++l) batch(kT + int(l))[m] = batch(kSqrtT + int(l))[m] = 1.f;
-      } else if (s == kInf) {
-        tau[m] = 0.f;
-        for (size_t l = 0; l < lengths; ++l) batch(kT + int(l))[m] = batch(kSqrtT + int(l))[m] = 0.f;
-      } else {
-        tau[m] = std::exp(-s);
-        for (size_t l = 0; l < lengths; ++l) {
-          const float t = std::exp(-s * target_len_[l]);
-          batch(kT + int(l))[m] = t;
-          batch(kSqrtT + int(l))[m] = std::sqrt(t);
-        }
+      if (s == 0.f || s == kInf) continue;
+      tau[m] = std::exp(-s);
+      for (size_t l = 0; l < lengths; ++l) {
+        const float t = std::exp(-s * target_len_[l]);
+        batch(kT + int(l))[m] = t;
+        batch(kSqrtT + int(l))[m] = std::sqrt(t);
       }
+    }
+    for (int m = 0; m < n; ++m) {
       fa[m] = 0.5f * (1.f + tau[m]);
       fb[m] = 0.5f * (1.f - tau[m]);
-      const glm::vec3& rho = m_.reflectance[cell];
-      for (int c = 0; c < 3; ++c) batch(kRho + c)[m] = rho[c];
     }
-    auto in = [&](int b, int c) { return full_.dst.get() + size_t(3 * b + c) * plane_ + row; };
+    const glm::vec3* rho = m_.reflectance.data() + g_.index(lo, j, k);
+    for (int c = 0; c < 3; ++c) {
+      float* row_rho = batch(kRho + c);
+      for (int m = 0; m < n; ++m) row_rho[m] = rho[m][c];
+    }
+    auto in = [&](int b, int c) { return full_.dstRow(size_t(3 * b + c), j + kPad) + kPad + lo; };
     // What each direction loses in the cell, I (1 - T), normalised, summed as sum and q (columns
     // x, y, z of sum_i q_i travel_i, per channel); then the reflected light per outgoing direction.
     ReflectionRows rows{tau, fa, fb, {batch(kRho), batch(kRho + 1), batch(kRho + 2)}, {}, {}};
@@ -729,7 +909,7 @@ class Sweeper {
       const int l = direct_.paths[d].target_len_id;
       const float *t = batch(kT + l), *st = batch(kSqrtT + l);
       for (int c = 0; c < 3; ++c) {
-        float* dst = direct_.dst.get() + (d * 3 + size_t(c)) * plane_ + row;
+        float* dst = direct_.dstRow(d * 3 + size_t(c), j + kPad) + kPad + lo;
         float* leave = direct_leave_.data() + (d * 3 + size_t(c)) * size_t(nx);
         for (int m = 0; m < n; ++m) {
           const float v = dst[m];
@@ -754,116 +934,102 @@ class Sweeper {
   void storeRow(int k, int j, SweptGrid& out) {
     const int nx = nx_;
     const size_t cell0 = g_.index(0, j, k);
-    const size_t row = size_t(j + kPad) * size_t(w_) + size_t(kPad);
-    std::fill(row_sums_.begin(), row_sums_.end(), 0.f);
-    float* s = row_sums_.data();
-    const RowSums sums{s, s + nx, s + 2 * nx, s + 3 * nx, s + 4 * nx, s + 5 * nx, s + 6 * nx};
+    StoreRows& rows = store_rows_;
     for (int b = 0; b < kSwept; ++b) {
-      const float* r = full_.dst.get() + size_t(3 * b) * plane_ + row;
-      const float* g = r + plane_;
-      const float* bl = g + plane_;
+      const float* r = full_.dstRow(size_t(3 * b), j + kPad) + kPad;
+      rows.light[size_t(b)] = r;
       const int d = direct_of_bin_[size_t(b)];
-      const float* dr = d >= 0 ? direct_.dst.get() + size_t(3 * d) * plane_ + row : r;
-      const float* dg = dr + (d >= 0 ? plane_ : 0);
-      const float* db = dg + (d >= 0 ? plane_ : 0);
-      uint32_t* code = codes_.data() + size_t(b);
-      float *vr = values_.data(), *vg = vr + nx, *vb = vg + nx;
-      if (o_.direct_sun)
-        storedLight<Stored::kAsIs>(nx, r, g, bl, dr, dg, db, vr, vg, vb, code);
-      else if (d >= 0)
-        storedLight<Stored::kMinusDirect>(nx, r, g, bl, dr, dg, db, vr, vg, vb, code);
-      else
-        storedLight<Stored::kClamped>(nx, r, g, bl, dr, dg, db, vr, vg, vb, code);
-      const glm::vec3 f = unit_from_[size_t(b)];
-      addToSums(nx, vr, vg, vb, sums.r, sums.g, sums.b, sums.l, sums.x, sums.y, sums.z, f.x, f.y, f.z);
+      rows.direct[size_t(b)] = d >= 0 ? direct_.dstRow(size_t(3 * d), j + kPad) + kPad : zeros_.data();
     }
     if (out.direct)
       for (size_t d = 0; d < direct_.bins.size(); ++d) {
-        const float* r = direct_.dst.get() + d * 3 * plane_ + row;
+        const float* r = direct_.dstRow(d * 3, j + kPad) + kPad;
         uint32_t* dst = out.direct->light.data() + cell0 * kDirections + size_t(direct_.bins[d]);
-        for (int x = 0; x < nx; ++x) dst[size_t(x) * kDirections] = detail::packR11G11B10(r[x], r[plane_ + x], r[2 * plane_ + x]);
+        for (int x = 0; x < nx; ++x) dst[size_t(x) * kDirections] = detail::packR11G11B10(r[x], r[w_ + x], r[2 * w_ + x]);
       }
-    if (o_.bottom_up) {  // the up-going light comes later (bottomUp)
-      clearUpGoing();
-      std::memcpy(out.light.light.data() + cell0 * kDirections, codes_.data(), codes_.size() * sizeof(uint32_t));
-      for (int x = 0; x < nx; ++x) {
-        avg_[cell0 + size_t(x)] = {sums.r[x], sums.g[x], sums.b[x], sums.l[x]};
-        dom_[cell0 + size_t(x)] = {sums.x[x], sums.y[x], sums.z[x]};
-      }
+    uint32_t* grid = out.light.light.data() + cell0 * kDirections;
+    rows.first = 0;
+    if (o_.bottom_up) {  // the up-going light comes later (bottomUp); its words are 0 in codes_
+      rows.end = kSwept;
+      float* sums = down_sums_.data() + (size_t(k) * size_t(g_.size.y) + size_t(j)) * size_t(kSums) * stride_;
+      if (o_.direct_sun)
+        storeCells<false, false>(nx, rows, codes_.data(), stride_, sums, stride_, nullptr, nullptr);
+      else
+        storeCells<true, false>(nx, rows, codes_.data(), stride_, sums, stride_, nullptr, nullptr);
+      transposeCodes(codes_.data(), stride_, nx, grid);
       return;
     }
-    // The up-going directions without the bottom-up pass: the cells' own reflected light, halved
-    // (0 in the span's empty cells, which adds nothing).
+    // The up-going directions without the bottom-up pass: the cells' own reflected light, halved;
+    // 0 outside the span (the rows' previous span is cleared), which adds nothing to the sums.
     const int n = span_n_, lo = span_lo_;
-    clearUpGoing();
-    for (int o = 0; o < kUp && n > 0; ++o) {
-      float* half = batch(kHalf);
-      for (int c = 0; c < 3; ++c) {
-        const float* e = batch(kEmission + 3 * o + c);
-        for (int m = 0; m < n; ++m) half[c * nx + m] = 0.5f * e[m];
-      }
-      uint32_t* code = codes_.data() + size_t(lo) * kDirections + size_t(kSwept + o);
-      for (int m = 0; m < n; ++m) code[size_t(m) * kDirections] = detail::packR11G11B10(half[m], half[nx + m], half[2 * nx + m]);
-      const glm::vec3 f = unit_from_[size_t(kSwept + o)];
-      addToSums(n, half, half + nx, half + 2 * nx, sums.r + lo, sums.g + lo, sums.b + lo, sums.l + lo, sums.x + lo, sums.y + lo, sums.z + lo,
-                f.x, f.y, f.z);
+    for (int row = 0; row < 3 * kUp; ++row) {
+      float* half = up_half_.data() + size_t(row) * size_t(w_);
+      std::fill_n(half + half_lo_, half_n_, 0.f);
+      const float* e = batch(kEmission + row);
+      for (int m = 0; m < n; ++m) half[lo + m] = 0.5f * e[m];
     }
-    std::memcpy(out.light.light.data() + cell0 * kDirections, codes_.data(), codes_.size() * sizeof(uint32_t));
-    finishRow(nx, sums.r, sums.g, sums.b, sums.l, sums.x, sums.y, sums.z, out.light.average.data() + cell0, out.light.dominant.data() + cell0);
-  }
-
-  // The row's up-going words 0 (what the span's cells reflect up replaces them).
-  void clearUpGoing() {
-    for (int x = 0; x < nx_; ++x) std::fill_n(codes_.data() + size_t(x) * kDirections + kSwept, kUp, 0u);
-  }
-
-  void add(glm::vec4& avg, glm::vec3& dom, int b, const glm::vec3& v) const {
-    avg += glm::vec4(v, 0.f);
-    const float l = luminance(v);
-    avg.w += l;
-    dom += l * unit_from_[size_t(b)];
-  }
-
-  static void finish(SweptGrid& out, size_t cell, const glm::vec4& avg, const glm::vec3& dom) {
-    const glm::vec3 mean = glm::vec3(avg) / kFourPi;
-    out.light.average[cell] = detail::packR11G11B10(mean.r, mean.g, mean.b);
-    out.light.dominant[cell] = packDirection(avg.w > 0 ? dom / avg.w : glm::vec3(0.f));
+    half_lo_ = lo;
+    half_n_ = n;
+    rows.end = kDirections;
+    if (o_.direct_sun)
+      storeCells<false, true>(nx, rows, codes_.data(), stride_, nullptr, 0, average_.data(), dominant_.data());
+    else
+      storeCells<true, true>(nx, rows, codes_.data(), stride_, nullptr, 0, average_.data(), dominant_.data());
+    transposeCodes(codes_.data(), stride_, nx, grid);
+    std::memcpy(out.light.average.data() + cell0, average_.data(), size_t(nx) * sizeof(uint32_t));
+    std::memcpy(out.light.dominant.data() + cell0, dominant_.data(), size_t(nx) * sizeof(uint32_t));
   }
 
   // The up-going directions carried up from the bottom level (bottom_up), then the cells'
   // average and dominant direction.
   void bottomUp(SweptGrid& out) {
     const int nx = nx_, ny = g_.size.y, nz = g_.size.z;
-    auto emission = [&](size_t cell, int o) {
-      const int e = emission_index_[cell];
-      return e < 0 ? glm::vec3(0.f) : emission_[size_t(e)][size_t(o)];
-    };
+    // Per row: the up-going paths' pass-through T and sqrt T per distinct path length, and what
+    // the cells reflect up (0 where they reflect nothing), 3 rows per direction.
+    std::vector<float> lengths;
+    std::array<int, kUp> length_of{};
+    for (int o = 0; o < kUp; ++o) length_of[size_t(o)] = lengthId(lengths, up_.paths[size_t(o)].target_len);
+    std::vector<float> t(2 * lengths.size() * stride_), e(size_t(3 * kUp) * stride_, 0.f);
     std::fill_n(up_.src.get(), up_.bins.size() * 3 * plane_, 0.f);  // below the grid: nothing comes up
+    StoreRows& rows = store_rows_;  // light[kSwept + o]: up_half_'s rows, the stored light
+    rows.first = kSwept;
+    rows.end = kDirections;
     for (int k = 0; k < nz; ++k) {
-      edges_.fill(k, false, up_.bins, ring_cells_, up_.dst.get(), plane_);
-      const float* sig = sigma_.data() + size_t(k) * plane_;
+      edges_.fill(k, false, up_.bins, ring_cells_, up_.dst.get(), up_.w, up_.rowStride());
       for (int j = 0; j < ny; ++j) {
         gather(up_, nullptr, k, k - 1, j);
-        for (int i = 0; i < nx; ++i) {
-          const size_t cell = g_.index(i, j, k);
-          const size_t pi = size_t(j + kPad) * size_t(w_) + size_t(i + kPad);
-          const float s = sig[pi];
-          for (int o = 0; o < kUp; ++o) {
-            glm::vec3 v;
-            for (int c = 0; c < 3; ++c) v[c] = up_.dst[(size_t(o) * 3 + size_t(c)) * plane_ + pi];
-            const float t = s == 0.f ? 1.f : std::exp(-s * up_.paths[size_t(o)].target_len);
-            const glm::vec3 e = emission(cell, o);
-            const glm::vec3 leave = v * t + e;
-            for (int c = 0; c < 3; ++c) up_.dst[(size_t(o) * 3 + size_t(c)) * plane_ + pi] = leave[c];
-            const glm::vec3 stored = v * std::sqrt(t) + 0.5f * e;
-            out.light.light[cell * kDirections + size_t(kSwept + o)] = detail::packR11G11B10(stored.r, stored.g, stored.b);
-            add(avg_[cell], dom_[cell], kSwept + o, stored);
+        const float* sig = sigma_.data() + size_t(k) * plane_ + size_t(j + kPad) * size_t(w_) + size_t(kPad);
+        for (size_t l = 0; l < lengths.size(); ++l) {
+          float* tl = t.data() + 2 * l * stride_;
+          float* stl = tl + stride_;
+          for (int x = 0; x < nx; ++x) {
+            const float s = sig[x];
+            tl[x] = s == 0.f ? 1.f : std::exp(-s * lengths[l]);
+            stl[x] = std::sqrt(tl[x]);
           }
         }
+        const size_t cell0 = g_.index(0, j, k);
+        for (int x = 0; x < nx; ++x) {
+          const int at = emission_index_[cell0 + size_t(x)];
+          for (int o = 0; o < kUp; ++o)
+            for (int c = 0; c < 3; ++c)
+              e[size_t(3 * o + c) * stride_ + size_t(x)] = at < 0 ? 0.f : emission_[size_t(at)][size_t(o)][c];
+        }
+        for (int o = 0; o < kUp; ++o) {
+          const float* tl = t.data() + 2 * size_t(length_of[size_t(o)]) * stride_;
+          upCells(nx, up_.dstRow(size_t(3 * o), j + kPad) + kPad, size_t(w_), tl, tl + stride_, e.data() + size_t(3 * o) * stride_, stride_,
+                  up_half_.data() + size_t(3 * o) * size_t(w_));
+        }
+        float* sums = down_sums_.data() + (size_t(k) * size_t(ny) + size_t(j)) * size_t(kSums) * stride_;
+        storeCells<false, true, true>(nx, rows, codes_.data(), stride_, sums, stride_, average_.data(), dominant_.data());
+        uint32_t* grid = out.light.light.data() + cell0 * kDirections;
+        for (int x = 0; x < nx; ++x)
+          for (int o = kSwept; o < kDirections; ++o) grid[size_t(x) * kDirections + size_t(o)] = codes_[size_t(o) * stride_ + size_t(x)];
+        std::memcpy(out.light.average.data() + cell0, average_.data(), size_t(nx) * sizeof(uint32_t));
+        std::memcpy(out.light.dominant.data() + cell0, dominant_.data(), size_t(nx) * sizeof(uint32_t));
       }
       std::swap(up_.src, up_.dst);
     }
-    for (size_t cell = 0; cell < g_.cellCount(); ++cell) finish(out, cell, avg_[cell], dom_[cell]);
   }
 
   // Distinct path lengths a cell attenuates itself: straight, the 4 side diagonals, the 4 corner
@@ -882,8 +1048,7 @@ class Sweeper {
   static constexpr int kSum = kRho + 3;
   static constexpr int kQ = kSum + 3;
   static constexpr int kEmission = kQ + 9;
-  static constexpr int kHalf = kEmission + 3 * kUp;
-  static constexpr int kBatchRows = kHalf + 3;
+  static constexpr int kBatchRows = kEmission + 3 * kUp;
 
   struct LevelFactors {
     int level = std::numeric_limits<int>::min();
@@ -899,6 +1064,7 @@ class Sweeper {
   std::vector<float> sigma_;
   std::vector<uint8_t> level_has_material_;
   std::vector<int> row_lo_, row_hi_;
+  std::vector<uint8_t> row_has_material_;  // per level and padded row: row_lo_ <= row_hi_
   std::vector<std::vector<uint32_t>> fractional_;
   std::vector<float> crossed_len_, target_len_;
   std::array<LevelFactors, 2> factors_;
@@ -907,27 +1073,39 @@ class Sweeper {
   std::array<glm::vec3, kDirections> travel_{}, unit_from_{};
   Pass full_, direct_, up_;
   std::array<int, kSwept> direct_of_bin_{};
-  std::vector<float> weights_;   // kTaps rows of nx: a direction's tap weights along the row
-  // The row's words in the light grid's layout (kDirections per cell), written with strides here
-  // in L1 and copied to the grid in one piece.
+  // The row's words, direction-major (kDirections rows of nx), transposed into the grid
+  // (transposeCodes).
   std::vector<uint32_t> codes_;
-  std::vector<float> row_sums_;  // kSums rows of nx
-  std::vector<float> values_;    // 3 rows of nx: a direction's stored light as the grid stores it
+  size_t stride_ = 0;             // nx_ rounded up to kLanes: the rows of codes_, average_, down_sums_
+  // 3 kUp rows of w_: the up-going light as stored (the cells' reflection halved, or with
+  // bottom_up what bottomUp carried up), read by storeCells.
+  std::vector<float> up_half_;
+  int half_lo_ = 0, half_n_ = 0;  // the cells of up_half_ not 0: the last row's span
+  std::vector<float> zeros_;     // 3 rows of 0: the sun's unscattered light of a bin without it
+  std::vector<uint32_t> average_, dominant_;  // one row each: storeCells' words before the grid's
+  StoreRows store_rows_;
   int span_lo_ = 0, span_n_ = 0;  // the row's span of cells with material (interactRow)
   std::vector<float> batch_;     // kBatchRows rows of nx
   std::vector<float> leave_, direct_leave_;  // per pass, bins * 3 rows of nx: what the batch sends on
-  std::vector<glm::vec4> avg_;  // bottom_up: per cell, rgb sum, luminance sum
-  std::vector<glm::vec3> dom_;
+  std::vector<float> down_sums_;  // bottom_up: per row of the grid, the kSums rows of its cells' sums
   std::vector<int> emission_index_;
   std::vector<std::array<glm::vec3, kUp>> emission_;
 };
 
 }  // namespace
 
-SweptGrid sweep(const MaterialGrid& material, const SkyInput& sky, const SweptGrid* parent, const SweepOptions& options) {
+void sweepInto(const MaterialGrid& material, const SkyInput& sky, const SweptGrid* parent, const SweepOptions& options,
+               SweptGrid& out) {
   DRTV_CHECK(options.smoothing >= 0.f && options.smoothing <= 1.f);
+  DRTV_CHECK(parent != &out);
   Sweeper s(material, sky, parent, options);
-  return s.run(sky);
+  s.run(sky, out);
+}
+
+SweptGrid sweep(const MaterialGrid& material, const SkyInput& sky, const SweptGrid* parent, const SweepOptions& options) {
+  SweptGrid out;
+  sweepInto(material, sky, parent, options, out);
+  return out;
 }
 
 }  // namespace drtv::sweep

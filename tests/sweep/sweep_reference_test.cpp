@@ -162,5 +162,36 @@ TEST(SweepOptimised, AgreesWithTheReferenceUnderACoarseGrid) {
   }
 }
 
+// sweepInto refills a grid that holds another sweep (other options, another sky, another shape,
+// a direct grid or none): afterwards it holds what sweep() returns, to the byte.
+TEST(SweepOptimised, SweepIntoAGridInUseGivesTheSameBytesAsAFreshSweep) {
+  const GridShape s{{3.0, -7.0, 1.0}, 1.0, {23, 19, 12}};
+  const MaterialGrid m = mixedMaterial(s, 11);
+  const SkyInput sky = morningSky();
+  const Sky evening_sky = Sky::tropicalDefault();
+  const SkyInput evening{skyLight(evening_sky, 16.0), sunLight(evening_sky, 16.0, 0.05)};
+  SweptGrid kept = sweep(mixedMaterial({{0.0, 0.0, 0.0}, 1.0, {7, 5, 4}}, 3), sky, nullptr, options(false, false, true));
+  for (const bool bottom_up : {false, true})
+    for (const bool direct_sun : {false, true})
+      for (const bool keep_direct : {true, false})
+        for (const SkyInput* in : {&evening, &sky}) {
+          const SweepOptions o = options(bottom_up, direct_sun, keep_direct);
+          const std::string what = "bottom_up " + std::to_string(bottom_up) + " direct_sun " + std::to_string(direct_sun) +
+                                   " keep_direct " + std::to_string(keep_direct) + (in == &sky ? " morning" : " evening");
+          sweepInto(m, *in, nullptr, o, kept);
+          const SweptGrid fresh = sweep(m, *in, nullptr, o);
+          EXPECT_EQ(kept.light.light, fresh.light.light) << what;
+          EXPECT_EQ(kept.light.average, fresh.light.average) << what;
+          EXPECT_EQ(kept.light.dominant, fresh.light.dominant) << what;
+          ASSERT_EQ(kept.direct.has_value(), fresh.direct.has_value()) << what;
+          if (fresh.direct) {
+            EXPECT_EQ(kept.direct->light, fresh.direct->light) << what;
+            EXPECT_EQ(kept.direct->average, fresh.direct->average) << what;
+          }
+          EXPECT_EQ(kept.clear_z, fresh.clear_z) << what;
+          EXPECT_EQ(kept.light_has_direct, fresh.light_has_direct) << what;
+        }
+}
+
 }  // namespace
 }  // namespace drtv::sweep

@@ -90,4 +90,12 @@ struct SweptGrid {
 // parent->light_has_direct.
 SweptGrid sweep(const MaterialGrid& material, const SkyInput& sky, const SweptGrid* parent, const SweepOptions& options);
 
+// As sweep(), into `out`, whose buffers are refilled in place where they already have this grid's
+// sizes: a re-sweep of the same material under new lighting (an hour of the day) allocates and
+// zeroes nothing (a fresh 64 x 64 x 32 grid is 14.7 MB to zero first). `out` may hold anything
+// (another grid, another sweep's options); afterwards it holds exactly what sweep() returns.
+// Preconditions as sweep(), and `out` is not `*parent`.
+void sweepInto(const MaterialGrid& material, const SkyInput& sky, const SweptGrid* parent, const SweepOptions& options,
+               SweptGrid& out);
+
 }  // namespace drtv::sweep

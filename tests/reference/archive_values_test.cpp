@@ -49,13 +49,15 @@ struct Baked {
   std::vector<uint8_t> file;  // the archive's bytes
 };
 
-const Baked& baked() {
-  static const Baked b = [] {
+// The world baked in `representation`: fc3 (archive version 1) or sh-l1 (version 3: the fitted
+// direct sky and the sectors' sun transfer, sector.h SunBlock).
+Baked bake(Representation representation) {
     Baked out;
     auto world = worlds::parseWorldJson(kWorld, ".", "values.json");
     EXPECT_TRUE(world.has_value()) << world.error().message;
-    auto bake = baker::bakeInMemory(*world, "values.json", baker::BakeSettings::forQuality(baker::Quality::kDraft, 1),
-                                    raytrace::SectorRange{0, 0, 0, 0});
+    baker::BakeSettings settings = baker::BakeSettings::forQuality(baker::Quality::kDraft, 1);
+    settings.transfer.representation = representation;
+    auto bake = baker::bakeInMemory(*world, "values.json", settings, raytrace::SectorRange{0, 0, 0, 0});
     EXPECT_TRUE(bake.has_value()) << bake.error().message;
     out.manifest = bake->manifest;
     out.sectors = bake->sectors;
@@ -73,8 +75,12 @@ const Baked& baked() {
     std::fclose(f);
     std::remove(path.c_str());
     return out;
-  }();
-  return b;
+}
+const Baked& baked(Representation representation = Representation::kFc3) {
+  static const Baked fc3 = bake(Representation::kFc3);
+  if (representation == Representation::kFc3) return fc3;
+  static const Baked sh_l1 = bake(Representation::kShL1);
+  return sh_l1;
 }
 
 // A float field of the bytes: where it is, its width, and what a refusal must name.
@@ -97,6 +103,7 @@ std::vector<Field> manifestFloats(const std::vector<uint8_t>& file) {
   size_t at = readAt<uint64_t>(file, 16);
   for (int i = 0; i < 6; ++i, at += 8) out.push_back({"manifest bounds", at, true});
   at += 8 + 4;  // sector size (checked to be exactly 64), effects
+  if (readAt<uint32_t>(file, 8) != kArchiveVersionTalkBasis) at += 4;  // the representation code
   const uint32_t settings = readAt<uint32_t>(file, at);
   at += 4;
   for (uint32_t i = 0; i < settings; ++i) {
@@ -136,9 +143,17 @@ std::vector<Field> manifestFloats(const std::vector<uint8_t>& file) {
   return out;
 }
 
-// Every float of an encoded sector's header and of the probes `which` (sector.h, probe.h).
-std::vector<Field> sectorFloats(size_t probes, std::initializer_list<size_t> which) {
+// Every float of an encoded sector's header and of the probes `which` (sector.h, probe.h), and
+// of its sun transfer (the first and last sample directions, those probes' ranges) when it has one
+// (`sun_at`: where its block starts, `samples` its K).
+std::vector<Field> sectorFloats(size_t probes, std::initializer_list<size_t> which, size_t sun_at = 0, size_t samples = 0) {
   std::vector<Field> out{{"grid z min", 24}, {"grid cell height", 28}, {"ground height range", 32}, {"ground height range", 36}};
+  if (samples > 0) {
+    for (size_t k : {size_t(0), samples - 1})
+      for (size_t a = 0; a < 3; ++a) out.push_back({"sun sample " + std::to_string(k), sun_at + 12 * k + 4 * a});
+    for (size_t p : which)
+      if (p < probes) out.push_back({"probe " + std::to_string(p) + ": sun-transfer range", sun_at + 12 * samples + 4 * p});
+  }
   for (size_t p : which) {
     if (p >= probes) continue;
     const size_t base = kSectorHeaderBytes + p * sizeof(ProbeRecord);
@@ -202,7 +217,9 @@ int nonFiniteAmbient(const Manifest& manifest, const std::vector<Sector>& sector
 
 // Each probe of sector (0,0), relit at noon: the sum of its basis colours (0 = black).
 std::vector<float> probeColourSums(const Manifest& manifest, const std::vector<Sector>& sectors) {
-  auto rt = std::make_unique<runtime::Runtime>(runtime::optionsForEffects(manifest.effects));
+  runtime::RuntimeOptions options = runtime::optionsForEffects(manifest.effects);
+  options.representation = manifest.representation;
+  auto rt = std::make_unique<runtime::Runtime>(options);
   EXPECT_TRUE(rt->setLighting(manifest.sky, manifest.lights, manifest.interiors).has_value());
   EXPECT_TRUE(rt->setTime(12.0).has_value());
   for (const Sector& s : sectors) EXPECT_TRUE(rt->addSector(s).has_value());
@@ -240,8 +257,7 @@ TEST(ArchiveValues, TheUneditedArchiveGivesFiniteAmbientEverywhere) {
   std::printf("largest baked prt_range %g, lprt_range %g\n", prt, lprt);
 }
 
-TEST(ArchiveValues, AnEditedManifestFloatIsRefusedNamingFileAndFieldOrGivesFiniteAmbient) {
-  const Baked& b = baked();
+void editEveryManifestFloat(const Baked& b) {
   const std::vector<Field> fields = manifestFloats(b.file);
   ASSERT_GT(fields.size(), 40u);
   const uint64_t manifest_at = readAt<uint64_t>(b.file, 16), manifest_bytes = readAt<uint64_t>(b.file, 24);
@@ -271,6 +287,12 @@ TEST(ArchiveValues, AnEditedManifestFloatIsRefusedNamingFileAndFieldOrGivesFinit
   EXPECT_GT(accepted, 0);
 }
 
+TEST(ArchiveValues, AnEditedManifestFloatIsRefusedNamingFileAndFieldOrGivesFiniteAmbient) { editEveryManifestFloat(baked()); }
+TEST(ArchiveValues, AnEditedShL1ManifestFloatIsRefusedNamingFileAndFieldOrGivesFiniteAmbient) {
+  ASSERT_EQ(readAt<uint32_t>(baked(Representation::kShL1).file, 8), kArchiveVersion);
+  editEveryManifestFloat(baked(Representation::kShL1));
+}
+
 TEST(ArchiveValues, TheIssuesCasesAreRefused) {
   // Sun and sky colours of 3e38 (a NaN total in drtv query) and a probe range of 3e38 (a probe
   // silently black) were accepted before the ranges.
@@ -283,8 +305,7 @@ TEST(ArchiveValues, TheIssuesCasesAreRefused) {
   EXPECT_NE(validateProbe(r).find("prt_range"), std::string::npos);
 }
 
-TEST(ArchiveValues, AnEditedSectorFloatIsRefusedNamingFileAndFieldOrGivesFiniteAmbient) {
-  const Baked& b = baked();
+void editEverySectorFloat(const Baked& b) {
   const Sector& original = b.sectors[0];
   const std::vector<uint8_t> encoded = encodeSector(original);
   const size_t n = original.probes.size();
@@ -293,7 +314,9 @@ TEST(ArchiveValues, AnEditedSectorFloatIsRefusedNamingFileAndFieldOrGivesFiniteA
   const std::vector<float> lit = probeColourSums(b.manifest, b.sectors);
   ASSERT_EQ(lit.size(), n);
   int refused = 0, accepted = 0;
-  for (const Field& f : sectorFloats(n, {0, n / 2, n - 1}))
+  const size_t samples = original.sun ? original.sun->samples() : 0;
+  const size_t sun_at = encoded.size() - (samples ? samples * 12 + n * (4 + samples * 12) : 0);
+  for (const Field& f : sectorFloats(n, {0, n / 2, n - 1}, sun_at, samples))
     for (double v : kExtremes) {
       std::vector<uint8_t> bytes = encoded;
       writeValue(bytes, f, v);
@@ -331,6 +354,13 @@ TEST(ArchiveValues, AnEditedSectorFloatIsRefusedNamingFileAndFieldOrGivesFiniteA
     }
   EXPECT_GT(refused, 0);
   EXPECT_GT(accepted, 0);
+}
+
+TEST(ArchiveValues, AnEditedSectorFloatIsRefusedNamingFileAndFieldOrGivesFiniteAmbient) { editEverySectorFloat(baked()); }
+// sh-l1 of version 3: its probes' fitted direct sky and the sector's sun transfer too.
+TEST(ArchiveValues, AnEditedShL1SectorFloatIsRefusedNamingFileAndFieldOrGivesFiniteAmbient) {
+  ASSERT_TRUE(baked(Representation::kShL1).sectors.at(0).sun) << "the sh-l1 bake has a sun transfer to edit";
+  editEverySectorFloat(baked(Representation::kShL1));
 }
 
 TEST(ArchiveValues, TheLargestAcceptedValuesKeepTheAmbientFinite) {

@@ -17,12 +17,18 @@
 // kShL1 (code 1) — band-1 SH irradiance [2]:
 //   probe:  prt[c][i][j] = M[c][i][j], a 4x4 transfer per channel from lighting SH L (radiance,
 //           coefficient j) to the SH of the bounced radiance arriving at the probe (coefficient i):
-//           R_bounce[c] = M[c] L[c]. sky_vis[b] as for kFc3 (distant occlusion reads it);
-//           sky_vis_sh = SH of the 0/1 visibility V; the ProbeData::sky_moments (record bytes
-//           144..149, flag kProbeSkyMoments) = (3 / 4pi) integral of (y z, z z, x z) V dw, the
-//           second moments that the direct sky needs (lighting_sh.h: the sky is azimuth-free,
-//           so its SH has Y00 and Y10 only and the masked sky's SH is exact from these seven
-//           numbers).
+//           R_bounce[c] = M[c] L[c]. sky_vis[b] as for kFc3 (distant occlusion reads it).
+//           The direct sky, archive version 3 (flag kProbeSkyFit, probe.h): a and b, the
+//           band-1 fit of the six axis irradiances per unit horizon radiance and per unit
+//           sqrt(z) gradient, e_direct = H a + (Z - H) b, exact at the six axes in the
+//           least-squares sense for the world's sky model. Version 2 (kProbeSkyMoments, still
+//           read): sky_vis_sh = SH of the 0/1 visibility V and (3 / 4pi) integral of
+//           (y z, z z, x z) V dw, which mask the band-1 projection of the sky (lighting_sh.h):
+//           0.117 pi |Z - H| too bright on open ground under a zenith darker than the horizon
+//           (docs/accuracy.md).
+//           The sun, version 3: the linear lobe below through M, plus the sector's sun transfer
+//           (sector.h SunBlock): the exact first bounce along the world's sun path less the
+//           lobe's, interpolated between the samples nearest the sun.
 //   colour: colour[c][i] = irradiance SH e = [pi Y0 R0, 2pi/3 Y1 R1, 2pi/3 Y1 R2, 2pi/3 Y1 R3] of
 //           the arriving radiance R (bounce + direct sky + local lights), so that
 //           E(n) = max(0, e0 + e1 n.y + e2 n.z + e3 n.x). e0 >= 0; e1..3 signed.

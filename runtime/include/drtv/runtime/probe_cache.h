@@ -31,7 +31,10 @@
 //           + SkyDirectSH[c][0] P0_i + SkyDirectSH[c][2] P2_i                   direct sky
 //           + sum_j light[j][c] A_i LPRT_sh[j][c][i]                             local lights
 // exact for the band-1 projection of the masked sky because the sky's SH has Y00 and Y10 only
-// (lighting_sh.h; its Y1-1 and Y11 are ignored here). Clamping at the end: e0 to [0, kMaxColour],
+// (lighting_sh.h; its Y1-1 and Y11 are ignored here). With kProbeSkyFit (probe.h) the planes are
+// P0 = a / (4 pi Y0) and P2 = 5 (b - a / 3) / (4 pi Y1) instead, which the same two sky
+// coefficients turn into H a + (Z - H) b. A sector's sun transfer (sector.h SunBlock) adds
+// kLobe_i E_sun,c sum_k w_k C[k][c][i] to the bounce (sunTransferWeights), before the clamp. Clamping at the end: e0 to [0, kMaxColour],
 // e1..3 to [-kMaxColour, kMaxColour] (E(n) itself is clamped at 0 where it is evaluated, shade()).
 //
 // Local lights [2]: a light's intensity is distributed onto LPRT source probes within its radius:

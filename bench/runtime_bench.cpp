@@ -23,20 +23,28 @@ std::vector<SectorKey> residentKeys() {
   return keys;  // 51
 }
 
+// `sun_transfer`: sh-l1 of archive version 3 (the fitted direct sky and a 6-sample sun transfer)
+// instead of version 2.
 ProbeCache makeCache(int sources, int sources_per_light = 4, LightSources light_sources = LightSources::kVisibleFromLight,
-                     Representation r = Representation::kFc3) {
+                     Representation r = Representation::kFc3, bool sun_transfer = false) {
   ProbeCache cache({.max_sectors = kMaxResidentSectors, .sources_per_light = sources_per_light, .light_sources = light_sources,
                     .representation = r});
   const bool sh_l1 = r == Representation::kShL1;
   for (SectorKey k : residentKeys())
-    if (!cache.addSector(testing::makeSector(k, {.probes = 70, .sources = sources, .lprt_on_bases = !sh_l1, .sky_moments = sh_l1}, 1)))
+    if (!cache.addSector(testing::makeSector(k, {.probes = 70, .sources = sources, .lprt_on_bases = !sh_l1,
+                                                 .sky_moments = sh_l1 && !sun_transfer, .sky_fit = sh_l1 && sun_transfer,
+                                                 .sun_samples = sh_l1 && sun_transfer ? 6 : 0}, 1)))
       std::abort();
   return cache;
 }
 
 RelightInput noonInput(std::span<const PointLight> lights = {}) {
   const SkyLighting s = evaluateSky(Sky::tropicalDefault(), 12.0);
-  return {s.sky_sh, s.sun_sh, s.sky_direct_sh, lights, kAllComponents};
+  RelightInput in{s.sky_sh, s.sun_sh, s.sky_direct_sh, lights, kAllComponents};
+  in.sun_direction = s.sun_direction;
+  in.sun_irradiance = s.sun_irradiance;
+  in.sun_transfer = true;  // used only by sectors that have one
+  return in;
 }
 
 void BM_EvaluateSky(benchmark::State& state) {
@@ -50,8 +58,10 @@ void BM_EvaluateSky(benchmark::State& state) {
 BENCHMARK(BM_EvaluateSky);
 
 // Arg: the representation (0 fc3, 1 sh-l1; representation.h), side by side in one run.
+// Arg 0: fc3; 1: sh-l1 of archive version 2; 2: sh-l1 of version 3 (its sun transfer).
 void BM_RelightWithoutLprt(benchmark::State& state) {
-  ProbeCache cache = makeCache(0, 4, LightSources::kVisibleFromLight, Representation(state.range(0)));
+  ProbeCache cache =
+      makeCache(0, 4, LightSources::kVisibleFromLight, state.range(0) ? Representation::kShL1 : Representation::kFc3, state.range(0) == 2);
   const RelightInput in = noonInput();
   for (auto _ : state) {
     cache.relightAll(in);
@@ -60,7 +70,7 @@ void BM_RelightWithoutLprt(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * cache.probeCount());
   state.counters["probes"] = cache.probeCount();
 }
-BENCHMARK(BM_RelightWithoutLprt)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_RelightWithoutLprt)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMicrosecond);
 
 // LPRT baked (128 sources per sector, ~11 MB of coefficients) with `lights` lights of 12 m.
 void BM_RelightWithLprt(benchmark::State& state) {

@@ -22,7 +22,9 @@ struct SectorSpec {
   bool lprt_on_bases = true;
   float no_probe_fraction = 0.1f;  // index-grid cells left at 255
   bool uniform = false;     // every probe identical (a uniform volume)
-  bool sky_moments = false; // an sh-l1 bake's records (kProbeSkyMoments, representation.h)
+  bool sky_moments = false; // an sh-l1 bake's records of version 2 (kProbeSkyMoments, representation.h)
+  bool sky_fit = false;     // an sh-l1 bake's records of version 3 (kProbeSkyFit)
+  int sun_samples = 0;      // a sun transfer of that many samples along a noon-high path (sector.h SunBlock)
 };
 
 // A sector with `spec.probes` probes on a jittered 8 m lattice 1.5 m above the terrain, an index
@@ -48,6 +50,11 @@ inline Sector makeSector(SectorKey key, const SectorSpec& spec, uint32_t seed) {
     p.sky_vis[3] = 0.f;
     p.height_m = 1.5f;
     p.mean_hit_m = 10.f;
+    if (spec.sky_fit) {
+      p.flags |= kProbeSkyFit;
+      p.sky_fit_h = {1.5f * u(rng), 0.2f * (u(rng) - 0.5f), 1.2f * u(rng), 0.2f * (u(rng) - 0.5f)};
+      p.sky_fit_delta = {0.8f * u(rng), 0.1f * (u(rng) - 0.5f), 0.9f * u(rng), 0.1f * (u(rng) - 0.5f)};
+    }
     if (spec.sky_moments) {
       p.flags |= kProbeSkyMoments;
       p.sky_moments = spec.uniform ? glm::vec3(0.f, 0.3f, 0.f) : glm::vec3(0.1f * (u(rng) - 0.5f), 0.3f * u(rng), 0.1f * (u(rng) - 0.5f));
@@ -76,6 +83,16 @@ inline Sector makeSector(SectorKey key, const SectorSpec& spec, uint32_t seed) {
   for (int y = 0; y < kGroundDim; ++y)
     for (int x = 0; x < kGroundDim; ++x)
       s.ground[y * kGroundDim + x] = quantizeUnorm16(terrainZ(ox + (x + 0.5) * 8, oy + (y + 0.5) * 8) / 20.f);
+  if (spec.sun_samples > 0 && spec.probes > 0) {
+    auto sun = std::make_unique<SunBlock>();
+    for (int k = 0; k < spec.sun_samples; ++k) {
+      const float a = 3.14159265f * float(k) / float(spec.sun_samples - 1);  // east, over the top, to west
+      sun->directions.push_back(glm::normalize(glm::vec3(std::cos(a), -0.3f * std::sin(a), std::sin(a))));
+    }
+    for (int i = 0; i < spec.probes; ++i) sun->ranges.push_back(0.02f + 0.05f * u(rng));
+    for (int q = 0; q < spec.probes * spec.sun_samples * 12; ++q) sun->coeffs.push_back(int8_t(int(rng() % 255) - 127));
+    s.sun = std::move(sun);
+  }
   if (spec.sources > 0 && spec.probes > 0) {
     for (int j = 0; j < spec.sources; ++j)
       s.lprt.sources.push_back({int8_t(j % 3 - 1), int8_t((j / 3) % 3 - 1), uint8_t((j * 7) % spec.probes)});

@@ -57,8 +57,7 @@ struct Slot {
   std::vector<int32_t> source_ids;  // global probe id (slot * kSlotProbes + index) or -1
   // Sun transfer (sector.h SunBlock)
   std::vector<glm::vec3> sun_dirs;  // its samples; empty = none
-  std::vector<int8_t> sun;          // [sample][channel * 4 + i][probe], planes of the slot stride
-  std::vector<float> sun_scale;     // range / 127 per probe, padded to the stride with 0
+  std::vector<float> sun;           // [sample][channel * 4 + i][probe], dequantised, planes of the slot stride
   float max_colour = 0.f;
 };
 
@@ -157,17 +156,62 @@ DRTV_HOT_CLONES int32_t relightPlanesShL1(const float* in, float* out, int n, in
   return *std::max_element(lane_max, lane_max + 16);
 }
 
-int32_t clampPlanesShL1(float* out, int n, int stride) {
-  int32_t mx = 0;
+// `n` a multiple of 16 (the slot's padded count), as for the relight loops.
+DRTV_HOT_CLONES int32_t clampPlanesShL1(float* out, int n, int stride) {
+  int32_t lane_max[16] = {};
   for (int p = 0; p < kColourPlanes; ++p) {
-    float* o = out + p * stride;
-    for (int k = 0; k < n; ++k) {
-      const float y = p % 4 == 0 ? clampColour(o[k]) : clampSigned(o[k]);
-      o[k] = y;
-      mx = std::max(mx, std::bit_cast<int32_t>(std::fabs(y)));
+    float* __restrict o = out + p * stride;
+    if (p % 4 == 0) {
+      for (int i0 = 0; i0 < n; i0 += 16)
+        for (int j = 0; j < 16; ++j) {
+          const float y = clampColour(o[i0 + j]);
+          o[i0 + j] = y;
+          lane_max[j] = std::max(lane_max[j], std::bit_cast<int32_t>(y));
+        }
+    } else {
+      for (int i0 = 0; i0 < n; i0 += 16)
+        for (int j = 0; j < 16; ++j) {
+          const float y = clampSigned(o[i0 + j]);
+          o[i0 + j] = y;
+          lane_max[j] = std::max(lane_max[j], std::bit_cast<int32_t>(y) & 0x7fffffff);
+        }
     }
   }
-  return mx;
+  return *std::max_element(lane_max, lane_max + 16);
+}
+
+// out[q][i] += a[q] x[q][i] + b[q] y[q][i] over the 12 (channel, i) planes: the two weighted
+// samples of a sun transfer (x, y: its planes), then clamped as clampPlanesShL1 (`clamp`), in one
+// pass. Returns the bit pattern of the largest |clamped value| (0 if not clamping).
+DRTV_HOT_CLONES int32_t addSunSamples(float* out, const float* x, const float* y, int n, int stride, const float (&a)[12],
+                                      const float (&b)[12], bool clamp) {
+  int32_t lane_max[16] = {};
+  for (int q = 0; q < 12; ++q) {
+    float* __restrict o = out + q * stride;
+    const float* __restrict xq = x + q * stride;
+    const float* __restrict yq = y + q * stride;
+    const float ca = a[q], cb = b[q];
+    if (!clamp) {
+      for (int i = 0; i < n; ++i) o[i] += ca * xq[i] + cb * yq[i];
+    } else if (q % 4 == 0) {
+      for (int i0 = 0; i0 < n; i0 += 16)
+        for (int j = 0; j < 16; ++j) {
+          const int i = i0 + j;
+          const float v = clampColour(o[i] + ca * xq[i] + cb * yq[i]);
+          o[i] = v;
+          lane_max[j] = std::max(lane_max[j], std::bit_cast<int32_t>(v));
+        }
+    } else {
+      for (int i0 = 0; i0 < n; i0 += 16)
+        for (int j = 0; j < 16; ++j) {
+          const int i = i0 + j;
+          const float v = clampSigned(o[i] + ca * xq[i] + cb * yq[i]);
+          o[i] = v;
+          lane_max[j] = std::max(lane_max[j], std::bit_cast<int32_t>(v) & 0x7fffffff);
+        }
+    }
+  }
+  return *std::max_element(lane_max, lane_max + 16);
 }
 
 // The band factors of the clamped cosine (sh.h): irradiance SH e_i = kLobe[i] R_i.
@@ -211,6 +255,11 @@ struct ProbeCache::Impl {
   std::vector<uint8_t> is_source;
   std::vector<glm::vec3> light_colour;  // [global probe id]
   std::vector<int> touched;             // ids with non-zero light_colour
+  // The last sun-transfer weights (every sector of a world has the same samples: one
+  // sunTransferWeights per relight, not per sector).
+  std::vector<glm::vec3> sun_dirs_seen;
+  glm::vec3 sun_seen{NAN};
+  std::array<float, kMaxSunSamples> sun_w_seen{};
   float scale = 1.f;
   BasisColours fallback{};
   std::array<uint32_t, 3> packed_fallback{};
@@ -411,12 +460,12 @@ Result<void> ProbeCache::addSector(const Sector& sector) {
     const size_t K = sun.samples();
     const int stride = m.stride(s);
     sl.sun_dirs = sun.directions;
-    sl.sun.assign(K * 12 * size_t(stride), 0);
+    // Dequantised once (as the transfer planes are): 6 x 12 floats a probe, 1.2 MB for 51 sectors.
+    sl.sun.assign(K * 12 * size_t(stride), 0.f);
     for (int i = 0; i < n; ++i)
       for (size_t k = 0; k < K; ++k)
-        for (int q = 0; q < 12; ++q) sl.sun[(k * 12 + q) * stride + i] = sun.coeffs[sun.index(size_t(i), k, q / 4, q % 4)];
-    sl.sun_scale.assign(stride, 0.f);
-    for (int i = 0; i < n; ++i) sl.sun_scale[i] = sun.ranges[size_t(i)] / kSnorm8Max;
+        for (int q = 0; q < 12; ++q)
+          sl.sun[(k * 12 + q) * stride + i] = dequantizeSnorm8(sun.coeffs[sun.index(size_t(i), k, q / 4, q % 4)], sun.ranges[size_t(i)]);
   }
   m.resolveSources();
   return {};
@@ -575,24 +624,34 @@ void ProbeCache::Impl::relightSlot(int s, const RelightInput& li) {
       d0[c] = on ? li.sky_direct_sh[c][0] : 0.f;
       d2[c] = on ? li.sky_direct_sh[c][2] : 0.f;
     }
-    float sun_w[kMaxSunSamples] = {};
     const size_t K = sl.sun_dirs.size();
     const bool sun = K > 0 && li.sun_transfer && (li.components & kComponentSunBounce) && li.sun_irradiance != glm::vec3(0.f);
-    if (sun) sunTransferWeights(sl.sun_dirs, li.sun_direction, std::span<float>(sun_w, K));
+    if (sun && (li.sun_direction != sun_seen || sl.sun_dirs != sun_dirs_seen)) {
+      sunTransferWeights(sl.sun_dirs, li.sun_direction, std::span<float>(sun_w_seen.data(), K));
+      sun_seen = li.sun_direction;
+      sun_dirs_seen = sl.sun_dirs;
+    }
+    const float* sun_w = sun_w_seen.data();
     int32_t bits = relightPlanesShL1(inPlane(s, 0), outPlane(s, 0), n16, stride, lc, d0, d2, !lprt && !sun);
     if (sun) {
       // e_i += kLobe_i E_c sum_k w_k C[k][c][i] (sector.h SunBlock), the int8 planes scaled per probe.
-      for (size_t k = 0; k < K; ++k) {
-        if (sun_w[k] == 0.f) continue;
+      // At most two samples weigh (sunTransferWeights): the first and the last with a weight.
+      size_t k0 = K, k1 = K;
+      for (size_t k = 0; k < K; ++k)
+        if (sun_w[k] != 0.f) (k0 == K ? k0 : k1) = k;
+      if (k0 < K) {
+        if (k1 == K) k1 = k0;
+        float a[12], b[12];
         for (int q = 0; q < 12; ++q) {
-          const float a = sun_w[k] * li.sun_irradiance[q / 4] * kLobe[q % 4];
-          float* __restrict o = outPlane(s, q);
-          const int8_t* __restrict x = sl.sun.data() + (k * 12 + size_t(q)) * stride;
-          const float* __restrict scale = sl.sun_scale.data();
-          for (int i = 0; i < n16; ++i) o[i] += a * scale[i] * float(x[i]);
+          const float e = li.sun_irradiance[q / 4] * kLobe[q % 4];
+          a[q] = sun_w[k0] * e;
+          b[q] = k1 == k0 ? 0.f : sun_w[k1] * e;
         }
+        bits = addSunSamples(outPlane(s, 0), sl.sun.data() + k0 * 12 * size_t(stride), sl.sun.data() + k1 * 12 * size_t(stride),
+                             n16, stride, a, b, !lprt);
+      } else if (!lprt) {
+        bits = clampPlanesShL1(outPlane(s, 0), n16, stride);
       }
-      if (!lprt) bits = clampPlanesShL1(outPlane(s, 0), n16, stride);
     }
     if (lprt) {
       thread_local std::vector<float> scratch;

@@ -202,17 +202,21 @@ std::vector<RowSpec> drtvRows(const BakeSettings& base, uint32_t effects, const 
       std::pair{"direct_sky", uint32_t(runtime::kComponentDirectSky)}, std::pair{"local_lights", uint32_t(runtime::kComponentLocalLights)}};
   for (size_t k = 0; k < parts.size(); ++k)
     if (components & parts[k].second) rows.push_back({"part", parts[k].first, false, "drtv", {{"part", parts[k].first}}, "", int(k)});
-  // The same terms baked in sh-l1, so that its bias can be traced to a term too.
+  // The same terms baked in fc3 (the talk's bases), so that its bias can be traced to a term too.
   for (size_t k = 0; k < parts.size(); ++k)
     if (components & parts[k].second)
-      rows.push_back({"part sh-l1", parts[k].first, false, "drtv", {{"part", parts[k].first}, {"representation", "sh-l1"}}, "", int(k)});
+      rows.push_back({"part fc3", parts[k].first, false, "drtv", {{"part", parts[k].first}, {"representation", "fc3"}}, "", int(k)});
+  // The sun's SH lobe, fc3's knob: sh-l1 takes its linear lobe and corrects it with the sun
+  // transfer (representation.h), which another window would no longer match.
   for (const auto& [name, w] : {std::pair{"hanning", runtime::kHanningBand1}, std::pair{"lanczos", runtime::kLanczosBand1},
                                 std::pair{"none", runtime::kNoWindowBand1}})
-    rows.push_back({"sun_window", name, w == runtime::kHanningBand1, "drtv", {{"sun_window", name}}, "band-1 factor " + fmt(w)});
+    rows.push_back({"sun_window fc3", name, false, "drtv", {{"representation", "fc3"}, {"sun_window", name}},
+                    "band-1 factor " + fmt(w) + (w == runtime::kHanningBand1 ? ", fc3's own" : "")});
   // The directional representation, each a real bake -> relight -> volume -> ambient
-  // (representation.h); sh-l1 with its own sun lobe (linear) and with fc3's (Hanning).
-  rows.push_back({"representation", "fc3", true, "drtv", {}, "the default bake: the talk's 4 bases, Hanning sun"});
-  rows.push_back({"representation", "sh-l1", false, "drtv", {{"representation", "sh-l1"}}, "band-1 SH irradiance, linear sun"});
+  // (representation.h); sh-l1 (the default) with its own sun (linear lobe and sun transfer) and
+  // with fc3's Hanning lobe in place of the linear one.
+  rows.push_back({"representation", "sh-l1", true, "drtv", {}, "the default bake: band-1 SH irradiance, fitted sky, traced sun"});
+  rows.push_back({"representation", "fc3", false, "drtv", {{"representation", "fc3"}}, "the talk's 4 bases, Hanning sun"});
   rows.push_back({"representation", "sh-l1+hanning", false, "drtv", {{"representation", "sh-l1"}, {"sun_window", "hanning"}},
                   "band-1 SH irradiance, fc3's windowed sun"});
   for (const char* basis : {"4-basis", "ambient-cube", "sh-l1"})
@@ -223,7 +227,9 @@ std::vector<RowSpec> drtvRows(const BakeSettings& base, uint32_t effects, const 
   for (float t : {1.f, 2.f, 4.f})
     rows.push_back({"texel_m", fmt(t), glm::vec3(t, t, 2.f * t) == runtime::VolumeOptions{}.texel_size_m, "drtv", {{"texel_m", fmt(t)}},
                     "96x96x16 texels cover +-" + fmt(47.5 * t) + " m"});
-  for (const char* k : {"8-bit", "16-bit", "float"})
+  // The volume's precision (sh-l1: e0 unsigned, e1..3 signed about the mid code; snorm8 spends
+  // e0's top bit on a sign, as a signed texture format would).
+  for (const char* k : {"8-bit", "snorm8", "16-bit", "float"})
     rows.push_back({"storage", k, std::string(k) == "8-bit", "drtv", {{"storage", k}}, "emulated: nearest fill, no blur"});
   // LPRT sources, and how many of them one light is spread onto (probe_cache.h). Their rows give
   // the local-light term's error (as the part rows do): the total hides it under the sky's.

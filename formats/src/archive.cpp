@@ -295,10 +295,7 @@ Result<Manifest> parseManifest(std::span<const uint8_t> bytes, uint32_t version,
       return failAt(where, entry_at + 32, name + "probe or LPRT source count out of range");
     // One of the sizes a sector of these counts can have: with or without its ground map, and
     // with a sun-transfer block of 2..8 samples or none.
-    bool fits = false;
-    for (size_t sun = 0; sun <= size_t(kMaxSunSamples) && !fits; sun += sun == 0 ? 2 : 1)
-      fits = e.raw_bytes == encodedSectorBytes(e.probes, e.lprt_sources, false, sun) ||
-             e.raw_bytes == encodedSectorBytes(e.probes, e.lprt_sources, true, sun);
+    const bool fits = sunSamplesOfEncodedSize(e.raw_bytes, e.probes, e.lprt_sources).has_value();
     if (!fits || e.raw_bytes > max_raw)
       return failAt(where, entry_at + 20, name + "raw size " + std::to_string(e.raw_bytes) + " does not fit " +
                                               std::to_string(e.probes) + " probes");

@@ -98,6 +98,14 @@ size_t encodedSectorBytes(size_t probes, size_t sources, bool has_ground, size_t
 
 size_t maxEncodedSectorBytes() { return encodedSectorBytes(kMaxProbesPerSector, kMaxLprtSources, true, kMaxSunSamples); }
 
+std::optional<size_t> sunSamplesOfEncodedSize(size_t raw_bytes, size_t probes, size_t sources) {
+  // A bake writes a sun block of 2..8 samples (validate in bake.cpp), or none.
+  for (size_t sun = 0; sun <= size_t(kMaxSunSamples); sun += sun == 0 ? 2 : 1)
+    if (raw_bytes == encodedSectorBytes(probes, sources, false, sun) || raw_bytes == encodedSectorBytes(probes, sources, true, sun))
+      return sun;
+  return std::nullopt;
+}
+
 std::vector<uint8_t> encodeSector(const Sector& s) {
   const size_t n_probes = s.probes.size();
   const size_t n_sources = s.lprt.sources.size();

@@ -29,6 +29,17 @@ size_t predictedSectorBytes(const SectorEntry& e) {
          size_t(e.probes) * e.lprt_sources * 12 * sizeof(int16_t);
 }
 
+size_t budgetBytesFor(const Manifest& manifest) {
+  bool lprt = false;
+  size_t sun_samples = 0;
+  for (const SectorEntry& e : manifest.sectors) {
+    lprt |= e.lprt_sources > 0;
+    // The archive reader checked that every entry's size fits its counts.
+    sun_samples = std::max(sun_samples, sunSamplesOfEncodedSize(e.raw_bytes, e.probes, e.lprt_sources).value_or(0));
+  }
+  return (lprt ? kBudgetBytesWithLprt : kBudgetBytesWithoutLprt) + size_t(kMaxResidentSectors) * sunTransferAllowanceBytes(sun_samples);
+}
+
 Result<std::unique_ptr<Streamer>> Streamer::open(const std::filesystem::path& archive, StreamerOptions options) {
   auto reader = ArchiveReader::open(archive);
   if (!reader) return std::unexpected(reader.error());
@@ -43,9 +54,7 @@ Streamer::Streamer(Manifest manifest, std::shared_ptr<SectorSource> source, Stre
   DRTV_CHECK_LE(1, options_.residency.max_sectors);
   DRTV_CHECK_LE(1, options_.max_in_flight);
   if (!options_.occlusion_tile) options_.occlusion_tile = runtime::makeOcclusionTile;
-  bool lprt = false;
-  for (const SectorEntry& e : manifest_.sectors) lprt |= e.lprt_sources > 0;
-  max_bytes_ = options_.max_bytes ? options_.max_bytes : lprt ? kBudgetBytesWithLprt : kBudgetBytesWithoutLprt;
+  max_bytes_ = options_.max_bytes ? options_.max_bytes : budgetBytesFor(manifest_);
   slots_.resize(size_t(options_.residency.max_sectors));
   const size_t n = slots_.size();
   backoff_.reserve(n);

@@ -27,8 +27,10 @@ Baked prepare(const worlds::World& w, SectorKey key = {0, 0}) {
   return b;
 }
 
+// fc3 (the talk's bases): these tests check its per-basis transfer against closed forms.
 TransferSettings precise() {
   TransferSettings s;
+  s.representation = Representation::kFc3;
   s.probe_rays_per_basis = 4096;
   s.surfel_rays = 64;
   s.surfel_cell_m = 1.f;

@@ -34,11 +34,13 @@ struct Baked {
   int slot = -1;
 };
 
-// Bakes sector (0, 0) of `world` and relights it under `sky` at `hour`.
+// Bakes sector (0, 0) of `world` in fc3 (these tests read the talk's bases) and relights it under
+// `sky` at `hour`. sh-l1's plane cases are plane_physics_test.cpp.
 std::unique_ptr<Baked> bakeAndRelight(const worlds::World& world, const Sky& sky, double hour) {
   auto geometry = raytrace::WorldGeometry::build(world, "test");
   EXPECT_TRUE(geometry.has_value());
   BakeSettings settings = BakeSettings::forQuality(Quality::kDefault, 1);
+  settings.transfer.representation = Representation::kFc3;
   settings.transfer.probe_rays_per_basis = kRaysPerBasis;
   SectorStats stats;
   auto sector = bakeSector(*geometry, world, SectorKey{0, 0}, settings, world.effects, {}, stats);

@@ -88,19 +88,23 @@ TEST(Techniques, ARegisteredTechniqueIsMadeByNameAndANameIsTakenOnce) {
 
 // A white plane under a uniform sky of radiance L: the ground reflects L (rho E / pi with E = pi L),
 // so the radiance is L from every direction and every surface receives E = pi L exactly. DRTV
-// through the interface, both fills, at points on and above the plane, facing up and down.
-// Sideways normals are left out on purpose, and that is a finding, not a tolerance: the talk's
-// shading weights (sh::shadingWeights) sum to 1.167 for a horizontal normal and 1.10 at 37 deg,
-// so in this uniform field DRTV gives 1.167 pi L and 1.10 pi L there (measured here). Issue 13
-// (the lighting model against physics) owns that error.
-TEST(Techniques, DrtvOverAWhitePlaneUnderAUniformSkyGivesPiLFacingUpAndDown) {
+// through the interface, both fills, at points on and above the plane (one 5 m from a sector
+// corner), facing up, down, sideways and at 37 deg, at the default (sh-l1) and default quality.
+// Tolerance 3 %: issue 13's bound for the default; measured here within 2.1 % (the sideways
+// normal at the corner point: the band-1 transfer's Monte Carlo estimate of the ground's half of
+// the sky, 256 rays per basis, and the fit of the direct sky). Draft quality (64 rays) reads
+// 4.1 % low facing down at that point, from the same estimate. fc3 passes facing up and down but
+// gives 1.167 pi L facing sideways and 1.10 pi L at 37 deg, because the talk's shading weights
+// (sh::shadingWeights) do not sum to 1 there: its figures are asserted as the finding they are.
+TEST(Techniques, DrtvOverAWhitePlaneUnderAUniformSkyGivesPiLFacingEveryWay) {
   const float L = 1.5f;
   worlds::World world = testing::planeWorld(2000.0, glm::vec3(1.f));
   world.sky = testing::uniformSky(L, 1.f);
   const raytrace::SectorRange block{-1, 0, -1, 0};
   const double want = testing::kPi * L;
+  const glm::vec3 side(1, 0, 0), tilted = glm::normalize(glm::vec3(0.6f, 0.f, 0.8f));  // 37 deg from up
   for (const char* name : {"drtv-nearest", "drtv-smooth"}) {
-    auto t = makeTechnique(name, {{"quality", "draft"}});
+    auto t = makeTechnique(name);
     ASSERT_TRUE(t.has_value()) << t.error().message;
     ASSERT_TRUE((*t)->prepare({world, "white plane", block, 1, 0}).has_value());
     ASSERT_TRUE((*t)->setLighting(12.0, {}).has_value());
@@ -109,15 +113,24 @@ TEST(Techniques, DrtvOverAWhitePlaneUnderAUniformSkyGivesPiLFacingUpAndDown) {
     EXPECT_EQ(c.runtime_bytes, size_t(96 * 96 * 16 * 12));
     for (const glm::dvec3 at : {glm::dvec3(-20, -30, 0.01), glm::dvec3(-40, -10, 2), glm::dvec3(-5, -5, 6)}) {
       ASSERT_TRUE((*t)->update(at).has_value());
-      for (const glm::vec3 n : {glm::vec3(0, 0, 1), glm::vec3(0, 0, -1)}) {
+      for (const glm::vec3 n : {glm::vec3(0, 0, 1), glm::vec3(0, 0, -1), side, -side, glm::vec3(0, 1, 0), tilted}) {
         if (at.z < 1 && n.z < 0) continue;  // below the surface
         const glm::vec3 e = (*t)->ambient(at, n);
         for (int ch = 0; ch < 3; ++ch)
-          EXPECT_NEAR(e[ch], want, 0.02 * want) << name << " at (" << at.x << ", " << at.y << ", " << at.z << ") normal (" << n.x
+          EXPECT_NEAR(e[ch], want, 0.03 * want) << name << " at (" << at.x << ", " << at.y << ", " << at.z << ") normal (" << n.x
                                                 << ", " << n.y << ", " << n.z << ") channel " << ch;
       }
     }
   }
+  auto fc3 = makeTechnique("drtv-nearest", {{"quality", "draft"}, {"representation", "fc3"}});
+  ASSERT_TRUE(fc3.has_value());
+  ASSERT_TRUE((*fc3)->prepare({world, "white plane", block, 1, 0}).has_value());
+  ASSERT_TRUE((*fc3)->setLighting(12.0, {}).has_value());
+  const glm::dvec3 at(-40, -10, 2);
+  ASSERT_TRUE((*fc3)->update(at).has_value());
+  for (const glm::vec3 n : {glm::vec3(0, 0, 1), glm::vec3(0, 0, -1)}) EXPECT_NEAR((*fc3)->ambient(at, n).y, want, 0.02 * want);
+  EXPECT_NEAR((*fc3)->ambient(at, side).y, 1.167 * want, 0.03 * want) << "the talk's weights sum to 1.167 sideways";
+  EXPECT_NEAR((*fc3)->ambient(at, tilted).y, 1.10 * want, 0.03 * want) << "and to 1.10 at 37 deg";
 }
 
 // Runtime parameters change on a prepared technique; bake parameters need another prepare.
@@ -186,15 +199,27 @@ TEST(Techniques, TheAccuracyTablesTechniqueRowsMatchItsFillRows) {
     EXPECT_GT(a->bake_s, 0.0) << technique;
   }
   // The part rows are shares of the whole reference ambient: the runtime's terms add up to its
-  // total and the reference's parts to its ambient, so their biases add up to the total's.
+  // total and the reference's parts to its ambient, so in fc3, whose shading is linear, their
+  // biases add up to the total's. sh-l1 (the default) shades max(0, e0 + e.n) per term, and
+  // sum_i max(0, x_i) >= max(0, sum_i x_i): its parts may only add up to more than its total, by
+  // what the clamp removes where one term's directional part outweighs its e0 (measured here:
+  // 0.18 % of the reference ambient).
+  auto partsOf = [&](const std::string& knob) {
+    double sum = 0;
+    int n = 0;
+    for (const AccuracyRow& row : r->rows)
+      if (row.knob == knob) sum += row.bias, ++n;
+    EXPECT_EQ(n, 3) << knob << ": sun bounce, sky bounce, direct sky";
+    return sum;
+  };
   const AccuracyRow* total = find("rays_per_basis", "128");
+  const AccuracyRow* fc3 = find("representation", "fc3");
   ASSERT_NE(total, nullptr);
-  double parts = 0;
-  int n = 0;
-  for (const AccuracyRow& row : r->rows)
-    if (row.knob == "part") parts += row.bias, ++n;
-  EXPECT_EQ(n, 3) << "sun bounce, sky bounce, direct sky";
-  EXPECT_NEAR(parts, total->bias, 1e-4);
+  ASSERT_NE(fc3, nullptr);
+  EXPECT_NEAR(partsOf("part fc3"), fc3->bias, 1e-4);
+  const double sh = partsOf("part");
+  EXPECT_GE(sh, total->bias - 1e-4);
+  EXPECT_LE(sh, total->bias + 0.005);
 }
 
 }  // namespace

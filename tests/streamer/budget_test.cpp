@@ -109,6 +109,29 @@ TEST(StreamerBudget, StaysUnder11_5MiBWithLprtByRealAllocations) {
   expectFullAndWithin(m, kBudgetBytesWithLprt, "with LPRT");
 }
 
+// The talk's budgets are fc3's; an archive whose sectors carry a sun transfer (sh-l1, the default)
+// is allowed it on top for 51 sectors of 70 probes (sector.h): 5,392 B a sector at 6 samples.
+TEST(StreamerBudget, ASunTransferAddsItsShareOfFiftyOneSectorsOfSeventyProbes) {
+  auto manifestOf = [](size_t sun_samples, uint16_t sources) {
+    Manifest m;
+    for (int i = 0; i < 3; ++i) {
+      SectorEntry e;
+      e.key = SectorKey{i, 0};
+      e.probes = uint16_t(40 + 10 * i);
+      e.lprt_sources = sources;
+      e.raw_bytes = uint32_t(encodedSectorBytes(e.probes, sources, true, i == 1 ? sun_samples : 0));
+      m.sectors.push_back(e);
+    }
+    return m;
+  };
+  EXPECT_EQ(budgetBytesFor(manifestOf(0, 0)), kBudgetBytesWithoutLprt);
+  EXPECT_EQ(budgetBytesFor(manifestOf(6, 0)), kBudgetBytesWithoutLprt + 51u * 5392u);
+  EXPECT_EQ(budgetBytesFor(manifestOf(6, 0)), 1053232u);
+  EXPECT_EQ(budgetBytesFor(manifestOf(8, 16)), kBudgetBytesWithLprt + 51u * (8u * 12u + 70u * (4u + 8u * 12u)));
+  // What a sector of 70 probes with the default 6 samples adds is exactly that share.
+  EXPECT_EQ(encodedSectorBytes(70, 0, true, 6) - encodedSectorBytes(70, 0, true, 0), sunTransferAllowanceBytes(6));
+}
+
 TEST(StreamerBudget, ASmallerByteBudgetHoldsFewerSectorsAndIsNeverExceeded) {
   testing::TempDir dir;
   const Manifest manifest = testing::writeWorld(dir.path() / "w.drtv", {});

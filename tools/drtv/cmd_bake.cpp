@@ -24,7 +24,7 @@ struct BakeCliOptions {
   bool fresh = false;
   bool keep_sectors = false;
   uint64_t seed = 1;
-  std::string representation;  // "" = the world's (else fc3)
+  std::string representation;  // "" = the world's (else sh-l1)
 };
 
 void drawProgress(size_t done, size_t total) {
@@ -125,7 +125,7 @@ Command registerBake(CLI::App& app) {
   sub->add_flag("--keep-sectors", o->keep_sectors, "Keep <archive>.sectors/ after packing");
   sub->add_option("--seed", o->seed, "Seed of every random number (default 1)");
   sub->add_option("--representation", o->representation,
-                  "Directional representation: fc3 (the talk's 4 bases, default) | sh-l1 (band-1 SH irradiance); "
+                  "Directional representation: sh-l1 (band-1 SH irradiance, default) | fc3 (the talk's 4 bases); "
                   "overrides the world's \"representation\"");
   return {sub, [o]() { return runBake(*o); }, &o->world};
 }

@@ -5,7 +5,7 @@
 //   rays_per_basis     integer >= 1                 overrides the preset's transfer rays
 //   bounces            integer >= 1                 overrides the preset's bounces
 //   representation     fc3 | sh-l1                  the directional representation baked
-//                                                   (representation.h; default fc3)
+//                                                   (representation.h; default sh-l1)
 //   fill               nearest | smooth             the volume fill (runtime FillMode)
 //   texel_m            metres in (0, 1e4]           the volume's horizontal texel size (the
 //                                                   vertical one twice it, as the default 2 x 4 m)
@@ -20,10 +20,14 @@
 //   light_sources      visible | nearest            which probes those are (probe_cache.h)
 //   lprt_sources       integer >= 1                 keep the first N LPRT sources of each sector
 //                                                   (they are sorted nearest first, bake.cpp)
-//   storage            runtime | 8-bit | 16-bit | float
+//   storage            runtime | 8-bit | snorm8 | 16-bit | float
 //                                                   the volume's precision, emulated outside the
 //                                                   runtime (nearest fill, no blur, trilinear over
-//                                                   texels, the talk's shading weights; fc3 only)
+//                                                   texels, the representation's shading). 8-bit
+//                                                   and 16-bit are the runtime's encodings at that
+//                                                   width (sh-l1: e0 unsigned, e1..3 signed about
+//                                                   the mid code, representation.h); snorm8 (sh-l1
+//                                                   only) stores e0 signed as well, in 127 steps
 // Registered as "drtv" and as the variants "drtv-nearest" and "drtv-smooth".
 #include <algorithm>
 #include <array>
@@ -45,7 +49,7 @@ using Clock = std::chrono::steady_clock;
 struct BakeParams {
   baker::Quality quality = baker::Quality::kDefault;
   std::optional<int> rays_per_basis, bounces;
-  Representation representation = Representation::kFc3;
+  Representation representation = Representation::kShL1;  // the baker's default for new worlds
   bool operator==(const BakeParams&) const = default;
 };
 
@@ -59,6 +63,7 @@ struct RuntimeParams {
   std::optional<runtime::LightSources> light_sources;
   std::optional<size_t> lprt_sources;
   double storage_levels = -1;  // < 0: the runtime's volume; 0: float; else steps per HDR unit
+  bool storage_signed_e0 = false;  // sh-l1: e0 in the signed code of e1..3 (storage=snorm8)
   double storage_bytes = 12;   // per texel, the three textures together
 };
 
@@ -127,19 +132,20 @@ Result<Params> parseParams(const TechniqueParams& p) {
       if (!x) return std::unexpected(x.error());
       out.runtime.lprt_sources = size_t(*x);
     } else if (k == "storage") {
+      out.runtime.storage_signed_e0 = v == "snorm8";
       if (v == "runtime") out.runtime.storage_levels = -1, out.runtime.storage_bytes = 12;
-      else if (v == "8-bit") out.runtime.storage_levels = 255.0, out.runtime.storage_bytes = 12;
+      else if (v == "8-bit" || v == "snorm8") out.runtime.storage_levels = 255.0, out.runtime.storage_bytes = 12;
       else if (v == "16-bit") out.runtime.storage_levels = 65535.0, out.runtime.storage_bytes = 24;
       else if (v == "float") out.runtime.storage_levels = 0.0, out.runtime.storage_bytes = 48;
-      else return fail("storage=" + v + ": expected runtime, 8-bit, 16-bit or float");
+      else return fail("storage=" + v + ": expected runtime, 8-bit, snorm8, 16-bit or float");
     } else {
       return fail("no parameter '" + k +
                   "' (drtv takes quality, rays_per_basis, bounces, representation, fill, texel_m, sun_window, part, "
                   "sources_per_light, light_sources, lprt_sources, storage)");
     }
   }
-  if (out.bake.representation != Representation::kFc3 && out.runtime.storage_levels >= 0)
-    return fail("storage=...: the storage emulation shades with the talk's weights; it takes representation=fc3 only");
+  if (out.runtime.storage_signed_e0 && out.bake.representation != Representation::kShL1)
+    return fail("storage=snorm8: a signed e0 is an sh-l1 encoding; it takes representation=sh-l1 only");
   return out;
 }
 
@@ -279,15 +285,22 @@ class DrtvTechnique final : public Technique {
 
   const std::vector<Sector>& active() const { return params_.runtime.lprt_sources ? truncated_ : baked_; }
 
-  // The volume at `levels` steps per unit of the HDR scale (0 = float), emulated from the cache:
-  // the nearest probe at each of the 8 texel centres around the shading point, trilinear.
+  // The volume at `levels` codes per unit of the HDR scale (0 = float), emulated from the cache:
+  // the nearest probe at each of the 8 texel centres around the shading point, trilinear, then
+  // the representation's shading (runtime::shade). An unsigned coefficient takes `levels` steps
+  // over [0, scale]; a signed one (sh-l1's e1..3, and e0 under snorm8) floor(levels / 2) steps
+  // over [-scale, scale], as the runtime's offset-binary code does (pack.h).
   glm::vec3 emulated(const glm::dvec3& position, const glm::vec3& normal) const {
     const runtime::ProbeCache& cache = rt_->cache();
+    const Representation rep = cache.representation();
     const double levels = params_.runtime.storage_levels;
     const double scale = cache.packedScale();
-    auto quantise = [&](float x) {
+    const double half = std::floor(levels / 2.0);
+    auto quantise = [&](float x, int b) {
       if (levels <= 0.0) return x;
-      const double q = std::round(std::clamp(double(x) / scale, 0.0, 1.0) * levels) / levels;
+      const bool is_signed = rep == Representation::kShL1 && (b > 0 || params_.runtime.storage_signed_e0);
+      const double q = is_signed ? std::round(std::clamp(double(x) / scale, -1.0, 1.0) * half) / half
+                                 : std::round(std::clamp(double(x) / scale, 0.0, 1.0) * levels) / levels;
       return float(q * scale);
     };
     const glm::dvec3 ts(options_.volume.texel_size_m);
@@ -301,10 +314,9 @@ class DrtvTechnique final : public Technique {
       const runtime::ProbeRef pr = cache.probeAt((g + 0.5) * ts);
       const runtime::BasisColours c = pr.valid() ? cache.colours(pr) : cache.fallback();
       for (int b = 0; b < 4; ++b)
-        for (int ch = 0; ch < 3; ++ch) colour[b][ch] += float(w) * quantise(c[b][ch]);
+        for (int ch = 0; ch < 3; ++ch) colour[b][ch] += float(w) * quantise(c[b][ch], b);
     }
-    const glm::vec4 wt = sh::shadingWeights(normal);
-    return wt.x * colour[0] + wt.y * colour[1] + wt.z * colour[2] + wt.w * colour[3];
+    return runtime::shade(rep, colour, normal);
   }
 
   std::string name_;

@@ -93,7 +93,7 @@ struct TransferSettings {
   bool prt = true;                 // bake T (sun or sky bounce asked for); else T = 0
   bool sky_visibility = true;      // bake v and sky_vis_sh (direct sky asked for); else 0
   uint64_t seed = 1;
-  Representation representation = Representation::kFc3;  // what prt and LPRT hold (see above)
+  Representation representation = Representation::kShL1;  // what prt and LPRT hold (see above); new worlds: sh-l1 (docs/accuracy.md)
   int sun_samples = 6;  // sun-transfer samples along the sun path (sh-l1; 0 = none), <= kMaxSunSamples
 };
 

@@ -45,6 +45,7 @@
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -177,6 +178,20 @@ struct Sector {
 size_t encodedSectorBytes(size_t probes, size_t sources, bool has_ground, size_t sun_samples = 0);
 // The largest encoded sector (255 probes, 128 sources, ground map): a bound for readers.
 size_t maxEncodedSectorBytes();
+// The sun-transfer samples of a sector whose encoded form has `raw_bytes` with these counts (0
+// for none), or nullopt when no sector of these counts has that size.
+std::optional<size_t> sunSamplesOfEncodedSize(size_t raw_bytes, size_t probes, size_t sources);
+
+// The talk's sector without LPRT, "a little under 15 KB" for about 70 probes [slide 22], as
+// encoded before zstd. A representation whose probes carry a sun transfer (sh-l1 of archive
+// version 3) is allowed that transfer on top, for the same 70 probes: issue 13 allows the default
+// probe record 1.5x the talk's 152 B, and 152 + 4 + 6 x 12 = 228 B is that record plus a 6-sample
+// transfer. kTalkSectorBytes + sunTransferAllowanceBytes(6) = 20,392 B (docs/formats.md).
+inline constexpr size_t kTalkSectorBytes = 15000;
+inline constexpr size_t kTalkProbesPerSector = 70;
+inline constexpr size_t sunTransferAllowanceBytes(size_t sun_samples) {
+  return sun_samples == 0 ? 0 : sun_samples * 12 + kTalkProbesPerSector * (4 + sun_samples * 12);
+}
 
 // Encodes `sector`. Preconditions (bugs if broken, checked): probes <= 255, sources <= 128,
 // coeffs sized to match, lprt_range 0 on every probe when there is no LPRT, grid indices < probe count or 255. Thread-safe.

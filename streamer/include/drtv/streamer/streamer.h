@@ -69,6 +69,11 @@ using runtime::OcclusionTile;
 // The talk's resident totals [1], read as binary units (15 KiB and 225 KiB per sector x 51).
 inline constexpr size_t kBudgetBytesWithoutLprt = 760 * 1024;
 inline constexpr size_t kBudgetBytesWithLprt = size_t(11.5 * 1024 * 1024);
+// The budget for `manifest`'s archive: the one above for its LPRT, plus, when its sectors carry a
+// sun transfer (sh-l1 of archive version 3), that transfer for 51 sectors of the talk's 70 probes
+// at the most samples any sector holds (sector.h sunTransferAllowanceBytes). With the default 6
+// samples: 778,240 + 51 x 5,392 = 1,053,232 B without LPRT.
+size_t budgetBytesFor(const Manifest& manifest);
 
 // The runtime's side of the hand-off. Called only from update() / evictAll(), on the frame's
 // thread, in this order per frame: loaded and failed (in completion order), then evicted.
@@ -93,8 +98,9 @@ enum class IoMode {
 
 struct StreamerOptions {
   ResidencyOptions residency;       // which sectors, at most how many (51)
-  // Byte budget for sectors in memory (resident + in flight). 0 = the talk's: kBudgetBytesWithLprt
-  // when the archive holds LPRT, else kBudgetBytesWithoutLprt.
+  // Byte budget for sectors in memory (resident + in flight). 0 = the talk's for the archive
+  // (budgetBytesFor): kBudgetBytesWithLprt when it holds LPRT, else kBudgetBytesWithoutLprt, plus
+  // the sun transfer's allowance when its sectors carry one.
   size_t max_bytes = 0;
   IoMode io_mode = IoMode::kThreads;
   int io_threads = 2;               // kThreads: background readers (>= 1)

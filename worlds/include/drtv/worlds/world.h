@@ -77,7 +77,7 @@ struct World {
   uint32_t effects = 0;            // drtv::Effect mask in force (see defaultEffects)
   bool effects_explicit = false;   // true when the source named them, false when derived
   // The directional representation to bake in ("representation": "fc3" | "sh-l1" in a world
-  // file); unset = kFc3, unless `drtv bake --representation` says otherwise.
+  // file); unset = the baker's default (TransferSettings: kShL1), unless `drtv bake --representation` says otherwise.
   std::optional<Representation> representation;
   // What the loaders skipped or repaired, one line each, for reports: "skipped: PalmTree.gltf:
   // mesh 'Leaves' primitive 1: mode 1 (lines)", "dropped: ...: 3 zero-area triangles".

@@ -220,7 +220,7 @@ std::vector<RowSpec> drtvRows(const BakeSettings& base, uint32_t effects, const 
   rows.push_back({"representation", "sh-l1+hanning", false, "drtv", {{"representation", "sh-l1"}, {"sun_window", "hanning"}},
                   "band-1 SH irradiance, fc3's windowed sun"});
   for (const char* basis : {"4-basis", "ambient-cube", "sh-l1"})
-    rows.push_back({"basis", basis, std::string(basis) == "4-basis", "probe-reference",
+    rows.push_back({"basis", basis, std::string(basis) == "sh-l1", "probe-reference",
                     {{"basis", basis}, {"probe_samples", std::to_string(probe_samples)}}, "path-traced probe values, nearest probe, no volume"});
   rows.push_back({"fill", "nearest", true, "drtv", {{"fill", "nearest"}}, "the default bake"});
   rows.push_back({"fill", "smooth", false, "drtv", {{"fill", "smooth"}}, "trilinear over index-grid cells"});

@@ -53,8 +53,11 @@ Plane bakePlane(Representation representation, const Sky& sky) {
   auto baked = baker::bakeInMemory(world, "plane", settings, raytrace::SectorRange{0, 0, 0, 0});
   EXPECT_TRUE(baked.has_value()) << (baked ? "" : baked.error().message);
   Plane p;
+  // Named after the test too: ctest runs the tests of this file in parallel processes, and two
+  // writing one path read each other's half-written archive.
   p.archive = std::filesystem::path(::testing::TempDir()) /
-              ("plane_" + std::string(representationName(representation)) + ".drtv");
+              ("plane_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()) + "_" +
+               representationName(representation) + ".drtv");
   auto w = ArchiveWriter::create(p.archive);
   EXPECT_TRUE(w.has_value());
   for (const Sector& s : baked->sectors) EXPECT_TRUE(w->addSector(s).has_value());

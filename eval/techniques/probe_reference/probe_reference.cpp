@@ -2,7 +2,8 @@
 // (the reference) instead of baked and relit, read at the probe the index grid names for a point,
 // without the volume. It isolates the error of the directional representation from everything
 // else (docs/accuracy.md, `basis` rows). Parameters:
-//   basis          4-basis | ambient-cube | sh-l1   how a probe's light is stored and read back:
+//   basis          sh-l1 | 4-basis | ambient-cube   how a probe's light is stored and read back
+//                  (default sh-l1, the representation drtv bakes by default):
 //                  the talk's four bases and shading weights; the six-axis ambient cube [2]; band-1
 //                  SH irradiance from the same six axes [3] (accuracy.h's references)
 //   probe_samples  integer >= 2                     reference paths per probe and direction
@@ -29,7 +30,7 @@ namespace {
 enum class Basis { kFour, kCube, kShL1 };
 
 struct Params {
-  Basis basis = Basis::kFour;
+  Basis basis = Basis::kShL1;  // the default representation's (drtv bakes sh-l1)
   int probe_samples = 256;
   TechniqueParams given;
 };

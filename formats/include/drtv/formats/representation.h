@@ -47,8 +47,8 @@
 namespace drtv {
 
 enum class Representation : uint32_t {
-  kFc3 = 0,   // the talk's four bases (the default; archives without the field)
-  kShL1 = 1,  // band-1 SH irradiance
+  kFc3 = 0,   // the talk's four bases (archives without the field are fc3)
+  kShL1 = 1,  // band-1 SH irradiance (what new worlds bake: baker::TransferSettings)
 };
 inline constexpr uint32_t kRepresentationCount = 2;
 

@@ -57,7 +57,7 @@ struct Slot {
   std::vector<int32_t> source_ids;  // global probe id (slot * kSlotProbes + index) or -1
   // Sun transfer (sector.h SunBlock)
   std::vector<glm::vec3> sun_dirs;  // its samples; empty = none
-  std::vector<float> sun;           // [sample][channel * 4 + i][probe], dequantised, planes of the slot stride
+  AlignedFloats sun;                // [sample][channel * 4 + i][probe], dequantised, planes of the slot stride
   float max_colour = 0.f;
 };
 
@@ -79,11 +79,23 @@ inline float clampColour(float x) {
   return y < kMaxColour ? y : kMaxColour;
 }
 
+// The bit pattern of the largest |value| over the 12 colour planes (n values each) once clamped:
+// with the sign bit cleared, floats order as their bit patterns. A reduction after the planes are
+// written, not a running maximum inside their loops: GCC kept that one in memory, and each loop
+// then waited on its own store (the relight's kernels took up to twice as long).
+[[gnu::always_inline]] inline int32_t maxMagnitudeBits(const float* out, int n, int stride) {
+  int32_t m = 0;
+  for (int p = 0; p < kColourPlanes; ++p) {
+    const float* __restrict o = out + p * stride;
+    for (int k = 0; k < n; ++k) m = std::max(m, std::bit_cast<int32_t>(o[k]) & 0x7fffffff);
+  }
+  return m;
+}
+
 // colour[c][b][i] = dot(L[c], T[c][b][i]) + direct[c][b] v[b][i] for i < n, clamped if `clamp`.
 // Returns the bit pattern of the largest clamped value (0 if not clamping).
 DRTV_HOT_CLONES int32_t relightPlanes(const float* in, float* out, int n, int stride, const float (&lc)[3][4],
                                       const float (&direct)[3][4], bool clamp) {
-  int32_t lane_max[16] = {};  // one running maximum per lane: no horizontal reduction per block
   for (int c = 0; c < 3; ++c)
     for (int b = 0; b < 4; ++b) {
       const float* __restrict t0 = in + ((c * 4 + b) * 4 + 0) * stride;
@@ -95,19 +107,12 @@ DRTV_HOT_CLONES int32_t relightPlanes(const float* in, float* out, int n, int st
       const float l0 = lc[c][0], l1 = lc[c][1], l2 = lc[c][2], l3 = lc[c][3], d = direct[c][b];
       // n is a multiple of 16 (the padding lanes hold zero inputs): no scalar epilogue.
       if (clamp) {
-        for (int i0 = 0; i0 < n; i0 += 16)
-          for (int j = 0; j < 16; ++j) {
-            const int i = i0 + j;
-            const float y = clampColour(l0 * t0[i] + l1 * t1[i] + l2 * t2[i] + l3 * t3[i] + d * v[i]);
-            o[i] = y;
-            lane_max[j] = std::max(lane_max[j], std::bit_cast<int32_t>(y));
-          }
+        for (int i = 0; i < n; ++i) o[i] = clampColour(l0 * t0[i] + l1 * t1[i] + l2 * t2[i] + l3 * t3[i] + d * v[i]);
       } else {
-        for (int i0 = 0; i0 < n; i0 += 16)
-          for (int i = i0; i < i0 + 16; ++i) o[i] = l0 * t0[i] + l1 * t1[i] + l2 * t2[i] + l3 * t3[i] + d * v[i];
+        for (int i = 0; i < n; ++i) o[i] = l0 * t0[i] + l1 * t1[i] + l2 * t2[i] + l3 * t3[i] + d * v[i];
       }
     }
-  return *std::max_element(lane_max, lane_max + 16);
+  return clamp ? maxMagnitudeBits(out, n, stride) : 0;
 }
 
 // sh-l1: e[c][i][k] = sum_j lc[c][j] M'[c][i][j][k] + d0[c] P0_i[k] + d2[c] P2_i[k] (probe_cache.h),
@@ -118,117 +123,81 @@ inline float clampSigned(float x) {
   const float z = y < kMaxColour ? y : kMaxColour;
   return x == x ? z : 0.f;
 }
-DRTV_HOT_CLONES int32_t relightPlanesShL1(const float* in, float* out, int n, int stride, const float (&lc)[3][4],
-                                          const float (&d0)[3], const float (&d2)[3], bool clamp) {
-  int32_t lane_max[16] = {};
+// The sun transfer's share of one relight (sector.h SunBlock): the two samples nearest the sun,
+// as the slot holds them (12 float planes each), weighted per (channel, i) plane by a[q] and b[q].
+struct SunPlanes {
+  const float* x = nullptr;
+  const float* y = nullptr;
+  float a[12] = {}, b[12] = {};
+};
+
+// e[q][k] for one (channel c, coefficient i) plane q, with the sun's two samples if kSun.
+template <bool kSun>
+[[gnu::always_inline]] inline float shL1Value(const float* __restrict t0, const float* __restrict p0, const float* __restrict p2,
+                                              const float* __restrict x, const float* __restrict y, int stride, int k,
+                                              const float (&l)[4], float a, float b, float sa, float sb) {
+  const float e = l[0] * t0[k] + l[1] * t0[stride + k] + l[2] * t0[2 * stride + k] + l[3] * t0[3 * stride + k] + a * p0[k] + b * p2[k];
+  if constexpr (kSun) return e + sa * x[k] + sb * y[k];
+  return e;
+}
+
+template <bool kSun>
+[[gnu::always_inline]] inline int32_t shL1Planes(const float* in, float* out, int n, int stride, const float (&lc)[3][4],
+                                                 const float (&d0)[3], const float (&d2)[3], const SunPlanes& sun, bool clamp) {
   for (int c = 0; c < 3; ++c)
     for (int i = 0; i < 4; ++i) {
-      const float* __restrict t0 = in + ((c * 4 + i) * 4 + 0) * stride;
-      const float* __restrict t1 = t0 + stride;
-      const float* __restrict t2 = t1 + stride;
-      const float* __restrict t3 = t2 + stride;
-      const float* __restrict p0 = in + (kTransferPlanes + i) * stride;
-      const float* __restrict p2 = in + (kTransferPlanes + 4 + i) * stride;
-      float* __restrict o = out + (c * 4 + i) * stride;
-      const float l0 = lc[c][0], l1 = lc[c][1], l2 = lc[c][2], l3 = lc[c][3], a = d0[c], b = d2[c];
+      const int q = c * 4 + i;
+      const float* t0 = in + (q * 4) * stride;
+      const float* p0 = in + (kTransferPlanes + i) * stride;
+      const float* p2 = in + (kTransferPlanes + 4 + i) * stride;
+      const float* x = kSun ? sun.x + q * stride : nullptr;
+      const float* y = kSun ? sun.y + q * stride : nullptr;
+      float* __restrict o = out + q * stride;
+      const float a = d0[c], b = d2[c], sa = sun.a[q], sb = sun.b[q];
       // The branches stay outside the loops, so that each loop vectorises (as relightPlanes').
       if (!clamp) {
-        for (int k = 0; k < n; ++k) o[k] = l0 * t0[k] + l1 * t1[k] + l2 * t2[k] + l3 * t3[k] + a * p0[k] + b * p2[k];
+        for (int k = 0; k < n; ++k) o[k] = shL1Value<kSun>(t0, p0, p2, x, y, stride, k, lc[c], a, b, sa, sb);
       } else if (i == 0) {
-        for (int i0 = 0; i0 < n; i0 += 16)
-          for (int j = 0; j < 16; ++j) {
-            const int k = i0 + j;
-            const float y = clampColour(l0 * t0[k] + l1 * t1[k] + l2 * t2[k] + l3 * t3[k] + a * p0[k] + b * p2[k]);
-            o[k] = y;
-            lane_max[j] = std::max(lane_max[j], std::bit_cast<int32_t>(y));
-          }
+        for (int k = 0; k < n; ++k) o[k] = clampColour(shL1Value<kSun>(t0, p0, p2, x, y, stride, k, lc[c], a, b, sa, sb));
       } else {
-        for (int i0 = 0; i0 < n; i0 += 16)
-          for (int j = 0; j < 16; ++j) {
-            const int k = i0 + j;
-            const float y = clampSigned(l0 * t0[k] + l1 * t1[k] + l2 * t2[k] + l3 * t3[k] + a * p0[k] + b * p2[k]);
-            o[k] = y;
-            // |y| as bits: the sign bit cleared (what std::fabs does, in integers so that it vectorises).
-            lane_max[j] = std::max(lane_max[j], std::bit_cast<int32_t>(y) & 0x7fffffff);
-          }
+        for (int k = 0; k < n; ++k) o[k] = clampSigned(shL1Value<kSun>(t0, p0, p2, x, y, stride, k, lc[c], a, b, sa, sb));
       }
     }
-  return *std::max_element(lane_max, lane_max + 16);
+  return clamp ? maxMagnitudeBits(out, n, stride) : 0;
+}
+
+// sh-l1's relight of one slot's planes, without and with its sun transfer, each in one pass.
+DRTV_HOT_CLONES int32_t relightPlanesShL1(const float* in, float* out, int n, int stride, const float (&lc)[3][4],
+                                          const float (&d0)[3], const float (&d2)[3], bool clamp) {
+  return shL1Planes<false>(in, out, n, stride, lc, d0, d2, SunPlanes{}, clamp);
+}
+DRTV_HOT_CLONES int32_t relightPlanesShL1Sun(const float* in, float* out, int n, int stride, const float (&lc)[3][4],
+                                             const float (&d0)[3], const float (&d2)[3], const SunPlanes& sun, bool clamp) {
+  return shL1Planes<true>(in, out, n, stride, lc, d0, d2, sun, clamp);
 }
 
 // `n` a multiple of 16 (the slot's padded count), as for the relight loops.
 DRTV_HOT_CLONES int32_t clampPlanesShL1(float* out, int n, int stride) {
-  int32_t lane_max[16] = {};
   for (int p = 0; p < kColourPlanes; ++p) {
     float* __restrict o = out + p * stride;
     if (p % 4 == 0) {
-      for (int i0 = 0; i0 < n; i0 += 16)
-        for (int j = 0; j < 16; ++j) {
-          const float y = clampColour(o[i0 + j]);
-          o[i0 + j] = y;
-          lane_max[j] = std::max(lane_max[j], std::bit_cast<int32_t>(y));
-        }
+      for (int k = 0; k < n; ++k) o[k] = clampColour(o[k]);
     } else {
-      for (int i0 = 0; i0 < n; i0 += 16)
-        for (int j = 0; j < 16; ++j) {
-          const float y = clampSigned(o[i0 + j]);
-          o[i0 + j] = y;
-          lane_max[j] = std::max(lane_max[j], std::bit_cast<int32_t>(y) & 0x7fffffff);
-        }
+      for (int k = 0; k < n; ++k) o[k] = clampSigned(o[k]);
     }
   }
-  return *std::max_element(lane_max, lane_max + 16);
-}
-
-// out[q][i] += a[q] x[q][i] + b[q] y[q][i] over the 12 (channel, i) planes: the two weighted
-// samples of a sun transfer (x, y: its planes), then clamped as clampPlanesShL1 (`clamp`), in one
-// pass. Returns the bit pattern of the largest |clamped value| (0 if not clamping).
-DRTV_HOT_CLONES int32_t addSunSamples(float* out, const float* x, const float* y, int n, int stride, const float (&a)[12],
-                                      const float (&b)[12], bool clamp) {
-  int32_t lane_max[16] = {};
-  for (int q = 0; q < 12; ++q) {
-    float* __restrict o = out + q * stride;
-    const float* __restrict xq = x + q * stride;
-    const float* __restrict yq = y + q * stride;
-    const float ca = a[q], cb = b[q];
-    if (!clamp) {
-      for (int i = 0; i < n; ++i) o[i] += ca * xq[i] + cb * yq[i];
-    } else if (q % 4 == 0) {
-      for (int i0 = 0; i0 < n; i0 += 16)
-        for (int j = 0; j < 16; ++j) {
-          const int i = i0 + j;
-          const float v = clampColour(o[i] + ca * xq[i] + cb * yq[i]);
-          o[i] = v;
-          lane_max[j] = std::max(lane_max[j], std::bit_cast<int32_t>(v));
-        }
-    } else {
-      for (int i0 = 0; i0 < n; i0 += 16)
-        for (int j = 0; j < 16; ++j) {
-          const int i = i0 + j;
-          const float v = clampSigned(o[i] + ca * xq[i] + cb * yq[i]);
-          o[i] = v;
-          lane_max[j] = std::max(lane_max[j], std::bit_cast<int32_t>(v) & 0x7fffffff);
-        }
-    }
-  }
-  return *std::max_element(lane_max, lane_max + 16);
+  return maxMagnitudeBits(out, n, stride);
 }
 
 // The band factors of the clamped cosine (sh.h): irradiance SH e_i = kLobe[i] R_i.
 constexpr float kLobe[4] = {sh::kCosineLobe0, sh::kCosineLobe1, sh::kCosineLobe1, sh::kCosineLobe1};
 
 DRTV_HOT_CLONES int32_t clampPlanes(float* out, int n, int stride) {
-  int32_t lane_max[16] = {};
   for (int p = 0; p < kColourPlanes; ++p) {
     float* __restrict o = out + p * stride;
-    for (int i0 = 0; i0 < n; i0 += 16)
-      for (int j = 0; j < 16; ++j) {
-        const float y = clampColour(o[i0 + j]);
-        o[i0 + j] = y;
-        lane_max[j] = std::max(lane_max[j], std::bit_cast<int32_t>(y));
-      }
+    for (int k = 0; k < n; ++k) o[k] = clampColour(o[k]);
   }
-  return *std::max_element(lane_max, lane_max + 16);
+  return maxMagnitudeBits(out, n, stride);
 }
 
 // acc[k][i] += colour_k * scale[i] * q[k][i] for the 12 (channel, k) planes of one source.
@@ -461,11 +430,11 @@ Result<void> ProbeCache::addSector(const Sector& sector) {
     const int stride = m.stride(s);
     sl.sun_dirs = sun.directions;
     // Dequantised once (as the transfer planes are): 6 x 12 floats a probe, 1.2 MB for 51 sectors.
-    sl.sun.assign(K * 12 * size_t(stride), 0.f);
+    sl.sun = AlignedFloats(K * 12 * size_t(stride));  // on cache lines, as the transfer planes
     for (int i = 0; i < n; ++i)
       for (size_t k = 0; k < K; ++k)
         for (int q = 0; q < 12; ++q)
-          sl.sun[(k * 12 + q) * stride + i] = dequantizeSnorm8(sun.coeffs[sun.index(size_t(i), k, q / 4, q % 4)], sun.ranges[size_t(i)]);
+          sl.sun.data[(k * 12 + q) * stride + i] = dequantizeSnorm8(sun.coeffs[sun.index(size_t(i), k, q / 4, q % 4)], sun.ranges[size_t(i)]);
   }
   m.resolveSources();
   return {};
@@ -631,27 +600,26 @@ void ProbeCache::Impl::relightSlot(int s, const RelightInput& li) {
       sun_seen = li.sun_direction;
       sun_dirs_seen = sl.sun_dirs;
     }
-    const float* sun_w = sun_w_seen.data();
-    int32_t bits = relightPlanesShL1(inPlane(s, 0), outPlane(s, 0), n16, stride, lc, d0, d2, !lprt && !sun);
-    if (sun) {
-      // e_i += kLobe_i E_c sum_k w_k C[k][c][i] (sector.h SunBlock), the int8 planes scaled per probe.
-      // At most two samples weigh (sunTransferWeights): the first and the last with a weight.
-      size_t k0 = K, k1 = K;
+    // e_i += kLobe_i E_c sum_k w_k C[k][c][i] (sector.h SunBlock), in the relight's own pass.
+    // At most two samples weigh (sunTransferWeights): the first and the last with a weight.
+    size_t k0 = K, k1 = K;
+    if (sun)
       for (size_t k = 0; k < K; ++k)
-        if (sun_w[k] != 0.f) (k0 == K ? k0 : k1) = k;
-      if (k0 < K) {
-        if (k1 == K) k1 = k0;
-        float a[12], b[12];
-        for (int q = 0; q < 12; ++q) {
-          const float e = li.sun_irradiance[q / 4] * kLobe[q % 4];
-          a[q] = sun_w[k0] * e;
-          b[q] = k1 == k0 ? 0.f : sun_w[k1] * e;
-        }
-        bits = addSunSamples(outPlane(s, 0), sl.sun.data() + k0 * 12 * size_t(stride), sl.sun.data() + k1 * 12 * size_t(stride),
-                             n16, stride, a, b, !lprt);
-      } else if (!lprt) {
-        bits = clampPlanesShL1(outPlane(s, 0), n16, stride);
+        if (sun_w_seen[k] != 0.f) (k0 == K ? k0 : k1) = k;
+    int32_t bits = 0;
+    if (k0 < K) {
+      if (k1 == K) k1 = k0;
+      SunPlanes sp;
+      sp.x = sl.sun.data + k0 * 12 * size_t(stride);
+      sp.y = sl.sun.data + k1 * 12 * size_t(stride);
+      for (int q = 0; q < 12; ++q) {
+        const float e = li.sun_irradiance[q / 4] * kLobe[q % 4];
+        sp.a[q] = sun_w_seen[k0] * e;
+        sp.b[q] = k1 == k0 ? 0.f : sun_w_seen[k1] * e;
       }
+      bits = relightPlanesShL1Sun(inPlane(s, 0), outPlane(s, 0), n16, stride, lc, d0, d2, sp, !lprt);
+    } else {
+      bits = relightPlanesShL1(inPlane(s, 0), outPlane(s, 0), n16, stride, lc, d0, d2, !lprt);
     }
     if (lprt) {
       thread_local std::vector<float> scratch;

@@ -38,8 +38,9 @@ constexpr float kGroundRayMarginM = 10.f;
 constexpr int kMaxGroundHits = 128;
 // Version of what the sector journals hold; part of the resume fingerprint (2: journals instead
 // of a pair of files per sector; 3: records keep their LPRT source positions for packing; 4: a
-// placement pass names LPRT sources, records keep no positions).
-constexpr int kBakeFormat = 5;
+// placement pass names LPRT sources, records keep no positions; 6: placement keeps a clearance
+// and its records count dropped_gap).
+constexpr int kBakeFormat = 6;
 
 std::string fmt(double v) {
   std::ostringstream s;
@@ -102,11 +103,11 @@ std::vector<LocalInterior> localInteriors(const worlds::World& world, SectorKey 
 
 
 // A placement journal record's payload (little-endian, like the sector records):
-//   u32 probe count n, u64 x 8 PlacementStats (in declaration order), f64 seconds,
+//   u32 probe count n, u64 x 9 PlacementStats (in declaration order), f64 seconds,
 //   then n x { f32 x, y, z; u16 flags; u16 interior } — positions bit for bit, so that a resumed
 //   placement gives the same LPRT source positions as a fresh one.
 static_assert(std::endian::native == std::endian::little, "journal records are little-endian");
-constexpr size_t kPlacementHeaderBytes = 4 + 8 * 8 + 8;
+constexpr size_t kPlacementHeaderBytes = 4 + 9 * 8 + 8;
 constexpr size_t kPlacedProbeBytes = 16;
 
 template <class T>
@@ -129,7 +130,7 @@ std::vector<uint8_t> encodePlacement(const SectorPlacement& p) {
   put(out, uint32_t(p.probes.size()));
   const PlacementStats& s = p.stats;
   for (uint64_t v : {uint64_t(s.static_candidates), uint64_t(s.vegetation_candidates), uint64_t(s.interior_probes),
-                     uint64_t(s.relocated), uint64_t(s.dropped_inside), uint64_t(s.rejected_distance),
+                     uint64_t(s.relocated), uint64_t(s.dropped_inside), uint64_t(s.dropped_gap), uint64_t(s.rejected_distance),
                      uint64_t(s.thinned_cap), s.rays})
     put(out, v);
   put(out, p.seconds);
@@ -152,7 +153,7 @@ Result<SectorPlacement> decodePlacement(std::span<const uint8_t> bytes, const st
   SectorPlacement out;
   PlacementStats& s = out.stats;
   for (size_t* f : {&s.static_candidates, &s.vegetation_candidates, &s.interior_probes, &s.relocated, &s.dropped_inside,
-                    &s.rejected_distance, &s.thinned_cap})
+                    &s.dropped_gap, &s.rejected_distance, &s.thinned_cap})
     *f = size_t(take<uint64_t>(p));
   s.rays = take<uint64_t>(p);
   out.seconds = take<double>(p);
@@ -186,6 +187,8 @@ std::string validateSettings(const BakeSettings& s) {
   if (!in(p.min_horizontal_m, 0.0, 64.0) || !in(p.min_vertical_m, 0.0, 1e4)) return "minimum probe distances must be finite and >= 0";
   if (p.inside_test_rays < 0 || p.inside_test_rays > (1 << 16)) return "inside_test_rays must be in [0, 65536]";
   if (!in(p.inside_test_range_m, 0.0, 64.0)) return "inside_test_range_m must be in [0, 64] m";
+  // A clearance above the lift would refuse flat ground itself.
+  if (!in(p.clearance_m, 0.0, std::min(p.lift_m, p.inside_test_range_m))) return "clearance_m must be in [0, min(lift_m, inside_test_range_m)]";
   const TransferSettings& t = s.transfer;
   if (t.probe_rays_per_basis < 1 || t.probe_rays_per_basis > (1 << 16)) return "probe_rays_per_basis must be in [1, 65536]";
   if (t.surfel_rays < 1 || t.surfel_rays > (1 << 16)) return "surfel_rays must be in [1, 65536]";
@@ -280,7 +283,9 @@ std::vector<std::pair<std::string, std::string>> BakeSettings::describe() const 
       {"lprt_halo_m", fmt(lprt_halo_m)},
       {"zstd_level", std::to_string(zstd_level)},
   };
-  // Only when not the talk's: a kFc3 bake describes itself (and hashes, and packs) as before.
+  // Only when not the talk's: a kFc3 bake with the talk's placement (clearance 0) describes
+  // itself (and hashes, and packs) as before.
+  if (placement.clearance_m != 0.0) d.emplace_back("clearance_m", fmt(placement.clearance_m));
   if (transfer.representation != Representation::kFc3) d.emplace_back("representation", representationName(transfer.representation));
   if (transfer.representation == Representation::kShL1) d.emplace_back("sun_samples", std::to_string(transfer.sun_samples));
   return d;
@@ -637,6 +642,7 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
   report.archive = archive;
   report.settings = options.settings ? *options.settings : BakeSettings::forQuality(options.quality, options.seed);
   if (options.representation) report.settings.transfer.representation = *options.representation;
+  if (options.clearance_m) report.settings.placement.clearance_m = *options.clearance_m;
   else if (world.representation && !options.settings) report.settings.transfer.representation = *world.representation;
   if (std::string why = validateSettings(report.settings); !why.empty()) return fail("bake settings: " + why);
   report.threads = options.threads > 0 ? options.threads : int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));

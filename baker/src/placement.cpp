@@ -41,8 +41,15 @@ bool isStatic(uint8_t cls) {
   return cls == uint8_t(worlds::InstanceClass::kTerrain) || cls == uint8_t(worlds::InstanceClass::kStatic);
 }
 
-// True when `p` is inside geometry (step 4 of placement.h).
-bool inside(const raytrace::RayScene& scene, const glm::vec3& p, const PlacementSettings& s, uint64_t key, PlacementStats& stats) {
+// What the inside test's rays found around a point (step 4 of placement.h).
+struct Surroundings {
+  bool inside = false;         // many of its hits are back faces: inside geometry
+  float nearest_static = INFINITY;  // the nearest static or terrain hit, metres
+  bool clear(double clearance_m) const { return !inside && nearest_static >= float(clearance_m); }
+};
+
+Surroundings surroundings(const raytrace::RayScene& scene, const raytrace::SectorGeometry& geometry, const glm::vec3& p,
+                          const PlacementSettings& s, uint64_t key, PlacementStats& stats) {
   const int n = s.inside_test_rays;
   std::vector<raytrace::Ray> rays(static_cast<size_t>(n));
   std::vector<raytrace::Hit> hits(static_cast<size_t>(n));
@@ -50,13 +57,16 @@ bool inside(const raytrace::RayScene& scene, const glm::vec3& p, const Placement
   for (int i = 0; i < n; ++i) rays[i] = raytrace::Ray{p, 0.f, raytrace::uniformSphere(raytrace::r2Point(uint32_t(i), shift)), float(s.inside_test_range_m)};
   scene.intersect(rays, hits);
   stats.rays += uint64_t(n);
+  Surroundings out;
   int hit = 0, back = 0;
   for (int i = 0; i < n; ++i) {
     if (!hits[i].hit()) continue;
     ++hit;
     back += !scene.frontFace(rays[i], hits[i].prim);
+    if (isStatic(geometry.cls[hits[i].prim])) out.nearest_static = std::min(out.nearest_static, hits[i].t);
   }
-  return hit > 0 && double(back) > kInsideBackfaceFraction * double(hit);
+  out.inside = hit > 0 && double(back) > kInsideBackfaceFraction * double(hit);
+  return out;
 }
 
 std::vector<Candidate> greedy(const std::vector<Candidate>& sorted, double min_h, double min_v) {
@@ -102,9 +112,13 @@ std::vector<PlacedProbe> placeProbes(const raytrace::RayScene& scene, const rayt
         if (!isStatic(geometry.cls[h.prim])) continue;
         const float z = origin.z - h.t;
         if (scene.normal(h.prim).z > 0.f) {  // front face of a downward ray
-          const float lift = std::min(float(s.lift_m), 0.5f * (z_above - z));
-          cands.push_back({glm::vec3(origin.x, origin.y, z + lift), std::isinf(z_above) ? kTop : kCovered, order++});
           ++stats.static_candidates;
+          if (z_above - z < float(2.0 * s.clearance_m)) {
+            ++stats.dropped_gap;  // a slit: a probe there sees nothing but the two surfaces
+          } else {
+            const float lift = std::min(float(s.lift_m), 0.5f * (z_above - z));
+            cands.push_back({glm::vec3(origin.x, origin.y, z + lift), std::isinf(z_above) ? kTop : kCovered, order++});
+          }
         }
         z_above = z;
       }
@@ -146,12 +160,13 @@ std::vector<PlacedProbe> placeProbes(const raytrace::RayScene& scene, const rayt
       }
     }
 
-  // 4. Inside test (before the distance test, so that a relocated probe competes fairly).
+  // 4. Inside and clearance test (before the distance test, so that a moved probe competes fairly).
   std::vector<Candidate> kept;
   kept.reserve(cands.size());
   for (Candidate& c : cands) {
     const uint64_t key = raytrace::hashKey(sector_key, c.order);
-    if (!inside(scene, c.position, s, key, stats)) {
+    const Surroundings here = surroundings(scene, geometry, c.position, s, key, stats);
+    if (here.clear(s.clearance_m)) {
       kept.push_back(c);
       continue;
     }
@@ -159,7 +174,7 @@ std::vector<PlacedProbe> placeProbes(const raytrace::RayScene& scene, const rayt
     for (size_t o = 0; o < std::size(kRelocationOffsets) && !moved; ++o) {
       const glm::vec3 p = c.position + kRelocationOffsets[o];
       if (p.x < base.x || p.y < base.y || p.x >= base.x + float(kSectorSizeM) || p.y >= base.y + float(kSectorSizeM)) continue;
-      if (!inside(scene, p, s, raytrace::hashKey(key, o + 1), stats)) {
+      if (surroundings(scene, geometry, p, s, raytrace::hashKey(key, o + 1), stats).clear(s.clearance_m)) {
         c.position = p;
         c.flags |= kProbeRelocated;
         kept.push_back(c);
@@ -168,8 +183,10 @@ std::vector<PlacedProbe> placeProbes(const raytrace::RayScene& scene, const rayt
     }
     if (moved)
       ++stats.relocated;
-    else
+    else if (here.inside)
       ++stats.dropped_inside;
+    else
+      ++stats.dropped_gap;
   }
 
   // 3. Interiors' designated probes, kept unconditionally.

@@ -34,7 +34,7 @@ struct MinMeanMax {
 Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json_path,
                           const std::filesystem::path& markdown_path) {
   MinMeanMax probes, bytes, bytes_no_lprt, triangles;
-  size_t total_probes = 0, relocated = 0, dropped = 0, rejected = 0, thinned = 0, veg = 0, interior = 0, resumed = 0;
+  size_t total_probes = 0, relocated = 0, dropped = 0, gap = 0, rejected = 0, thinned = 0, veg = 0, interior = 0, resumed = 0;
   size_t cells_near = 0, cells_far = 0, cells_inside = 0, cells_unseen = 0, cells_searched = 0, surfels = 0, cached = 0;
   uint64_t rays = 0, r_place = 0, r_probe = 0, r_surfel = 0, r_lprt = 0, r_sun = 0, r_grid = 0, r_other = 0;
   double t_gather = 0, t_build = 0, t_place = 0, t_probe = 0, t_surfel = 0, t_lprt = 0, t_sun = 0, t_grid = 0, t_total = 0;
@@ -43,6 +43,7 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
     resumed += s.resumed;
     relocated += s.placement.relocated;
     dropped += s.placement.dropped_inside;
+    gap += s.placement.dropped_gap;
     rejected += s.placement.rejected_distance;
     thinned += s.placement.thinned_cap;
     veg += s.placement.vegetation_candidates;
@@ -100,7 +101,7 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
   j["sectors"] = {{"baked_or_resumed", r.sectors.size()}, {"resumed", resumed}, {"empty_skipped", r.sectors_empty},
                   {"with_probes", probes.n}};
   j["probes"] = {{"total", total_probes}, {"per_sector", probes.json()}, {"relocated", relocated},
-                 {"invalid_dropped", dropped}, {"rejected_min_distance", rejected}, {"thinned_cap", thinned},
+                 {"invalid_dropped", dropped}, {"gap_or_clearance_dropped", gap}, {"rejected_min_distance", rejected}, {"thinned_cap", thinned},
                  {"vegetation_candidates", veg}, {"interior_designated", interior}};
   nlohmann::json hist = nlohmann::json::object();
   for (const auto& [b, n] : histogram) hist[std::to_string(b) + "-" + std::to_string(b + 9)] = n;
@@ -143,8 +144,9 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
   md << "| sectors with probes | " << probes.n << " (" << r.sectors_empty << " empty, not stored; " << resumed << " resumed) |\n";
   md << "| probes | " << total_probes << " |\n";
   md << "| per sector min / mean / max | " << fixed(probes.min, 0) << " / " << fixed(probes.mean) << " / " << fixed(probes.max, 0) << " |\n";
-  md << "| relocated out of geometry | " << relocated << " |\n";
+  md << "| relocated out of geometry or away from a surface | " << relocated << " |\n";
   md << "| invalid (inside geometry, dropped) | " << dropped << " |\n";
+  md << "| in a gap under 2 x clearance, or nearer a surface than it with no way out (dropped) | " << gap << " |\n";
   md << "| rejected by minimum distance | " << rejected << " |\n";
   md << "| thinned to the 255 cap | " << thinned << " |\n";
   md << "| interior designated | " << interior << " |\n";

@@ -29,6 +29,7 @@ void forEachStat(Stats& s, F&& f) {
   f("interior_probes", s.placement.interior_probes);
   f("relocated", s.placement.relocated);
   f("dropped_inside", s.placement.dropped_inside);
+  f("dropped_gap", s.placement.dropped_gap);
   f("rejected_distance", s.placement.rejected_distance);
   f("thinned_cap", s.placement.thinned_cap);
   f("placement_rays", s.placement.rays);

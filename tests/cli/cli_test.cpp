@@ -325,6 +325,14 @@ TEST(Cli, ARenderTooLargeForTheMemoryLimitIsRefusedNamingItsSize) {
       << r.out;
 }
 
+// A clearance the placement cannot honour (above the 1.5 m lift: flat ground itself would be too
+// near) is an error naming it, not an empty bake.
+TEST(Cli, AProbeClearanceAboveTheLiftIsAnErrorNamingIt) {
+  const Outcome r = drtv("bake " + src("worlds/fc3_testbox.json") + " --quality draft --clearance 2 -o " + scratch("clear.drtv"));
+  EXPECT_EQ(r.status, 1) << r.out;
+  EXPECT_NE(r.out.find("clearance_m must be in [0, min(lift_m, inside_test_range_m)]"), std::string::npos) << r.out;
+}
+
 TEST(Cli, AMemoryLimitThatIsNotASizeIsAUsageError) {
   const Outcome r = drtv("info " + kGolden + " --max-memory lots");
   EXPECT_EQ(r.status, 2) << r.out;
@@ -349,26 +357,31 @@ TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
     const char* representation;  // fc3: the talk's bases, the bytes of every build before sh-l1
                                  // (sh-l1 at 2 threads only: the bake's sector tasks are the same
                                  // code for both, and each bake costs 16 s under ASan)
+    const char* clearance;       // "": the default (0.25 m); "0": the talk's placement, the bytes
+                                 // of every build before the clearance (issue 16)
     uint64_t xxh3;
   };
   const Golden goldens[] = {
-      {"worlds/island.json", "2", "fc3", 0x797f2f8433a8ec21ull},
-      {"worlds/island.json", "1", "fc3", 0x797f2f8433a8ec21ull},
-      {"worlds/island_lit.json", "2", "fc3", 0x906bc4b8292ce446ull},
-      {"worlds/island.json", "2", "sh-l1", 0xe8bac1df9b7359e6ull},  // archive version 3: fitted direct sky, sun transfer
-      {"worlds/island_lit.json", "2", "sh-l1", 0xfed1581e8d60fbfcull},
+      {"worlds/island.json", "2", "fc3", "0", 0x797f2f8433a8ec21ull},
+      {"worlds/island.json", "1", "fc3", "0", 0x797f2f8433a8ec21ull},
+      {"worlds/island_lit.json", "2", "fc3", "0", 0x906bc4b8292ce446ull},
+      {"worlds/island.json", "2", "sh-l1", "0", 0xe8bac1df9b7359e6ull},  // archive version 3: fitted direct sky, sun transfer
+      {"worlds/island.json", "2", "fc3", "", 0x6cf058d923e27201ull},    // placement with its 0.25 m clearance
+      {"worlds/island.json", "2", "sh-l1", "", 0xe8d2e310cf5b1d54ull},  // the default bake
+      {"worlds/island_lit.json", "2", "sh-l1", "", 0x7a2c155ae90eb601ull},
   };
   for (const Golden& g : goldens) {
     const std::string out = scratch("golden.drtv");
     const Outcome r = drtv("bake " + src(g.world) + " -o " + out + " --quality draft --threads " + g.threads +
-                               " --representation " + g.representation,
+                               " --representation " + g.representation + (*g.clearance ? std::string(" --clearance ") + g.clearance : ""),
                            "DRTV_EMBREE_CONFIG=isa=sse2");
     ASSERT_EQ(r.status, 0) << r.out;
     const std::string bytes = slurp(out);
     char hex[32];
     std::snprintf(hex, sizeof hex, "0x%016llxull", (unsigned long long)XXH3_64bits(bytes.data(), bytes.size()));
     EXPECT_EQ(XXH3_64bits(bytes.data(), bytes.size()), g.xxh3)
-        << g.world << " --threads " << g.threads << " --representation " << g.representation << " baked " << bytes.size()
+        << g.world << " --threads " << g.threads << " --representation " << g.representation << " --clearance '" << g.clearance
+        << "' baked " << bytes.size()
         << " bytes hashing " << hex;
   }
 }

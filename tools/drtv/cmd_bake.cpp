@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "commands.h"
@@ -25,6 +26,7 @@ struct BakeCliOptions {
   bool keep_sectors = false;
   uint64_t seed = 1;
   std::string representation;  // "" = the world's (else sh-l1)
+  std::optional<double> clearance_m;
 };
 
 void drawProgress(size_t done, size_t total) {
@@ -48,6 +50,7 @@ Result<void> runBake(const BakeCliOptions& o) {
     if (!r) return fail("--representation '" + o.representation + "': expected one of " + representationNames());
     options.representation = *r;
   }
+  options.clearance_m = o.clearance_m;
   options.fresh = o.fresh;
   options.keep_sector_files = o.keep_sectors;
   options.merge_only = o.merge;
@@ -127,6 +130,10 @@ Command registerBake(CLI::App& app) {
   sub->add_option("--representation", o->representation,
                   "Directional representation: sh-l1 (band-1 SH irradiance, default) | fc3 (the talk's 4 bases); "
                   "overrides the world's \"representation\"");
+  sub->add_option("--clearance", o->clearance_m,
+                  "Least distance from a probe to static geometry, metres, and half the least gap a probe may stand in "
+                  "(default 0.25; 0 = the talk's placement)")
+      ->check(CLI::Range(0.0, 64.0));
   return {sub, [o]() { return runBake(*o); }, &o->world};
 }
 

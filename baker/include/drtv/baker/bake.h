@@ -108,8 +108,11 @@ struct BakeOptions {
   bool fresh = false;                    // discard sector journals of a different bake
   bool keep_sector_files = false;        // keep "<archive>.sectors/" after packing
   std::optional<BakeSettings> settings;  // overrides the quality preset (tests)
-  // The directional representation (representation.h); unset = the world's, else kFc3.
+  // The directional representation (representation.h); unset = the world's, else sh-l1.
   std::optional<Representation> representation;
+  // Probe clearance (placement.h PlacementSettings::clearance_m); unset = the preset's. 0 is the
+  // talk's placement, and bakes the archives of every build before the clearance, byte for byte.
+  std::optional<double> clearance_m;
   // Called after each sector with (done, total), from one thread at a time. May be empty.
   std::function<void(size_t, size_t)> progress;
 };

@@ -11,6 +11,7 @@
 
 #include "../reference/test_scenes.h"
 #include "drtv/eval/technique.h"
+#include "drtv/worlds/load.h"
 
 namespace drtv {
 namespace {
@@ -77,6 +78,54 @@ TEST(AmbientCube, SunBounceOverAPlaneIsWithin10PercentAndNothingComesFromAbove) 
     EXPECT_NEAR(rel(a.down, kRho * s), 0.0, kSunBounceRel) << elevation << " deg: " << a.down << " vs " << kRho * s;
     EXPECT_NEAR(rel(a.side, 0.5 * kRho * s), 0.0, kSunBounceRel) << elevation << " deg sideways: " << a.side;
     EXPECT_LT(std::fabs(a.up), kUpNormalAbs) << elevation << " deg up: " << a.up;
+  }
+}
+
+// The volume after the camera has wandered (slabs filled as they entered, on both sides of every
+// axis, a relight in between) holds what a volume relit and filled whole at the same camera
+// holds: the scroll's slabs, the probe look-ups it keeps per texel and the blur's borders are
+// the full fill's, texel for texel. On the island (relief, buildings, vegetation: neighbouring
+// texels differ, and the volume blur is on), read back through ambient() over the whole window
+// after every move.
+TEST(AmbientCube, AScrolledVolumeEqualsOneFilledWholeAtTheSameCamera) {
+  auto world = worlds::loadWorld(DRTV_SOURCE_DIR "/worlds/island.json");
+  ASSERT_TRUE(world.has_value()) << (world ? "" : world.error().message);
+  auto make = [&] {
+    auto t = eval::makeTechnique("ambient-cube", {{"quality", "draft"}});
+    EXPECT_TRUE(t.has_value());
+    eval::PrepareInput in{*world, "island", raytrace::SectorRange{0, 1, 0, 1}};
+    in.threads = 2;
+    EXPECT_TRUE((*t)->prepare(in).has_value());
+    return std::move(*t);
+  };
+  auto wandered = make(), whole = make();
+  struct Step {
+    glm::dvec3 camera;
+    double hour;  // a new hour relights
+  };
+  // The block spans x, y in [0, 128] m and the window +-96 m: cameras near the block's edges put
+  // the entering slabs (of a few texels) inside it, where texels 192 m apart (one period) differ.
+  const Step path[] = {{{10.0, 10.0, 10.0}, 9.0},   {{20.0, 22.0, 2.0}, 9.0},   {{118.0, 118.0, 14.0}, 9.0},
+                       {{108.0, 106.0, 5.0}, 9.0}, {{12.0, 110.0, 8.0}, 15.0}, {{24.0, 100.0, 16.0}, 15.0}};
+  double hour = -1.0;
+  for (const Step& step : path) {
+    if (step.hour != hour) ASSERT_TRUE(wandered->setLighting(step.hour, {}).has_value());
+    hour = step.hour;
+    ASSERT_TRUE(wandered->update(step.camera).has_value());
+    ASSERT_TRUE(whole->setLighting(step.hour, {}).has_value());
+    ASSERT_TRUE(whole->update(step.camera).has_value());
+    int differ = 0, lit = 0;
+    for (double x = -93.0; x <= 93.0; x += 3.1)
+      for (double y = -93.0; y <= 93.0; y += 3.7)
+        for (double z = -31.0; z <= 31.0; z += 2.9)
+          for (const glm::vec3 n : {glm::vec3(0, 0, 1), glm::vec3(-1, 0, 0), glm::vec3(0.6f, -0.8f, 0.f), glm::vec3(0, 0, -1)}) {
+            const glm::dvec3 p = step.camera + glm::dvec3(x, y, z);
+            const glm::vec3 a = wandered->ambient(p, n), b = whole->ambient(p, n);
+            differ += a != b;
+            lit += a.r > 0.f;
+          }
+    EXPECT_EQ(differ, 0) << "camera " << step.camera.x << ", " << step.camera.y << ", " << step.camera.z;
+    EXPECT_GT(lit, 0);
   }
 }
 

@@ -188,6 +188,7 @@ class AmbientCube final : public Technique {
     const glm::ivec3 n = options_.volume.size;
     size_ = n;
     texels_.assign(size_t(n.x) * size_t(n.y) * size_t(n.z), CubeTexel{});
+    texel_probe_.assign(texels_.size(), -1);
     costs_.runtime_bytes = texels_.size() * sizeof(CubeTexel);
     built_ = false;
     dirty_ = true;
@@ -358,12 +359,33 @@ class AmbientCube final : public Technique {
     packed_fallback_ = pack(fallback_);
   }
 
-  const CubeTexel& texelAt(const glm::i64vec3& g) const {
+  // The probe the index grid names at world texel g's centre, as sector * 256 + probe (a sector
+  // holds at most 255), or -1 for the fallback.
+  int32_t probeIndexAt(const glm::i64vec3& g) const {
     const glm::dvec3 centre = (glm::dvec3(g) + 0.5) * glm::dvec3(options_.volume.texel_size_m);
     const runtime::ProbeRef pr = rt_->cache().probeAt(centre);
-    if (!pr.valid()) return packed_fallback_;
+    if (!pr.valid()) return -1;
     const int i = slot_sector_[size_t(pr.slot)];
-    return i < 0 ? packed_fallback_ : packed_[size_t(i)][size_t(pr.index)];
+    return i < 0 ? -1 : i * 256 + pr.index;
+  }
+
+  bool inWindow(const glm::i64vec3& g) const {
+    for (int a = 0; a < 3; ++a)
+      if (g[a] < origin_[a] || g[a] >= int64_t(origin_[a]) + size_[a]) return false;
+    return true;
+  }
+
+  // The unblurred texel g: the probe its index cell names, looked up once while g is in the
+  // window (which texel takes which probe does not change with the lighting), relit bytes gathered.
+  const CubeTexel& texelAt(const glm::i64vec3& g) const {
+    const int32_t idx = inWindow(g) ? texel_probe_[storeIndex(g)] : probeIndexAt(g);
+    return idx < 0 ? packed_fallback_ : packed_[size_t(idx >> 8)][size_t(idx & 255)];
+  }
+
+  void indexBox(const glm::i64vec3& lo, const glm::i64vec3& hi) {
+    for (int64_t z = lo.z; z < hi.z; ++z)
+      for (int64_t y = lo.y; y < hi.y; ++y)
+        for (int64_t x = lo.x; x < hi.x; ++x) texel_probe_[storeIndex({x, y, z})] = probeIndexAt({x, y, z});
   }
 
   // Fills world texels [lo, hi) (each axis within the volume's window).
@@ -408,29 +430,37 @@ class AmbientCube final : public Technique {
         }
   }
 
-  // Moves the window to `origin`: everything after a relight, else only the slabs that entered.
+  // Moves the window to `origin`: the texels that entered look their probe up; then everything
+  // is filled after a relight, else only those texels.
   void scroll(const glm::ivec3& origin, bool all) {
     const glm::i64vec3 nlo(origin), nhi = nlo + glm::i64vec3(size_);
     const glm::i64vec3 olo(origin_), ohi = olo + glm::i64vec3(size_);
-    bool overlap = built_ && !all;
+    bool overlap = built_;
     for (int a = 0; a < 3; ++a) overlap = overlap && nlo[a] < ohi[a] && olo[a] < nhi[a];
     origin_ = origin;
     built_ = true;
-    if (!overlap) return fillBox(nlo, nhi);
-    // The new window less the old one: an x slab, then a y slab within the old x range, then z.
-    glm::i64vec3 lo = nlo, hi = nhi;
-    for (int a = 0; a < 3; ++a) {
-      glm::i64vec3 slo = lo, shi = hi;
-      if (nlo[a] < olo[a]) {
-        shi[a] = olo[a];
-        fillBox(slo, shi);
-      } else if (nhi[a] > ohi[a]) {
-        slo[a] = ohi[a];
-        fillBox(slo, shi);
+    std::vector<std::pair<glm::i64vec3, glm::i64vec3>> entered;
+    if (!overlap) {
+      entered.push_back({nlo, nhi});
+    } else {
+      // The new window less the old one: an x slab, then a y slab within the old x range, then z.
+      glm::i64vec3 lo = nlo, hi = nhi;
+      for (int a = 0; a < 3; ++a) {
+        glm::i64vec3 slo = lo, shi = hi;
+        if (nlo[a] < olo[a]) {
+          shi[a] = olo[a];
+          entered.push_back({slo, shi});
+        } else if (nhi[a] > ohi[a]) {
+          slo[a] = ohi[a];
+          entered.push_back({slo, shi});
+        }
+        lo[a] = std::max(nlo[a], olo[a]);
+        hi[a] = std::min(nhi[a], ohi[a]);
       }
-      lo[a] = std::max(nlo[a], olo[a]);
-      hi[a] = std::min(nhi[a], ohi[a]);
     }
+    for (const auto& [lo, hi] : entered) indexBox(lo, hi);
+    if (all) return fillBox(nlo, nhi);
+    for (const auto& [lo, hi] : entered) fillBox(lo, hi);
   }
 
   glm::vec3 interiorBlend(const glm::dvec3& position, const glm::vec3& n, glm::vec3 ambient) const {
@@ -473,6 +503,7 @@ class AmbientCube final : public Technique {
   glm::ivec3 size_{0};
   glm::ivec3 origin_{0};
   std::vector<CubeTexel> texels_;
+  std::vector<int32_t> texel_probe_;  // per stored texel: probeIndexAt of the world texel it holds
   bool built_ = false, dirty_ = true, lit_ = false;
   TechniqueCosts costs_;
 };

@@ -388,46 +388,72 @@ class AmbientCube final : public Technique {
         for (int64_t x = lo.x; x < hi.x; ++x) texel_probe_[storeIndex({x, y, z})] = probeIndexAt({x, y, z});
   }
 
-  // Fills world texels [lo, hi) (each axis within the volume's window).
+  // Fills world texels [lo, hi) (each axis within the volume's window). The wrapped storage
+  // index and whether the window holds a coordinate are tabulated per axis once per box.
   void fillBox(const glm::i64vec3& lo, const glm::i64vec3& hi) {
     if (hi.x <= lo.x || hi.y <= lo.y || hi.z <= lo.z) return;
-    if (!options_.volume.blur) {
-      for (int64_t z = lo.z; z < hi.z; ++z)
-        for (int64_t y = lo.y; y < hi.y; ++y)
-          for (int64_t x = lo.x; x < hi.x; ++x) texels_[storeIndex({x, y, z})] = texelAt({x, y, z});
+    const int64_t m = options_.volume.blur ? 1 : 0;  // the blur reads one texel around the box
+    const glm::i64vec3 elo = lo - m, d = hi - lo + 2 * m;
+    std::array<std::vector<size_t>, 3> stride;
+    std::array<std::vector<uint8_t>, 3> inside;
+    const glm::i64vec3 scale(1, size_.x, int64_t(size_.x) * size_.y);
+    for (int a = 0; a < 3; ++a)
+      for (int64_t i = 0; i < d[a]; ++i) {
+        const int64_t g = elo[a] + i;
+        stride[size_t(a)].push_back(size_t(wrap(g, size_[a]) * scale[a]));
+        inside[size_t(a)].push_back(g >= origin_[a] && g < int64_t(origin_[a]) + size_[a]);
+      }
+    auto source = [&](int64_t x, int64_t y, int64_t z) -> const CubeTexel& {
+      const size_t sx = size_t(x), sy = size_t(y), sz = size_t(z);
+      const int32_t idx = inside[0][sx] && inside[1][sy] && inside[2][sz] ? texel_probe_[stride[0][sx] + stride[1][sy] + stride[2][sz]]
+                                                                          : probeIndexAt({elo.x + x, elo.y + y, elo.z + z});
+      return idx < 0 ? packed_fallback_ : packed_[size_t(idx >> 8)][size_t(idx & 255)];
+    };
+    if (!m) {
+      for (int64_t z = 0; z < d.z; ++z)
+        for (int64_t y = 0; y < d.y; ++y) {
+          const size_t row = stride[1][size_t(y)] + stride[2][size_t(z)];
+          for (int64_t x = 0; x < d.x; ++x) texels_[row + stride[0][size_t(x)]] = source(x, y, z);
+        }
       return;
     }
-    // The 3x3x3 [1 2 1] / 64 blur of the unblurred texels around the box, separably.
-    const glm::i64vec3 elo = lo - int64_t(1), d = hi - lo + int64_t(2);
+    // The 3x3x3 [1 2 1] / 64 blur of the unblurred texels around the box, separably; each pass
+    // computes only what the next one reads.
     const size_t count = size_t(d.x * d.y * d.z);
-    std::vector<std::array<uint16_t, kTexelBytes>> a(count), b(count);
+    blur_a_.resize(count);
+    blur_b_.resize(count);
     auto at = [&](int64_t x, int64_t y, int64_t z) { return size_t((z * d.y + y) * d.x + x); };
     for (int64_t z = 0; z < d.z; ++z)
       for (int64_t y = 0; y < d.y; ++y)
         for (int64_t x = 0; x < d.x; ++x) {
-          const CubeTexel& t = texelAt({elo.x + x, elo.y + y, elo.z + z});
-          for (int q = 0; q < kTexelBytes; ++q) a[at(x, y, z)][size_t(q)] = t[size_t(q)];
+          const CubeTexel& t = source(x, y, z);
+          auto& out = blur_a_[at(x, y, z)];
+          for (int q = 0; q < kTexelBytes; ++q) out[size_t(q)] = t[size_t(q)];
         }
-    auto pass = [&](const glm::i64vec3& step, std::vector<std::array<uint16_t, kTexelBytes>>& from,
-                    std::vector<std::array<uint16_t, kTexelBytes>>& to) {
-      for (int64_t z = step.z; z < d.z - step.z; ++z)
-        for (int64_t y = step.y; y < d.y - step.y; ++y)
-          for (int64_t x = step.x; x < d.x - step.x; ++x) {
-            const auto& m = from[at(x - step.x, y - step.y, z - step.z)];
-            const auto& c = from[at(x, y, z)];
-            const auto& p = from[at(x + step.x, y + step.y, z + step.z)];
-            for (int q = 0; q < kTexelBytes; ++q) to[at(x, y, z)][size_t(q)] = uint16_t(m[size_t(q)] + 2 * c[size_t(q)] + p[size_t(q)]);
+    auto pass = [&](const glm::i64vec3& step, const glm::i64vec3& from_lo, const glm::i64vec3& from_hi,
+                    const std::vector<BlurTexel>& from, std::vector<BlurTexel>& to) {
+      const size_t back = at(step.x, step.y, step.z) - at(0, 0, 0);
+      for (int64_t z = from_lo.z; z < from_hi.z; ++z)
+        for (int64_t y = from_lo.y; y < from_hi.y; ++y)
+          for (int64_t x = from_lo.x; x < from_hi.x; ++x) {
+            const size_t i = at(x, y, z);
+            const BlurTexel &l = from[i - back], &c = from[i], &r = from[i + back];
+            BlurTexel& o = to[i];
+            for (int q = 0; q < kTexelBytes; ++q) o[size_t(q)] = uint16_t(l[size_t(q)] + 2 * c[size_t(q)] + r[size_t(q)]);
           }
     };
-    pass({1, 0, 0}, a, b);
-    pass({0, 1, 0}, b, a);
-    pass({0, 0, 1}, a, b);
+    pass({1, 0, 0}, {1, 0, 0}, {d.x - 1, d.y, d.z}, blur_a_, blur_b_);
+    pass({0, 1, 0}, {1, 1, 0}, {d.x - 1, d.y - 1, d.z}, blur_b_, blur_a_);
+    pass({0, 0, 1}, {1, 1, 1}, {d.x - 1, d.y - 1, d.z - 1}, blur_a_, blur_b_);
     for (int64_t z = 1; z < d.z - 1; ++z)
-      for (int64_t y = 1; y < d.y - 1; ++y)
+      for (int64_t y = 1; y < d.y - 1; ++y) {
+        const size_t row = stride[1][size_t(y)] + stride[2][size_t(z)];
         for (int64_t x = 1; x < d.x - 1; ++x) {
-          CubeTexel& t = texels_[storeIndex({elo.x + x, elo.y + y, elo.z + z})];
-          for (int q = 0; q < kTexelBytes; ++q) t[size_t(q)] = uint8_t((b[at(x, y, z)][size_t(q)] + 32) / 64);
+          CubeTexel& t = texels_[row + stride[0][size_t(x)]];
+          const BlurTexel& v = blur_b_[at(x, y, z)];
+          for (int q = 0; q < kTexelBytes; ++q) t[size_t(q)] = uint8_t((v[size_t(q)] + 32) / 64);
         }
+      }
   }
 
   // Moves the window to `origin`: the texels that entered look their probe up; then everything
@@ -504,6 +530,8 @@ class AmbientCube final : public Technique {
   glm::ivec3 origin_{0};
   std::vector<CubeTexel> texels_;
   std::vector<int32_t> texel_probe_;  // per stored texel: probeIndexAt of the world texel it holds
+  using BlurTexel = std::array<uint16_t, kTexelBytes>;
+  std::vector<BlurTexel> blur_a_, blur_b_;  // the blur's scratch, kept between fills
   bool built_ = false, dirty_ = true, lit_ = false;
   TechniqueCosts costs_;
 };

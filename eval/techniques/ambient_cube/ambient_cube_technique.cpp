@@ -417,41 +417,36 @@ class AmbientCube final : public Technique {
         }
       return;
     }
-    // The 3x3x3 [1 2 1] / 64 blur of the unblurred texels around the box, separably; each pass
-    // computes only what the next one reads.
-    const size_t count = size_t(d.x * d.y * d.z);
-    blur_a_.resize(count);
-    blur_b_.resize(count);
+    // The 3x3x3 [1 2 1] / 64 blur of the unblurred texels around the box, separably, on flat
+    // 16-bit planes: each pass is one contiguous loop (it vectorises) over a range that holds what
+    // the next pass reads; the values it computes at the box's faces read across rows and are
+    // never read back.
+    const size_t B = size_t(kTexelBytes), count = size_t(d.x * d.y * d.z);
+    blur_a_.resize(count * B);
+    blur_b_.resize(count * B);
     auto at = [&](int64_t x, int64_t y, int64_t z) { return size_t((z * d.y + y) * d.x + x); };
     for (int64_t z = 0; z < d.z; ++z)
       for (int64_t y = 0; y < d.y; ++y)
         for (int64_t x = 0; x < d.x; ++x) {
           const CubeTexel& t = source(x, y, z);
-          auto& out = blur_a_[at(x, y, z)];
-          for (int q = 0; q < kTexelBytes; ++q) out[size_t(q)] = t[size_t(q)];
+          uint16_t* out = &blur_a_[at(x, y, z) * B];
+          for (size_t q = 0; q < B; ++q) out[q] = t[q];
         }
-    auto pass = [&](const glm::i64vec3& step, const glm::i64vec3& from_lo, const glm::i64vec3& from_hi,
-                    const std::vector<BlurTexel>& from, std::vector<BlurTexel>& to) {
-      const size_t back = at(step.x, step.y, step.z) - at(0, 0, 0);
-      for (int64_t z = from_lo.z; z < from_hi.z; ++z)
-        for (int64_t y = from_lo.y; y < from_hi.y; ++y)
-          for (int64_t x = from_lo.x; x < from_hi.x; ++x) {
-            const size_t i = at(x, y, z);
-            const BlurTexel &l = from[i - back], &c = from[i], &r = from[i + back];
-            BlurTexel& o = to[i];
-            for (int q = 0; q < kTexelBytes; ++q) o[size_t(q)] = uint16_t(l[size_t(q)] + 2 * c[size_t(q)] + r[size_t(q)]);
-          }
+    auto pass = [&](size_t back, size_t begin, size_t end, const std::vector<uint16_t>& from, std::vector<uint16_t>& to) {
+      const uint16_t* f = from.data();
+      uint16_t* o = to.data();
+      for (size_t i = begin; i < end; ++i) o[i] = uint16_t(f[i - back] + 2 * f[i] + f[i + back]);
     };
-    pass({1, 0, 0}, {1, 0, 0}, {d.x - 1, d.y, d.z}, blur_a_, blur_b_);
-    pass({0, 1, 0}, {1, 1, 0}, {d.x - 1, d.y - 1, d.z}, blur_b_, blur_a_);
-    pass({0, 0, 1}, {1, 1, 1}, {d.x - 1, d.y - 1, d.z - 1}, blur_a_, blur_b_);
+    pass(B, at(1, 0, 0) * B, at(d.x - 1, d.y - 1, d.z - 1) * B, blur_a_, blur_b_);
+    pass(B * size_t(d.x), at(0, 1, 0) * B, at(0, d.y - 1, d.z - 1) * B, blur_b_, blur_a_);
+    pass(B * size_t(d.x * d.y), at(0, 0, 1) * B, at(0, 0, d.z - 1) * B, blur_a_, blur_b_);
     for (int64_t z = 1; z < d.z - 1; ++z)
       for (int64_t y = 1; y < d.y - 1; ++y) {
         const size_t row = stride[1][size_t(y)] + stride[2][size_t(z)];
         for (int64_t x = 1; x < d.x - 1; ++x) {
           CubeTexel& t = texels_[row + stride[0][size_t(x)]];
-          const BlurTexel& v = blur_b_[at(x, y, z)];
-          for (int q = 0; q < kTexelBytes; ++q) t[size_t(q)] = uint8_t((v[size_t(q)] + 32) / 64);
+          const uint16_t* v = &blur_b_[at(x, y, z) * B];
+          for (size_t q = 0; q < B; ++q) t[q] = uint8_t((v[q] + 32) / 64);
         }
       }
   }
@@ -530,8 +525,7 @@ class AmbientCube final : public Technique {
   glm::ivec3 origin_{0};
   std::vector<CubeTexel> texels_;
   std::vector<int32_t> texel_probe_;  // per stored texel: probeIndexAt of the world texel it holds
-  using BlurTexel = std::array<uint16_t, kTexelBytes>;
-  std::vector<BlurTexel> blur_a_, blur_b_;  // the blur's scratch, kept between fills
+  std::vector<uint16_t> blur_a_, blur_b_;  // the blur's scratch, 18 sums a texel, kept between fills
   bool built_ = false, dirty_ = true, lit_ = false;
   TechniqueCosts costs_;
 };

@@ -29,7 +29,9 @@
 // g stored at g mod size, so that a camera move fills only the slabs that entered. Each texel
 // takes the probe the index grid names at its centre (the drtv default, nearest fill), or the sky
 // fallback where none is resident; with the world's volume_blur the runtime's 3x3x3 [1 2 1] blur
-// is applied to the unblurred neighbours (read from the probes, so slabs need no seam handling).
+// is applied to the unblurred neighbours, read from the probes also beyond the window's faces
+// (where the runtime repeats the edge texel), so that a slab needs no seam handling and a
+// scrolled volume equals one filled whole (tests/eval/ambient_cube_test.cpp).
 //
 // Ambient, as Runtime::ambient: the sample moves normal_offset_m along the normal, the 8 texels
 // around it are blended trilinearly (as the hardware filters unorm8), shaded with [2], and mixed

@@ -109,7 +109,9 @@ TEST(AmbientCube, AScrolledVolumeEqualsOneFilledWholeAtTheSameCamera) {
                        {{108.0, 106.0, 5.0}, 9.0}, {{12.0, 110.0, 8.0}, 15.0}, {{24.0, 100.0, 16.0}, 15.0}};
   double hour = -1.0;
   for (const Step& step : path) {
-    if (step.hour != hour) ASSERT_TRUE(wandered->setLighting(step.hour, {}).has_value());
+    if (step.hour != hour) {
+      ASSERT_TRUE(wandered->setLighting(step.hour, {}).has_value());
+    }
     hour = step.hour;
     ASSERT_TRUE(wandered->update(step.camera).has_value());
     ASSERT_TRUE(whole->setLighting(step.hour, {}).has_value());

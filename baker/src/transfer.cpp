@@ -150,7 +150,7 @@ struct TransferContext {
 // sky visibility, back-face fraction, mean hit distance and height; `probe_res` gets every ray's
 // result in probe, basis, sample order.
 void traceProbes(const TransferContext& ctx, std::span<const glm::vec3> probes, std::vector<ProbeData>& out,
-                 std::vector<RayResult>& probe_res) {
+                 std::vector<RayResult>& probe_res, CubeTransfer* cube) {
   const raytrace::RayScene& scene = ctx.scene;
   const TransferSettings& s = ctx.s;
   const size_t P = ctx.P, N = ctx.N;
@@ -167,6 +167,7 @@ void traceProbes(const TransferContext& ctx, std::span<const glm::vec3> probes, 
       size_t escaped_total = 0, back = 0, hit = 0;
       double hit_t = 0.0;
       glm::dvec4 vis_sh(0.0), fit_h(0.0), fit_delta(0.0);
+      std::array<double, kCubeAxes> cube_h{}, cube_delta{};
       for (int b = 0; b < 4; ++b) {
         const raytrace::Frame frame(sh::kBasis[b]);
         const glm::vec2 shift = shiftFor(raytrace::hashKey(sector_key, p * 4 + b));
@@ -190,6 +191,12 @@ void traceProbes(const TransferContext& ctx, std::span<const glm::vec3> probes, 
               const glm::dvec4 k = glm::dvec4(skyFitKernel(w)) / double(pdf);
               fit_h += k;
               if (w.z > 0.f) fit_delta += k * std::sqrt(double(w.z));
+              if (cube)
+                for (int a = 0; a < kCubeAxes; ++a) {
+                  const double c = std::max(0.f, glm::dot(cubeAxis(a), w)) / double(pdf);
+                  cube_h[size_t(a)] += c;
+                  if (w.z > 0.f) cube_delta[size_t(a)] += c * std::sqrt(double(w.z));
+                }
             }
           } else {
             ++hit;
@@ -208,6 +215,11 @@ void traceProbes(const TransferContext& ctx, std::span<const glm::vec3> probes, 
           d.sky_fit_delta = glm::vec4(fit_delta / double(4 * N));
         }
       }
+      if (cube && s.sky_visibility)
+        for (size_t a = 0; a < size_t(kCubeAxes); ++a) {
+          cube->sky_h[p][a] = float(cube_h[a] / double(4 * N));
+          cube->sky_delta[p][a] = float(cube_delta[a] / double(4 * N));
+        }
       d.backface_frac = float(double(back) / double(4 * N));
       d.mean_hit_m = hit ? float(hit_t / double(hit)) : 0.f;
       const raytrace::Hit down = scene.intersect(raytrace::Ray{probes[p], 0.f, glm::vec3(0, 0, -1), INFINITY});
@@ -366,6 +378,12 @@ std::vector<Sh4Rgb> surfaceCache(const TransferContext& ctx, CellMap& cells, std
 
 }  // namespace
 
+glm::vec3 cubeAxis(int a) {
+  glm::vec3 v(0.f);
+  v[a / 2] = a % 2 ? -1.f : 1.f;
+  return v;
+}
+
 sh::Sh4 linearSunLobe(const glm::vec3& d) {
   sh::Sh4 s = sh::evaluate(d) * 2.f;
   s.x = 0.f;
@@ -407,6 +425,39 @@ sh::Sh4 sphereWeight(const glm::vec3& probe, const glm::vec3& hit) {
   float S = 0.f;
   for (int k = 0; k < 4; ++k) S += std::max(0.f, glm::dot(sh::kBasis[k], w));
   return S > 0.f ? sh::evaluate(w) / S : sh::Sh4(0.f);
+}
+
+// The ambient cube's weight of a probe ray towards `hit`: max(0, A_a.w) / S(w) per axis (transfer.h).
+std::array<float, kCubeAxes> cubeWeight(const glm::vec3& probe, const glm::vec3& hit) {
+  const glm::vec3 w = glm::normalize(hit - probe);
+  float S = 0.f;
+  for (int k = 0; k < 4; ++k) S += std::max(0.f, glm::dot(sh::kBasis[k], w));
+  std::array<float, kCubeAxes> out{};
+  if (S > 0.f)
+    for (int a = 0; a < kCubeAxes; ++a) out[size_t(a)] = std::max(0.f, glm::dot(cubeAxis(a), w)) / S;
+  return out;
+}
+
+// Ambient cube gather: C[c][a] = (1/N) sum over all 4N rays rho_c T_x[c] max(0, A_a.w) / S(w).
+void gatherPrtCube(const TransferContext& ctx, std::span<const glm::vec3> probes, const std::vector<RayResult>& probe_res,
+                   const std::vector<uint32_t>& probe_surfel, const std::vector<Sh4Rgb>& transfer, CubeTransfer& cube) {
+  const size_t P = ctx.P, N = ctx.N;
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, P, 4), [&](const tbb::blocked_range<size_t>& range) {
+    for (size_t p = range.begin(); p < range.end(); ++p) {
+      std::array<std::array<glm::dvec4, kCubeAxes>, 3> acc{};
+      for (size_t idx = p * 4 * N; idx < (p + 1) * 4 * N; ++idx) {
+        const uint32_t si = probe_surfel[idx];
+        if (si == kNoSurfel) continue;
+        const glm::vec3& rho = ctx.albedo(probe_res[idx].prim);
+        const std::array<float, kCubeAxes> y = cubeWeight(probes[p], probe_res[idx].position);
+        for (int c = 0; c < 3; ++c)
+          for (size_t a = 0; a < size_t(kCubeAxes); ++a)
+            if (y[a] > 0.f) acc[c][a] += glm::dvec4(rho[c] * y[a] * transfer[si][c]);
+      }
+      for (int c = 0; c < 3; ++c)
+        for (size_t a = 0; a < size_t(kCubeAxes); ++a) cube.prt[p][c][a] = glm::vec4(acc[c][a] / double(N));
+    }
+  });
 }
 
 // sh-l1 gather: M[c][i][j] = (1/N) sum over all 4N rays rho_c T_x[c][j] Y_i(w) / S(w).
@@ -455,8 +506,8 @@ void gatherPrt(const TransferContext& ctx, const std::vector<RayResult>& probe_r
 // to the probes with the sh-l1 gather's weights.
 void bakeSunTransfer(const TransferContext& ctx, std::span<const glm::vec3> probes, const std::vector<Surfel>& surfels,
                      size_t level1, const std::vector<sh::Sh4>& direct, const std::vector<RayResult>& probe_res,
-                     const std::vector<uint32_t>& probe_surfel, std::span<const glm::vec3> sun, std::vector<float>& out,
-                     TransferStats& stats) {
+                     const std::vector<uint32_t>& probe_surfel, std::span<const glm::vec3> sun, std::vector<float>* out_sh,
+                     std::vector<float>* out_cube, TransferStats& stats) {
   const size_t P = ctx.P, N = ctx.N, K = sun.size();
   std::vector<sh::Sh4> lobe(K);
   for (size_t k = 0; k < K; ++k) lobe[k] = linearSunLobe(sun[k]);
@@ -487,6 +538,33 @@ void bakeSunTransfer(const TransferContext& ctx, std::span<const glm::vec3> prob
     sun_rays += cast;
   });
   stats.sun_rays += sun_rays;
+  if (out_cube) {
+    // The ambient cube's correction: the same per-surfel error, gathered with the cube's weights.
+    std::vector<float>& out = *out_cube;
+    const size_t A = size_t(kCubeAxes);
+    out.assign(P * K * 3 * A, 0.f);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, P, 1), [&](const tbb::blocked_range<size_t>& range) {
+      std::vector<double> acc(K * 3 * A);
+      for (size_t p = range.begin(); p < range.end(); ++p) {
+        std::fill(acc.begin(), acc.end(), 0.0);
+        for (size_t idx = p * 4 * N; idx < (p + 1) * 4 * N; ++idx) {
+          const uint32_t si = probe_surfel[idx];
+          if (si == kNoSurfel) continue;
+          const glm::vec3& rho = ctx.albedo(probe_res[idx].prim);
+          const std::array<float, kCubeAxes> y = cubeWeight(probes[p], probe_res[idx].position);
+          for (size_t k = 0; k < K; ++k) {
+            const float e = wrong[si * K + k];
+            if (e == 0.f) continue;
+            for (int c = 0; c < 3; ++c)
+              for (size_t a = 0; a < A; ++a) acc[(k * 3 + size_t(c)) * A + a] += double(rho[c] * e * y[a]);
+          }
+        }
+        for (size_t q = 0; q < K * 3 * A; ++q) out[p * K * 3 * A + q] = float(acc[q] / double(N));
+      }
+    });
+  }
+  if (!out_sh) return;
+  std::vector<float>& out = *out_sh;
   out.assign(P * K * 12, 0.f);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, P, 1), [&](const tbb::blocked_range<size_t>& range) {
     std::vector<double> acc(K * 12);
@@ -513,7 +591,7 @@ void bakeSunTransfer(const TransferContext& ctx, std::span<const glm::vec3> prob
 void bakeLprt(const TransferContext& ctx, std::span<const glm::vec3> probes, const std::vector<Surfel>& surfels, size_t level1,
               const std::vector<RayResult>& probe_res,
               const std::vector<uint32_t>& probe_surfel, std::span<const glm::vec3> lprt_sources, std::vector<float>* lprt,
-              TransferStats& stats) {
+              std::vector<float>* cube_lprt, TransferStats& stats) {
   const raytrace::RayScene& scene = ctx.scene;
   const size_t P = ctx.P, N = ctx.N, S = lprt_sources.size();
   auto albedo = [&](uint32_t prim) -> const glm::vec3& { return ctx.albedo(prim); };
@@ -552,6 +630,31 @@ void bakeLprt(const TransferContext& ctx, std::span<const glm::vec3> probes, con
     lprt_rays += cast;
   });
   stats.lprt_rays += lprt_rays;
+  if (cube_lprt) {
+    // The ambient cube's LPRT: the same surfel irradiance, gathered with the cube's weights.
+    const size_t A = size_t(kCubeAxes);
+    cube_lprt->assign(P * S * 3 * A, 0.f);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, P, 1), [&](const tbb::blocked_range<size_t>& range) {
+      std::vector<double> acc(S * 3 * A);
+      for (size_t p = range.begin(); p < range.end(); ++p) {
+        std::fill(acc.begin(), acc.end(), 0.0);
+        for (size_t idx = p * 4 * N; idx < (p + 1) * 4 * N; ++idx) {
+          const uint32_t si = probe_surfel[idx];
+          if (si == kNoSurfel) continue;
+          const glm::vec3& rho = albedo(probe_res[idx].prim);
+          const float* e = &irradiance[si * S];
+          const std::array<float, kCubeAxes> y = cubeWeight(probes[p], probe_res[idx].position);
+          for (size_t j = 0; j < S; ++j) {
+            if (e[j] == 0.f) continue;
+            for (int c = 0; c < 3; ++c)
+              for (size_t a = 0; a < A; ++a) acc[(j * 3 + size_t(c)) * A + a] += double(rho[c] * e[j] * y[a]);
+          }
+        }
+        for (size_t q = 0; q < S * 3 * A; ++q) (*cube_lprt)[p * S * 3 * A + q] = float(acc[q] / double(N));
+      }
+    });
+  }
+  if (!lprt) return;
   lprt->assign(P * S * 12, 0.f);
   const bool sh_l1 = ctx.s.representation == Representation::kShL1;
   tbb::parallel_for(tbb::blocked_range<size_t>(0, P, 1), [&](const tbb::blocked_range<size_t>& range) {
@@ -590,19 +693,26 @@ std::vector<ProbeData> bakeTransfer(const raytrace::RayScene& scene, const raytr
                                     std::span<const glm::vec3> probes, const TransferSettings& s,
                                     TransferStats& stats, std::span<const glm::vec3> lprt_sources,
                                     std::vector<float>* lprt, std::span<const glm::vec3> sun_directions,
-                                    std::vector<float>* sun) {
+                                    std::vector<float>* sun, CubeTransfer* cube) {
   DRTV_CHECK(s.probe_rays_per_basis > 0 && s.surfel_rays > 0 && s.bounces >= 1 && s.surfel_cell_m > 0.f);
   const size_t P = probes.size(), N = size_t(s.probe_rays_per_basis), M = size_t(s.surfel_rays);
-  const bool want_lprt = !lprt_sources.empty() && lprt != nullptr;
+  const bool want_lprt = !lprt_sources.empty() && (lprt != nullptr || cube != nullptr);
   const bool want_sun = s.prt && !sun_directions.empty() && sun != nullptr && s.representation == Representation::kShL1;
+  const bool want_cube_sun = cube && s.prt && !sun_directions.empty();
   if (sun) sun->clear();
+  if (cube) {
+    *cube = CubeTransfer{};
+    cube->prt.resize(P);
+    cube->sky_h.resize(P);
+    cube->sky_delta.resize(P);
+  }
   const TransferContext ctx{scene, geometry, s, P, N, M, 1.f / s.surfel_cell_m,
                             raytrace::hashKey(s.seed, uint64_t(uint32_t(geometry.key.ix)), uint64_t(uint32_t(geometry.key.iy)), 0x7472616eull)};
 
   auto t0 = Clock::now();
   std::vector<ProbeData> out(P);
   std::vector<RayResult> probe_res(P * 4 * N);
-  traceProbes(ctx, probes, out, probe_res);
+  traceProbes(ctx, probes, out, probe_res, cube);
   stats.probe_rays += uint64_t(P) * (4 * N + 1);
   stats.probe_seconds += since(t0);
   if (!s.prt && !want_lprt) return out;
@@ -614,22 +724,24 @@ std::vector<ProbeData> bakeTransfer(const raytrace::RayScene& scene, const raytr
   const size_t level1 = levelOneSurfels(ctx, probe_res, cells, surfels, probe_surfel, stats);
   std::vector<sh::Sh4> direct;
   if (s.prt) {
-    const std::vector<Sh4Rgb> transfer = surfaceCache(ctx, cells, surfels, stats, want_sun ? &direct : nullptr);
+    const std::vector<Sh4Rgb> transfer = surfaceCache(ctx, cells, surfels, stats, want_sun || want_cube_sun ? &direct : nullptr);
+    if (cube) gatherPrtCube(ctx, probes, probe_res, probe_surfel, transfer, *cube);
     if (s.representation == Representation::kShL1)
       gatherPrtShL1(ctx, probes, probe_res, probe_surfel, transfer, out);
     else
       gatherPrt(ctx, probe_res, probe_surfel, transfer, out);
   }
   stats.surfel_seconds += since(t0);
-  if (want_sun) {
+  if (want_sun || want_cube_sun) {
     t0 = Clock::now();
-    bakeSunTransfer(ctx, probes, surfels, level1, direct, probe_res, probe_surfel, sun_directions, *sun, stats);
+    bakeSunTransfer(ctx, probes, surfels, level1, direct, probe_res, probe_surfel, sun_directions, want_sun ? sun : nullptr,
+                    want_cube_sun ? &cube->sun : nullptr, stats);
     stats.sun_seconds += since(t0);
   }
   if (!want_lprt) return out;
 
   t0 = Clock::now();
-  bakeLprt(ctx, probes, surfels, level1, probe_res, probe_surfel, lprt_sources, lprt, stats);
+  bakeLprt(ctx, probes, surfels, level1, probe_res, probe_surfel, lprt_sources, lprt, cube ? &cube->lprt : nullptr, stats);
   stats.lprt_seconds += since(t0);
   return out;
 }

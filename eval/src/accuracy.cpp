@@ -258,6 +258,23 @@ std::vector<RowSpec> drtvRows(const BakeSettings& base, uint32_t effects, const 
   return rows;
 }
 
+// The ambient cube's rows (eval/techniques/ambient_cube; AccuracyOptions::cube_knobs): each term
+// alone against the reference's (as the `part sh-l1` rows), and the sun transfer off.
+std::vector<RowSpec> cubeRows(uint32_t effects) {
+  std::vector<RowSpec> rows;
+  const uint32_t components = runtime::componentsFromEffects(effects);
+  const std::array<std::pair<const char*, uint32_t>, 4> parts = {
+      std::pair{"sun_bounce", uint32_t(runtime::kComponentSunBounce)}, std::pair{"sky_bounce", uint32_t(runtime::kComponentSkyBounce)},
+      std::pair{"direct_sky", uint32_t(runtime::kComponentDirectSky)}, std::pair{"local_lights", uint32_t(runtime::kComponentLocalLights)}};
+  for (size_t k = 0; k < parts.size(); ++k)
+    if (components & parts[k].second)
+      rows.push_back({"part ambient-cube", parts[k].first, false, "ambient-cube", {{"part", parts[k].first}}, "", int(k)});
+  if (components & runtime::kComponentSunBounce)
+    rows.push_back({"cube sun_transfer", "off", false, "ambient-cube", {{"sun_transfer", "off"}},
+                    "the ambient cube with the linear sun lobe alone (no exact first bounce)"});
+  return rows;
+}
+
 // LPV's knobs (eval/techniques/lpv), one at a time around its defaults (AccuracyOptions::lpv_knobs).
 std::vector<RowSpec> lpvRows() {
   std::vector<RowSpec> rows;
@@ -588,6 +605,9 @@ Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::st
 
   if (options.lpv_knobs)
     for (const RowSpec& spec : lpvRows())
+      if (auto v = rows.evaluate(spec); !v) return std::unexpected(v.error());
+  if (options.cube_knobs)
+    for (const RowSpec& spec : cubeRows(base->manifest.effects))
       if (auto v = rows.evaluate(spec); !v) return std::unexpected(v.error());
 
   // technique: each registered technique (or those asked for) at its own defaults.

@@ -33,6 +33,7 @@ void builtinTechniques(Registry& r) {
   for (auto& [info, factory] : probeReferenceTechniques()) (void)add(r, std::move(info), std::move(factory));
   for (auto& [info, factory] : lpvTechniques()) (void)add(r, std::move(info), std::move(factory));
   for (auto& [info, factory] : sweepTechniques()) (void)add(r, std::move(info), std::move(factory));
+  for (auto& [info, factory] : ambientCubeTechniques()) (void)add(r, std::move(info), std::move(factory));
 }
 
 Registry& registry() {

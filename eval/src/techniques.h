@@ -25,6 +25,8 @@ inline std::string describeTechnique(const std::string& name, const TechniquePar
 std::vector<TechniqueRegistration> drtvTechniques();
 // eval/techniques/probe_reference: DRTV's probes with path-traced values, no volume (basis rows).
 std::vector<TechniqueRegistration> probeReferenceTechniques();
+// eval/techniques/ambient_cube: DRTV's probes with a six-axis ambient cube, baked, relit, a volume (in memory).
+std::vector<TechniqueRegistration> ambientCubeTechniques();
 // eval/techniques/lpv: cascaded light propagation volumes over ray-cast RSMs (drtv/lpv/lpv.h).
 std::vector<TechniqueRegistration> lpvTechniques();
 // eval/techniques/sweep: the top-down sweep light grid (seed 001), no bake.

@@ -20,6 +20,7 @@ struct AccuracyCliOptions {
   uint64_t seed = 1;
   std::vector<std::string> techniques;
   bool lpv_knobs = false;
+  bool cube_knobs = false;
 };
 
 Result<std::vector<double>> parseHours(const std::string& text) {
@@ -56,9 +57,11 @@ Command registerAccuracy(CLI::App& app) {
   sub->add_option("--techniques", o->techniques, "The techniques of the \"technique\" rows, comma-separated (default all: " + names + ")")
       ->delimiter(',');
   sub->add_flag("--lpv-knobs", o->lpv_knobs, "Also LPV's knob rows (cells, cascades, iterations, RSM size, occlusion, ...): minutes each");
+  sub->add_flag("--cube-knobs", o->cube_knobs, "Also the ambient cube's rows (each term alone, the sun transfer off): seconds each");
   return {sub, [o]() -> Result<void> {
             eval::AccuracyOptions opts;
             opts.lpv_knobs = o->lpv_knobs;
+            opts.cube_knobs = o->cube_knobs;
             auto hours = parseHours(o->times);
             if (!hours) return std::unexpected(hours.error());
             opts.hours = *hours;

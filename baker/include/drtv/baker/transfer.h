@@ -63,10 +63,23 @@
 // over the probe's 4N rays (the sh-l1 gather's weights), D_x the direct part of T_x. The sun's
 // first bounce is then exact along the path; its later bounces stay those of the linear lobe.
 //
+// The ambient cube (issue 13, eval/techniques/ambient_cube; held in memory only, no archive format):
+// six clamped-cosine lobes about the axes A_a = +x, -x, +y, -y, +z, -z, gathered from the same 4N
+// rays of a probe with the sh-l1 mixture weights, max(0, A_a.w) / S(w) in place of Y_i(w) / S(w):
+//   C[c][a]      = 1/N sum rho_c(x) T_x[c] max(0, A_a.w) / S(w)   (SH4: bounced irradiance facing A_a
+//                                                                 is dot(L_sh[c], C[c][a]))
+//   sky_h[a]     = 1/(4N) sum over escaped rays max(0, A_a.w) / p(w)          (integral of cos+ V)
+//   sky_delta[a] = the same over escaped rays with w.z > 0, times sqrt(w.z)
+// so that the direct sky facing A_a is exactly H sky_h + (Z - H) sky_delta for the world's sky
+// model (probe.h's kProbeSkyFit; the cube stores the six values the sh-l1 fit fits). The sun
+// correction and LPRT the same way: sun[p][k][c][a] = 1/N sum rho_c (E_k(x) - dot(D_x, s(d_k)))
+// max(0, A_a.w) / S(w), lprt[p][j][c][a] = 1/N sum rho_c E_j(x) max(0, A_a.w) / S(w).
+// Asking for it changes nothing else bakeTransfer returns.
 // Determinism: ray directions are R2 points [pbrt sec. 8.2] (CosineSampler) with a shift keyed by (seed, sector,
 // probe, basis) or (seed, sector, surfel index); all sums run in a fixed order.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -106,6 +119,17 @@ sh::Sh4 linearSunLobe(const glm::vec3& d);
 // sets; none when it never rises or count < 2. Thread-safe.
 std::vector<glm::vec3> sunSamples(const Sky& sky, int count);
 
+inline constexpr int kCubeAxes = 6;
+// Axis a of the ambient cube: +x, -x, +y, -y, +z, -z.
+glm::vec3 cubeAxis(int a);
+
+struct CubeTransfer {
+  std::vector<std::array<std::array<sh::Sh4, kCubeAxes>, 3>> prt;  // [probe][channel][axis]
+  std::vector<std::array<float, kCubeAxes>> sky_h, sky_delta;       // [probe][axis]
+  std::vector<float> sun;   // [probe][sun sample][channel][axis] (empty without sun directions)
+  std::vector<float> lprt;  // [probe][source][channel][axis] (empty without sources)
+};
+
 struct TransferStats {
   uint64_t probe_rays = 0;    // probes' basis rays and height rays
   uint64_t surfel_rays = 0;   // rays of the surface cache
@@ -122,12 +146,15 @@ struct TransferStats {
 // When `lprt_sources` is non-empty, `lprt` receives probes.size() x sources x 3 x 4 floats in
 // LprtBlock order ([probe][source][channel][basis]). When `sun_directions` is non-empty, the
 // representation sh-l1 and PRT on, `sun` receives probes.size() x samples x 3 x 4 floats in
-// SunBlock order (the correction above); else it is emptied. Uses TBB inside; the result does not depend
+// SunBlock order (the correction above); else it is emptied. When `cube` is given it receives
+// the ambient cube's transfer (above) for every probe, its sun correction for `sun_directions`
+// (with PRT on, in any representation) and its LPRT for `lprt_sources` (`lprt` may then be
+// null). Uses TBB inside; the result does not depend
 // on the number of threads. Thread-safe (reads only its arguments).
 std::vector<ProbeData> bakeTransfer(const raytrace::RayScene& scene, const raytrace::SectorGeometry& geometry,
                                     std::span<const glm::vec3> probes, const TransferSettings& settings,
                                     TransferStats& stats, std::span<const glm::vec3> lprt_sources = {},
                                     std::vector<float>* lprt = nullptr, std::span<const glm::vec3> sun_directions = {},
-                                    std::vector<float>* sun = nullptr);
+                                    std::vector<float>* sun = nullptr, CubeTransfer* cube = nullptr);
 
 }  // namespace drtv::baker

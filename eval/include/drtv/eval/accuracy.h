@@ -88,6 +88,9 @@ struct AccuracyOptions {
   // lpv_sky_bounce, lpv_lookup_offset, lpv_damping), one at a time around its defaults: each
   // re-renders its RSMs at every camera move, minutes per row on the island.
   bool lpv_knobs = false;
+  // The ambient cube's rows (part ambient-cube: each term alone against the reference's; cube
+  // sun_transfer off), its technique baked once per row: seconds each (docs/accuracy.md).
+  bool cube_knobs = false;
   // Progress lines ("bake rays_per_basis=32 ...") for a terminal; may be empty.
   std::function<void(const std::string&)> progress;
 };

@@ -501,6 +501,37 @@ void gatherPrt(const TransferContext& ctx, const std::vector<RayResult>& probe_r
   });
 }
 
+// One bounce of per-surfel values to the probes, the sh-l1 (and cube) gather: for J values v[si][j]
+// per level-1 surfel, out[p][j][c][w] = (1/N) sum over the probe's 4N rays that end on a cached
+// surfel si of rho_c v[si][j] W_w(probe, hit), with the weights W of sphereWeight (4) or cubeWeight
+// (6); accumulated in double. Used by the sun transfer and by LPRT.
+template <size_t kW, class WeightFn>
+void bounceToProbes(const TransferContext& ctx, std::span<const glm::vec3> probes, const std::vector<RayResult>& probe_res,
+                    const std::vector<uint32_t>& probe_surfel, const std::vector<float>& v, size_t J, WeightFn weight,
+                    std::vector<float>& out) {
+  const size_t P = ctx.P, N = ctx.N, row = J * 3 * kW;
+  out.assign(P * row, 0.f);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, P, 1), [&](const tbb::blocked_range<size_t>& range) {
+    std::vector<double> acc(row);
+    for (size_t p = range.begin(); p < range.end(); ++p) {
+      std::fill(acc.begin(), acc.end(), 0.0);
+      for (size_t idx = p * 4 * N; idx < (p + 1) * 4 * N; ++idx) {
+        const uint32_t si = probe_surfel[idx];
+        if (si == kNoSurfel) continue;
+        const glm::vec3& rho = ctx.albedo(probe_res[idx].prim);
+        const auto y = weight(probes[p], probe_res[idx].position);
+        const float* e = &v[si * J];
+        for (size_t j = 0; j < J; ++j) {
+          if (e[j] == 0.f) continue;
+          for (int c = 0; c < 3; ++c)
+            for (size_t w = 0; w < kW; ++w) acc[(j * 3 + size_t(c)) * kW + w] += double(rho[c] * e[j] * y[w]);
+        }
+      }
+      for (size_t q = 0; q < row; ++q) out[p * row + q] = float(acc[q] / double(N));
+    }
+  });
+}
+
 // The sun transfer (transfer.h): per level-1 surfel and sun sample, the exact direct sun
 // irradiance V(x, d) max(0, n.d) less what the linear lobe gives it through D_x; then one bounce
 // to the probes with the sh-l1 gather's weights.
@@ -538,53 +569,9 @@ void bakeSunTransfer(const TransferContext& ctx, std::span<const glm::vec3> prob
     sun_rays += cast;
   });
   stats.sun_rays += sun_rays;
-  if (out_cube) {
-    // The ambient cube's correction: the same per-surfel error, gathered with the cube's weights.
-    std::vector<float>& out = *out_cube;
-    const size_t A = size_t(kCubeAxes);
-    out.assign(P * K * 3 * A, 0.f);
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, P, 1), [&](const tbb::blocked_range<size_t>& range) {
-      std::vector<double> acc(K * 3 * A);
-      for (size_t p = range.begin(); p < range.end(); ++p) {
-        std::fill(acc.begin(), acc.end(), 0.0);
-        for (size_t idx = p * 4 * N; idx < (p + 1) * 4 * N; ++idx) {
-          const uint32_t si = probe_surfel[idx];
-          if (si == kNoSurfel) continue;
-          const glm::vec3& rho = ctx.albedo(probe_res[idx].prim);
-          const std::array<float, kCubeAxes> y = cubeWeight(probes[p], probe_res[idx].position);
-          for (size_t k = 0; k < K; ++k) {
-            const float e = wrong[si * K + k];
-            if (e == 0.f) continue;
-            for (int c = 0; c < 3; ++c)
-              for (size_t a = 0; a < A; ++a) acc[(k * 3 + size_t(c)) * A + a] += double(rho[c] * e * y[a]);
-          }
-        }
-        for (size_t q = 0; q < K * 3 * A; ++q) out[p * K * 3 * A + q] = float(acc[q] / double(N));
-      }
-    });
-  }
-  if (!out_sh) return;
-  std::vector<float>& out = *out_sh;
-  out.assign(P * K * 12, 0.f);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, P, 1), [&](const tbb::blocked_range<size_t>& range) {
-    std::vector<double> acc(K * 12);
-    for (size_t p = range.begin(); p < range.end(); ++p) {
-      std::fill(acc.begin(), acc.end(), 0.0);
-      for (size_t idx = p * 4 * N; idx < (p + 1) * 4 * N; ++idx) {
-        const uint32_t si = probe_surfel[idx];
-        if (si == kNoSurfel) continue;
-        const glm::vec3& rho = ctx.albedo(probe_res[idx].prim);
-        const sh::Sh4 y = sphereWeight(probes[p], probe_res[idx].position);
-        for (size_t k = 0; k < K; ++k) {
-          const float e = wrong[si * K + k];
-          if (e == 0.f) continue;
-          for (int c = 0; c < 3; ++c)
-            for (int i = 0; i < 4; ++i) acc[(k * 3 + c) * 4 + i] += double(rho[c] * e * y[i]);
-        }
-      }
-      for (size_t q = 0; q < K * 12; ++q) out[p * K * 12 + q] = float(acc[q] / double(N));
-    }
-  });
+  // The ambient cube's correction and sh-l1's: the same per-surfel error, each with its weights.
+  if (out_cube) bounceToProbes<kCubeAxes>(ctx, probes, probe_res, probe_surfel, wrong, K, cubeWeight, *out_cube);
+  if (out_sh) bounceToProbes<4>(ctx, probes, probe_res, probe_surfel, wrong, K, sphereWeight, *out_sh);
 }
 
 // LPRT: the direct irradiance of each source at each level-1 surfel, then one bounce to the probes.
@@ -630,33 +617,15 @@ void bakeLprt(const TransferContext& ctx, std::span<const glm::vec3> probes, con
     lprt_rays += cast;
   });
   stats.lprt_rays += lprt_rays;
-  if (cube_lprt) {
-    // The ambient cube's LPRT: the same surfel irradiance, gathered with the cube's weights.
-    const size_t A = size_t(kCubeAxes);
-    cube_lprt->assign(P * S * 3 * A, 0.f);
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, P, 1), [&](const tbb::blocked_range<size_t>& range) {
-      std::vector<double> acc(S * 3 * A);
-      for (size_t p = range.begin(); p < range.end(); ++p) {
-        std::fill(acc.begin(), acc.end(), 0.0);
-        for (size_t idx = p * 4 * N; idx < (p + 1) * 4 * N; ++idx) {
-          const uint32_t si = probe_surfel[idx];
-          if (si == kNoSurfel) continue;
-          const glm::vec3& rho = albedo(probe_res[idx].prim);
-          const float* e = &irradiance[si * S];
-          const std::array<float, kCubeAxes> y = cubeWeight(probes[p], probe_res[idx].position);
-          for (size_t j = 0; j < S; ++j) {
-            if (e[j] == 0.f) continue;
-            for (int c = 0; c < 3; ++c)
-              for (size_t a = 0; a < A; ++a) acc[(j * 3 + size_t(c)) * A + a] += double(rho[c] * e[j] * y[a]);
-          }
-        }
-        for (size_t q = 0; q < S * 3 * A; ++q) (*cube_lprt)[p * S * 3 * A + q] = float(acc[q] / double(N));
-      }
-    });
-  }
+  // The ambient cube's LPRT and sh-l1's: the same surfel irradiance, each with its weights.
+  if (cube_lprt) bounceToProbes<kCubeAxes>(ctx, probes, probe_res, probe_surfel, irradiance, S, cubeWeight, *cube_lprt);
   if (!lprt) return;
+  if (ctx.s.representation == Representation::kShL1) {
+    bounceToProbes<4>(ctx, probes, probe_res, probe_surfel, irradiance, S, sphereWeight, *lprt);
+    return;
+  }
+  // fc3: on the bases, each ray counting towards the basis it was cast about (k).
   lprt->assign(P * S * 12, 0.f);
-  const bool sh_l1 = ctx.s.representation == Representation::kShL1;
   tbb::parallel_for(tbb::blocked_range<size_t>(0, P, 1), [&](const tbb::blocked_range<size_t>& range) {
     std::vector<float> acc(S * 12);
     for (size_t p = range.begin(); p < range.end(); ++p) {
@@ -668,15 +637,6 @@ void bakeLprt(const TransferContext& ctx, std::span<const glm::vec3> probes, con
           if (si == kNoSurfel) continue;
           const glm::vec3& rho = albedo(probe_res[idx].prim);
           const float* e = &irradiance[si * S];
-          if (sh_l1) {
-            const sh::Sh4 y = sphereWeight(probes[p], probe_res[idx].position);
-            for (size_t j = 0; j < S; ++j) {
-              if (e[j] == 0.f) continue;
-              for (int c = 0; c < 3; ++c)
-                for (int q = 0; q < 4; ++q) acc[(j * 3 + c) * 4 + q] += rho[c] * e[j] * y[q];
-            }
-            continue;
-          }
           for (size_t j = 0; j < S; ++j) {
             if (e[j] == 0.f) continue;
             for (int c = 0; c < 3; ++c) acc[(j * 3 + c) * 4 + k] += rho[c] * e[j];

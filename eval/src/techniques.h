@@ -2,6 +2,7 @@
 // (technique.cpp calls each on first use of the registry).
 #pragma once
 
+#include <charconv>
 #include <string>
 #include <utility>
 #include <vector>
@@ -19,6 +20,15 @@ inline std::string describeTechnique(const std::string& name, const TechniquePar
   char sep = ' ';
   for (const auto& [k, v] : given) s += sep + k + "=" + v, sep = ',';
   return s;
+}
+
+// A technique parameter `key`=`v` read as an integer in [lo, hi], or an error naming both.
+inline Result<int> intIn(const std::string& key, const std::string& v, int lo, int hi) {
+  int x = 0;
+  const auto [end, ec] = std::from_chars(v.data(), v.data() + v.size(), x);
+  if (ec != std::errc() || end != v.data() + v.size() || x < lo || x > hi)
+    return fail(key + "=" + v + ": expected an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+  return x;
 }
 
 // eval/techniques/drtv: Deferred Radiance Transfer Volumes (the talk's), nearest and smooth fills.

@@ -82,14 +82,6 @@ struct Params {
   TechniqueParams given;
 };
 
-Result<int> intIn(const std::string& key, const std::string& v, int lo, int hi) {
-  int x = 0;
-  const auto [end, ec] = std::from_chars(v.data(), v.data() + v.size(), x);
-  if (ec != std::errc() || end != v.data() + v.size() || x < lo || x > hi)
-    return fail(key + "=" + v + ": expected an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
-  return x;
-}
-
 Result<Params> parseParams(const TechniqueParams& p) {
   Params out;
   out.given = p;

@@ -4,9 +4,11 @@
 // several sectors, settings, lights and interiors).
 //
 // Usage: drtv_fuzz_make_seeds <corpus dir>   (writes <dir>/sector/*.sec and <dir>/archive/*.drtv)
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -40,7 +42,23 @@ int main(int argc, char** argv) {
   no_ground.has_ground = false;
   drtv::Sector sh_lprt = makeSector({7, -7}, 2, 3, 12);
   sh_lprt.lprt_on_bases = false;
+  // sh-l1 of archive version 3: a 6-sample sun transfer (sector.h SunBlock), so that the decoder's
+  // sun branch is in the corpus, not only reached by growing a sector and mutating byte 40.
+  drtv::Sector sun = makeSector({3, -2}, 5, 0, 14);
+  sun.lprt_on_bases = false;
+  {
+    auto block = std::make_unique<drtv::SunBlock>();
+    for (int k = 0; k < 6; ++k) {
+      const float a = 3.14159265f * (float(k) + 0.5f) / 6.f;  // sunrise to sunset, east to west
+      block->directions.push_back(glm::normalize(glm::vec3(std::cos(a), 0.2f, std::sin(a))));
+    }
+    for (size_t i = 0; i < sun.probes.size(); ++i) block->ranges.push_back(0.25f + 0.1f * float(i));
+    block->coeffs.resize(sun.probes.size() * 6 * 12);
+    for (size_t q = 0; q < block->coeffs.size(); ++q) block->coeffs[q] = int8_t(int(q * 37 % 255) - 127);
+    sun.sun = std::move(block);
+  }
   const std::vector<std::pair<std::string, drtv::Sector>> sectors = {
+      {"sun_transfer_six_samples", sun},
       {"empty", empty},
       {"three_probes_no_ground", no_ground},
       {"four_probes_ground", makeSector({1, 1}, 4, 0, 13)},

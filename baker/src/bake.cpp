@@ -655,6 +655,8 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
   auto geometry = raytrace::WorldGeometry::build(world, world_name, binned, haloFor(report.settings, effects));
   if (!geometry) return std::unexpected(geometry.error());
   report.notes = geometry->notes();
+  report.world_notes = world.notes;
+  report.materials = world.materials;
   report.triangles = geometry->triangleCount();
   report.geometry_s = since(t0);
 

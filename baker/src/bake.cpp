@@ -309,7 +309,7 @@ Result<SectorPlacement> placeSector(const raytrace::WorldGeometry& geometry, con
                                     const BakeSettings& settings, uint32_t effects) {
   const auto t0 = Clock::now();
   const raytrace::SectorGeometry g = geometry.gather(key, haloFor(settings, effects));
-  auto scene = raytrace::RayScene::build(g.vertices);
+  auto scene = raytrace::RayScene::build(g.vertices, g.twoSided());
   if (!scene) return std::unexpected(scene.error().context("sector " + toString(key)));
   SectorPlacement out;
   out.probes = placeProbes(*scene, g, {0, 0}, localInteriors(world, key, effects), settings.placement, out.stats);
@@ -356,7 +356,7 @@ Result<Sector> bakeSector(const raytrace::WorldGeometry& geometry, const worlds:
   stats.triangles = g.triangleCount();
   stats.gather_s = since(t0);
   t0 = Clock::now();
-  auto scene = raytrace::RayScene::build(g.vertices);
+  auto scene = raytrace::RayScene::build(g.vertices, g.twoSided());
   if (!scene) return std::unexpected(scene.error().context("sector " + toString(key)));
   stats.build_s = since(t0);
 

@@ -95,13 +95,14 @@ std::vector<PlacedProbe> placeProbes(const raytrace::RayScene& scene, const rayt
       const glm::vec3 origin(x, y, top);
       float t = 0.f, z_above = INFINITY;
       for (int k = 0; k < kMaxHitsPerColumn; ++k) {
-        const raytrace::Hit h = scene.intersect(raytrace::Ray{origin, t, glm::vec3(0, 0, -1), ray_len});
+        const raytrace::Ray down{origin, t, glm::vec3(0, 0, -1), ray_len};
+        const raytrace::Hit h = scene.intersect(down);
         ++stats.rays;
         if (!h.hit()) break;
         t = nextRayStart(h.t);
         if (!isStatic(geometry.cls[h.prim])) continue;
         const float z = origin.z - h.t;
-        if (scene.normal(h.prim).z > 0.f) {  // front face of a downward ray
+        if (scene.facingNormal(down, h.prim).z > 0.f) {  // front face of a downward ray (either side if double-sided)
           const float lift = std::min(float(s.lift_m), 0.5f * (z_above - z));
           cands.push_back({glm::vec3(origin.x, origin.y, z + lift), std::isinf(z_above) ? kTop : kCovered, order++});
           ++stats.static_candidates;

@@ -181,7 +181,7 @@ TEST(GltfMaterials, DoubleSidedMaterialsAreCountedAndSaid) {
   ASSERT_TRUE(w.has_value()) << w.error().message;
   EXPECT_TRUE(w->meshes.at(0).double_sided);
   EXPECT_EQ(w->materials.double_sided, 1u);
-  EXPECT_TRUE(hasNote(*w, "double-sided: their back faces read as the inside of geometry"));
+  EXPECT_TRUE(hasNote(*w, "materials double-sided: a surface from both sides"));
 }
 
 TEST(GltfMaterials, TheCornellBoxQuadIsItsOnlyLight) {

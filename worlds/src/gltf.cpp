@@ -817,8 +817,8 @@ Result<World> loadGltfBytes(std::span<const uint8_t> bytes, bool binary, const s
   if (world.materials.double_sided > 0)
     world.notes.push_back("material: " + file + ": " + std::to_string(world.materials.double_sided) + " of " +
                           std::to_string(world.materials.materials) +
-                          " materials double-sided: their back faces read as the inside of geometry in the bake and "
-                          "the path tracer, as single-sided ones' do");
+                          " materials double-sided: a surface from both sides in the bake and the path tracer (a "
+                          "single-sided one's back faces read as the inside of geometry)");
   if (make_lights) emissiveLights(world);
   world.effects = defaultEffects(world);
   if (stats_out) *stats_out = stats;

@@ -16,8 +16,8 @@
 //    any other is opaque (texture alpha not applied). BLEND: mean alpha (factor x texture mean)
 //    >= 0.5 opaque, else skipped. Emission = emissiveFactor x the mean linear emissive texture
 //    colour x KHR_materials_emissive_strength, on Mesh::emission; an emitter's albedo is 0 and
-//    loadGltf turns it into point lights (emissiveLights, world.h). doubleSided is recorded on
-//    Mesh::double_sided and counted; back faces stay "inside" for the bake and the path tracer.
+//    loadGltf turns it into point lights (emissiveLights, world.h). doubleSided sets
+//    Mesh::double_sided: a surface from both sides for the bake and the path tracer.
 //  - Triangle lists, strips and fans are loaded (strips and fans become lists, see
 //    gltfStripToList / gltfFanToList); points and lines are skipped with a note.
 //  - Triangles that touch a NaN/Inf position or have zero area are dropped and counted; the

@@ -40,8 +40,9 @@ struct Mesh {
   // (>= 0, finite; 0 = no emission). Not light by itself: emissiveLights() turns it into point
   // lights, which both the bake and the path tracer see (docs/world-format.md, "Materials").
   glm::vec3 emission{0.f};
-  // The source material is double-sided (glTF doubleSided). Recorded and counted only: the bake
-  // and the path tracer treat every back face as the inside of geometry (docs/world-format.md).
+  // The source material is double-sided (glTF doubleSided): its triangles are surfaces from both
+  // sides for the bake and the path tracer (raytrace::RayScene two-sided triangles); a one-sided
+  // triangle's back face is the inside of geometry (docs/world-format.md, "Materials").
   bool double_sided = false;
 
   size_t triangleCount() const { return indices.size() / 3; }
@@ -58,7 +59,7 @@ struct MaterialCounts {
   size_t blend_skipped = 0;      // alphaMode BLEND with mean alpha < 0.5: its primitives skipped
   size_t metallic = 0;           // metallic > 0: diffuse albedo = base colour x (1 - metallic)
   size_t emissive = 0;           // emission > 0: point lights, albedo 0
-  size_t double_sided = 0;       // doubleSided: back faces still read as inside geometry
+  size_t double_sided = 0;       // doubleSided: surfaces from both sides
   size_t emissive_lights = 0;    // point lights emissiveLights() made
   size_t emissive_instances_not_converted = 0;  // past kMaxEmissiveLights, or dynamic
 

@@ -115,6 +115,12 @@ void emissiveLights(World& world) {
         ++dynamic;
         continue;
       }
+      // Full already: no work for an instance that cannot be converted (a file may place
+      // thousands).
+      if (world.materials.emissive_lights >= kMaxEmissiveLights) {
+        ++not_converted;
+        continue;
+      }
       // World-space pieces, front side as the ray tracer stores it (a mirroring transform
       // reverses the winding, world_geometry.cpp).
       const bool mirrored = glm::determinant(glm::dmat3(inst.transform)) < 0.0;

@@ -215,5 +215,47 @@ TEST(GltfMaterials, AWorldFilePlacesTheEmittersItImports) {
   EXPECT_NE(info.find("emissive 1"), std::string::npos) << info;
 }
 
+// A flat 4 m x 4 m emitter facing down: 16 patches of 1 m^2, one light each.
+Mesh emitter() {
+  Mesh m;
+  m.name = "panel";
+  m.positions = {{-2, -2, 3}, {2, -2, 3}, {2, 2, 3}, {-2, 2, 3}};
+  m.indices = {0, 2, 1, 0, 3, 2};
+  m.albedo = glm::vec3(0.f);
+  m.emission = glm::vec3(1.f);
+  return m;
+}
+
+TEST(EmissiveLights, StopAtTheirCapAndSkipDynamicEmittersSayingSo) {
+  World w;
+  w.meshes = {emitter()};
+  const size_t placed = kMaxEmissiveLights / kMaxLightsPerEmitter + 2;  // two more than fit
+  for (size_t i = 0; i < placed; ++i)
+    w.instances.push_back({0, glm::dmat4(1.0), InstanceClass::kStatic, "panel " + std::to_string(i)});
+  w.instances.push_back({0, glm::dmat4(1.0), InstanceClass::kDynamic, "carried panel"});
+  emissiveLights(w);
+  EXPECT_EQ(w.lights.size(), kMaxEmissiveLights);
+  EXPECT_EQ(w.materials.emissive_lights, kMaxEmissiveLights);
+  EXPECT_EQ(w.materials.emissive_instances_not_converted, 3u) << "two past the cap, one dynamic";
+  EXPECT_TRUE(w.light_paths.empty()) << "no paths where the world had none";
+  ASSERT_EQ(w.notes.size(), 1u);
+  EXPECT_NE(w.notes[0].find("2 instances not converted"), std::string::npos) << w.notes[0];
+  EXPECT_NE(w.notes[0].find("1 dynamic instances not converted"), std::string::npos) << w.notes[0];
+  glm::dvec3 sum = totalIntensity(w);
+  expectRelNear(sum.g, 0.5 * 16.0 * double(kMaxEmissiveLights / kMaxLightsPerEmitter), kIntensityRelTolerance);
+}
+
+TEST(EmissiveLights, AMirroringTransformKeepsTheEmittingSide) {
+  // Mirrored in x: the winding turns clockwise, the ray tracer swaps two corners
+  // (world_geometry.cpp) and the front still faces down; the lights stay below the panel.
+  World w;
+  w.meshes = {emitter()};
+  w.instances.push_back({0, glm::dmat4(glm::dvec4(-1, 0, 0, 0), glm::dvec4(0, 1, 0, 0), glm::dvec4(0, 0, 1, 0), glm::dvec4(0, 0, 0, 1)),
+                         InstanceClass::kStatic, "mirrored"});
+  emissiveLights(w);
+  ASSERT_EQ(w.lights.size(), 16u);
+  for (const PointLight& l : w.lights) EXPECT_NEAR(l.position.z, 3.0 - kEmitterLightOffsetM, 1e-6);
+}
+
 }  // namespace
 }  // namespace drtv::worlds

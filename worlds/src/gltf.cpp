@@ -234,7 +234,8 @@ struct Loader {
       return material_info[material_index] = info;
     }
     const tinygltf::Material& mat = model.materials[size_t(material_index)];
-    const std::string what = file + ": material '" + (mat.name.empty() ? std::to_string(material_index) : mat.name) + "'";
+    const std::string label = "material '" + (mat.name.empty() ? std::to_string(material_index) : mat.name) + "'";
+    const std::string what = file + ": " + label;
     const auto& pbr = mat.pbrMetallicRoughness;
     const auto& f = pbr.baseColorFactor;
     glm::dvec4 base(1.0);
@@ -289,7 +290,7 @@ struct Loader {
     if (mat.alphaMode == "MASK") {
       if (base.a < mat.alphaCutoff) {
         ++counts.mask_skipped;
-        info.skip_why = "material '" + mat.name + "': alphaMode MASK, baseColorFactor alpha " + num(base.a) +
+        info.skip_why = label + ": alphaMode MASK, baseColorFactor alpha " + num(base.a) +
                         " < alphaCutoff " + num(mat.alphaCutoff) + ": cut away whole";
       } else {
         ++counts.mask_kept;
@@ -302,7 +303,7 @@ struct Loader {
     } else if (mat.alphaMode == "BLEND") {
       if (alpha < 0.5) {
         ++counts.blend_skipped;
-        info.skip_why = "material '" + mat.name + "': alphaMode BLEND, mean alpha " + num(alpha) + " < 0.5: left out";
+        info.skip_why = label + ": alphaMode BLEND, mean alpha " + num(alpha) + " < 0.5: left out";
       } else {
         ++counts.blend_kept;
         note("material: " + what + ": alphaMode BLEND, mean alpha " + num(alpha) + " >= 0.5: opaque");

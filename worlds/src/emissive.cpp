@@ -23,6 +23,7 @@ constexpr double kPi = 3.14159265358979323846;
 // kMaxSubdivision times (4^5 = 1024 pieces a triangle).
 constexpr double kPieceShare = 1.0 / (4.0 * double(kMaxLightsPerEmitter));
 constexpr int kMaxSubdivision = 5;
+constexpr size_t kMaxLightNameBytes = 256;
 
 // One small flat piece of an emitter, world metres.
 struct Piece {
@@ -162,7 +163,9 @@ void emissiveLights(World& world) {
       area_sum += area;
       for (size_t k = 0; k < patches.size(); ++k) {
         PointLight l;
-        l.name = inst.name + ": emissive " + std::to_string(k);
+        // Bounded: names travel into the archive's manifest (16-bit lengths), and a file's node
+        // names may be any length.
+        l.name = inst.name.substr(0, kMaxLightNameBytes) + ": emissive " + std::to_string(k);
         l.position = patches[k].position + kEmitterLightOffsetM * patches[k].normal;
         l.intensity = glm::vec3(0.5 * le * patches[k].area);
         intensity_sum += glm::dvec3(l.intensity);

@@ -314,7 +314,7 @@ Result<SectorPlacement> placeSector(const raytrace::WorldGeometry& geometry, con
                                     const BakeSettings& settings, uint32_t effects) {
   const auto t0 = Clock::now();
   const raytrace::SectorGeometry g = geometry.gather(key, haloFor(settings, effects));
-  auto scene = raytrace::RayScene::build(g.vertices);
+  auto scene = raytrace::RayScene::build(g.vertices, g.twoSided());
   if (!scene) return std::unexpected(scene.error().context("sector " + toString(key)));
   SectorPlacement out;
   out.probes = placeProbes(*scene, g, {0, 0}, localInteriors(world, key, effects), settings.placement, out.stats);
@@ -361,7 +361,7 @@ Result<Sector> bakeSector(const raytrace::WorldGeometry& geometry, const worlds:
   stats.triangles = g.triangleCount();
   stats.gather_s = since(t0);
   t0 = Clock::now();
-  auto scene = raytrace::RayScene::build(g.vertices);
+  auto scene = raytrace::RayScene::build(g.vertices, g.twoSided());
   if (!scene) return std::unexpected(scene.error().context("sector " + toString(key)));
   stats.build_s = since(t0);
 
@@ -661,6 +661,8 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
   auto geometry = raytrace::WorldGeometry::build(world, world_name, binned, haloFor(report.settings, effects));
   if (!geometry) return std::unexpected(geometry.error());
   report.notes = geometry->notes();
+  report.world_notes = world.notes;
+  report.materials = world.materials;
   report.triangles = geometry->triangleCount();
   report.geometry_s = since(t0);
 

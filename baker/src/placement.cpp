@@ -105,13 +105,14 @@ std::vector<PlacedProbe> placeProbes(const raytrace::RayScene& scene, const rayt
       const glm::vec3 origin(x, y, top);
       float t = 0.f, z_above = INFINITY;
       for (int k = 0; k < kMaxHitsPerColumn; ++k) {
-        const raytrace::Hit h = scene.intersect(raytrace::Ray{origin, t, glm::vec3(0, 0, -1), ray_len});
+        const raytrace::Ray down{origin, t, glm::vec3(0, 0, -1), ray_len};
+        const raytrace::Hit h = scene.intersect(down);
         ++stats.rays;
         if (!h.hit()) break;
         t = nextRayStart(h.t);
         if (!isStatic(geometry.cls[h.prim])) continue;
         const float z = origin.z - h.t;
-        if (scene.normal(h.prim).z > 0.f) {  // front face of a downward ray
+        if (scene.facingNormal(down, h.prim).z > 0.f) {  // front face of a downward ray (either side if double-sided)
           ++stats.static_candidates;
           if (z_above - z < float(2.0 * s.clearance_m)) {
             ++stats.dropped_gap;  // a slit: a probe there sees nothing but the two surfaces

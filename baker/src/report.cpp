@@ -5,6 +5,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "drtv/worlds/summary.h"
 #include "sector_stats.h"
 
 namespace drtv::baker {
@@ -97,6 +98,10 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
   j["settings"] = settings;
   j["effects"] = {{"asked", effectsToString(r.effects_asked)}, {"baked", effectsToString(r.effects_baked)}, {"skipped", r.effects_skipped}};
   j["notes"] = r.notes;
+  j["world_notes"] = r.world_notes;
+  nlohmann::json materials = nlohmann::json::object();
+  for (const auto& [name, count] : worlds::materialCountFields(r.materials)) materials[name] = count;
+  j["materials"] = materials;
   j["triangles"] = r.triangles;
   j["sectors"] = {{"baked_or_resumed", r.sectors.size()}, {"resumed", resumed}, {"empty_skipped", r.sectors_empty},
                   {"with_probes", probes.n}};
@@ -140,6 +145,8 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
   md << "- effects baked: " << effectsToString(r.effects_baked) << "\n";
   for (const std::string& s : r.effects_skipped) md << "- skipped: " << s << "\n";
   for (const std::string& n : r.notes) md << "- geometry " << n << "\n";
+  md << "- " << worlds::materialCountsLine(r.materials) << "\n";
+  for (const std::string& n : r.world_notes) md << "- loader " << n << "\n";
   md << "\n## Probes\n\n| | value |\n|---|---|\n";
   md << "| sectors with probes | " << probes.n << " (" << r.sectors_empty << " empty, not stored; " << resumed << " resumed) |\n";
   md << "| probes | " << total_probes << " |\n";

@@ -98,6 +98,7 @@ struct RayResult {
   float t = 0.f;
   uint32_t prim = raytrace::kNoPrim;
   glm::vec3 position{0.f};  // of the hit: kept so that linking needs no second sin/cos
+  glm::vec3 normal{0.f};    // of the side hit (RayScene::facingNormal: double-sided surfaces)
 };
 
 struct Surfel {
@@ -126,7 +127,8 @@ RayResult classify(const raytrace::RayScene& scene, const raytrace::Ray& ray, co
     return r;
   }
   r.position = ray.origin + h.t * ray.dir;
-  r.key = cellKey(r.position, scene.normal(h.prim), inv_cell);
+  r.normal = scene.facingNormal(ray, h.prim);
+  r.key = cellKey(r.position, r.normal, inv_cell);
   return r;
 }
 
@@ -242,7 +244,7 @@ size_t levelOneSurfels(const TransferContext& ctx, const std::vector<RayResult>&
         if (r.key >= kBackface) continue;
         const uint32_t id = cells.insert(r.key, uint32_t(surfels.size()));
         if (id == surfels.size()) {
-          surfels.push_back({r.position, scene.normal(r.prim)});
+          surfels.push_back({r.position, r.normal});
         } else {
           ++stats.probe_hits_cached;
         }
@@ -270,7 +272,7 @@ size_t levelOneSurfels(const TransferContext& ctx, const std::vector<RayResult>&
       const glm::vec3 d = probe_res[idx].position - mean;
       if (const float d2 = glm::dot(d, d); d2 < best[si]) {
         best[si] = d2;
-        surfels[si] = {probe_res[idx].position, scene.normal(probe_res[idx].prim)};
+        surfels[si] = {probe_res[idx].position, probe_res[idx].normal};
       }
     }
   }
@@ -297,7 +299,7 @@ std::vector<Sh4Rgb> surfaceCache(const TransferContext& ctx, CellMap& cells, std
   struct Miss {
     uint64_t key;
     glm::vec3 position;
-    uint32_t prim;
+    glm::vec3 normal;
   };
   std::vector<Miss> misses;
   size_t lo = 0;
@@ -334,7 +336,7 @@ std::vector<Sh4Rgb> surfaceCache(const TransferContext& ctx, CellMap& cells, std
           e.child = cells.find(r.key);
           if (e.child == kNoSurfel && !last) {
             e.child = kPending;
-            misses[(si - lo) * M + i] = Miss{r.key, r.position, r.prim};
+            misses[(si - lo) * M + i] = Miss{r.key, r.position, r.normal};
           }
         }
         direct[si] = d * (kPi / float(M));
@@ -348,7 +350,7 @@ std::vector<Sh4Rgb> surfaceCache(const TransferContext& ctx, CellMap& cells, std
           if (e.child != kPending) continue;
           const Miss& m = misses[(si - lo) * M + i];
           e.child = cells.insert(m.key, uint32_t(surfels.size()));
-          if (e.child == surfels.size()) surfels.push_back({m.position, scene.normal(m.prim)});
+          if (e.child == surfels.size()) surfels.push_back({m.position, m.normal});
         }
     lo = hi;
   }

@@ -101,7 +101,7 @@ std::vector<Point> staticPoints(const ReferenceScene& scene, const InMemoryBake&
     if (!hit.hit() || !scene.rays().frontFace(ray, hit.prim)) continue;
     const glm::dvec3 p = scene.toWorld(ray.origin + dir * hit.t);
     if (!inRange(region, p)) continue;
-    out.push_back({p, scene.rays().normal(hit.prim), false});
+    out.push_back({p, scene.rays().facingNormal(ray, hit.prim), false});
   }
   return out;
 }

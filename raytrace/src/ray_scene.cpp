@@ -66,6 +66,7 @@ void setRayLog(RayLog* log) { g_log.store(log); }
 struct RayScene::Impl {
   RTCScene scene = nullptr;
   std::vector<glm::vec3> normals;
+  std::vector<uint8_t> two_sided;  // per triangle, or empty: none
   ~Impl() {
     if (scene) rtcReleaseScene(scene);
   }
@@ -76,14 +77,17 @@ RayScene::RayScene(RayScene&&) noexcept = default;
 RayScene& RayScene::operator=(RayScene&&) noexcept = default;
 RayScene::~RayScene() = default;
 
-Result<RayScene> RayScene::build(std::span<const glm::vec3> vertices) {
+Result<RayScene> RayScene::build(std::span<const glm::vec3> vertices, std::span<const uint8_t> two_sided) {
   DRTV_CHECK_EQ(vertices.size() % 3, size_t(0));
+  DRTV_CHECK(two_sided.empty() || two_sided.size() == vertices.size() / 3);
   RTCDevice device = sharedDevice();
   if (!device) return fail("embree: could not create a device");
   t_embree_error.clear();
   auto impl = std::make_unique<Impl>();
   const size_t tris = vertices.size() / 3;
   impl->normals.resize(tris);
+  if (std::find(two_sided.begin(), two_sided.end(), uint8_t(1)) != two_sided.end())
+    impl->two_sided.assign(two_sided.begin(), two_sided.end());
   for (size_t i = 0; i < tris; ++i) {
     const glm::vec3 n = glm::cross(vertices[3 * i + 1] - vertices[3 * i], vertices[3 * i + 2] - vertices[3 * i]);
     const float len = glm::length(n);
@@ -121,6 +125,7 @@ Result<RayScene> RayScene::build(std::span<const glm::vec3> vertices) {
 
 size_t RayScene::triangleCount() const { return impl_->normals.size(); }
 const glm::vec3& RayScene::normal(uint32_t prim) const { return impl_->normals[prim]; }
+bool RayScene::twoSided(uint32_t prim) const { return !impl_->two_sided.empty() && impl_->two_sided[prim] != 0; }
 
 Hit RayScene::intersect(const Ray& ray) const {
   logCall(RayLog::Kind::kIntersect1, std::span(&ray, 1));

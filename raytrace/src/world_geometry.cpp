@@ -84,7 +84,7 @@ Result<WorldGeometry> WorldGeometry::build(const worlds::World& world, const std
   }
 
   // Materials: one per distinct albedo, so that a forest of one mesh shares one entry.
-  std::map<std::tuple<float, float, float>, uint16_t> material_index;
+  std::map<std::tuple<float, float, float, bool>, uint16_t> material_index;
   std::vector<uint16_t> mesh_material(mesh_count, 0);
   for (size_t m = 0; m < mesh_count; ++m) {
     if (!used[m]) continue;
@@ -120,10 +120,11 @@ Result<WorldGeometry> WorldGeometry::build(const worlds::World& world, const std
       g.notes_.push_back("repaired: mesh '" + mesh.name + "': albedo outside [0,1] clamped");
       for (int c = 0; c < 3; ++c) albedo[c] = std::isfinite(albedo[c]) ? std::clamp(albedo[c], 0.f, 1.f) : 0.5f;
     }
-    auto [it, inserted] = material_index.try_emplace({albedo.x, albedo.y, albedo.z}, uint16_t(g.materials_.size()));
+    auto [it, inserted] = material_index.try_emplace({albedo.x, albedo.y, albedo.z, mesh.double_sided}, uint16_t(g.materials_.size()));
     if (inserted) {
       if (g.materials_.size() >= 65535) return fail(where + ": more than 65535 distinct albedos");
       g.materials_.push_back(albedo);
+      g.material_two_sided_.push_back(mesh.double_sided);
     }
     mesh_material[m] = it->second;
   }
@@ -288,6 +289,8 @@ Result<WorldGeometry> WorldGeometry::build(const worlds::World& world, const std
     XXH3_64bits_update(state, mesh.positions.data(), mesh.positions.size() * sizeof(glm::vec3));
     XXH3_64bits_update(state, mesh.indices.data(), mesh.indices.size() * sizeof(uint32_t));
     XXH3_64bits_update(state, &g.materials_[mesh_material[m]], sizeof(glm::vec3));
+    // Only when set, so that worlds without double-sided materials keep their fingerprints.
+    if (mesh.double_sided) XXH3_64bits_update(state, "double-sided", 12);
   }
   for (const Placed& p : placed) {
     const worlds::Instance& inst = world.instances[p.instance];
@@ -328,6 +331,13 @@ Result<void> WorldGeometry::checkBakeMemory(const SectorRange& range, double hal
                          " triangles (sector " + toString(at) + " with its " + std::to_string(int(halo_m)) + " m halo)");
 }
 
+std::vector<uint8_t> SectorGeometry::twoSided() const {
+  if (std::find(material_two_sided.begin(), material_two_sided.end(), uint8_t(1)) == material_two_sided.end()) return {};
+  std::vector<uint8_t> out(material.size());
+  for (size_t t = 0; t < material.size(); ++t) out[t] = material_two_sided[material[t]];
+  return out;
+}
+
 SectorGeometry WorldGeometry::gather(SectorKey key, double halo_m) const {
   // Built for some sectors only: anything else would silently miss geometry.
   if (only_) {
@@ -338,6 +348,7 @@ SectorGeometry WorldGeometry::gather(SectorKey key, double halo_m) const {
   s.key = key;
   s.halo_m = halo_m;
   s.materials = materials_;
+  s.material_two_sided = material_two_sided_;
   const glm::dvec3 origin(key.ix * kSectorSizeM, key.iy * kSectorSizeM, 0.0);
   const glm::dvec2 lo(origin.x - halo_m, origin.y - halo_m), hi(origin.x + kSectorSizeM + halo_m, origin.y + kSectorSizeM + halo_m);
   std::vector<uint32_t> large, small;

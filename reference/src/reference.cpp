@@ -155,12 +155,13 @@ ReferenceIrradiance estimate(const ReferenceScene& scene, const Prepared& prep, 
         else sky_b += beta * L;
         break;
       }
-      // A back face: the ray entered geometry, which carries no light (reference.h).
+      // A back face: the ray entered geometry, which carries no light (reference.h); a
+      // double-sided surface has no back face.
       if (!rs.frontFace(ray, h.prim)) break;
       beta *= scene.albedo(h.prim);
       const float rr_max = std::max({beta.r, beta.g, beta.b});
       if (!(rr_max > 0.f)) break;
-      const glm::vec3 n = rs.normal(h.prim);
+      const glm::vec3 n = rs.facingNormal(ray, h.prim);
       const glm::vec3 x = ray.origin + ray.dir * h.t;
       const glm::vec3 o = x + n * rayOffset(x);
       const auto [sun, lights] = direct(rs, prep, o, n, out.rays);
@@ -283,7 +284,8 @@ Result<ReferenceScene> ReferenceScene::build(const worlds::World& world, const s
     halo = region.halo_m;
   }
   const raytrace::SectorGeometry g = geometry->gather(key, halo);
-  auto rays = raytrace::RayScene::build(g.vertices);
+  const std::vector<uint8_t> two_sided = g.twoSided();
+  auto rays = raytrace::RayScene::build(g.vertices, two_sided);
   if (!rays) return std::unexpected(rays.error().context(where));
   auto impl = std::make_unique<Impl>(std::move(*rays));
   impl->origin = glm::dvec3(key.ix * kSectorSizeM, key.iy * kSectorSizeM, 0.0);
@@ -298,7 +300,9 @@ Result<ReferenceScene> ReferenceScene::build(const worlds::World& world, const s
     const glm::dvec2 lo = region.whole_world ? glm::dvec2(-1e300) : glm::dvec2(impl->origin) - halo;
     const glm::dvec2 hi = region.whole_world ? glm::dvec2(1e300) : glm::dvec2(impl->origin) + kSectorSizeM + halo;
     appendDynamic(world, impl->origin, lo, hi, vertices, impl->view_albedo, impl->view_dynamic, impl->notes);
-    auto view = raytrace::RayScene::build(vertices);
+    std::vector<uint8_t> view_two_sided = two_sided;  // dynamic objects: one-sided
+    if (!view_two_sided.empty()) view_two_sided.resize(vertices.size() / 3, 0);
+    auto view = raytrace::RayScene::build(vertices, view_two_sided);
     if (!view) return std::unexpected(view.error().context(where));
     impl->view.emplace(std::move(*view));
   }

@@ -434,3 +434,24 @@ TEST(Cli, FlyAndRenderTakeATechniqueByName) {
   EXPECT_EQ(render.status, 0) << render.out;
   EXPECT_EQ(drtv("fly " + archive + " --frames 2 --params fill=smooth -o " + scratch("fly")).status, 1) << "--params alone";
 }
+
+// What the loader did with each class of glTF material is said by drtv info and the bake report
+// (docs/world-format.md, "Materials"): the Cornell box's emissive quad and its double-sided walls.
+TEST(Cli, InfoAndTheBakeReportSayWhatWasDoneWithTheMaterials) {
+  const Outcome info = drtv("info " + std::string(DRTV_SHARED_ASSETS) + "/cornell_bevy/CornellBox.glb --json");
+  ASSERT_EQ(info.status, 0) << info.out;
+  EXPECT_NE(info.out.find("\"emissive\": 1,"), std::string::npos) << info.out;
+  EXPECT_NE(info.out.find("\"double_sided\": 5,"), std::string::npos) << info.out;
+  EXPECT_NE(info.out.find("\"emissive_lights\": 16,"), std::string::npos) << info.out;
+  EXPECT_NE(info.out.find("\"lights\": 16,"), std::string::npos) << info.out;
+  const std::string archive = scratch("cornell.drtv");
+  const Outcome bake = drtv("bake " + src("tests/reference/data/cornell_world.json") + " -o " + archive + " --quality draft");
+  ASSERT_EQ(bake.status, 0) << bake.out;
+  const std::string dir = std::filesystem::path(archive).parent_path().string();
+  const std::string json = slurp(dir + "/bake-report.json"), md = slurp(dir + "/bake-report.md");
+  EXPECT_NE(json.find("\"emissive_lights\": 8"), std::string::npos) << json.substr(0, 2000);
+  EXPECT_NE(json.find("\"world_notes\""), std::string::npos);
+  EXPECT_NE(json.find("-> 8 point lights of I = Le A / 2"), std::string::npos);
+  EXPECT_NE(md.find("- materials: 5 (opaque 5,"), std::string::npos) << md.substr(0, 2000);
+  EXPECT_NE(md.find("- loader emissive: "), std::string::npos) << md.substr(0, 2000);
+}

@@ -82,6 +82,31 @@ TEST(RayScene, FrontFaceFollowsCounterClockwiseWinding) {
   EXPECT_NEAR(scene->intersect(down).t, 5.f, kDistanceTolerance);
 }
 
+TEST(RayScene, ATwoSidedTriangleIsASurfaceFromBothSidesFacingTheRay) {
+  // Two triangles facing +Z, at z = 0 (one-sided) and z = 10 (two-sided).
+  const std::vector<glm::vec3> tris = {{-1, -1, 0}, {1, -1, 0}, {0, 1, 0}, {-1, -1, 10}, {1, -1, 10}, {0, 1, 10}};
+  const std::vector<uint8_t> two_sided = {0, 1};
+  auto scene = raytrace::RayScene::build(tris, two_sided);
+  ASSERT_TRUE(scene);
+  EXPECT_FALSE(scene->twoSided(0));
+  EXPECT_TRUE(scene->twoSided(1));
+  const raytrace::Ray down{{0, 0, 5}, 0.f, {0, 0, -1}, 10.f}, up{{0, 0, 5}, 0.f, {0, 0, 1}, 10.f};
+  ASSERT_EQ(scene->intersect(down).prim, 0u);
+  ASSERT_EQ(scene->intersect(up).prim, 1u);
+  EXPECT_TRUE(scene->frontFace(up, 1)) << "from behind, still a surface";
+  EXPECT_EQ(scene->facingNormal(up, 1), glm::vec3(0, 0, -1)) << "its normal faces the ray";
+  EXPECT_EQ(scene->normal(1), glm::vec3(0, 0, 1)) << "the geometric normal is the winding's";
+  EXPECT_TRUE(scene->frontFace(down, 0));
+  EXPECT_EQ(scene->facingNormal(down, 0), glm::vec3(0, 0, 1));
+  const raytrace::Ray below{{0, 0, -5}, 0.f, {0, 0, 1}, 10.f};
+  EXPECT_FALSE(scene->frontFace(below, 0)) << "a one-sided back face stays the inside";
+  // Without flags every triangle is one-sided.
+  auto plain = raytrace::RayScene::build(tris);
+  ASSERT_TRUE(plain);
+  EXPECT_FALSE(plain->frontFace(up, 1));
+  EXPECT_EQ(plain->facingNormal(up, 1), glm::vec3(0, 0, 1));
+}
+
 TEST(RayScene, EmptySceneMissesEverything) {
   auto scene = raytrace::RayScene::build({});
   ASSERT_TRUE(scene);

@@ -338,7 +338,7 @@ TEST(GltfImages, APngWithAnEmptyIdatChunkIsIgnoredNotDecoded) {
   const std::string png = "iVBORw0KGgoAAAANSUhEUgAAAAEAAAABCAIAAACQd1PeAAAAAElEQVQ1rwYeAAAADElEQVR4nGNoaGgAAAMEAYFL09IQAAAAAElFTkSuQmCC";
   json doc = json::parse(triangleWithAccessorOffset(0));
   doc["meshes"][0]["primitives"][0]["material"] = 0;
-  doc["materials"] = {{{"pbrMetallicRoughness", {{"baseColorFactor", {0.5, 0.5, 0.5, 1}}, {"baseColorTexture", {{"index", 0}}}}}}};
+  doc["materials"] = {{{"pbrMetallicRoughness", {{"baseColorFactor", {0.5, 0.5, 0.5, 1}}, {"baseColorTexture", {{"index", 0}}}, {"metallicFactor", 0}}}}};
   doc["textures"] = {{{"source", 0}}};
   doc["images"] = {{{"uri", "data:image/png;base64," + png}}};
   const std::string text = doc.dump();
@@ -408,7 +408,7 @@ TEST(GltfImages, APngChunkLongerThanTheFileIsIgnoredBeforeAnythingIsAllocatedFor
                               0x7f, 0xff, 0xff, 0xf0, 'I', 'D', 'A', 'T', 0x78, 0x9c, 0x63, 0x68, 0x68, 0x68, 0, 0, 3, 4, 1, 0x81};
   json doc = json::parse(triangleWithAccessorOffset(0));
   doc["meshes"][0]["primitives"][0]["material"] = 0;
-  doc["materials"] = {{{"pbrMetallicRoughness", {{"baseColorFactor", {0.5, 0.5, 0.5, 1}}, {"baseColorTexture", {{"index", 0}}}}}}};
+  doc["materials"] = {{{"pbrMetallicRoughness", {{"baseColorFactor", {0.5, 0.5, 0.5, 1}}, {"baseColorTexture", {{"index", 0}}}, {"metallicFactor", 0}}}}};
   doc["textures"] = {{{"source", 0}}};
   doc["images"] = {{{"uri", "data:image/png;base64," + base64(png)}}};
   const std::string text = doc.dump();

@@ -105,6 +105,9 @@ Result<void> worldInfo(const InfoOptions& o) {
     j["effects_explicit"] = s.effects_explicit;
     j["lights"] = s.lights;
     j["interiors"] = s.interiors;
+    nlohmann::json materials = nlohmann::json::object();
+    for (const auto& [name, count] : worlds::materialCountFields(s.materials)) materials[name] = count;
+    j["materials"] = materials;
     j["notes"] = world->notes;
     std::puts(j.dump(2).c_str());
     return {};

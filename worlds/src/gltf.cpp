@@ -28,6 +28,7 @@
 #include <tiny_gltf.h>
 
 #include "draco_mesh.h"
+#include "gltf_import.h"
 #include "drtv/formats/memory_limit.h"
 #include "terrain.h"
 
@@ -81,7 +82,6 @@ struct Loader {
   GltfStats& stats;
   std::map<std::pair<int, int>, int> primitive_mesh;  // (mesh, primitive) -> drtv mesh or -1
   std::map<int, size_t> mesh_triangles_read;          // drtv mesh -> triangles before dropping
-  std::map<int, glm::vec3> material_albedo;
   size_t visits = 0;
   std::optional<Error> refused;  // the first input limit hit (a Draco mesh too large): ends the load
 
@@ -156,47 +156,165 @@ struct Loader {
     return tinygltf::LoadImageData(&out, src, &err, &warn, 0, 0, bytes, int(view.byteLength), nullptr);
   }
 
-  glm::vec3 albedoOf(int material_index) {
-    if (material_index < 0 || size_t(material_index) >= model.materials.size()) return glm::vec3(1.f);  // spec default
-    if (auto it = material_albedo.find(material_index); it != material_albedo.end()) return it->second;
+  // Mean of a texture's texels: rgb sRGB-decoded when `srgb`, else linear; alpha always
+  // linear (1 without an alpha channel); `coverage` = the fraction of texels whose alpha reaches
+  // `cutoff`. Nothing when the material names no texture (or a texture without an image);
+  // `decoded` false when the image is there but could not be read.
+  struct TextureMean {
+    glm::dvec4 mean{1.0};
+    double coverage = 1.0;
+    bool has_alpha = false;
+    bool decoded = false;
+    int image = -1;  // the image the texture names
+  };
+  std::optional<TextureMean> textureMean(int tex, bool srgb, double cutoff = 0.5) const {
+    if (tex < 0 || size_t(tex) >= model.textures.size()) return std::nullopt;
+    const int src = model.textures[size_t(tex)].source;
+    if (src < 0 || size_t(src) >= model.images.size()) return std::nullopt;
+    TextureMean out;
+    out.image = src;
+    tinygltf::Image from_view;
+    const bool in_view = model.images[size_t(src)].bufferView >= 0 && bufferViewImage(src, from_view);
+    const tinygltf::Image& img = in_view ? from_view : model.images[size_t(src)];
+    const size_t texels = img.width > 0 && img.height > 0 ? size_t(img.width) * size_t(img.height) : 0;
+    const size_t bytes_per_channel = img.bits == 16 ? 2 : img.bits == 8 ? 1 : 0;
+    if (!texels || img.component < 1 || img.component > 4 || !bytes_per_channel ||
+        img.image.size() < texels * size_t(img.component) * bytes_per_channel)
+      return out;
+    float lut[256];
+    for (int i = 0; i < 256; ++i) lut[i] = srgb ? srgbToLinear(i / 255.f) : i / 255.f;
+    auto read = [&](size_t t, int ch, bool colour) -> double {
+      const size_t at = (t * size_t(img.component) + size_t(ch)) * bytes_per_channel;
+      if (bytes_per_channel == 1) return colour ? lut[img.image[at]] : img.image[at] / 255.0;
+      const float v = (img.image[at] | (img.image[at + 1] << 8)) / 65535.f;
+      return colour && srgb ? srgbToLinear(v) : v;
+    };
+    // Grey images repeat channel 0; an alpha channel is the last of 2 or 4.
+    const int alpha_ch = img.component == 2 ? 1 : img.component == 4 ? 3 : -1;
+    out.has_alpha = alpha_ch >= 0;
+    glm::dvec4 sum(0.0);
+    size_t covered = 0;
+    for (size_t t = 0; t < texels; ++t) {
+      for (int c = 0; c < 3; ++c) sum[c] += read(t, img.component >= 3 ? c : 0, true);
+      const double a = alpha_ch >= 0 ? read(t, alpha_ch, false) : 1.0;
+      sum[3] += a;
+      covered += a >= cutoff;
+    }
+    out.mean = sum / double(texels);
+    out.coverage = double(covered) / double(texels);
+    out.decoded = true;
+    return out;
+  }
+
+  // What the bake and the path tracer take from a material (gltf.h, docs/world-format.md
+  // "Materials"): diffuse albedo, emission, double-sidedness, or why its primitives are left out.
+  struct MaterialInfo {
+    glm::vec3 albedo{1.f};
+    glm::vec3 emission{0.f};
+    bool double_sided = false;
+    std::string skip_why;  // non-empty: the primitives with this material are skipped
+  };
+  std::map<int, MaterialInfo> material_info;
+
+  static std::string num(double v) {
+    char b[32];
+    std::snprintf(b, sizeof b, "%.3g", v);
+    return b;
+  }
+
+  const MaterialInfo& materialOf(int material_index) {
+    if (auto it = material_info.find(material_index); it != material_info.end()) return it->second;
+    MaterialCounts& counts = world.materials;
+    ++counts.materials;
+    MaterialInfo info;
+    // No material: white, non-metallic, opaque (drtv's convention for bare geometry; the spec's
+    // default material, metallic 1, would be black to a diffuse-only renderer).
+    if (material_index < 0 || size_t(material_index) >= model.materials.size()) {
+      ++counts.opaque;
+      return material_info[material_index] = info;
+    }
     const tinygltf::Material& mat = model.materials[size_t(material_index)];
-    const auto& f = mat.pbrMetallicRoughness.baseColorFactor;
-    glm::vec3 albedo(1.f);
-    if (f.size() >= 3) albedo = glm::vec3(float(f[0]), float(f[1]), float(f[2]));
-    const int tex = mat.pbrMetallicRoughness.baseColorTexture.index;
-    if (tex >= 0 && size_t(tex) < model.textures.size()) {
-      const int src = model.textures[size_t(tex)].source;
-      if (src >= 0 && size_t(src) < model.images.size()) {
-        tinygltf::Image from_view;
-        const bool in_view = model.images[size_t(src)].bufferView >= 0 && bufferViewImage(src, from_view);
-        const tinygltf::Image& img = in_view ? from_view : model.images[size_t(src)];
-        const size_t texels = img.width > 0 && img.height > 0 ? size_t(img.width) * size_t(img.height) : 0;
-        const size_t bytes_per_channel = img.bits == 16 ? 2 : img.bits == 8 ? 1 : 0;
-        if (texels && img.component >= 1 && bytes_per_channel &&
-            img.image.size() >= texels * size_t(img.component) * bytes_per_channel) {
-          float lut[256];
-          for (int i = 0; i < 256; ++i) lut[i] = srgbToLinear(i / 255.f);
-          glm::dvec3 sum(0.0);
-          for (size_t t = 0; t < texels; ++t) {
-            for (int c = 0; c < 3; ++c) {
-              const int ch = std::min(c, img.component >= 3 ? 2 : 0);  // grey images repeat channel 0
-              const size_t at = (t * size_t(img.component) + size_t(ch)) * bytes_per_channel;
-              sum[c] += bytes_per_channel == 1 ? lut[img.image[at]]
-                                               : srgbToLinear((img.image[at] | (img.image[at + 1] << 8)) / 65535.f);
-            }
-          }
-          albedo *= glm::vec3(sum / double(texels));
-        } else {
-          note("ignored: " + file + ": image " + std::to_string(src) + " not decoded; albedo from baseColorFactor only");
-        }
+    const std::string label = "material '" + (mat.name.empty() ? std::to_string(material_index) : mat.name) + "'";
+    const std::string what = file + ": " + label;
+    const auto& pbr = mat.pbrMetallicRoughness;
+    const auto& f = pbr.baseColorFactor;
+    glm::dvec4 base(1.0);
+    for (size_t c = 0; c < 4 && c < f.size(); ++c) base[int(c)] = f[c];
+    const double cutoff = mat.alphaMode == "MASK" ? mat.alphaCutoff : 0.5;
+    const auto base_tex = textureMean(pbr.baseColorTexture.index, true, cutoff / std::max(base.a, 1e-9));
+    if (base_tex && !base_tex->decoded)
+      note("ignored: " + file + ": image " + std::to_string(base_tex->image) + " not decoded; albedo from baseColorFactor only");
+    glm::dvec3 albedo(base);
+    double alpha = base.a;
+    if (base_tex && base_tex->decoded) {
+      albedo *= glm::dvec3(base_tex->mean);
+      alpha *= base_tex->mean.a;
+    }
+    // Metallic [1, 3.9.2]: a metal has no diffuse lobe; drtv's surfaces are diffuse only.
+    double metallic = std::clamp(std::isfinite(pbr.metallicFactor) ? pbr.metallicFactor : 1.0, 0.0, 1.0);
+    if (const auto mr = textureMean(pbr.metallicRoughnessTexture.index, false); mr && mr->decoded)
+      metallic *= mr->mean.b;  // metalness is the blue channel, linear
+    if (metallic > 0.0) {
+      ++counts.metallic;
+      albedo *= 1.0 - metallic;
+      note("material: " + what + ": metallic " + num(metallic) + ": diffuse albedo = base colour x " + num(1.0 - metallic));
+    }
+    // Emission [1, 3.9.3] x KHR_materials_emissive_strength.
+    glm::dvec3 le(0.0);
+    for (size_t c = 0; c < 3 && c < mat.emissiveFactor.size(); ++c) le[int(c)] = mat.emissiveFactor[c];
+    if (const auto et = textureMean(mat.emissiveTexture.index, true); et) {
+      if (et->decoded) le *= glm::dvec3(et->mean);
+      else note("ignored: " + what + ": emissive texture not decoded; emission from emissiveFactor only");
+    }
+    double strength = 1.0;
+    if (const auto ext = mat.extensions.find("KHR_materials_emissive_strength"); ext != mat.extensions.end()) {
+      if (ext->second.Has("emissiveStrength") && ext->second.Get("emissiveStrength").IsNumber())
+        strength = ext->second.Get("emissiveStrength").GetNumberAsDouble();
+      if (!(std::isfinite(strength) && strength >= 0.0)) {
+        note("ignored: " + what + ": KHR_materials_emissive_strength " + num(strength) + " (must be finite and >= 0)");
+        strength = 1.0;
       }
     }
-    for (int c = 0; c < 3; ++c) {
-      if (!std::isfinite(albedo[c])) albedo[c] = 0.5f;
-      albedo[c] = std::clamp(albedo[c], 0.f, 1.f);
+    le *= strength;
+    for (int c = 0; c < 3; ++c) le[c] = std::isfinite(le[c]) ? std::clamp(le[c], 0.0, double(kMaxColourValue)) : 0.0;
+    if (le.r > 0.0 || le.g > 0.0 || le.b > 0.0) {
+      ++counts.emissive;
+      info.emission = glm::vec3(le);
+      albedo = glm::dvec3(0.0);
+      note("material: " + what + ": emissive, Le (" + num(le.r) + ", " + num(le.g) + ", " + num(le.b) +
+           ") W/m^2/sr from its front faces: point lights (see 'emissive:'); albedo 0");
     }
-    material_albedo[material_index] = albedo;
-    return albedo;
+    if (mat.doubleSided) ++counts.double_sided;
+    info.double_sided = mat.doubleSided;
+    // Alpha [1, 3.9.4]: drtv's surfaces are opaque; each primitive is kept whole or left out.
+    if (mat.alphaMode == "MASK") {
+      if (base.a < mat.alphaCutoff) {
+        ++counts.mask_skipped;
+        info.skip_why = label + ": alphaMode MASK, baseColorFactor alpha " + num(base.a) +
+                        " < alphaCutoff " + num(mat.alphaCutoff) + ": cut away whole";
+      } else {
+        ++counts.mask_kept;
+        std::string tex;
+        if (base_tex && base_tex->decoded && base_tex->has_alpha)
+          tex = "; its texture's alpha is not applied (" + num(100.0 * base_tex->coverage) + " % of texels reach the cutoff)";
+        note("material: " + what + ": alphaMode MASK, baseColorFactor alpha " + num(base.a) + " >= alphaCutoff " +
+             num(mat.alphaCutoff) + ": opaque" + tex);
+      }
+    } else if (mat.alphaMode == "BLEND") {
+      if (alpha < 0.5) {
+        ++counts.blend_skipped;
+        info.skip_why = label + ": alphaMode BLEND, mean alpha " + num(alpha) + " < 0.5: left out";
+      } else {
+        ++counts.blend_kept;
+        note("material: " + what + ": alphaMode BLEND, mean alpha " + num(alpha) + " >= 0.5: opaque");
+      }
+    } else {
+      ++counts.opaque;
+    }
+    for (int c = 0; c < 3; ++c) {
+      info.albedo[c] = std::isfinite(albedo[c]) ? float(std::clamp(albedo[c], 0.0, 1.0)) : 0.5f;
+    }
+    return material_info[material_index] = info;
   }
 
   // Builds the drtv mesh for one primitive, or returns -1 (with a note) when skipped.
@@ -325,6 +443,8 @@ struct Loader {
       return skip("mode " + std::to_string(prim.mode) + " (" +
                   (prim.mode >= 0 && prim.mode <= 3 ? kModeNames[prim.mode] : "unknown") + ") is not triangles");
     }
+    const MaterialInfo& material = materialOf(prim.material);
+    if (!material.skip_why.empty()) return skip(material.skip_why);
     const auto pos_it = prim.attributes.find("POSITION");
     if (pos_it == prim.attributes.end()) return skip("no POSITION attribute");
     const int pos_acc = pos_it->second;
@@ -356,7 +476,9 @@ struct Loader {
     // Keep only finite, non-degenerate triangles; then keep only the vertices they use.
     Mesh mesh;
     mesh.name = what;
-    mesh.albedo = albedoOf(prim.material);
+    mesh.albedo = material.albedo;
+    mesh.emission = material.emission;
+    mesh.double_sided = material.double_sided;
     std::vector<uint32_t> remap(vertex_count, UINT32_MAX);
     size_t nonfinite = 0, degenerate = 0;
     const size_t tri_count = indices.size() / 3;
@@ -637,7 +759,8 @@ std::string glbBinChunkError(std::span<const uint8_t> glb) {
 
 // Parses `bytes` as GLB (binary) or glTF JSON and builds the World; `file` names it in messages.
 Result<World> loadGltfBytes(std::span<const uint8_t> bytes, bool binary, const std::string& file, const std::string& world_name,
-                            const std::filesystem::path& base_dir, InstanceClass cls, GltfStats* stats_out) {
+                            const std::filesystem::path& base_dir, InstanceClass cls, GltfStats* stats_out,
+                            bool make_lights) {
   // tinygltf takes the size as unsigned int.
   if (bytes.size() > UINT32_MAX) return fail(file + ": " + std::to_string(bytes.size()) + " bytes, more than glTF's 4 GiB");
   tinygltf::Model model;
@@ -686,11 +809,18 @@ Result<World> loadGltfBytes(std::span<const uint8_t> bytes, bool binary, const s
   GltfStats stats;
   if (!warn.empty()) world.notes.push_back("warning: " + file + ": " + oneLine(warn));
   for (const std::string& e : model.extensionsRequired)
-    if (e != "KHR_draco_mesh_compression" && e != "KHR_materials_pbrSpecularGlossiness" && e != "KHR_texture_transform")
+    if (e != "KHR_draco_mesh_compression" && e != "KHR_materials_pbrSpecularGlossiness" && e != "KHR_texture_transform" &&
+        e != "KHR_materials_emissive_strength")
       world.notes.push_back("warning: " + file + ": required extension " + e + " is not supported; loaded without it");
-  Loader l{model, file, cls, world, stats, {}, {}, {}, 0, std::nullopt};
+  Loader l{model, file, cls, world, stats, {}, {}, 0, std::nullopt, {}};
   l.run();
   if (l.refused) return std::unexpected(*l.refused);
+  if (world.materials.double_sided > 0)
+    world.notes.push_back("material: " + file + ": " + std::to_string(world.materials.double_sided) + " of " +
+                          std::to_string(world.materials.materials) +
+                          " materials double-sided: a surface from both sides in the bake and the path tracer (a "
+                          "single-sided one's back faces read as the inside of geometry)");
+  if (make_lights) emissiveLights(world);
   world.effects = defaultEffects(world);
   if (stats_out) *stats_out = stats;
   return world;
@@ -698,7 +828,8 @@ Result<World> loadGltfBytes(std::span<const uint8_t> bytes, bool binary, const s
 
 }  // namespace
 
-Result<World> loadGltf(const std::filesystem::path& path, InstanceClass cls, GltfStats* stats_out) {
+namespace {
+Result<World> loadGltfFile(const std::filesystem::path& path, InstanceClass cls, GltfStats* stats_out, bool make_lights) {
   const std::string file = path.string();
   std::string ext = path.extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
@@ -709,13 +840,22 @@ Result<World> loadGltf(const std::filesystem::path& path, InstanceClass cls, Glt
   if (!in) return fail(file + ": cannot open");
   const std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   if (in.bad()) return fail(file + ": read error");
-  return loadGltfBytes(bytes, ext == ".glb", file, path.filename().string(), path.parent_path(), cls, stats_out);
+  return loadGltfBytes(bytes, ext == ".glb", file, path.filename().string(), path.parent_path(), cls, stats_out, make_lights);
+}
+}  // namespace
+
+Result<World> loadGltf(const std::filesystem::path& path, InstanceClass cls, GltfStats* stats_out) {
+  return loadGltfFile(path, cls, stats_out, true);
+}
+
+Result<World> loadGltfMeshes(const std::filesystem::path& path, InstanceClass cls) {
+  return loadGltfFile(path, cls, nullptr, false);
 }
 
 Result<World> loadGltfFromMemory(std::span<const uint8_t> bytes, const std::string& name,
                                  const std::filesystem::path& base_dir, InstanceClass cls, GltfStats* stats) {
   const bool binary = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
-  return loadGltfBytes(bytes, binary, name, name, base_dir, cls, stats);
+  return loadGltfBytes(bytes, binary, name, name, base_dir, cls, stats, true);
 }
 
 }  // namespace drtv::worlds

@@ -20,6 +20,7 @@
 
 #include "drtv/formats/memory_limit.h"
 #include "drtv/worlds/gltf.h"
+#include "gltf_import.h"
 #include "drtv/worlds/island.h"
 #include "island_detail.h"
 #include "noise.h"
@@ -233,6 +234,7 @@ Result<World> Parser::parse(const json& root) {
     if (!parsed) return error("representation", "'" + r.get<std::string>() + "': expected one of " + representationNames());
     world_.representation = *parsed;
   }
+  emissiveLights(world_);
   if (root.contains("effects")) {
     DRTV_TRY(effects(root.at("effects")));
   } else {
@@ -339,8 +341,10 @@ Ok Parser::primitives(const json& j) {
 }
 
 Result<std::vector<Instance>> Parser::importGltf(const std::string& rel, const std::string& path, InstanceClass cls) {
-  auto w = loadGltf(resolve(rel), cls);
+  // Emission stays on the meshes: parse() makes the lights once every instance is placed.
+  auto w = loadGltfMeshes(resolve(rel), cls);
   if (!w) return fail(file_ + ": key '" + path + "': " + w.error().message);
+  world_.materials += w->materials;
   const auto offset = uint32_t(world_.meshes.size());
   for (Mesh& m : w->meshes) world_.meshes.push_back(std::move(m));
   for (Instance& inst : w->instances) inst.mesh += offset;

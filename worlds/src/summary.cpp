@@ -26,7 +26,35 @@ WorldSummary summarize(const World& world) {
   s.lights = world.lights.size();
   s.interiors = world.interiors.size();
   s.notes = world.notes.size();
+  s.materials = world.materials;
   return s;
+}
+
+std::vector<std::pair<const char*, size_t>> materialCountFields(const MaterialCounts& c) {
+  return {{"materials", c.materials},
+          {"opaque", c.opaque},
+          {"mask_kept", c.mask_kept},
+          {"mask_skipped", c.mask_skipped},
+          {"blend_kept", c.blend_kept},
+          {"blend_skipped", c.blend_skipped},
+          {"metallic", c.metallic},
+          {"emissive", c.emissive},
+          {"double_sided", c.double_sided},
+          {"emissive_lights", c.emissive_lights},
+          {"emissive_instances_not_converted", c.emissive_instances_not_converted}};
+}
+
+std::string materialCountsLine(const MaterialCounts& c) {
+  std::ostringstream o;
+  const auto fields = materialCountFields(c);
+  o << "materials: " << fields[0].second << " (";
+  for (size_t i = 1; i < fields.size(); ++i) {
+    std::string name = fields[i].first;
+    for (char& ch : name) ch = ch == '_' ? ' ' : ch;
+    o << (i > 1 ? ", " : "") << name << " " << fields[i].second;
+  }
+  o << ")";
+  return o.str();
 }
 
 std::string toString(const WorldSummary& s) {
@@ -49,6 +77,7 @@ std::string toString(const WorldSummary& s) {
     << "effects: " << effectsToString(s.effects) << (s.effects_explicit ? " (explicit)" : " (default)") << "\n"
     << "lights: " << s.lights << "\n"
     << "interiors: " << s.interiors << "\n"
+    << materialCountsLine(s.materials) << "\n"
     << "notes: " << s.notes << "\n";
   return o.str();
 }

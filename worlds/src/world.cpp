@@ -61,6 +61,21 @@ std::array<size_t, 4> World::instancesByClass() const {
   return n;
 }
 
+MaterialCounts& MaterialCounts::operator+=(const MaterialCounts& o) {
+  materials += o.materials;
+  opaque += o.opaque;
+  mask_kept += o.mask_kept;
+  mask_skipped += o.mask_skipped;
+  blend_kept += o.blend_kept;
+  blend_skipped += o.blend_skipped;
+  metallic += o.metallic;
+  emissive += o.emissive;
+  double_sided += o.double_sided;
+  emissive_lights += o.emissive_lights;
+  emissive_instances_not_converted += o.emissive_instances_not_converted;
+  return *this;
+}
+
 uint32_t defaultEffects(const World& world) {
   uint32_t e = kEffectSunBounce | kEffectSkyBounce | kEffectDirectSky | kEffectDistantOcclusion;
   if (!world.lights.empty()) e |= kEffectLocalLights;

@@ -310,7 +310,7 @@ class LpvTechnique final : public Technique {
     const float pixel = float(texel * texel);
     for (size_t k = 0; k < rays.size(); ++k) {
       if (!hits[k].hit()) continue;
-      const glm::vec3 n = scene_->rays().normal(hits[k].prim);
+      const glm::vec3 n = scene_->rays().facingNormal(rays[k], hits[k].prim);
       const float cosine = glm::dot(n, sun);
       if (cosine <= 0.f) continue;  // a back face: inside geometry, unlit
       const glm::dvec3 p = scene_->toWorld(rays[k].origin + hits[k].t * rays[k].dir);
@@ -344,7 +344,7 @@ class LpvTechnique final : public Technique {
     const float pixel = float(texel * texel);
     for (size_t k = 0; k < rays.size(); ++k) {
       if (!hits[k].hit()) continue;
-      const glm::vec3 n = scene_->rays().normal(hits[k].prim);
+      const glm::vec3 n = scene_->rays().facingNormal(rays[k], hits[k].prim);
       if (n.z < 0.05f) continue;
       const glm::dvec3 p = scene_->toWorld(rays[k].origin + hits[k].t * rays[k].dir);
       if (!b.contains(p)) continue;
@@ -392,7 +392,7 @@ class LpvTechnique final : public Technique {
     scene_->rays().intersect(rays, hits);
     for (size_t k = 0; k < rays.size(); ++k) {
       if (!hits[k].hit()) continue;
-      const glm::vec3 n = scene_->rays().normal(hits[k].prim);
+      const glm::vec3 n = scene_->rays().facingNormal(rays[k], hits[k].prim);
       const float cosine = -glm::dot(n, rays[k].dir);
       if (cosine <= 0.f) continue;
       const glm::dvec3 p = scene_->toWorld(rays[k].origin + hits[k].t * rays[k].dir);

@@ -144,6 +144,8 @@ struct BakeReport {
   uint32_t effects_asked = 0, effects_baked = 0;
   std::vector<std::string> effects_skipped;  // "local_lights: the world has no point lights"
   std::vector<std::string> notes;        // geometry skips and repairs
+  std::vector<std::string> world_notes;  // the loaders' (World::notes): materials, emission, skips
+  worlds::MaterialCounts materials;      // World::materials
   std::vector<SectorStats> sectors;      // every sector baked or resumed, in key order
   size_t sectors_empty = 0;              // sectors with no probe (not written to the archive)
   size_t triangles = 0;                  // contributing triangles in the world

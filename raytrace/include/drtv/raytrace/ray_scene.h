@@ -45,7 +45,10 @@ class RayScene {
   // Builds over `vertices` (3 per triangle; finite, non-degenerate — the caller filters, see
   // world_geometry.h). An empty soup gives a scene every ray misses. Fails with Embree's
   // translated message ("embree: out of memory ...") if Embree fails.
-  static Result<RayScene> build(std::span<const glm::vec3> vertices);
+  // `two_sided`: empty (every triangle one-sided) or one flag per triangle; a two-sided
+  // triangle (a double-sided material, docs/world-format.md "Materials") is a surface from both
+  // sides: frontFace() is true whichever side a ray hits, facingNormal() faces the ray.
+  static Result<RayScene> build(std::span<const glm::vec3> vertices, std::span<const uint8_t> two_sided = {});
   RayScene(RayScene&&) noexcept;
   RayScene& operator=(RayScene&&) noexcept;
   ~RayScene();
@@ -53,8 +56,17 @@ class RayScene {
   size_t triangleCount() const;
   // Unit front-face normal of triangle `prim` (cross(v1 - v0, v2 - v0), normalised).
   const glm::vec3& normal(uint32_t prim) const;
-  // True when `ray` hits triangle `prim` from its front side.
-  bool frontFace(const Ray& ray, uint32_t prim) const { return glm::dot(ray.dir, normal(prim)) < 0.f; }
+  // Whether triangle `prim` is two-sided (see build).
+  bool twoSided(uint32_t prim) const;
+  // True when `ray` hits triangle `prim` from its front side, or `prim` is two-sided: the hit is a
+  // surface, not the inside of geometry.
+  bool frontFace(const Ray& ray, uint32_t prim) const { return twoSided(prim) || glm::dot(ray.dir, normal(prim)) < 0.f; }
+  // The unit normal of the side `ray` hits, for a hit frontFace() accepts: normal(prim), flipped
+  // towards the ray's origin for a two-sided triangle hit from behind.
+  glm::vec3 facingNormal(const Ray& ray, uint32_t prim) const {
+    const glm::vec3& n = normal(prim);
+    return twoSided(prim) && glm::dot(ray.dir, n) > 0.f ? -n : n;
+  }
 
   // Closest hit of one ray (rtcIntersect1).
   Hit intersect(const Ray& ray) const;

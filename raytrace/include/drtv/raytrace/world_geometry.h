@@ -54,11 +54,14 @@ struct SectorGeometry {
   std::vector<glm::vec3> vertices;          // 3 per triangle, local metres
   std::vector<uint16_t> material;           // per triangle: index into materials
   std::vector<glm::vec3> materials;         // albedo per material (linear RGB in [0,1])
+  std::vector<uint8_t> material_two_sided;  // per material: 1 = double-sided (worlds::Mesh)
   std::vector<uint8_t> cls;                 // per triangle: worlds::InstanceClass
   std::vector<Box> vegetation_boxes;        // local AABB of each vegetation instance in the halo
   float z_min = 0.f, z_max = 0.f;           // height range of the gathered triangles (0,0 if none)
 
   size_t triangleCount() const { return material.size(); }
+  // Per triangle: 1 where its material is double-sided; empty when none is (RayScene::build).
+  std::vector<uint8_t> twoSided() const;
 };
 
 // Inclusive range of sector keys.
@@ -134,6 +137,7 @@ class WorldGeometry {
   std::vector<SmallInstance> small_;
   std::vector<std::vector<uint32_t>> valid_tris_;  // per mesh: triangles that pass validation
   std::vector<glm::vec3> materials_;
+  std::vector<uint8_t> material_two_sided_;
   std::vector<std::pair<glm::dvec3, glm::dvec3>> large_vegetation_boxes_;  // world AABBs
   SectorRange sectors_;
   std::optional<SectorRange> only_;  // the sectors binned for (all when empty)

@@ -13,9 +13,11 @@
 //  [3] DESIGN.md, "What a probe holds and how it is relit": the four relighting terms.
 //
 // The physical model (the same world the probes are baked from, bake.h / transfer.h):
-//  - Surfaces: Lambertian, albedo rho per triangle (the world's materials), ONE-SIDED. A ray that
-//    hits a triangle from behind has entered geometry; it carries no light (the baker counts the
-//    same hits in backface_frac and drops them, transfer.h).
+//  - Surfaces: Lambertian, albedo rho per triangle (the world's materials), ONE-SIDED unless their
+//    material is double-sided (worlds::Mesh::double_sided). A ray that hits a one-sided triangle
+//    from behind has entered geometry; it carries no light (the baker counts the same hits in
+//    backface_frac and drops them, transfer.h). A double-sided triangle is a surface from both
+//    sides, its normal facing the ray (RayScene::facingNormal), as in the baker.
 //  - Only terrain, static and vegetation instances take part. Dynamic instances never occlude and
 //    never bounce: the probes' world has no dynamic geometry (talk [2] slide 7: the spheres
 //    "receive global illumination but do not contribute to it"), so the reference answers the

@@ -7,8 +7,17 @@
 //    node's world matrix M becomes C M C^-1, so that instance.transform * position = C M p.
 //  - One drtv Mesh per glTF primitive (each primitive has one material, hence one albedo),
 //    named "<file>: mesh '<name>' primitive <k>"; one Instance per (node, primitive).
-//  - Albedo = baseColorFactor.rgb (linear) x the mean linear colour of the base-colour texture
-//    when it has one (texels are sRGB-decoded before averaging), clamped to [0, 1].
+//  - Materials (docs/world-format.md, "Materials"; counts in World::materials, one note each):
+//    albedo = baseColorFactor.rgb (linear) x the mean linear colour of the base-colour texture
+//    when it has one (texels are sRGB-decoded before averaging) x (1 - metallic), clamped to
+//    [0, 1]; metallic = metallicFactor (glTF default 1) x the mean blue of the
+//    metallic-roughness texture. No material: albedo 1, non-metallic.
+//    alphaMode MASK: a primitive whose baseColorFactor alpha is below alphaCutoff is skipped,
+//    any other is opaque (texture alpha not applied). BLEND: mean alpha (factor x texture mean)
+//    >= 0.5 opaque, else skipped. Emission = emissiveFactor x the mean linear emissive texture
+//    colour x KHR_materials_emissive_strength, on Mesh::emission; an emitter's albedo is 0 and
+//    loadGltf turns it into point lights (emissiveLights, world.h). doubleSided sets
+//    Mesh::double_sided: a surface from both sides for the bake and the path tracer.
 //  - Triangle lists, strips and fans are loaded (strips and fans become lists, see
 //    gltfStripToList / gltfFanToList); points and lines are skipped with a note.
 //  - Triangles that touch a NaN/Inf position or have zero area are dropped and counted; the
@@ -46,10 +55,10 @@ struct GltfStats {
 };
 
 // Loads a .gltf or .glb file as a World whose instances all have class `cls` and whose name is
-// the file's name. Sky, lights and interiors are left at their defaults; effects are
-// defaultEffects() of the result. Fails (message starting with the file's path) when tinygltf
-// cannot parse the file or its buffers; a bad primitive inside an otherwise good file is
-// skipped with a note instead. `stats` may be null.
+// the file's name. Sky and interiors are left at their defaults; lights are the emissive
+// materials' (emissiveLights); effects are defaultEffects() of the result. Fails (message
+// starting with the file's path) when tinygltf cannot parse the file or its buffers; a bad
+// primitive inside an otherwise good file is skipped with a note instead. `stats` may be null.
 Result<World> loadGltf(const std::filesystem::path& path, InstanceClass cls = InstanceClass::kStatic,
                        GltfStats* stats = nullptr);
 

@@ -5,6 +5,8 @@
 #include <cstddef>
 #include <cstdint>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "drtv/formats/sector.h"
 #include "drtv/worlds/world.h"
@@ -27,7 +29,14 @@ struct WorldSummary {
   size_t lights = 0;
   size_t interiors = 0;
   size_t notes = 0;
+  MaterialCounts materials;                  // World::materials
 };
+
+// The material counts as (name, count) pairs, in one order for every report (drtv info, the bake
+// report): "materials", "opaque", "mask_kept", ..., "emissive_lights".
+std::vector<std::pair<const char*, size_t>> materialCountFields(const MaterialCounts& counts);
+// One line for people: "materials: 5 (opaque 5, mask kept 0, ...)".
+std::string materialCountsLine(const MaterialCounts& counts);
 
 // Computes the summary. O(instances + vertices). Thread-safe for a World not being mutated.
 WorldSummary summarize(const World& world);

@@ -36,8 +36,34 @@ struct Mesh {
   std::vector<glm::vec3> positions;  // metres, local space, Z up
   std::vector<uint32_t> indices;     // triangle list, counter-clockwise front faces
   glm::vec3 albedo{0.5f};            // diffuse reflectance in [0,1] per channel, linear RGB
+  // Emitted radiance of the front faces, linear RGB, W m^-2 sr^-1 in the lighting's units
+  // (>= 0, finite; 0 = no emission). Not light by itself: emissiveLights() turns it into point
+  // lights, which both the bake and the path tracer see (docs/world-format.md, "Materials").
+  glm::vec3 emission{0.f};
+  // The source material is double-sided (glTF doubleSided): its triangles are surfaces from both
+  // sides for the bake and the path tracer (raytrace::RayScene two-sided triangles); a one-sided
+  // triangle's back face is the inside of geometry (docs/world-format.md, "Materials").
+  bool double_sided = false;
 
   size_t triangleCount() const { return indices.size() / 3; }
+};
+
+// What the loaders did with each class of material, counted per material of a source file (a
+// material used by several primitives counts once); World::notes says which one and how.
+struct MaterialCounts {
+  size_t materials = 0;          // materials read (glTF materials; the default material once)
+  size_t opaque = 0;             // alphaMode OPAQUE (or none given)
+  size_t mask_kept = 0;          // alphaMode MASK, baseColorFactor alpha >= alphaCutoff: opaque
+  size_t mask_skipped = 0;       // alphaMode MASK, factor alpha below the cutoff: its primitives skipped
+  size_t blend_kept = 0;         // alphaMode BLEND with mean alpha >= 0.5: opaque
+  size_t blend_skipped = 0;      // alphaMode BLEND with mean alpha < 0.5: its primitives skipped
+  size_t metallic = 0;           // metallic > 0: diffuse albedo = base colour x (1 - metallic)
+  size_t emissive = 0;           // emission > 0: point lights, albedo 0
+  size_t double_sided = 0;       // doubleSided: surfaces from both sides
+  size_t emissive_lights = 0;    // point lights emissiveLights() made
+  size_t emissive_instances_not_converted = 0;  // past kMaxEmissiveLights, or dynamic
+
+  MaterialCounts& operator+=(const MaterialCounts& o);
 };
 
 // One placement of a mesh.
@@ -82,6 +108,7 @@ struct World {
   // What the loaders skipped or repaired, one line each, for reports: "skipped: PalmTree.gltf:
   // mesh 'Leaves' primitive 1: mode 1 (lines)", "dropped: ...: 3 zero-area triangles".
   std::vector<std::string> notes;
+  MaterialCounts materials;
 
   // World-space bounds of all instances (dynamic ones too).
   Bounds bounds() const;
@@ -95,5 +122,32 @@ struct World {
 // occlusion always; local lights only when it has point lights; interiors only when it has
 // interior volumes; volume blur when it has vegetation.
 uint32_t defaultEffects(const World& world);
+
+// Emissive surfaces as point lights (docs/world-format.md, "Materials: emission"). drtv's local
+// lights are isotropic points (LPRT; the path tracer's next-event estimation), so every
+// non-dynamic instance of a mesh with emission > 0 becomes point lights on its front faces:
+//  - A Lambertian emitter of radiance Le and area A sends the flux Phi = pi Le A into the
+//    hemisphere its front faces look at. An isotropic light of intensity I sends 2 pi I into each
+//    half-space; placed kEmitterLightOffsetM in front of its emitter, whose albedo the loader
+//    sets to 0, the back half lands on the emitter and is absorbed. So I = Le A / 2 carries the
+//    emitter's flux exactly. What it cannot carry is the cosine: straight below a small emitter
+//    it gives half the true irradiance, at 60 degrees off its normal the same, beyond more.
+//  - The surface (world space, after the instance's transform, so scales change A) is cut into
+//    up to kMaxLightsPerEmitter patches by area-balanced bisection of its triangles' centroids
+//    along the widest axis, a patch being cut again while it exceeds kEmitterPatchAreaM2 or
+//    bends (its area-weighted normals' mean shorter than kEmitterFlatness). Each patch is one
+//    light of I = Le A_patch / 2 at the patch triangle nearest its area-weighted centroid,
+//    moved kEmitterLightOffsetM along that triangle's normal, radius_m = PointLight's default.
+//  - At most kMaxEmissiveLights in all; instances past that, and dynamic ones, are not
+//    converted (a note says how many).
+// Appends the lights (with an empty LightPath each when light_paths is in use), one note per
+// emissive mesh ("emissive: <mesh>: 2 instances, 5.46 m^2 -> 6 point lights, 273 W/sr in all")
+// and the counts in world.materials. Pure function of the world; not thread-safe on `world`.
+inline constexpr size_t kMaxLightsPerEmitter = 16;
+inline constexpr size_t kMaxEmissiveLights = 1024;
+inline constexpr double kEmitterPatchAreaM2 = 1.0;
+inline constexpr double kEmitterFlatness = 0.9;
+inline constexpr double kEmitterLightOffsetM = 0.01;
+void emissiveLights(World& world);
 
 }  // namespace drtv::worlds

@@ -96,6 +96,19 @@ TEST(WorldJson, RejectsBadNamesAndCombinations) {
   expectError(R"({"terrain": {"kind": "heightmap", "path": "nope.png", "size_m": 10, "height_m": 1}})", "key 'terrain.path'");
 }
 
+// The archive stores light and interior names with a 16-bit length: a longer one is an error
+// naming the key, not an abort when the bake writes its manifest.
+TEST(WorldJson, ALightOrInteriorNameLongerThanTheArchiveStoresIsAnError) {
+  const std::string big(70000, 'x');
+  expectError(R"({"lights": [{"name": ")" + big + R"(", "position": [0, 0, 5]}]})", "key 'lights[0].name': 70000 bytes; at most 65535");
+  expectError(R"({"interiors": [{"name": ")" + big + R"(", "min": [0, 0, 0], "max": [4, 4, 3], "probe": [2, 2, 1]}]})",
+              "key 'interiors[0].name': 70000 bytes; at most 65535");
+  const std::string most(65535, 'y');
+  auto w = parse(R"({"lights": [{"name": ")" + most + R"(", "position": [0, 0, 5]}]})");
+  ASSERT_TRUE(w.has_value()) << w.error().message.substr(0, 200);
+  EXPECT_EQ(w->lights.at(0).name.size(), 65535u);
+}
+
 TEST(WorldJson, AHeightmapThatIsNoRegularFileIsAnErrorNotAnEndlessRead) {
   // /dev/zero never ends: read whole, as the heightmap loader reads files, it would exhaust memory.
   expectError(R"({"terrain": {"kind": "heightmap", "path": "/dev/zero", "size_m": 10, "height_m": 1}})",

@@ -18,6 +18,7 @@
 #include <glm/gtc/matrix_transform.hpp>
 #include <nlohmann/json.hpp>
 
+#include "drtv/formats/archive.h"
 #include "drtv/formats/memory_limit.h"
 #include "drtv/worlds/gltf.h"
 #include "gltf_import.h"
@@ -117,6 +118,13 @@ class Parser {
     const json& j = obj.at(key);
     if (!j.is_string()) return error(join(path, key), std::string("expected string, got ") + j.type_name());
     return j.get<std::string>();
+  }
+  // A light's or an interior's name: the archive's manifest stores it with a 16-bit length.
+  Result<std::string> optArchiveName(const json& obj, const std::string& path) const {
+    DRTV_TRY_DECL(name, optString(obj, "name", path, path));
+    if (name.size() > kMaxArchiveNameBytes)
+      return error(join(path, "name"), std::to_string(name.size()) + " bytes; at most " + std::to_string(kMaxArchiveNameBytes));
+    return name;
   }
   Result<std::string> reqString(const json& obj, const char* key, const std::string& path) const {
     if (!obj.contains(key)) return error(join(path, key), "required");
@@ -454,7 +462,7 @@ Ok Parser::lights(const json& j) {
     const std::string path = at("lights", i);
     DRTV_TRY(object(j[i], path, {"name", "position", "intensity", "radius_m", "path"}));
     PointLight l;
-    DRTV_TRY_DECL(name, optString(j[i], "name", path, path));
+    DRTV_TRY_DECL(name, optArchiveName(j[i], path));
     DRTV_TRY_DECL(pos, reqVec<3>(j[i], "position", path, -1e7, 1e7));
     DRTV_TRY_DECL(intensity, optVec<3>(j[i], "intensity", path, glm::dvec3(1.0), 0.0, kMaxColourValue));
     DRTV_TRY_DECL(radius, optNumber(j[i], "radius_m", path, 10.0, 1e-3, kMaxLightRadiusM));  // 1e-3 rounds up to kMinLightRadiusM
@@ -509,7 +517,7 @@ Ok Parser::interiors(const json& j) {
     const std::string path = at("interiors", i);
     DRTV_TRY(object(j[i], path, {"name", "min", "max", "probe", "blend_m"}));
     InteriorVolume v;
-    DRTV_TRY_DECL(name, optString(j[i], "name", path, path));
+    DRTV_TRY_DECL(name, optArchiveName(j[i], path));
     DRTV_TRY_DECL(lo, reqVec<3>(j[i], "min", path, -1e7, 1e7));
     DRTV_TRY_DECL(hi, reqVec<3>(j[i], "max", path, -1e7, 1e7));
     DRTV_TRY_DECL(probe, reqVec<3>(j[i], "probe", path, -1e7, 1e7));

@@ -65,6 +65,8 @@ inline constexpr uint32_t kArchiveVersionShL1Moments = 2;
 // The version a writer writes for `r`.
 inline uint32_t archiveVersionFor(Representation r) { return r == Representation::kFc3 ? kArchiveVersionTalkBasis : kArchiveVersion; }
 inline constexpr size_t kArchiveHeaderBytes = 64;
+// The longest light or interior name the manifest stores (a u16 length).
+inline constexpr size_t kMaxArchiveNameBytes = 65535;
 inline constexpr size_t kArchiveSectorEntryBytes = 40;
 
 struct SectorEntry {

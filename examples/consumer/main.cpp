@@ -1,9 +1,11 @@
 // drtv_consumer <archive.drtv> [x y z]: streams the archive's sectors around a camera at (x, y, z)
 // (default: the centre of the archive, 20 m up) into a runtime lit at 10:00, the way an engine's
 // frame loop does, and prints the ambient irradiance an up-facing surface there receives.
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
+#include <thread>
 
 #include "drtv/runtime/runtime.h"
 #include "drtv/streamer/streamer.h"
@@ -45,11 +47,21 @@ int main(int argc, char** argv) {
   }
   RuntimeSink sink(**rt);
   drtv::streamer::Camera camera{at, glm::dvec3(0.0)};
+  // Frames until every sector the streamer wants is resident, or nothing more can come (its loads
+  // failed), at most 10 s of wall time: its I/O threads load while the frame sleeps, as they would
+  // while an engine renders (a loop that spun 600 frames without waiting ended, on a loaded
+  // machine, before the last load had decoded).
   double t = 0.0;
-  for (int frame = 0; frame < 600; ++frame, t += 1.0 / 60.0) {
-    (*streamer)->update(camera, t, sink);
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  for (int frame = 0; std::chrono::steady_clock::now() < give_up; ++frame, t += 1.0 / 60.0) {
+    const drtv::streamer::FrameStats st = (*streamer)->update(camera, t, sink);
+    if (st.wanted > 0 && st.resident == st.wanted) break;
     if (frame > 2 && (*streamer)->idle()) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
+  // An engine would log these: a sector that failed to load is retried, and named here.
+  for (const drtv::streamer::SectorFailure& f : (*streamer)->failures())
+    std::fprintf(stderr, "drtv_consumer: sector load failed (attempt %d): %s\n", f.attempt, f.message.c_str());
   (*rt)->update(at);
   const drtv::runtime::AmbientSample a = (*rt)->ambient(at, glm::vec3(0, 0, 1));
   std::printf("resident %zu sectors; ambient at (%.1f, %.1f, %.1f), normal +Z: %.4f %.4f %.4f\n",

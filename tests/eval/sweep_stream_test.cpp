@@ -57,7 +57,9 @@ std::unique_ptr<Technique> prepared(const worlds::World& w, raytrace::SectorRang
 
 TEST(SweepStreaming, AStreamedFineGridIsTheOnePrepareBuiltForTheSameSectorAndHour) {
   testing::TempDir dir;
-  const Manifest manifest = testing::writeWorld(dir.path() / "w.drtv", {3, 2});
+  testing::WorldSpec spec;
+  spec.sectors_x = 3, spec.sectors_y = 2;
+  const Manifest manifest = testing::writeWorld(dir.path() / "w.drtv", spec);
   const worlds::World w = groundWorld(3, 2);
   // offset=0: lookups at the cells' centres read one cell's words, so every word shows.
   const TechniqueParams p{{"offset", "0"}, {"resweep_h", "0.25"}};
@@ -109,7 +111,9 @@ TEST(SweepStreaming, AStreamedFineGridIsTheOnePrepareBuiltForTheSameSectorAndHou
 int64_t flyStrip(const TechniqueParams& p, int* reach_max, int* held_last) {
   testing::TempDir dir;
   constexpr int kNx = 12, kNy = 4;
-  const Manifest manifest = testing::writeWorld(dir.path() / "strip.drtv", {kNx, kNy});
+  testing::WorldSpec spec;
+  spec.sectors_x = kNx, spec.sectors_y = kNy;
+  const Manifest manifest = testing::writeWorld(dir.path() / "strip.drtv", spec);
   const worlds::World w = groundWorld(kNx, kNy);
   auto t = prepared(w, {0, kNx - 1, 0, kNy - 1}, p, true);
   streamer::StreamerOptions so;

@@ -10,6 +10,7 @@
 
 #include <gtest/gtest.h>
 
+#include "base64.h"
 #include "drtv/worlds/gltf.h"
 #include "drtv/worlds/load.h"
 #include "drtv/worlds/summary.h"
@@ -20,20 +21,7 @@ namespace {
 // Float sums of a few light intensities (each Le A / 2 in double, stored as float).
 constexpr double kIntensityRelTolerance = 1e-5;
 
-std::string base64(const std::vector<unsigned char>& bytes) {
-  static const char* kAlphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  std::string out;
-  for (size_t i = 0; i < bytes.size(); i += 3) {
-    uint32_t v = uint32_t(bytes[i]) << 16;
-    if (i + 1 < bytes.size()) v |= uint32_t(bytes[i + 1]) << 8;
-    if (i + 2 < bytes.size()) v |= bytes[i + 2];
-    out += kAlphabet[(v >> 18) & 63];
-    out += kAlphabet[(v >> 12) & 63];
-    out += i + 1 < bytes.size() ? kAlphabet[(v >> 6) & 63] : '=';
-    out += i + 2 < bytes.size() ? kAlphabet[v & 63] : '=';
-  }
-  return out;
-}
+using test_data::base64;
 
 // A glTF file with one mesh of one primitive per material: each primitive is the quad
 // x in [-w/2, w/2], z in [-d/2, d/2] at glTF height y (drtv: z = y), its front face towards -y

@@ -8,6 +8,7 @@
 
 #include <gtest/gtest.h>
 
+#include "base64.h"
 #include "drtv/worlds/gltf.h"
 #include "drtv/worlds/load.h"
 
@@ -18,20 +19,7 @@ namespace {
 // up to float rounding.
 constexpr double kPositionTolerance = 1e-6;
 
-std::string base64(const std::vector<unsigned char>& bytes) {
-  static const char* kAlphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  std::string out;
-  for (size_t i = 0; i < bytes.size(); i += 3) {
-    uint32_t v = uint32_t(bytes[i]) << 16;
-    if (i + 1 < bytes.size()) v |= uint32_t(bytes[i + 1]) << 8;
-    if (i + 2 < bytes.size()) v |= bytes[i + 2];
-    out += kAlphabet[(v >> 18) & 63];
-    out += kAlphabet[(v >> 12) & 63];
-    out += i + 1 < bytes.size() ? kAlphabet[(v >> 6) & 63] : '=';
-    out += i + 2 < bytes.size() ? kAlphabet[v & 63] : '=';
-  }
-  return out;
-}
+using test_data::base64;
 
 // Writes a one-primitive glTF with embedded buffer: positions (float3, byte stride 16 to
 // exercise byteStride) and optional u16 indices; returns its path.

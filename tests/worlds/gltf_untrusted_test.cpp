@@ -15,6 +15,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "base64.h"
 #include "drtv/formats/memory_limit.h"
 #include "drtv/worlds/gltf.h"
 #include "../../worlds/src/draco_mesh.h"  // the loader's Draco header reader, tested directly
@@ -385,18 +386,7 @@ TEST(GltfImages, AnImageBufferViewPastItsBufferIsIgnoredNotRead) {
 namespace drtv::worlds {
 namespace {
 
-std::string base64(const std::vector<uint8_t>& in) {
-  static const char* k = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  std::string out;
-  for (size_t i = 0; i < in.size(); i += 3) {
-    const uint32_t n = uint32_t(in[i]) << 16 | uint32_t(i + 1 < in.size() ? in[i + 1] : 0) << 8 | (i + 2 < in.size() ? in[i + 2] : 0);
-    out += k[n >> 18 & 63];
-    out += k[n >> 12 & 63];
-    out += i + 1 < in.size() ? k[n >> 6 & 63] : '=';
-    out += i + 2 < in.size() ? k[n & 63] : '=';
-  }
-  return out;
-}
+using test_data::base64;
 
 TEST(GltfImages, APngChunkLongerThanTheFileIsIgnoredBeforeAnythingIsAllocatedForIt) {
   // Found by fuzz_gltf (build/fuzz/artifacts/gltf2-oom-64a08e83..., second long run): a 4.7 KB

@@ -42,7 +42,7 @@ Result<CubeBake> bakeCube(const worlds::World& world, const std::string& where, 
   tbb::parallel_for(size_t(0), sectors.size(), [&](size_t i) {
     const Sector& sector = sectors[i];
     const raytrace::SectorGeometry g = geometry->gather(sector.key, haloFor(settings, effects));
-    auto scene = raytrace::RayScene::build(g.vertices);
+    auto scene = raytrace::RayScene::build(g.vertices, g.twoSided());
     if (!scene) {
       errors[i] = scene.error().context("sector " + toString(sector.key));
       return;

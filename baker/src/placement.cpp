@@ -113,6 +113,15 @@ std::vector<PlacedProbe> placeProbes(const raytrace::RayScene& scene, const rayt
         if (!isStatic(geometry.cls[h.prim])) continue;
         const float z = origin.z - h.t;
         if (scene.facingNormal(down, h.prim).z > 0.f) {  // front face of a downward ray (either side if double-sided)
+          // A double-sided triangle hit from behind under another surface is most likely the
+          // underside of a closed double-sided mesh seen from inside it (a floor slab's bottom):
+          // no candidate, or the slab's inside outranks the floor's top as a covered hit. With
+          // nothing above (a ground authored upside down) it is a surface.
+          const bool from_behind = scene.normal(h.prim).z < 0.f;
+          if (from_behind && !std::isinf(z_above)) {
+            z_above = z;
+            continue;
+          }
           ++stats.static_candidates;
           if (z_above - z < float(2.0 * s.clearance_m)) {
             ++stats.dropped_gap;  // a slit: a probe there sees nothing but the two surfaces

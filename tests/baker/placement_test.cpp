@@ -3,6 +3,7 @@
 
 #include "drtv/baker/placement.h"
 #include "drtv/formats/probe.h"
+#include "drtv/worlds/load.h"
 #include "test_worlds.h"
 
 namespace drtv::baker {
@@ -20,7 +21,8 @@ Placed place(const worlds::World& w, SectorKey key, PlacementSettings settings =
   auto g = raytrace::WorldGeometry::build(w, "test");
   EXPECT_TRUE(g) << g.error().message;
   const raytrace::SectorGeometry s = g->gather(key, 64.0);
-  auto scene = raytrace::RayScene::build(s.vertices);
+  const std::vector<uint8_t> two_sided = s.twoSided();
+  auto scene = raytrace::RayScene::build(s.vertices, two_sided);
   EXPECT_TRUE(scene);
   Placed p;
   p.probes = placeProbes(*scene, s, {0, 0}, interiors, settings, p.stats);
@@ -109,6 +111,25 @@ TEST(Placement, NoProbeInAGapThinnerThanItsClearanceNorCloserThanThatToAWall) {
     around += beside_house;
   }
   EXPECT_GT(around, 4u) << "the ground around the house keeps probes of its own";
+}
+
+// A closed mesh with a double-sided material has no detectable inside: seen from within, its
+// underside is a surface too. The talk's rule then made the slab's inside a covered candidate,
+// which outranks the floor's top, and every probe of ../shared/assets/probe_room_bevy (a 0.9 m
+// floor slab, double-sided) stood inside the floor: its render read 0 everywhere. A double-sided
+// underside with a surface above it is no candidate.
+TEST(Placement, NoProbeInsideTheDoubleSidedFloorOfTheSharedProbeRoom) {
+  auto w = worlds::loadWorld(std::string(DRTV_SHARED_ASSETS) + "/probe_room_bevy/IrradianceVolumeExample.glb");
+  ASSERT_TRUE(w.has_value()) << w.error().message;
+  size_t above = 0;
+  for (const SectorKey key : {SectorKey{0, 0}, SectorKey{-1, -1}}) {
+    const Placed p = place(*w, key);
+    for (const PlacedProbe& q : p.probes) {
+      EXPECT_GT(q.position.z, 0.f) << "inside the floor: " << q.position.x << " " << q.position.y << " " << q.position.z;
+      above += q.position.z > 0.f;
+    }
+  }
+  EXPECT_GT(above, 10u);
 }
 
 TEST(Placement, VegetationGetsProbesOnTopOfItsBoundingBox) {

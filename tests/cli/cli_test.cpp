@@ -11,6 +11,8 @@
 #include <string>
 
 #include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
 #include <xxhash.h>
 
 namespace {
@@ -331,6 +333,18 @@ TEST(Cli, AProbeClearanceAboveTheLiftIsAnErrorNamingIt) {
   const Outcome r = drtv("bake " + src("worlds/fc3_testbox.json") + " --quality draft --clearance 2 -o " + scratch("clear.drtv"));
   EXPECT_EQ(r.status, 1) << r.out;
   EXPECT_NE(r.out.find("clearance_m must be in [0, min(lift_m, inside_test_range_m)]"), std::string::npos) << r.out;
+}
+
+// ../shared/assets/probe_room_bevy: a floor slab with double-sided materials. Its underside, seen
+// from inside the slab, made covered candidates that outranked the floor's top, and every point
+// of the floor read 0 (render error 100 %). An open floor at noon sees the sky.
+TEST(Cli, TheSharedProbeRoomsFloorSeesTheSkyAtNoon) {
+  const std::string archive = scratch("room.drtv");
+  ASSERT_EQ(drtv("bake " + std::string(DRTV_SHARED_ASSETS) + "/probe_room_bevy/IrradianceVolumeExample.glb -o " + archive).status, 0);
+  const Outcome q = drtv("query " + archive + " --at 1,1,0.1 --normal 0,0,1 --time 12:00 --json");
+  ASSERT_EQ(q.status, 0) << q.out;
+  const auto j = nlohmann::json::parse(q.out.substr(q.out.find('{')));
+  EXPECT_GT(j.at("irradiance").at(1).get<double>(), 0.1) << q.out;
 }
 
 TEST(Cli, AMemoryLimitThatIsNotASizeIsAUsageError) {

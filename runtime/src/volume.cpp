@@ -25,6 +25,8 @@ inline int floorDiv(int a, int n) { return (a - floorMod(a, n)) / n; }
 constexpr int kThinSlabX = 2;
 // Boxes at most this many texels wide in x are blurred with y as the fast axis (see blurBox).
 constexpr int kThinBlurX = 4;
+// Box rows blurred together (blurBox): a strip's buffers fit in L1.
+constexpr int kBlurStripRows = 8;
 
 // floor() inline: on the x86-64 baseline std::floor is a libm call (no SSE4.1 roundsd), and a
 // one-texel scroll computes ~250 of them (a third of its time). |v| < 2^31 (cameras are clamped).
@@ -58,24 +60,32 @@ struct SlotTable {
 };
 
 // The blur's row kernels, on 16-bit lanes (sums stay below 64 * 255), written so that they
-// vectorise: restrict pointers, no widening to int.
-void blurTap3(const uint8_t* __restrict m, uint16_t* __restrict out, int lo, int hi) {
+// vectorise: restrict pointers, no widening to int. They are compiled for AVX-512 and AVX2 as well
+// as the baseline and picked at load time (GCC function multi-versioning, as in probe_cache.cpp):
+// the baseline's 8 lanes made the blur 3x a plain refill.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__SANITIZE_ADDRESS__) && \
+    !defined(__SANITIZE_THREAD__)
+#define DRTV_BLUR_CLONES __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
+#else
+#define DRTV_BLUR_CLONES
+#endif
+DRTV_BLUR_CLONES void blurTap3(const uint8_t* __restrict m, uint16_t* __restrict out, int lo, int hi) {
   for (int i = lo; i < hi; ++i) out[i] = uint16_t(uint16_t(m[i - 4]) + uint16_t(2 * m[i]) + uint16_t(m[i + 4]));
 }
-void blurRows3(const uint16_t* __restrict r0, const uint16_t* __restrict r1, const uint16_t* __restrict r2,
+DRTV_BLUR_CLONES void blurRows3(const uint16_t* __restrict r0, const uint16_t* __restrict r1, const uint16_t* __restrict r2,
                uint16_t* __restrict out, int n) {
   for (int i = 0; i < n; ++i) out[i] = uint16_t(r0[i] + uint16_t(2 * r1[i]) + r2[i]);
 }
 // The same taps for the thin-x blur, whose rows run along y: bytes in, and 16-bit sums in.
-void blurRows3Bytes(const uint8_t* __restrict r0, const uint8_t* __restrict r1, const uint8_t* __restrict r2,
+DRTV_BLUR_CLONES void blurRows3Bytes(const uint8_t* __restrict r0, const uint8_t* __restrict r1, const uint8_t* __restrict r2,
                     uint16_t* __restrict out, int n) {
   for (int i = 0; i < n; ++i) out[i] = uint16_t(uint16_t(r0[i]) + uint16_t(2 * r1[i]) + uint16_t(r2[i]));
 }
-void blurTap3Wide(const uint16_t* __restrict m, uint16_t* __restrict out, int lo, int hi) {
+DRTV_BLUR_CLONES void blurTap3Wide(const uint16_t* __restrict m, uint16_t* __restrict out, int lo, int hi) {
   for (int i = lo; i < hi; ++i) out[i] = uint16_t(m[i - 4] + uint16_t(2 * m[i]) + m[i + 4]);
 }
 // Weights sum to 64: round half up, back to a byte.
-void blurFinish(const uint16_t* __restrict r0, const uint16_t* __restrict r1, const uint16_t* __restrict r2,
+DRTV_BLUR_CLONES void blurFinish(const uint16_t* __restrict r0, const uint16_t* __restrict r1, const uint16_t* __restrict r2,
                 uint8_t* __restrict out, int n) {
   for (int i = 0; i < n; ++i) out[i] = uint8_t(uint16_t(r0[i] + uint16_t(2 * r1[i]) + r2[i] + 32) >> 6);
 }
@@ -342,74 +352,76 @@ void Volume::blurBox(glm::ivec3 g0, glm::ivec3 g1) {
   const int ox0 = g0.x - a0.x;
   int box_run = 1;
   while (box_run < b.x && sx[ox0 + box_run] == sx[ox0 + box_run - 1] + 1) ++box_run;
-  // One layer at a time: a layer's x and y passes go into a ring of three blurred layers, and
-  // the z pass combines the ring as soon as it holds the layers an output layer needs. The
-  // working set (a few 100 KB) stays in cache, where whole-volume passes streamed ~10 MB.
+  // Strips of kBlurStripRows box rows at a time, and in each strip one layer at a time: a layer's
+  // x and y passes go into a ring of three blurred layers, and the z pass combines the ring as
+  // soon as it holds the layers an output layer needs. A strip's working set (~30 KB) stays in
+  // L1; whole layers (~330 KB) ran at L2's bandwidth, and whole-volume passes streamed ~10 MB.
+  // Every pass runs over a strip as one run of lanes, apron columns included (rows of W lanes in
+  // every buffer): per-row calls left a scalar remainder of up to 63 of a row's 380 lanes. Lanes
+  // of apron columns that a pass computes across a row's end are never read for a box texel; the
+  // box's own edge columns, where the apron has no column beyond them, are patched with their
+  // clamped taps.
   const int ox = g0.x - a0.x, oy = g0.y - a0.y, oz = g0.z - a0.z;  // the box inside the apron
-  const size_t layer_in = size_t(a.x) * a.y, layer_x = size_t(b.x) * a.y, layer_out = size_t(b.x) * b.y;
+  const int W = 4 * a.x;                                            // lanes per row, every buffer
+  const size_t strip_in = size_t(W) * (kBlurStripRows + 2), strip_out = size_t(W) * kBlurStripRows;
   // Bytes are blurred as 16-bit sums on the four interleaved lanes of a texel (tap offset +-4
   // bytes in x), in plain loops over arrays that the compiler vectorises.
-  thread_local std::vector<uint8_t> src;
+  thread_local std::vector<uint8_t> src, blurred;
   thread_local std::vector<uint16_t> bx, ring;
-  src.resize(layer_in * 4), bx.resize(layer_x * 4), ring.resize(3 * layer_out * 4);
-  const int rb = 4 * b.x;  // bytes (lanes) per output row
+  src.resize(strip_in), bx.resize(strip_in), ring.resize(3 * strip_out), blurred.resize(strip_out);
+  const bool clamp_first = ox == 0, clamp_last = ox + b.x == a.x;  // a box edge column without apron
   for (int c = 0; c < 3; ++c) {
     const uint32_t* in = source_[c].data();
-    int ring_z[3] = {-1, -1, -1};  // the apron layer each ring slot holds
-    auto layer = [&](int zi) -> const uint16_t* {
-      uint16_t* out_layer = &ring[size_t(zi % 3) * layer_out * 4];
-      if (ring_z[zi % 3] == zi) return out_layer;
-      ring_z[zi % 3] = zi;
-      for (int y = 0; y < a.y; ++y) {
-        const uint32_t* row = in + sz[zi] * layer_stride + sy[y] * row_stride;
-        uint8_t* out = &src[size_t(y) * a.x * 4];
-        // sx runs contiguously up to the storage wrap: at most two copies.
-        std::memcpy(out, row + sx[0], size_t(apron_run) * 4);
-        if (apron_run < a.x) std::memcpy(out + 4 * apron_run, row + sx[apron_run], size_t(a.x - apron_run) * 4);
-      }
-      for (int y = 0; y < a.y; ++y) {
-        const uint8_t* r = &src[size_t(y) * a.x * 4];
-        uint16_t* out = &bx[size_t(y) * rb];
-        auto tap = [&](int i) {  // lane i of output column i / 4, neighbours clamped
-          const int gx = ox + i / 4, l = i % 4;
-          return uint16_t(r[4 * std::max(gx - 1, 0) + l] + 2 * r[4 * gx + l] + r[4 * std::min(gx + 1, a.x - 1) + l]);
-        };
-        // Only the apron's first and last columns clamp: the rest is a plain 3-tap.
-        const uint8_t* m = r + 4 * ox;
-        const int lo = ox == 0 ? 4 : 0, hi = ox + b.x == a.x ? rb - 4 : rb;  // [lo, hi) has both neighbours
-        for (int i = 0; i < lo && i < rb; ++i) out[i] = tap(i);
-        blurTap3(m, out, lo, hi);
-        for (int i = std::max(hi, lo); i < rb; ++i) out[i] = tap(i);
-      }
-      for (int y = 0; y < b.y; ++y) {
-        const int gy = oy + y;
-        const uint16_t* r0 = &bx[size_t(std::max(gy - 1, 0)) * rb];
-        const uint16_t* r1 = &bx[size_t(gy) * rb];
-        const uint16_t* r2 = &bx[size_t(std::min(gy + 1, a.y - 1)) * rb];
-        uint16_t* out = &out_layer[size_t(y) * rb];
-        blurRows3(r0, r1, r2, out, rb);
-      }
-      return out_layer;
-    };
-    thread_local std::vector<uint8_t> blurred_row;
-    blurred_row.resize(rb);
     uint32_t* dst = texels_[c].data();
-    for (int z = 0; z < b.z; ++z) {
-      const int gz = oz + z;
-      const uint16_t* l0 = layer(std::max(gz - 1, 0));
-      const uint16_t* l1 = layer(gz);
-      const uint16_t* l2 = layer(std::min(gz + 1, a.z - 1));
-      const int tz = sz[gz];
-      for (int y = 0; y < b.y; ++y) {
-        const uint16_t* r0 = l0 + size_t(y) * rb;
-        const uint16_t* r1 = l1 + size_t(y) * rb;
-        const uint16_t* r2 = l2 + size_t(y) * rb;
-        uint8_t* br = blurred_row.data();
-        blurFinish(r0, r1, r2, br, rb);
-        const int ty = sy[oy + y];
-        uint32_t* row = dst + tz * layer_stride + ty * row_stride;
-        std::memcpy(row + sx[ox], br, size_t(box_run) * 4);
-        if (box_run < b.x) std::memcpy(row + sx[ox + box_run], br + 4 * box_run, size_t(b.x - box_run) * 4);
+    for (int y0 = 0; y0 < b.y; y0 += kBlurStripRows) {
+      const int y1 = std::min(y0 + kBlurStripRows, b.y);
+      const int r0 = std::max(oy + y0 - 1, 0), r1 = std::min(oy + y1 + 1, a.y);  // apron rows the strip reads
+      const int rn = r1 - r0;
+      int ring_z[3] = {-1, -1, -1};  // the apron layer each ring slot holds
+      auto layer = [&](int zi) -> const uint16_t* {
+        uint16_t* out_layer = &ring[size_t(zi % 3) * strip_out];
+        if (ring_z[zi % 3] == zi) return out_layer;
+        ring_z[zi % 3] = zi;
+        for (int r = 0; r < rn; ++r) {
+          const uint32_t* row = in + sz[zi] * layer_stride + sy[r0 + r] * row_stride;
+          uint8_t* out = &src[size_t(r) * W];
+          // sx runs contiguously up to the storage wrap: at most two copies.
+          std::memcpy(out, row + sx[0], size_t(apron_run) * 4);
+          if (apron_run < a.x) std::memcpy(out + 4 * apron_run, row + sx[apron_run], size_t(a.x - apron_run) * 4);
+        }
+        // x: [4, n - 4) has both neighbours in the strip; only the box's clamped edge columns differ.
+        blurTap3(src.data(), bx.data(), 4, rn * W - 4);
+        for (int r = 0; r < rn; ++r) {
+          const uint8_t* q = &src[size_t(r) * W];
+          uint16_t* o = &bx[size_t(r) * W];
+          for (int l = 0; l < 4; ++l) {
+            if (clamp_first) o[l] = uint16_t(3 * q[l] + q[4 + l]);
+            if (clamp_last) o[W - 4 + l] = uint16_t(q[W - 8 + l] + 3 * q[W - 4 + l]);
+          }
+        }
+        // y: box rows [y0, y1); only the apron's first and last rows clamp.
+        auto at = [&](int apron_row) { return &bx[size_t(apron_row - r0) * W]; };
+        const int first = oy + y0 == 0 ? y0 + 1 : y0, last = oy + y1 == a.y ? y1 - 1 : y1;
+        if (first > y0) blurRows3(at(0), at(0), at(std::min(1, a.y - 1)), out_layer, W);
+        if (last > first)
+          blurRows3(at(oy + first - 1), at(oy + first), at(oy + first + 1), &out_layer[size_t(first - y0) * W], (last - first) * W);
+        if (last < y1 && last >= first)
+          blurRows3(at(std::max(oy + last - 1, 0)), at(oy + last), at(oy + last), &out_layer[size_t(last - y0) * W], W);
+        return out_layer;
+      };
+      for (int z = 0; z < b.z; ++z) {
+        const int gz = oz + z;
+        const uint16_t* l0 = layer(std::max(gz - 1, 0));
+        const uint16_t* l1 = layer(gz);
+        const uint16_t* l2 = layer(std::min(gz + 1, a.z - 1));
+        blurFinish(l0, l1, l2, blurred.data(), (y1 - y0) * W);
+        const int tz = sz[gz];
+        for (int y = y0; y < y1; ++y) {
+          const uint8_t* br = &blurred[size_t(y - y0) * W + 4 * size_t(ox)];
+          uint32_t* row = dst + tz * layer_stride + sy[oy + y] * row_stride;
+          std::memcpy(row + sx[ox], br, size_t(box_run) * 4);
+          if (box_run < b.x) std::memcpy(row + sx[ox + box_run], br + 4 * box_run, size_t(b.x - box_run) * 4);
+        }
       }
     }
     mirrorBoundary(dst, std::span(sx).subspan(size_t(ox), size_t(b.x)), std::span(sy).subspan(size_t(oy), size_t(b.y)),

@@ -54,7 +54,7 @@ RuntimeOptions withRepresentation(RuntimeOptions o) {
 }  // namespace
 
 Runtime::Runtime(RuntimeOptions options)
-    : options_(withRepresentation(options)), cache_(options_.cache), volume_(options_.volume) {
+    : options_(withRepresentation(options)), cache_(options_.cache), volume_(options_.volume, options_.volume_rebuild_updates) {
   current_ = applied_ = evaluateSky(sky_, hour_, options_.sun_band1_window, options_.sun_band0_scale);
 }
 

@@ -528,12 +528,30 @@ void Volume::writeRangeBox(const glm::ivec3& g0, const glm::ivec3& g1, const Pro
     fillBox(g0, g1, cache);
 }
 
-void Volume::rebuild(const glm::ivec3& origin, const ProbeCache& cache) {
+void Volume::rebuild(const glm::ivec3& origin, const ProbeCache& cache) { beginRebuild(origin, cache, period().z); }
+
+void Volume::beginRebuild(const glm::ivec3& origin, const ProbeCache& cache, int blur_layers) {
   origin_ = origin;
   scale_ = cache.packedScale();
+  built_ = false;
+  blurred_layers_ = 0;
   writeRangeBox(origin, origin + period(), cache);
-  if (options_.blur) blurBox(origin, origin + period());
-  built_ = true;
+  if (!options_.blur) {
+    built_ = true;
+    return;
+  }
+  advanceRebuild(blur_layers);
+}
+
+void Volume::advanceRebuild(int blur_layers) {
+  DRTV_CHECK(!built_);
+  const glm::ivec3 n = period();
+  // A box of whole layers blurs to the same bytes as the whole volume does: its apron reads the
+  // unblurred neighbours, every one of which beginRebuild filled.
+  const int z1 = std::min(n.z, blurred_layers_ + std::max(0, blur_layers));
+  if (z1 > blurred_layers_) blurBox(origin_ + glm::ivec3(0, 0, blurred_layers_), glm::ivec3(origin_.x + n.x, origin_.y + n.y, origin_.z + z1));
+  blurred_layers_ = z1;
+  built_ = blurred_layers_ == n.z;
 }
 
 void Volume::scrollTo(const glm::ivec3& origin, const ProbeCache& cache) {

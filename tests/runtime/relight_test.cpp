@@ -146,6 +146,42 @@ TEST(Relight, OneSectorAloneEqualsItsPartOfAFullRelight) {
   EXPECT_EQ(b.colours({b.slotOf({0, 0}), 0})[0], glm::vec3(0.f));  // not relit
 }
 
+// The packed RGBA8 texels, byte by byte, against the encoding as representation.h and
+// probe_cache.h define it: fc3 bases and sh-l1's e0 as round(255 min(1, v / scale)) (negative:
+// 0); sh-l1's e1..e3 as 128 + round(127 clamp(v / scale, -1, 1)), half away from zero. A scale
+// below the brightest colour makes some bytes clamp.
+TEST(ProbeCache, PackedTexelsAreTheEncodingOfTheRelitColours) {
+  for (const Representation r : {Representation::kFc3, Representation::kShL1}) {
+    ProbeCache cache({.representation = r});
+    const bool sh_l1 = r == Representation::kShL1;
+    ASSERT_TRUE(cache.addSector(testing::makeSector({0, 0}, {.sky_fit = sh_l1}, 4)));
+    cache.relightAll(lightingAt(16.0));
+    const float scale = cache.maxColour() * 0.6f;
+    cache.pack(scale);
+    const ProbeCache::SlotView v = cache.slot(0);
+    int clamped = 0, mismatches = 0;
+    for (int i = 0; i < v.probe_count; ++i)
+      for (int c = 0; c < 3; ++c)
+        for (int b = 0; b < 4; ++b) {
+          const double x = double(v.colour[size_t(c * 4 + b) * size_t(v.colour_stride) + size_t(i)]) / double(scale);
+          int want;
+          if (sh_l1 && b > 0) {
+            const double q = std::clamp(x, -1.0, 1.0) * 127.0;
+            want = 128 + int(q >= 0.0 ? std::floor(q + 0.5) : std::ceil(q - 0.5));
+            clamped += std::fabs(x) >= 1.0;
+          } else {
+            want = x <= 0.0 ? 0 : int(std::floor(255.0 * std::min(1.0, x) + 0.5));
+            clamped += x >= 1.0;
+          }
+          const int got = int(v.packed[i * 3 + c] >> (8 * b) & 0xff);
+          mismatches += got != want;
+          EXPECT_EQ(got, want) << (sh_l1 ? "sh-l1" : "fc3") << " probe " << i << " channel " << c << " basis " << b << " x " << x;
+          if (mismatches > 8) return;
+        }
+    EXPECT_GT(clamped, 0) << "the scale clamped nothing: the test exercises only half the encoding";
+  }
+}
+
 TEST(Relight, HugeFiniteLightsGiveFiniteColours) {
   ProbeCache cache;
   ASSERT_TRUE(cache.addSector(testing::makeSector({0, 0}, {.probes = 20, .sources = 20}, 6)));

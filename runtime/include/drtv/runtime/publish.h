@@ -11,6 +11,17 @@
 // on its own: it scrolls from its own origin and replays the content changes (full or per sector)
 // it missed since its last update, so the back buffer costs a slab per frame, not a refill.
 //
+// A full refill with blur can be spread over `rebuild_updates` updates (time slicing, as the
+// talk's consoles spread their volume jobs): the back buffer fills its unblurred texels once,
+// from the cache as it is then, and blurs a share of its layers per update; the front stays
+// published until the back is complete. The refill shows the lighting of the update that began
+// it, one or more updates late, and is bit for bit a rebuild() of that update's origin and cache.
+// If no relight came since it began, the finished buffer then scrolls to the current origin and
+// replays the sector changes it missed before it is published; after a relight it is published
+// as it is, and its next turn refills it. The first volume ever published, and any refill
+// without blur (a fill alone reads the cache: it cannot be split across relights), takes one
+// update.
+//
 // Thread-safety: invalidate*, update: one writer thread. read(): any number of threads, any time.
 #pragma once
 
@@ -25,7 +36,9 @@ namespace drtv::runtime {
 
 class PublishedVolume {
  public:
-  explicit PublishedVolume(const VolumeOptions& options = {});
+  // rebuild_updates >= 1: the most updates a blurred full refill is spread over (1 = each
+  // update publishes its own origin and cache).
+  explicit PublishedVolume(const VolumeOptions& options = {}, int rebuild_updates = 1);
 
   // Content changes the buffers must replay (writer thread).
   void invalidateAll();               // relit or rescaled: every texel
@@ -66,6 +79,7 @@ class PublishedVolume {
     mutable std::shared_mutex mutex;
     uint64_t seen = 0;      // events up to this sequence are applied
     uint64_t published = 0; // publish count when written
+    bool refilling = false;  // a time-sliced refill is in progress (not built)
   };
   Buffer buffers_[2];
   std::atomic<int> front_{0};
@@ -73,6 +87,7 @@ class PublishedVolume {
   uint64_t next_event_ = 1;
   uint64_t publishes_ = 0;
   uint64_t last_update_texels_ = 0;
+  int rebuild_updates_ = 1;
 };
 
 }  // namespace drtv::runtime

@@ -13,7 +13,8 @@
 //    repacks all probes with a new HDR scale (max colour x `hdr_headroom`) and refills the volumes.
 //  - addSector relights that sector alone with the lighting last applied and refills its
 //    footprint; only if its colours exceed the HDR scale is everything repacked and refilled.
-//  - update(camera) scrolls the volumes: only slabs that entered are computed.
+//  - update(camera) scrolls the volumes: only slabs that entered are computed. A blurred full
+//    refill is spread over `volume_rebuild_updates` updates (publish.h).
 //
 // Ambient at a point (ambient()):
 //   volume  = sampleVolume at the point (the talk's shader), weight = Volume::coverage with
@@ -79,6 +80,10 @@ struct RuntimeOptions {
   float normal_offset_m = 1.f;
   // Volume lookups fade to distant ambient over this many texels before the volume's edge.
   float edge_fade_texels = 2.f;
+  // A relight's blurred full refill is spread over this many updates (publish.h): each frame
+  // does half the fill and blur, and the volume shows a time-of-day change one frame late. 1:
+  // every update publishes its own lighting. Without blur a refill always takes one update. >= 1.
+  int volume_rebuild_updates = 2;
 };
 
 // The options an engine picks for an archive whose manifest says `effects` were baked: the

@@ -91,6 +91,14 @@ class Volume {
 
   // Fills every texel for `origin` from `cache` (its packed texels and scale).
   void rebuild(const glm::ivec3& origin, const ProbeCache& cache);
+  // rebuild() spread over several calls (PublishedVolume's time-sliced refill). beginRebuild
+  // fills every unblurred texel for `origin` from `cache`, the only read of the cache, so that
+  // the texels are of one lighting state however many calls the refill takes; then it blurs the
+  // first `blur_layers` layers (of period().z). advanceRebuild blurs up to `blur_layers` more.
+  // built() once every layer is blurred; the texels then equal rebuild()'s bit for bit. Without
+  // blur, beginRebuild completes the refill. Until built(), only these two may be called.
+  void beginRebuild(const glm::ivec3& origin, const ProbeCache& cache, int blur_layers);
+  void advanceRebuild(int blur_layers);
   // Moves to `origin`, filling only the texels that entered (and, with blur, re-blurring their
   // neighbours and the new faces). Rebuilds when not built, when a jump reaches a period, or
   // when the cache was packed with another scale. Afterwards the texels equal rebuild()'s bit
@@ -130,6 +138,7 @@ class Volume {
   glm::ivec3 origin_{0};
   float scale_ = 1.f;
   uint64_t filled_ = 0;
+  int blurred_layers_ = 0;  // of a refill in progress (beginRebuild)
   std::array<std::vector<uint32_t>, 3> texels_;  // what the shader reads
   std::array<std::vector<uint32_t>, 3> source_;  // unblurred texels (only with blur)
 };

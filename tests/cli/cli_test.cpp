@@ -347,6 +347,34 @@ TEST(Cli, TheSharedProbeRoomsFloorSeesTheSkyAtNoon) {
   EXPECT_GT(j.at("irradiance").at(1).get<double>(), 0.1) << q.out;
 }
 
+// Issue 16: colour from a lit coloured wall reaches the surfaces facing it. In the Cornell world
+// (../shared/assets/cornell_bevy: a red wall at x = -5.5 m, a green one at x = +5.6 m, lit by
+// its own emissive quad at night and by the sky through its open side by day), a point of the
+// room and the white sphere's flanks get more red facing the red wall and more green facing the
+// green one, as the path tracer and physics have it.
+TEST(Cli, TheCornellRoomsWallsBleedTheirColourOntoWhatFacesThem) {
+  const std::string archive = scratch("cornell-bleed.drtv");
+  ASSERT_EQ(drtv("bake " + src("tests/reference/data/cornell_world.json") + " -o " + archive).status, 0);
+  struct Case {
+    const char* at;
+    const char* normal;
+    bool red;  // facing the red wall
+  };
+  for (const Case c : {Case{"-1,0,3", "-1,0,0", true}, Case{"-1,0,3", "1,0,0", false}, Case{"-0.3,-3.5,2.5", "-1,0,0", true},
+                       Case{"2.3,-3.5,2.5", "1,0,0", false}})
+    for (const char* time : {"22:00", "12:00"}) {
+      const Outcome q = drtv("query " + archive + " --at " + c.at + " --normal=" + c.normal + " --time " + time + " --json");
+      ASSERT_EQ(q.status, 0) << q.out;
+      const auto e = nlohmann::json::parse(q.out.substr(q.out.find('{'))).at("irradiance");
+      const double r = e.at(0).get<double>(), g = e.at(1).get<double>();
+      const std::string what = std::string(c.at) + " facing " + c.normal + " at " + time;
+      if (c.red)
+        EXPECT_GT(r, 1.1 * g) << what;
+      else
+        EXPECT_GT(g, 1.1 * r) << what;
+    }
+}
+
 TEST(Cli, AMemoryLimitThatIsNotASizeIsAUsageError) {
   const Outcome r = drtv("info " + kGolden + " --max-memory lots");
   EXPECT_EQ(r.status, 2) << r.out;

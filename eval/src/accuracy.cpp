@@ -334,6 +334,34 @@ std::vector<SurfaceCategory> categorise(const ReferenceScene& scene, const std::
   return out;
 }
 
+// Stratified sampling (AccuracyOptions::stratify): of candidates in their order, `count`, each
+// static category present an equal share; a category with fewer candidates than its share gives
+// the rest to the others. Indices into `of`, ascending.
+constexpr int kStratifyCandidates = 8;
+std::vector<size_t> stratifiedPick(const std::vector<SurfaceCategory>& of, int count) {
+  std::array<std::vector<size_t>, kSurfaceCategoryCount> buckets;
+  for (size_t i = 0; i < of.size(); ++i) buckets[size_t(of[i])].push_back(i);
+  std::array<size_t, kSurfaceCategoryCount> taken{};
+  size_t remaining = size_t(std::max(0, count));
+  while (remaining > 0) {
+    std::vector<int> open;  // categories with candidates left
+    for (int c = 0; c < kSurfaceCategoryCount; ++c)
+      if (taken[size_t(c)] < buckets[size_t(c)].size()) open.push_back(c);
+    if (open.empty()) break;
+    const size_t share = std::max<size_t>(1, remaining / open.size());
+    for (const int c : open) {
+      const size_t n = std::min({share, buckets[size_t(c)].size() - taken[size_t(c)], remaining});
+      taken[size_t(c)] += n;
+      remaining -= n;
+      if (remaining == 0) break;
+    }
+  }
+  std::vector<size_t> out;
+  for (int c = 0; c < kSurfaceCategoryCount; ++c) out.insert(out.end(), buckets[size_t(c)].begin(), buckets[size_t(c)].begin() + std::ptrdiff_t(taken[size_t(c)]));
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
 // The block baked: the 3 x 3 sectors around the centre of the geometry unless asked otherwise,
 // clipped to the world's sectors.
 Result<raytrace::SectorRange> sweepBlock(const worlds::World& world, const std::string& where, const AccuracyOptions& options) {
@@ -570,7 +598,23 @@ Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::st
 
   // Sample points.
   std::vector<Point> dyn = dynamicPoints(world, *scene, region, int(std::lround(kDynamicShare * options.points)), options.seed);
-  std::vector<Point> points = staticPoints(*scene, *base, region, options.points - int(dyn.size()), options.seed);
+  const int static_count = options.points - int(dyn.size());
+  std::vector<Point> points;
+  std::vector<SurfaceCategory> categories;  // with stratify, chosen with the points
+  if (options.stratify) {
+    const std::vector<Point> candidates = staticPoints(*scene, *base, region, kStratifyCandidates * static_count, options.seed);
+    const std::vector<SurfaceCategory> of = categorise(*scene, candidates, options.seed);
+    for (const size_t i : stratifiedPick(of, static_count)) {
+      points.push_back(candidates[i]);
+      categories.push_back(of[i]);
+    }
+    for (size_t i = 0; i < dyn.size(); ++i) categories.push_back(kOnDynamic);
+    report.notes.push_back("stratified: each surface category found gets an equal share of the static points (the totals weigh "
+                           "the categories equally, not by area)");
+  } else {
+    points = staticPoints(*scene, *base, region, static_count, options.seed);
+  }
+  report.stratified = options.stratify;
   report.dynamic_points = dyn.size();
   points.insert(points.end(), dyn.begin(), dyn.end());
   if (points.empty()) return fail(where + ": no sample point found in sectors " + toString(SectorKey{region.x0, region.y0}) + ".." +
@@ -584,7 +628,7 @@ Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::st
   // The table: (technique, parameters) rows, each evaluated by one RowEvaluator through the
   // technique interface against the one reference above. DRTV's knobs move one at a time around
   // its defaults; then every registered technique at its own defaults.
-  std::vector<SurfaceCategory> categories = categorise(*scene, points, options.seed);
+  if (!options.stratify) categories = categorise(*scene, points, options.seed);
   for (const SurfaceCategory c : categories) ++report.category_points[size_t(c)];
   RowEvaluator rows(world, where, *block, options, *base, points, truth, std::move(categories), report);
   Values default_values;  // the default DRTV row's, for the storage emulation check

@@ -204,6 +204,7 @@ Result<void> writeAccuracyReport(const AccuracyReport& r, const fs::path& dir) {
   nlohmann::json cp = nlohmann::json::object();
   for (int c = 0; c < kSurfaceCategoryCount; ++c) cp[surfaceCategoryName(SurfaceCategory(c))] = r.category_points[size_t(c)];
   j["category_points"] = cp;
+  j["stratified"] = r.stratified;
   if (auto w = writeText(dir / "accuracy.json", j.dump(2) + "\n"); !w) return w;
 
   // Markdown

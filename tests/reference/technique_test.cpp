@@ -260,5 +260,25 @@ TEST(AccuracyCategories, TheTestBoxHasWallAndDynamicPoints) {
   EXPECT_GT(r->category_points[kOpenGround], 0u);
 }
 
+// --stratify: on the facade scene (a 15 m building with balconies) the walls and the space under
+// the balconies get as many points as the open ground that takes 90 % of them otherwise; a
+// category with too few candidates (under the balconies) gives its share to the others.
+TEST(AccuracyCategories, StratifiedPointsGiveEachCategoryAnEqualShare) {
+  auto world = worlds::loadWorld(std::string(DRTV_SOURCE_DIR) + "/tests/reference/data/facade.json");
+  ASSERT_TRUE(world.has_value()) << world.error().message;
+  AccuracyOptions o = smallSweep(9.0, 60, {"drtv"});
+  o.stratify = true;
+  auto r = measureAccuracy(*world, "facade", o);
+  ASSERT_TRUE(r.has_value()) << r.error().message;
+  EXPECT_TRUE(r->stratified);
+  EXPECT_EQ(r->points, 60u);
+  const size_t open = r->category_points[kOpenGround], wall = r->category_points[kWallOrFacade], enclosed = r->category_points[kEnclosed];
+  EXPECT_EQ(open + wall + enclosed, r->points);
+  EXPECT_GT(enclosed, 0u);
+  EXPECT_LE(enclosed, wall);
+  EXPECT_LE(wall > open ? wall - open : open - wall, 1u) << open << " open, " << wall << " wall";
+  EXPECT_GE(3 * wall, r->points) << "walls are 7 % of the unstratified points; a third or more here";
+}
+
 }  // namespace
 }  // namespace drtv::eval

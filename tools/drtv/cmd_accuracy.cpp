@@ -1,4 +1,4 @@
-// drtv accuracy <world.json> -o <dir> [--points N] [--samples N] [--time HH:MM,HH:MM]
+// drtv accuracy <world.json> -o <dir> [--stratify] [--points N] [--samples N] [--time HH:MM,HH:MM]
 //               [--sectors x0:x1,y0:y1] [--seed S] [--threads N]
 // Bakes the world in memory and sweeps each knob around the default against the path-traced
 // reference (accuracy.h); writes accuracy.csv, .json, .md and .png into the directory.
@@ -21,6 +21,7 @@ struct AccuracyCliOptions {
   std::vector<std::string> techniques;
   bool lpv_knobs = false;
   bool cube_knobs = false;
+  bool stratify = false;
 };
 
 Result<std::vector<double>> parseHours(const std::string& text) {
@@ -58,10 +59,14 @@ Command registerAccuracy(CLI::App& app) {
       ->delimiter(',');
   sub->add_flag("--lpv-knobs", o->lpv_knobs, "Also LPV's knob rows (cells, cascades, iterations, RSM size, occlusion, ...): minutes each");
   sub->add_flag("--cube-knobs", o->cube_knobs, "Also the ambient cube's rows (each term alone, the sun transfer off): seconds each");
+  sub->add_flag("--stratify", o->stratify,
+                "Give each surface category found (open ground, walls, enclosed) an equal share of the static points; the totals then "
+                "weigh the categories equally");
   return {sub, [o]() -> Result<void> {
             eval::AccuracyOptions opts;
             opts.lpv_knobs = o->lpv_knobs;
             opts.cube_knobs = o->cube_knobs;
+            opts.stratify = o->stratify;
             auto hours = parseHours(o->times);
             if (!hours) return std::unexpected(hours.error());
             opts.hours = *hours;

@@ -82,6 +82,10 @@ struct AccuracyOptions {
   uint64_t seed = 1;
   int threads = 0;                       // 0 = all hardware threads
   int timing_repeats = 5;                // relight + fill timings per row (median)
+  // Stratified points: each surface category found (open ground, walls, enclosed) gets an equal
+  // share of the static points, so that the hard places are measured with as many points as the
+  // open ground (issue 16); the totals then weigh the categories equally, not by area.
+  bool stratify = false;
   // The "technique" rows: these registered techniques (technique.h); empty = every one.
   std::vector<std::string> techniques;
   // LPV's knob rows (lpv_cells, lpv_cascades, lpv_iterations, lpv_rsm, lpv_occlusion,
@@ -149,6 +153,7 @@ struct AccuracyReport {
   raytrace::SectorRange sectors;                // the block baked
   size_t points = 0, dynamic_points = 0;
   std::array<size_t, kSurfaceCategoryCount> category_points{};  // sample points per SurfaceCategory
+  bool stratified = false;            // AccuracyOptions::stratify
   std::vector<double> hours;
   int reference_samples = 0;
   double reference_s = 0;             // wall seconds of the reference at the points

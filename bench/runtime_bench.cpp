@@ -251,8 +251,8 @@ BENCHMARK(BM_RuntimeAmbient);
 
 // What a frame costs when the time of day moved past the threshold: relight, pack, refill the
 // back buffer and publish.
-void BM_RuntimeRelightFrame(benchmark::State& state) {
-  Runtime rt;
+void relightFrames(benchmark::State& state, RuntimeOptions options) {
+  Runtime rt(options);
   for (SectorKey k : residentKeys())
     if (!rt.addSector(testing::makeSector(k, {.probes = 70}, 1))) std::abort();
   double hour = 8.0;
@@ -262,7 +262,17 @@ void BM_RuntimeRelightFrame(benchmark::State& state) {
     rt.update({0.0, 0.0, 12.0});
   }
 }
+void BM_RuntimeRelightFrame(benchmark::State& state) { relightFrames(state, {}); }
 BENCHMARK(BM_RuntimeRelightFrame)->Unit(benchmark::kMicrosecond);
+// The same with the volume blur (the island's default): the refill's fill and blur spread over
+// two frames (RuntimeOptions::volume_rebuild_updates, publish.h), and, for comparison, in one.
+void BM_RuntimeRelightFrameBlurred(benchmark::State& state) {
+  RuntimeOptions o;
+  o.volume.blur = true;
+  o.volume_rebuild_updates = int(state.range(0));
+  relightFrames(state, o);
+}
+BENCHMARK(BM_RuntimeRelightFrameBlurred)->Arg(1)->Arg(2)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 }  // namespace drtv::runtime

@@ -37,10 +37,13 @@
 namespace drtv::sweep {
 namespace {
 
-// The row loops are compiled twice, for the baseline and for AVX2 (without FMA: the same IEEE
-// operations in the same order, so the same results, 8 lanes instead of 4), chosen at load time.
-#if defined(__GNUC__) && defined(__x86_64__) && !defined(__SANITIZE_ADDRESS__)
-#define DRTV_SWEEP_CLONES __attribute__((target_clones("avx2", "default")))
+// The row loops are compiled three times, for the baseline, AVX2 and x86-64-v4 (AVX-512), chosen
+// at load time: the same IEEE operations in the same order, so the same results (no FMA: the
+// v4 clone could fuse a * b + c, which -ffp-contract=off for this file forbids, sweep/CMakeLists.txt).
+// Not under the sanitizers or Clang (as runtime/src/probe_cache.cpp).
+#if defined(__GNUC__) && defined(__x86_64__) && !defined(__clang__) && !defined(__SANITIZE_ADDRESS__) && \
+    !defined(__SANITIZE_THREAD__)
+#define DRTV_SWEEP_CLONES __attribute__((target_clones("arch=x86-64-v4", "avx2", "default")))
 #else
 #define DRTV_SWEEP_CLONES
 #endif
@@ -285,7 +288,7 @@ void transposeCodes(const uint32_t* codes, size_t stride, int n, uint32_t* grid)
 
 // One component of glm::packSnorm4x8 without libm's roundf: clamp to [-1, 1], times 127, rounded
 // half away from zero (std::round: v - trunc(v) is exact for |v| <= 127), as a byte. The scalar
-// definition that snormByte8 computes 8 lanes at a time.
+// definition that snormByteV computes kLanes at a time.
 inline uint32_t snormByte(float d) {
   const float v = std::min(std::max(d, -1.f), 1.f) * 127.f;
   const int i = int(v);
@@ -295,48 +298,50 @@ inline uint32_t snormByte(float d) {
 }
 
 
-// 8 lanes of GCC's vector extensions (GCC and Clang): in the AVX2 clone one register, in the
-// baseline two SSE ones; either way the same IEEE operations lane by lane as the scalar
-// functions they mirror (snormByte, detail::packR11G11B10), so the same bits.
-using V8f = float __attribute__((vector_size(32)));
-using V8i = int32_t __attribute__((vector_size(32)));
-using V8u = uint32_t __attribute__((vector_size(32)));
-constexpr int kLanes = 8;
+// 16 lanes of GCC's vector extensions (GCC and Clang): in the x86-64-v4 clone one AVX-512
+// register, in the AVX2 clone two, in the baseline four SSE ones; whichever, the same IEEE
+// operations lane by lane as the scalar functions they mirror (snormByte, detail::packR11G11B10),
+// so the same bits. With 8 lanes the AVX-512 clone had nothing to gain (docs/sweep.md); at 16 the
+// row loops, bound by instructions, take half as many in it.
+constexpr int kLanes = 16;
+using VFloat = float __attribute__((vector_size(kLanes * 4)));
+using VInt = int32_t __attribute__((vector_size(kLanes * 4)));
+using VUint = uint32_t __attribute__((vector_size(kLanes * 4)));
 
-[[gnu::always_inline]] inline V8f load8(const float* p) {
-  V8f v;
+[[gnu::always_inline]] inline VFloat loadV(const float* p) {
+  VFloat v;
   std::memcpy(&v, p, sizeof v);
   return v;
 }
 template <class V, class T>
-[[gnu::always_inline]] inline void store8(T* p, const V& v) {
+[[gnu::always_inline]] inline void storeV(T* p, const V& v) {
   static_assert(sizeof(V) == kLanes * sizeof(T));
   std::memcpy(p, &v, sizeof v);
 }
 
-// detail::packSmall, 8 lanes.
+// detail::packSmall, kLanes lanes.
 template <int kMant>
-[[gnu::always_inline]] inline V8u packSmall8(const V8f& v) {
+[[gnu::always_inline]] inline VUint packSmallV(const VFloat& v) {
   constexpr int kShift = 23 - kMant;
   constexpr int32_t kMax = (30 << kMant) | ((1 << kMant) - 1);
-  const V8u b = std::bit_cast<V8u>(v);
-  const V8i r = V8i(((b - (112u << 23)) + (1u << (kShift - 1))) >> kShift);
-  const V8i clamped = r < kMax ? r : V8i{} + kMax;
-  return V8u(v >= 6.103515625e-05f ? clamped : V8i{});
+  const VUint b = std::bit_cast<VUint>(v);
+  const VInt r = VInt(((b - (112u << 23)) + (1u << (kShift - 1))) >> kShift);
+  const VInt clamped = r < kMax ? r : VInt{} + kMax;
+  return VUint(v >= 6.103515625e-05f ? clamped : VInt{});
 }
-[[gnu::always_inline]] inline V8u packR11G11B10x8(const V8f& r, const V8f& g, const V8f& b) {
-  return packSmall8<6>(r) | (packSmall8<6>(g) << 11) | (packSmall8<5>(b) << 22);
+[[gnu::always_inline]] inline VUint packR11G11B10V(const VFloat& r, const VFloat& g, const VFloat& b) {
+  return packSmallV<6>(r) | (packSmallV<6>(g) << 11) | (packSmallV<5>(b) << 22);
 }
 
-// snormByte, 8 lanes (a comparison's lanes are -1 where true).
-[[gnu::always_inline]] inline V8u snormByte8(const V8f& d) {
-  const V8f lo = d < -1.f ? V8f{} - 1.f : d;      // std::max(d, -1)
-  const V8f hi = 1.f < lo ? V8f{} + 1.f : lo;     // std::min(lo, 1)
-  const V8f v = hi * 127.f;
-  const V8i i = __builtin_convertvector(v, V8i);  // truncates, as int(v)
-  const V8f f = v - __builtin_convertvector(i, V8f);
-  const V8i rounded = i - V8i(f >= 0.5f) + V8i(f <= -0.5f);
-  return V8u(rounded) & 0xffu;
+// snormByte, kLanes lanes (a comparison's lanes are -1 where true).
+[[gnu::always_inline]] inline VUint snormByteV(const VFloat& d) {
+  const VFloat lo = d < -1.f ? VFloat{} - 1.f : d;      // std::max(d, -1)
+  const VFloat hi = 1.f < lo ? VFloat{} + 1.f : lo;     // std::min(lo, 1)
+  const VFloat v = hi * 127.f;
+  const VInt i = __builtin_convertvector(v, VInt);  // truncates, as int(v)
+  const VFloat f = v - __builtin_convertvector(i, VFloat);
+  const VInt rounded = i - VInt(f >= 0.5f) + VInt(f <= -0.5f);
+  return VUint(rounded) & 0xffu;
 }
 
 // One row's stored light, per direction d a row of n floats of each channel c at light[d] + c
@@ -369,41 +374,41 @@ DRTV_SWEEP_CLONES void storeCells(int n, const StoreRows& s, uint32_t* __restric
                                   size_t sum_stride, uint32_t* __restrict average, uint32_t* __restrict dominant) {
   const size_t stride = s.stride;
   for (int x = 0; x < n; x += kLanes) {
-    V8f sr{}, sg{}, sb{}, sl{}, sx{}, sy{}, sz{};
+    VFloat sr{}, sg{}, sb{}, sl{}, sx{}, sy{}, sz{};
     if constexpr (kResume) {
       int row = 0;
-      for (V8f* v : {&sr, &sg, &sb, &sl, &sx, &sy, &sz}) *v = load8(sums + size_t(row++) * sum_stride + size_t(x));
+      for (VFloat* v : {&sr, &sg, &sb, &sl, &sx, &sy, &sz}) *v = loadV(sums + size_t(row++) * sum_stride + size_t(x));
     }
     for (int d = s.first; d < s.end; ++d) {
       const float* light = s.light[size_t(d)] + x;
-      V8f r = load8(light), g = load8(light + stride), b = load8(light + 2 * stride);
+      VFloat r = loadV(light), g = loadV(light + stride), b = loadV(light + 2 * stride);
       if (kSubtract && d < kSwept) {  // std::max(light - direct, 0)
         const float* direct = s.direct[size_t(d)] + x;
-        r = r - load8(direct);
-        g = g - load8(direct + stride);
-        b = b - load8(direct + 2 * stride);
-        r = r < 0.f ? V8f{} : r;
-        g = g < 0.f ? V8f{} : g;
-        b = b < 0.f ? V8f{} : b;
+        r = r - loadV(direct);
+        g = g - loadV(direct + stride);
+        b = b - loadV(direct + 2 * stride);
+        r = r < 0.f ? VFloat{} : r;
+        g = g < 0.f ? VFloat{} : g;
+        b = b < 0.f ? VFloat{} : b;
       }
-      store8(codes + size_t(d) * code_stride + size_t(x), packR11G11B10x8(r, g, b));
+      storeV(codes + size_t(d) * code_stride + size_t(x), packR11G11B10V(r, g, b));
       sr += r;
       sg += g;
       sb += b;
-      const V8f l = 0.2126f * r + 0.7152f * g + 0.0722f * b;
+      const VFloat l = 0.2126f * r + 0.7152f * g + 0.0722f * b;
       sl += l;
       sx += l * s.from_x[size_t(d)];
       sy += l * s.from_y[size_t(d)];
       sz += l * s.from_z[size_t(d)];
     }
     if constexpr (kFinish) {
-      store8(average + x, packR11G11B10x8(sr / kFourPi, sg / kFourPi, sb / kFourPi));
+      storeV(average + x, packR11G11B10V(sr / kFourPi, sg / kFourPi, sb / kFourPi));
       const auto lit = sl > 0.f;
-      const V8f dx = lit ? sx / sl : V8f{}, dy = lit ? sy / sl : V8f{}, dz = lit ? sz / sl : V8f{};
-      store8(dominant + x, snormByte8(dx) | (snormByte8(dy) << 8) | (snormByte8(dz) << 16));
+      const VFloat dx = lit ? sx / sl : VFloat{}, dy = lit ? sy / sl : VFloat{}, dz = lit ? sz / sl : VFloat{};
+      storeV(dominant + x, snormByteV(dx) | (snormByteV(dy) << 8) | (snormByteV(dz) << 16));
     } else {
       int row = 0;
-      for (const V8f v : {sr, sg, sb, sl, sx, sy, sz}) store8(sums + size_t(row++) * sum_stride + size_t(x), v);
+      for (const VFloat v : {sr, sg, sb, sl, sx, sy, sz}) storeV(sums + size_t(row++) * sum_stride + size_t(x), v);
     }
   }
 }
@@ -444,18 +449,18 @@ struct TapRows {
   size_t stride = 0;
 };
 
-[[gnu::always_inline]] inline V8f splat8(float v) {
-  V8f r;
+[[gnu::always_inline]] inline VFloat splatV(float v) {
+  VFloat r;
   for (int i = 0; i < kLanes; ++i) r[i] = v;
   return r;
 }
 
 // Tap t's weights at cells x..x + kLanes - 1 (gatherRow).
-[[gnu::always_inline]] inline V8f tapWeight(const TapRows& g, int nf, int t, int x, const V8f& w) {
+[[gnu::always_inline]] inline VFloat tapWeight(const TapRows& g, int nf, int t, int x, const VFloat& w) {
   if (nf == 0) return w;
   const std::array<const float*, kMaxCrossed>& f = g.f[size_t(t)];
-  V8f p = load8(f[0] + x);
-  for (int c = 1; c < nf; ++c) p = p * load8(f[size_t(c)] + x);
+  VFloat p = loadV(f[0] + x);
+  for (int c = 1; c < nf; ++c) p = p * loadV(f[size_t(c)] + x);
   return w * p;
 }
 
@@ -468,20 +473,20 @@ DRTV_SWEEP_CLONES void gatherRow(int n, const TapRows& g) {
   float* __restrict a = g.a;
   const size_t stride = g.stride;
   // Copies: the stores through `a` could alias g's weights for all the compiler knows.
-  const V8f c0 = splat8(g.w[0]), c1 = splat8(g.w[1]), c2 = splat8(g.w[2]), c3 = splat8(g.w[3]), c4 = splat8(g.w[4]);
+  const VFloat c0 = splatV(g.w[0]), c1 = splatV(g.w[1]), c2 = splatV(g.w[2]), c3 = splatV(g.w[3]), c4 = splatV(g.w[4]);
   const int nf0 = g.nf[0], nf1 = g.nf[1], nf2 = g.nf[2], nf3 = g.nf[3], nf4 = g.nf[4];
   for (int x = 0; x < n; x += kLanes) {
-    const V8f w[kTaps] = {kVarying ? tapWeight(g, nf0, 0, x, c0) : c0, kVarying ? tapWeight(g, nf1, 1, x, c1) : c1,
+    const VFloat w[kTaps] = {kVarying ? tapWeight(g, nf0, 0, x, c0) : c0, kVarying ? tapWeight(g, nf1, 1, x, c1) : c1,
                           kVarying ? tapWeight(g, nf2, 2, x, c2) : c2, kVarying ? tapWeight(g, nf3, 3, x, c3) : c3,
                           kVarying ? tapWeight(g, nf4, 4, x, c4) : c4};
     for (size_t c = 0; c < 3; ++c) {
       const size_t at = c * stride + size_t(x);
-      const V8f v = w[0] * load8(s0 + at) + w[1] * load8(s1 + at) + w[2] * load8(s2 + at) + w[3] * load8(s3 + at) + w[4] * load8(s4 + at);
+      const VFloat v = w[0] * loadV(s0 + at) + w[1] * loadV(s1 + at) + w[2] * loadV(s2 + at) + w[3] * loadV(s3 + at) + w[4] * loadV(s4 + at);
       if (x + kLanes <= n) {
-        store8(a + at, v);
+        storeV(a + at, v);
       } else {
         float tail[kLanes];
-        store8(tail, v);
+        storeV(tail, v);
         std::copy_n(tail, n - x, a + at);
       }
     }
@@ -645,8 +650,9 @@ class Sweeper {
     codes_.assign(size_t(kDirections) * stride_, 0u);
     // Rows of w_ floats like the level buffers', so that every row storeCells reads has its
     // channels w_ apart.
-    up_half_.assign(size_t(3 * kUp) * size_t(w_), 0.f);
-    zeros_.assign(3 * size_t(w_), 0.f);
+    // kLanes more: storeCells reads the last row past nx rounded up to kLanes, which can pass w_.
+    up_half_.assign(size_t(3 * kUp) * size_t(w_) + kLanes, 0.f);
+    zeros_.assign(3 * size_t(w_) + kLanes, 0.f);
     store_rows_.stride = size_t(w_);
     average_.assign(stride_, 0u);
     dominant_.assign(stride_, 0u);

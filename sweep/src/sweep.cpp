@@ -63,10 +63,21 @@ struct Crossed {
   // Its factor row's offset from the target's row in a level's factor planes (Sweeper::setUp).
   ptrdiff_t offset = 0;
 };
+// The most material cells one tap's path crosses (makePath; checked in Sweeper::setUp).
+constexpr int kMaxCrossed = 8;
+// Bit of a crossed cell's factor row in a gathered row's mask of rows with material (Sweeper::
+// gather): rows dy = -kPad..kPad of the target's level, then of the source's.
+constexpr int kRowBits = 2 * kPad + 1;
 struct Tap {
   int ox, oy;  // source offset from the target, cells
   float w;
   std::vector<Crossed> crossed;
+  // The crossed cells flattened for the gather (Sweeper::setUp): their offsets, row bits, and the
+  // union of those bits.
+  std::array<ptrdiff_t, kMaxCrossed> offset{};
+  std::array<uint8_t, kMaxCrossed> bit{};
+  std::array<uint8_t, kMaxCrossed> src_level{};
+  uint32_t mask = 0;
 };
 struct BinPath {
   int bin;
@@ -431,9 +442,6 @@ DRTV_SWEEP_CLONES void upCells(int n, float* __restrict v, size_t stride, const 
   }
 }
 
-// The most material cells one tap's path crosses (makePath; checked in Sweeper::setUp).
-constexpr int kMaxCrossed = 8;
-
 // One direction's gather along a row of n cells, its 3 channels at once (channel c's rows are
 // c * stride after channel 0's): a[x] = the sum over the taps t, in tap order (the reference's
 // order of accumulation), of w_t[x] s[t][x], where
@@ -725,9 +733,15 @@ class Sweeper {
       for (int t = 0; t < kTaps; ++t) path.taps[size_t(t)].w = t == 0 ? o_.smoothing : (1.f - o_.smoothing) / 4.f;  // as makePath
       for (Tap& t : path.taps) {
         DRTV_CHECK_LE(t.crossed.size(), size_t(kMaxCrossed));
-        for (Crossed& c : t.crossed) {
+        for (size_t i = 0; i < t.crossed.size(); ++i) {
+          Crossed& c = t.crossed[i];
           c.len_id = lengthId(crossed_len_, c.len);
           c.offset = ptrdiff_t(c.len_id) * ptrdiff_t(plane_) + ptrdiff_t(c.dy) * w_ + kPad + c.dx;
+          DRTV_CHECK(c.dy >= -kPad && c.dy <= kPad);
+          t.offset[i] = c.offset;
+          t.bit[i] = uint8_t((c.src_level ? kRowBits : 0) + c.dy + kPad);
+          t.src_level[i] = c.src_level;
+          t.mask |= 1u << t.bit[i];
         }
       }
       path.target_len_id = lengthId(target_len_, path.target_len);
@@ -789,8 +803,16 @@ class Sweeper {
     const size_t row = size_t(j + kPad) * size_t(w_);
     const float* rows_target = f_target ? f_target + row : nullptr;
     const float* rows_src = f_src ? f_src + row : nullptr;
-    const uint8_t* lit_target = row_has_material_.data() + size_t(k) * size_t(h_) + size_t(j + kPad);
-    const uint8_t* lit_src = src_in ? row_has_material_.data() + size_t(k_src) * size_t(h_) + size_t(j + kPad) : nullptr;
+    // Bit kPad + dy (kRowBits + kPad + dy): row j + dy of the target's (source's) level holds
+    // material and has factors.
+    uint64_t lit = 0;
+    for (int dy = -kPad; dy <= kPad; ++dy) {
+      const size_t r = size_t(j + kPad + dy);
+      if (rows_target && row_has_material_[size_t(k) * size_t(h_) + r]) lit |= uint64_t(1) << (kPad + dy);
+      if (rows_src && row_has_material_[size_t(k_src) * size_t(h_) + r]) lit |= uint64_t(1) << (kRowBits + kPad + dy);
+    }
+    // A pointer that is never read where a level has no factors (its bits are 0).
+    const float* rows[2] = {rows_target ? rows_target : sigma_.data(), rows_src ? rows_src : sigma_.data()};
     TapRows g;
     for (size_t b = 0; b < p.bins.size(); ++b) {
       const BinPath& path = p.paths[b];
@@ -799,12 +821,24 @@ class Sweeper {
         const Tap& tap = path.taps[size_t(t)];
         g.w[size_t(t)] = tap.w;
         int nf = 0;
-        for (const Crossed& c : tap.crossed) {
-          const float* f = c.src_level ? rows_src : rows_target;
-          if (f && (c.src_level ? lit_src : lit_target)[c.dy]) g.f[size_t(t)][size_t(nf++)] = f + c.offset;
+        if (tap.mask & lit) {
+          // Branch-free, in the crossed cells' order (the order the factors multiply in).
+          for (size_t c = 0; c < tap.crossed.size(); ++c) {
+            g.f[size_t(t)][size_t(nf)] = rows[tap.src_level[c]] + tap.offset[c];
+            nf += int((lit >> tap.bit[c]) & 1u);
+          }
         }
         g.nf[size_t(t)] = nf;
         any = any || nf > 0;
+      }
+      if (prefetch_) {
+        // The row's grid words, written by storeRow after the gathers: their cache lines fetched
+        // a few at a time during the gathers. Fetched all at once, the prefetches stalled on the
+        // line fill buffers; not at all, the transposition's stores waited on them (15 % of the
+        // sweep).
+        const size_t bytes = size_t(nx_) * kDirections * sizeof(uint32_t), lines = (bytes + 63) / 64;
+        const size_t per_bin = (lines + p.bins.size() - 1) / p.bins.size();
+        for (size_t l = b * per_bin; l < std::min(lines, (b + 1) * per_bin); ++l) __builtin_prefetch(prefetch_ + 64 * l, 1, 3);
       }
       gatherDirection(p, b, path, any, j, g);
       if (q && direct_of_bin_[size_t(path.bin)] >= 0) gatherDirection(*q, size_t(direct_of_bin_[size_t(path.bin)]), path, any, j, g);
@@ -827,7 +861,9 @@ class Sweeper {
 
   void level(int k, SweptGrid& out) {
     for (int j = 0; j < g_.size.y; ++j) {
+      prefetch_ = reinterpret_cast<const char*>(out.light.light.data() + g_.index(0, j, k) * kDirections);
       gather(full_, direct_.bins.empty() ? nullptr : &direct_, k, k + 1, j);
+      prefetch_ = nullptr;
       interactRow(k, j);
       storeRow(k, j, out);
       // What the cells with material send on replaces what they stored.
@@ -1082,6 +1118,7 @@ class Sweeper {
   // The row's words, direction-major (kDirections rows of nx), transposed into the grid
   // (transposeCodes).
   std::vector<uint32_t> codes_;
+  const char* prefetch_ = nullptr;  // the grid's words of the row being swept (level)
   size_t stride_ = 0;             // nx_ rounded up to kLanes: the rows of codes_, average_, down_sums_
   // 3 kUp rows of w_: the up-going light as stored (the cells' reflection halved, or with
   // bottom_up what bottomUp carried up), read by storeCells.

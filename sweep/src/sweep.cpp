@@ -357,7 +357,7 @@ template <int kMant>
 
 // One row's stored light, per direction d a row of n floats of each channel c at light[d] + c
 // stride; for the down-going directions also the sun's unscattered part to take off (direct[d],
-// likewise; rows of 0 where the bin has none). Rows are read, and written, in whole groups of
+// likewise; null where the bin has none). Rows are read, and written, in whole groups of
 // kLanes: each has room up to n rounded up (what lies there is computed and not used).
 struct StoreRows {
   std::array<const float*, kDirections> light;
@@ -394,10 +394,13 @@ DRTV_SWEEP_CLONES void storeCells(int n, const StoreRows& s, uint32_t* __restric
       const float* light = s.light[size_t(d)] + x;
       VFloat r = loadV(light), g = loadV(light + stride), b = loadV(light + 2 * stride);
       if (kSubtract && d < kSwept) {  // std::max(light - direct, 0)
-        const float* direct = s.direct[size_t(d)] + x;
-        r = r - loadV(direct);
-        g = g - loadV(direct + stride);
-        b = b - loadV(direct + 2 * stride);
+        // Without the sun's light in this bin, light - 0 is light, bit for bit (-0 - +0 is -0).
+        if (const float* direct = s.direct[size_t(d)]) {
+          direct += x;
+          r = r - loadV(direct);
+          g = g - loadV(direct + stride);
+          b = b - loadV(direct + 2 * stride);
+        }
         r = r < 0.f ? VFloat{} : r;
         g = g < 0.f ? VFloat{} : g;
         b = b < 0.f ? VFloat{} : b;
@@ -660,7 +663,6 @@ class Sweeper {
     // channels w_ apart.
     // kLanes more: storeCells reads the last row past nx rounded up to kLanes, which can pass w_.
     up_half_.assign(size_t(3 * kUp) * size_t(w_) + kLanes, 0.f);
-    zeros_.assign(3 * size_t(w_) + kLanes, 0.f);
     store_rows_.stride = size_t(w_);
     average_.assign(stride_, 0u);
     dominant_.assign(stride_, 0u);
@@ -981,7 +983,7 @@ class Sweeper {
       const float* r = full_.dstRow(size_t(3 * b), j + kPad) + kPad;
       rows.light[size_t(b)] = r;
       const int d = direct_of_bin_[size_t(b)];
-      rows.direct[size_t(b)] = d >= 0 ? direct_.dstRow(size_t(3 * d), j + kPad) + kPad : zeros_.data();
+      rows.direct[size_t(b)] = d >= 0 ? direct_.dstRow(size_t(3 * d), j + kPad) + kPad : nullptr;
     }
     if (out.direct)
       for (size_t d = 0; d < direct_.bins.size(); ++d) {
@@ -1124,7 +1126,6 @@ class Sweeper {
   // bottom_up what bottomUp carried up), read by storeCells.
   std::vector<float> up_half_;
   int half_lo_ = 0, half_n_ = 0;  // the cells of up_half_ not 0: the last row's span
-  std::vector<float> zeros_;     // 3 rows of 0: the sun's unscattered light of a bin without it
   std::vector<uint32_t> average_, dominant_;  // one row each: storeCells' words before the grid's
   StoreRows store_rows_;
   int span_lo_ = 0, span_n_ = 0;  // the row's span of cells with material (interactRow)

@@ -300,7 +300,7 @@ void transposeCodes(const uint32_t* codes, size_t stride, int n, uint32_t* grid)
 // One component of glm::packSnorm4x8 without libm's roundf: clamp to [-1, 1], times 127, rounded
 // half away from zero (std::round: v - trunc(v) is exact for |v| <= 127), as a byte. The scalar
 // definition that snormByteV computes kLanes at a time.
-inline uint32_t snormByte(float d) {
+[[maybe_unused]] inline uint32_t snormByte(float d) {
   const float v = std::min(std::max(d, -1.f), 1.f) * 127.f;
   const int i = int(v);
   const float f = v - float(i);

@@ -39,13 +39,25 @@ namespace {
 
 // The row loops are compiled three times, for the baseline, AVX2 and x86-64-v4 (AVX-512), chosen
 // at load time: the same IEEE operations in the same order, so the same results (no FMA: the
-// v4 clone could fuse a * b + c, which -ffp-contract=off for this file forbids, sweep/CMakeLists.txt).
-// Not under the sanitizers or Clang (as runtime/src/probe_cache.cpp).
+// v4 code could fuse a * b + c, which -ffp-contract=off for this file forbids, sweep/CMakeLists.txt).
+// The scalar loops as target_clones; the vector ones (storeCells, gatherRow) as one body per lane
+// count, 16 lanes for x86-64-v4 and 8 otherwise, chosen by isa(). Not under the sanitizers or
+// Clang (as runtime/src/probe_cache.cpp): there the baseline's 8 lanes only.
 #if defined(__GNUC__) && defined(__x86_64__) && !defined(__clang__) && !defined(__SANITIZE_ADDRESS__) && \
     !defined(__SANITIZE_THREAD__)
+#define DRTV_SWEEP_DISPATCH 1
 #define DRTV_SWEEP_CLONES __attribute__((target_clones("arch=x86-64-v4", "avx2", "default")))
 #else
+#define DRTV_SWEEP_DISPATCH 0
 #define DRTV_SWEEP_CLONES
+#endif
+
+#if DRTV_SWEEP_DISPATCH
+enum class Isa { kBase, kAvx2, kV4 };
+Isa isa() {
+  static const Isa i = __builtin_cpu_supports("x86-64-v4") ? Isa::kV4 : __builtin_cpu_supports("avx2") ? Isa::kAvx2 : Isa::kBase;
+  return i;
+}
 #endif
 
 constexpr int kPad = kNearHorizontalStep + 1;  // the farthest source: 4 sideways + 1 smoothing tap
@@ -299,7 +311,7 @@ void transposeCodes(const uint32_t* codes, size_t stride, int n, uint32_t* grid)
 
 // One component of glm::packSnorm4x8 without libm's roundf: clamp to [-1, 1], times 127, rounded
 // half away from zero (std::round: v - trunc(v) is exact for |v| <= 127), as a byte. The scalar
-// definition that snormByteV computes kLanes at a time.
+// definition that snormByteV computes L lanes at a time.
 [[maybe_unused]] inline uint32_t snormByte(float d) {
   const float v = std::min(std::max(d, -1.f), 1.f) * 127.f;
   const int i = int(v);
@@ -309,30 +321,52 @@ void transposeCodes(const uint32_t* codes, size_t stride, int n, uint32_t* grid)
 }
 
 
-// 16 lanes of GCC's vector extensions (GCC and Clang): in the x86-64-v4 clone one AVX-512
-// register, in the AVX2 clone two, in the baseline four SSE ones; whichever, the same IEEE
-// operations lane by lane as the scalar functions they mirror (snormByte, detail::packR11G11B10),
-// so the same bits. With 8 lanes the AVX-512 clone had nothing to gain (docs/sweep.md); at 16 the
-// row loops, bound by instructions, take half as many in it.
+// L lanes of GCC's vector extensions (GCC and Clang): 16 in the x86-64-v4 code, one AVX-512
+// register; 8 in the AVX2 code, one register, and in the baseline, two SSE ones. Whichever, the
+// same IEEE operations lane by lane as the scalar functions they mirror (snormByte,
+// detail::packR11G11B10), so the same bits. With 8 lanes AVX-512 code had nothing to gain
+// (docs/sweep.md); at 16 the row loops, bound by instructions, take half as many in it. 16 lanes
+// in the AVX2 code took 6 times the instructions in storeCells (valgrind): kept at 8 there.
+using V8f = float __attribute__((vector_size(32)));
+using V8i = int32_t __attribute__((vector_size(32)));
+using V8u = uint32_t __attribute__((vector_size(32)));
+using V16f = float __attribute__((vector_size(64)));
+using V16i = int32_t __attribute__((vector_size(64)));
+using V16u = uint32_t __attribute__((vector_size(64)));
+template <int L>
+struct Vec;
+template <>
+struct Vec<8> {
+  using F = V8f;
+  using I = V8i;
+  using U = V8u;
+};
+template <>
+struct Vec<16> {
+  using F = V16f;
+  using I = V16i;
+  using U = V16u;
+};
+// The most lanes of any code: the rows the vector loops read are padded for it.
 constexpr int kLanes = 16;
-using VFloat = float __attribute__((vector_size(kLanes * 4)));
-using VInt = int32_t __attribute__((vector_size(kLanes * 4)));
-using VUint = uint32_t __attribute__((vector_size(kLanes * 4)));
 
-[[gnu::always_inline]] inline VFloat loadV(const float* p) {
-  VFloat v;
+template <int L>
+[[gnu::always_inline]] inline typename Vec<L>::F loadV(const float* p) {
+  typename Vec<L>::F v;
   std::memcpy(&v, p, sizeof v);
   return v;
 }
 template <class V, class T>
 [[gnu::always_inline]] inline void storeV(T* p, const V& v) {
-  static_assert(sizeof(V) == kLanes * sizeof(T));
+  static_assert(sizeof(V) % sizeof(T) == 0);
   std::memcpy(p, &v, sizeof v);
 }
 
-// detail::packSmall, kLanes lanes.
-template <int kMant>
-[[gnu::always_inline]] inline VUint packSmallV(const VFloat& v) {
+// detail::packSmall, L lanes.
+template <int kMant, int L>
+[[gnu::always_inline]] inline typename Vec<L>::U packSmallV(const typename Vec<L>::F& v) {
+  using VInt = typename Vec<L>::I;
+  using VUint = typename Vec<L>::U;
   constexpr int kShift = 23 - kMant;
   constexpr int32_t kMax = (30 << kMant) | ((1 << kMant) - 1);
   const VUint b = std::bit_cast<VUint>(v);
@@ -340,12 +374,18 @@ template <int kMant>
   const VInt clamped = r < kMax ? r : VInt{} + kMax;
   return VUint(v >= 6.103515625e-05f ? clamped : VInt{});
 }
-[[gnu::always_inline]] inline VUint packR11G11B10V(const VFloat& r, const VFloat& g, const VFloat& b) {
-  return packSmallV<6>(r) | (packSmallV<6>(g) << 11) | (packSmallV<5>(b) << 22);
+template <int L>
+[[gnu::always_inline]] inline typename Vec<L>::U packR11G11B10V(const typename Vec<L>::F& r, const typename Vec<L>::F& g,
+                                                               const typename Vec<L>::F& b) {
+  return packSmallV<6, L>(r) | (packSmallV<6, L>(g) << 11) | (packSmallV<5, L>(b) << 22);
 }
 
-// snormByte, kLanes lanes (a comparison's lanes are -1 where true).
-[[gnu::always_inline]] inline VUint snormByteV(const VFloat& d) {
+// snormByte, L lanes (a comparison's lanes are -1 where true).
+template <int L>
+[[gnu::always_inline]] inline typename Vec<L>::U snormByteV(const typename Vec<L>::F& d) {
+  using VFloat = typename Vec<L>::F;
+  using VInt = typename Vec<L>::I;
+  using VUint = typename Vec<L>::U;
   const VFloat lo = d < -1.f ? VFloat{} - 1.f : d;      // std::max(d, -1)
   const VFloat hi = 1.f < lo ? VFloat{} + 1.f : lo;     // std::min(lo, 1)
   const VFloat v = hi * 127.f;
@@ -380,32 +420,36 @@ struct StoreRows {
 //  - kResume: the sums start from those rows (bottom_up's up-going directions), not from 0.
 // Was one loop per direction for the packing and one for the sums, which loaded and stored the 7
 // sums per direction, then a loop to finish: 23 % of the sweep's instructions.
-template <bool kSubtract, bool kFinish, bool kResume = false>
-DRTV_SWEEP_CLONES void storeCells(int n, const StoreRows& s, uint32_t* __restrict codes, size_t code_stride, float* __restrict sums,
-                                  size_t sum_stride, uint32_t* __restrict average, uint32_t* __restrict dominant) {
+#define DRTV_SWEEP_STORE_PARAMS                                                                                       \
+  int n, const StoreRows &s, uint32_t *__restrict codes, size_t code_stride, float *__restrict sums, size_t sum_stride, \
+      uint32_t *__restrict average, uint32_t *__restrict dominant
+#define DRTV_SWEEP_STORE_ARGS n, s, codes, code_stride, sums, sum_stride, average, dominant
+template <bool kSubtract, bool kFinish, bool kResume, int L>
+[[gnu::always_inline]] inline void storeCellsBody(DRTV_SWEEP_STORE_PARAMS) {
+  using VFloat = typename Vec<L>::F;
   const size_t stride = s.stride;
-  for (int x = 0; x < n; x += kLanes) {
+  for (int x = 0; x < n; x += L) {
     VFloat sr{}, sg{}, sb{}, sl{}, sx{}, sy{}, sz{};
     if constexpr (kResume) {
       int row = 0;
-      for (VFloat* v : {&sr, &sg, &sb, &sl, &sx, &sy, &sz}) *v = loadV(sums + size_t(row++) * sum_stride + size_t(x));
+      for (VFloat* v : {&sr, &sg, &sb, &sl, &sx, &sy, &sz}) *v = loadV<L>(sums + size_t(row++) * sum_stride + size_t(x));
     }
     for (int d = s.first; d < s.end; ++d) {
       const float* light = s.light[size_t(d)] + x;
-      VFloat r = loadV(light), g = loadV(light + stride), b = loadV(light + 2 * stride);
+      VFloat r = loadV<L>(light), g = loadV<L>(light + stride), b = loadV<L>(light + 2 * stride);
       if (kSubtract && d < kSwept) {  // std::max(light - direct, 0)
         // Without the sun's light in this bin, light - 0 is light, bit for bit (-0 - +0 is -0).
         if (const float* direct = s.direct[size_t(d)]) {
           direct += x;
-          r = r - loadV(direct);
-          g = g - loadV(direct + stride);
-          b = b - loadV(direct + 2 * stride);
+          r = r - loadV<L>(direct);
+          g = g - loadV<L>(direct + stride);
+          b = b - loadV<L>(direct + 2 * stride);
         }
         r = r < 0.f ? VFloat{} : r;
         g = g < 0.f ? VFloat{} : g;
         b = b < 0.f ? VFloat{} : b;
       }
-      storeV(codes + size_t(d) * code_stride + size_t(x), packR11G11B10V(r, g, b));
+      storeV(codes + size_t(d) * code_stride + size_t(x), packR11G11B10V<L>(r, g, b));
       sr += r;
       sg += g;
       sb += b;
@@ -416,16 +460,39 @@ DRTV_SWEEP_CLONES void storeCells(int n, const StoreRows& s, uint32_t* __restric
       sz += l * s.from_z[size_t(d)];
     }
     if constexpr (kFinish) {
-      storeV(average + x, packR11G11B10V(sr / kFourPi, sg / kFourPi, sb / kFourPi));
+      storeV(average + x, packR11G11B10V<L>(sr / kFourPi, sg / kFourPi, sb / kFourPi));
       const auto lit = sl > 0.f;
       const VFloat dx = lit ? sx / sl : VFloat{}, dy = lit ? sy / sl : VFloat{}, dz = lit ? sz / sl : VFloat{};
-      storeV(dominant + x, snormByteV(dx) | (snormByteV(dy) << 8) | (snormByteV(dz) << 16));
+      storeV(dominant + x, snormByteV<L>(dx) | (snormByteV<L>(dy) << 8) | (snormByteV<L>(dz) << 16));
     } else {
       int row = 0;
       for (const VFloat v : {sr, sg, sb, sl, sx, sy, sz}) storeV(sums + size_t(row++) * sum_stride + size_t(x), v);
     }
   }
 }
+#if DRTV_SWEEP_DISPATCH
+template <bool kSubtract, bool kFinish, bool kResume>
+__attribute__((target("arch=x86-64-v4"))) void storeCellsV4(DRTV_SWEEP_STORE_PARAMS) {
+  storeCellsBody<kSubtract, kFinish, kResume, 16>(DRTV_SWEEP_STORE_ARGS);
+}
+template <bool kSubtract, bool kFinish, bool kResume>
+__attribute__((target("avx2"))) void storeCellsAvx2(DRTV_SWEEP_STORE_PARAMS) {
+  storeCellsBody<kSubtract, kFinish, kResume, 8>(DRTV_SWEEP_STORE_ARGS);
+}
+#endif
+template <bool kSubtract, bool kFinish, bool kResume = false>
+void storeCells(DRTV_SWEEP_STORE_PARAMS) {
+#if DRTV_SWEEP_DISPATCH
+  switch (isa()) {
+    case Isa::kV4: return storeCellsV4<kSubtract, kFinish, kResume>(DRTV_SWEEP_STORE_ARGS);
+    case Isa::kAvx2: return storeCellsAvx2<kSubtract, kFinish, kResume>(DRTV_SWEEP_STORE_ARGS);
+    case Isa::kBase: break;
+  }
+#endif
+  storeCellsBody<kSubtract, kFinish, kResume, 8>(DRTV_SWEEP_STORE_ARGS);
+}
+#undef DRTV_SWEEP_STORE_PARAMS
+#undef DRTV_SWEEP_STORE_ARGS
 
 // The bottom-up pass in a row of n cells, for one up-going direction: its gathered light v (3 rows,
 // channels `stride` apart) passes the cell as T (row t) plus what the cell reflects up (e, 3 rows
@@ -460,48 +527,72 @@ struct TapRows {
   size_t stride = 0;
 };
 
-[[gnu::always_inline]] inline VFloat splatV(float v) {
-  VFloat r;
-  for (int i = 0; i < kLanes; ++i) r[i] = v;
+template <int L>
+[[gnu::always_inline]] inline typename Vec<L>::F splatV(float v) {
+  typename Vec<L>::F r;
+  for (int i = 0; i < L; ++i) r[i] = v;
   return r;
 }
 
 // Tap t's weights at cells x..x + kLanes - 1 (gatherRow).
-[[gnu::always_inline]] inline VFloat tapWeight(const TapRows& g, int nf, int t, int x, const VFloat& w) {
+template <int L>
+[[gnu::always_inline]] inline typename Vec<L>::F tapWeight(const TapRows& g, int nf, int t, int x, const typename Vec<L>::F& w) {
   if (nf == 0) return w;
   const std::array<const float*, kMaxCrossed>& f = g.f[size_t(t)];
-  VFloat p = loadV(f[0] + x);
-  for (int c = 1; c < nf; ++c) p = p * loadV(f[size_t(c)] + x);
+  typename Vec<L>::F p = loadV<L>(f[0] + x);
+  for (int c = 1; c < nf; ++c) p = p * loadV<L>(f[size_t(c)] + x);
   return w * p;
 }
 
 // The weights' rows of the first version: a row of each crossed factor, multiplied in, then the
 // tap's weight; one loop per tap and channel: with 3 channels and the weights in registers, 8 %
 // of the sweep's instructions go.
-template <bool kVarying>
-DRTV_SWEEP_CLONES void gatherRow(int n, const TapRows& g) {
+template <bool kVarying, int L>
+[[gnu::always_inline]] inline void gatherRowBody(int n, const TapRows& g) {
+  using VFloat = typename Vec<L>::F;
   const float *s0 = g.s[0], *s1 = g.s[1], *s2 = g.s[2], *s3 = g.s[3], *s4 = g.s[4];
   float* __restrict a = g.a;
   const size_t stride = g.stride;
   // Copies: the stores through `a` could alias g's weights for all the compiler knows.
-  const VFloat c0 = splatV(g.w[0]), c1 = splatV(g.w[1]), c2 = splatV(g.w[2]), c3 = splatV(g.w[3]), c4 = splatV(g.w[4]);
+  const VFloat c0 = splatV<L>(g.w[0]), c1 = splatV<L>(g.w[1]), c2 = splatV<L>(g.w[2]), c3 = splatV<L>(g.w[3]), c4 = splatV<L>(g.w[4]);
   const int nf0 = g.nf[0], nf1 = g.nf[1], nf2 = g.nf[2], nf3 = g.nf[3], nf4 = g.nf[4];
-  for (int x = 0; x < n; x += kLanes) {
-    const VFloat w[kTaps] = {kVarying ? tapWeight(g, nf0, 0, x, c0) : c0, kVarying ? tapWeight(g, nf1, 1, x, c1) : c1,
-                          kVarying ? tapWeight(g, nf2, 2, x, c2) : c2, kVarying ? tapWeight(g, nf3, 3, x, c3) : c3,
-                          kVarying ? tapWeight(g, nf4, 4, x, c4) : c4};
+  for (int x = 0; x < n; x += L) {
+    const VFloat w[kTaps] = {kVarying ? tapWeight<L>(g, nf0, 0, x, c0) : c0, kVarying ? tapWeight<L>(g, nf1, 1, x, c1) : c1,
+                          kVarying ? tapWeight<L>(g, nf2, 2, x, c2) : c2, kVarying ? tapWeight<L>(g, nf3, 3, x, c3) : c3,
+                          kVarying ? tapWeight<L>(g, nf4, 4, x, c4) : c4};
     for (size_t c = 0; c < 3; ++c) {
       const size_t at = c * stride + size_t(x);
-      const VFloat v = w[0] * loadV(s0 + at) + w[1] * loadV(s1 + at) + w[2] * loadV(s2 + at) + w[3] * loadV(s3 + at) + w[4] * loadV(s4 + at);
-      if (x + kLanes <= n) {
+      const VFloat v = w[0] * loadV<L>(s0 + at) + w[1] * loadV<L>(s1 + at) + w[2] * loadV<L>(s2 + at) + w[3] * loadV<L>(s3 + at) + w[4] * loadV<L>(s4 + at);
+      if (x + L <= n) {
         storeV(a + at, v);
       } else {
-        float tail[kLanes];
+        float tail[L];
         storeV(tail, v);
         std::copy_n(tail, n - x, a + at);
       }
     }
   }
+}
+#if DRTV_SWEEP_DISPATCH
+template <bool kVarying>
+__attribute__((target("arch=x86-64-v4"))) void gatherRowV4(int n, const TapRows& g) {
+  gatherRowBody<kVarying, 16>(n, g);
+}
+template <bool kVarying>
+__attribute__((target("avx2"))) void gatherRowAvx2(int n, const TapRows& g) {
+  gatherRowBody<kVarying, 8>(n, g);
+}
+#endif
+template <bool kVarying>
+void gatherRow(int n, const TapRows& g) {
+#if DRTV_SWEEP_DISPATCH
+  switch (isa()) {
+    case Isa::kV4: return gatherRowV4<kVarying>(n, g);
+    case Isa::kAvx2: return gatherRowAvx2<kVarying>(n, g);
+    case Isa::kBase: break;
+  }
+#endif
+  gatherRowBody<kVarying, 8>(n, g);
 }
 
 // The batch's rows for the reflection (Sweeper::interactRow), per cell of a span: the cell's

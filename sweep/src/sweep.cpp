@@ -38,7 +38,7 @@ namespace drtv::sweep {
 namespace {
 
 // The row loops are compiled three times, for the baseline, AVX2 and x86-64-v4 (AVX-512), chosen
-// at load time: the same IEEE operations in the same order, so the same results (no FMA: the
+// at run time by what the CPU supports: the same IEEE operations in the same order, so the same results (no FMA: the
 // v4 code could fuse a * b + c, which -ffp-contract=off for this file forbids, sweep/CMakeLists.txt).
 // The scalar loops as target_clones; the vector ones (storeCells, gatherRow) as one body per lane
 // count, 16 lanes for x86-64-v4 and 8 otherwise, chosen by isa(). Not under the sanitizers or
@@ -420,9 +420,9 @@ struct StoreRows {
 //  - kResume: the sums start from those rows (bottom_up's up-going directions), not from 0.
 // Was one loop per direction for the packing and one for the sums, which loaded and stored the 7
 // sums per direction, then a loop to finish: 23 % of the sweep's instructions.
-#define DRTV_SWEEP_STORE_PARAMS                                                                                       \
-  int n, const StoreRows &s, uint32_t *__restrict codes, size_t code_stride, float *__restrict sums, size_t sum_stride, \
-      uint32_t *__restrict average, uint32_t *__restrict dominant
+#define DRTV_SWEEP_STORE_PARAMS                                                                                   \
+  int n, const StoreRows& s, uint32_t* __restrict codes, size_t code_stride, float* __restrict sums, size_t sum_stride, \
+      uint32_t* __restrict average, uint32_t* __restrict dominant
 #define DRTV_SWEEP_STORE_ARGS n, s, codes, code_stride, sums, sum_stride, average, dominant
 template <bool kSubtract, bool kFinish, bool kResume, int L>
 [[gnu::always_inline]] inline void storeCellsBody(DRTV_SWEEP_STORE_PARAMS) {
@@ -534,7 +534,7 @@ template <int L>
   return r;
 }
 
-// Tap t's weights at cells x..x + kLanes - 1 (gatherRow).
+// Tap t's weights at cells x..x + L - 1 (gatherRow).
 template <int L>
 [[gnu::always_inline]] inline typename Vec<L>::F tapWeight(const TapRows& g, int nf, int t, int x, const typename Vec<L>::F& w) {
   if (nf == 0) return w;
@@ -927,8 +927,8 @@ class Sweeper {
       if (prefetch_) {
         // The row's grid words, written by storeRow after the gathers: their cache lines fetched
         // a few at a time during the gathers. Fetched all at once, the prefetches stalled on the
-        // line fill buffers; not at all, the transposition's stores waited on them (15 % of the
-        // sweep).
+        // line fill buffers; not at all, the transposition's stores waited on them (18 % of a
+        // re-sweep's samples).
         const size_t bytes = size_t(nx_) * kDirections * sizeof(uint32_t), lines = (bytes + 63) / 64;
         const size_t per_bin = (lines + p.bins.size() - 1) / p.bins.size();
         for (size_t l = b * per_bin; l < std::min(lines, (b + 1) * per_bin); ++l) __builtin_prefetch(prefetch_ + 64 * l, 1, 3);

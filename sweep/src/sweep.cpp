@@ -37,12 +37,27 @@
 namespace drtv::sweep {
 namespace {
 
-// The row loops are compiled twice, for the baseline and for AVX2 (without FMA: the same IEEE
-// operations in the same order, so the same results, 8 lanes instead of 4), chosen at load time.
-#if defined(__GNUC__) && defined(__x86_64__) && !defined(__SANITIZE_ADDRESS__)
-#define DRTV_SWEEP_CLONES __attribute__((target_clones("avx2", "default")))
+// The row loops are compiled three times, for the baseline, AVX2 and x86-64-v4 (AVX-512), chosen
+// at run time by what the CPU supports: the same IEEE operations in the same order, so the same results (no FMA: the
+// v4 code could fuse a * b + c, which -ffp-contract=off for this file forbids, sweep/CMakeLists.txt).
+// The scalar loops as target_clones; the vector ones (storeCells, gatherRow) as one body per lane
+// count, 16 lanes for x86-64-v4 and 8 otherwise, chosen by isa(). Not under the sanitizers or
+// Clang (as runtime/src/probe_cache.cpp): there the baseline's 8 lanes only.
+#if defined(__GNUC__) && defined(__x86_64__) && !defined(__clang__) && !defined(__SANITIZE_ADDRESS__) && \
+    !defined(__SANITIZE_THREAD__)
+#define DRTV_SWEEP_DISPATCH 1
+#define DRTV_SWEEP_CLONES __attribute__((target_clones("arch=x86-64-v4", "avx2", "default")))
 #else
+#define DRTV_SWEEP_DISPATCH 0
 #define DRTV_SWEEP_CLONES
+#endif
+
+#if DRTV_SWEEP_DISPATCH
+enum class Isa { kBase, kAvx2, kV4 };
+Isa isa() {
+  static const Isa i = __builtin_cpu_supports("x86-64-v4") ? Isa::kV4 : __builtin_cpu_supports("avx2") ? Isa::kAvx2 : Isa::kBase;
+  return i;
+}
 #endif
 
 constexpr int kPad = kNearHorizontalStep + 1;  // the farthest source: 4 sideways + 1 smoothing tap
@@ -60,10 +75,21 @@ struct Crossed {
   // Its factor row's offset from the target's row in a level's factor planes (Sweeper::setUp).
   ptrdiff_t offset = 0;
 };
+// The most material cells one tap's path crosses (makePath; checked in Sweeper::setUp).
+constexpr int kMaxCrossed = 8;
+// Bit of a crossed cell's factor row in a gathered row's mask of rows with material (Sweeper::
+// gather): rows dy = -kPad..kPad of the target's level, then of the source's.
+constexpr int kRowBits = 2 * kPad + 1;
 struct Tap {
   int ox, oy;  // source offset from the target, cells
   float w;
   std::vector<Crossed> crossed;
+  // The crossed cells flattened for the gather (Sweeper::setUp): their offsets, row bits, and the
+  // union of those bits.
+  std::array<ptrdiff_t, kMaxCrossed> offset{};
+  std::array<uint8_t, kMaxCrossed> bit{};
+  std::array<uint8_t, kMaxCrossed> src_level{};
+  uint32_t mask = 0;
 };
 struct BinPath {
   int bin;
@@ -285,8 +311,8 @@ void transposeCodes(const uint32_t* codes, size_t stride, int n, uint32_t* grid)
 
 // One component of glm::packSnorm4x8 without libm's roundf: clamp to [-1, 1], times 127, rounded
 // half away from zero (std::round: v - trunc(v) is exact for |v| <= 127), as a byte. The scalar
-// definition that snormByte8 computes 8 lanes at a time.
-inline uint32_t snormByte(float d) {
+// definition that snormByteV computes L lanes at a time.
+[[maybe_unused]] inline uint32_t snormByte(float d) {
   const float v = std::min(std::max(d, -1.f), 1.f) * 127.f;
   const int i = int(v);
   const float f = v - float(i);
@@ -295,53 +321,83 @@ inline uint32_t snormByte(float d) {
 }
 
 
-// 8 lanes of GCC's vector extensions (GCC and Clang): in the AVX2 clone one register, in the
-// baseline two SSE ones; either way the same IEEE operations lane by lane as the scalar
-// functions they mirror (snormByte, detail::packR11G11B10), so the same bits.
+// L lanes of GCC's vector extensions (GCC and Clang): 16 in the x86-64-v4 code, one AVX-512
+// register; 8 in the AVX2 code, one register, and in the baseline, two SSE ones. Whichever, the
+// same IEEE operations lane by lane as the scalar functions they mirror (snormByte,
+// detail::packR11G11B10), so the same bits. With 8 lanes AVX-512 code had nothing to gain
+// (docs/sweep.md); at 16 the row loops, bound by instructions, take half as many in it. 16 lanes
+// in the AVX2 code took 6 times the instructions in storeCells (valgrind): kept at 8 there.
 using V8f = float __attribute__((vector_size(32)));
 using V8i = int32_t __attribute__((vector_size(32)));
 using V8u = uint32_t __attribute__((vector_size(32)));
-constexpr int kLanes = 8;
+using V16f = float __attribute__((vector_size(64)));
+using V16i = int32_t __attribute__((vector_size(64)));
+using V16u = uint32_t __attribute__((vector_size(64)));
+template <int L>
+struct Vec;
+template <>
+struct Vec<8> {
+  using F = V8f;
+  using I = V8i;
+  using U = V8u;
+};
+template <>
+struct Vec<16> {
+  using F = V16f;
+  using I = V16i;
+  using U = V16u;
+};
+// The most lanes of any code: the rows the vector loops read are padded for it.
+constexpr int kLanes = 16;
 
-[[gnu::always_inline]] inline V8f load8(const float* p) {
-  V8f v;
+template <int L>
+[[gnu::always_inline]] inline typename Vec<L>::F loadV(const float* p) {
+  typename Vec<L>::F v;
   std::memcpy(&v, p, sizeof v);
   return v;
 }
 template <class V, class T>
-[[gnu::always_inline]] inline void store8(T* p, const V& v) {
-  static_assert(sizeof(V) == kLanes * sizeof(T));
+[[gnu::always_inline]] inline void storeV(T* p, const V& v) {
+  static_assert(sizeof(V) % sizeof(T) == 0);
   std::memcpy(p, &v, sizeof v);
 }
 
-// detail::packSmall, 8 lanes.
-template <int kMant>
-[[gnu::always_inline]] inline V8u packSmall8(const V8f& v) {
+// detail::packSmall, L lanes.
+template <int kMant, int L>
+[[gnu::always_inline]] inline typename Vec<L>::U packSmallV(const typename Vec<L>::F& v) {
+  using VInt = typename Vec<L>::I;
+  using VUint = typename Vec<L>::U;
   constexpr int kShift = 23 - kMant;
   constexpr int32_t kMax = (30 << kMant) | ((1 << kMant) - 1);
-  const V8u b = std::bit_cast<V8u>(v);
-  const V8i r = V8i(((b - (112u << 23)) + (1u << (kShift - 1))) >> kShift);
-  const V8i clamped = r < kMax ? r : V8i{} + kMax;
-  return V8u(v >= 6.103515625e-05f ? clamped : V8i{});
+  const VUint b = std::bit_cast<VUint>(v);
+  const VInt r = VInt(((b - (112u << 23)) + (1u << (kShift - 1))) >> kShift);
+  const VInt clamped = r < kMax ? r : VInt{} + kMax;
+  return VUint(v >= 6.103515625e-05f ? clamped : VInt{});
 }
-[[gnu::always_inline]] inline V8u packR11G11B10x8(const V8f& r, const V8f& g, const V8f& b) {
-  return packSmall8<6>(r) | (packSmall8<6>(g) << 11) | (packSmall8<5>(b) << 22);
+template <int L>
+[[gnu::always_inline]] inline typename Vec<L>::U packR11G11B10V(const typename Vec<L>::F& r, const typename Vec<L>::F& g,
+                                                               const typename Vec<L>::F& b) {
+  return packSmallV<6, L>(r) | (packSmallV<6, L>(g) << 11) | (packSmallV<5, L>(b) << 22);
 }
 
-// snormByte, 8 lanes (a comparison's lanes are -1 where true).
-[[gnu::always_inline]] inline V8u snormByte8(const V8f& d) {
-  const V8f lo = d < -1.f ? V8f{} - 1.f : d;      // std::max(d, -1)
-  const V8f hi = 1.f < lo ? V8f{} + 1.f : lo;     // std::min(lo, 1)
-  const V8f v = hi * 127.f;
-  const V8i i = __builtin_convertvector(v, V8i);  // truncates, as int(v)
-  const V8f f = v - __builtin_convertvector(i, V8f);
-  const V8i rounded = i - V8i(f >= 0.5f) + V8i(f <= -0.5f);
-  return V8u(rounded) & 0xffu;
+// snormByte, L lanes (a comparison's lanes are -1 where true).
+template <int L>
+[[gnu::always_inline]] inline typename Vec<L>::U snormByteV(const typename Vec<L>::F& d) {
+  using VFloat = typename Vec<L>::F;
+  using VInt = typename Vec<L>::I;
+  using VUint = typename Vec<L>::U;
+  const VFloat lo = d < -1.f ? VFloat{} - 1.f : d;      // std::max(d, -1)
+  const VFloat hi = 1.f < lo ? VFloat{} + 1.f : lo;     // std::min(lo, 1)
+  const VFloat v = hi * 127.f;
+  const VInt i = __builtin_convertvector(v, VInt);  // truncates, as int(v)
+  const VFloat f = v - __builtin_convertvector(i, VFloat);
+  const VInt rounded = i - VInt(f >= 0.5f) + VInt(f <= -0.5f);
+  return VUint(rounded) & 0xffu;
 }
 
 // One row's stored light, per direction d a row of n floats of each channel c at light[d] + c
 // stride; for the down-going directions also the sun's unscattered part to take off (direct[d],
-// likewise; rows of 0 where the bin has none). Rows are read, and written, in whole groups of
+// likewise; null where the bin has none). Rows are read, and written, in whole groups of
 // kLanes: each has room up to n rounded up (what lies there is computed and not used).
 struct StoreRows {
   std::array<const float*, kDirections> light;
@@ -364,49 +420,79 @@ struct StoreRows {
 //  - kResume: the sums start from those rows (bottom_up's up-going directions), not from 0.
 // Was one loop per direction for the packing and one for the sums, which loaded and stored the 7
 // sums per direction, then a loop to finish: 23 % of the sweep's instructions.
-template <bool kSubtract, bool kFinish, bool kResume = false>
-DRTV_SWEEP_CLONES void storeCells(int n, const StoreRows& s, uint32_t* __restrict codes, size_t code_stride, float* __restrict sums,
-                                  size_t sum_stride, uint32_t* __restrict average, uint32_t* __restrict dominant) {
+#define DRTV_SWEEP_STORE_PARAMS                                                                                   \
+  int n, const StoreRows& s, uint32_t* __restrict codes, size_t code_stride, float* __restrict sums, size_t sum_stride, \
+      uint32_t* __restrict average, uint32_t* __restrict dominant
+#define DRTV_SWEEP_STORE_ARGS n, s, codes, code_stride, sums, sum_stride, average, dominant
+template <bool kSubtract, bool kFinish, bool kResume, int L>
+[[gnu::always_inline]] inline void storeCellsBody(DRTV_SWEEP_STORE_PARAMS) {
+  using VFloat = typename Vec<L>::F;
   const size_t stride = s.stride;
-  for (int x = 0; x < n; x += kLanes) {
-    V8f sr{}, sg{}, sb{}, sl{}, sx{}, sy{}, sz{};
+  for (int x = 0; x < n; x += L) {
+    VFloat sr{}, sg{}, sb{}, sl{}, sx{}, sy{}, sz{};
     if constexpr (kResume) {
       int row = 0;
-      for (V8f* v : {&sr, &sg, &sb, &sl, &sx, &sy, &sz}) *v = load8(sums + size_t(row++) * sum_stride + size_t(x));
+      for (VFloat* v : {&sr, &sg, &sb, &sl, &sx, &sy, &sz}) *v = loadV<L>(sums + size_t(row++) * sum_stride + size_t(x));
     }
     for (int d = s.first; d < s.end; ++d) {
       const float* light = s.light[size_t(d)] + x;
-      V8f r = load8(light), g = load8(light + stride), b = load8(light + 2 * stride);
+      VFloat r = loadV<L>(light), g = loadV<L>(light + stride), b = loadV<L>(light + 2 * stride);
       if (kSubtract && d < kSwept) {  // std::max(light - direct, 0)
-        const float* direct = s.direct[size_t(d)] + x;
-        r = r - load8(direct);
-        g = g - load8(direct + stride);
-        b = b - load8(direct + 2 * stride);
-        r = r < 0.f ? V8f{} : r;
-        g = g < 0.f ? V8f{} : g;
-        b = b < 0.f ? V8f{} : b;
+        // Without the sun's light in this bin, light - 0 is light, bit for bit (-0 - +0 is -0).
+        if (const float* direct = s.direct[size_t(d)]) {
+          direct += x;
+          r = r - loadV<L>(direct);
+          g = g - loadV<L>(direct + stride);
+          b = b - loadV<L>(direct + 2 * stride);
+        }
+        r = r < 0.f ? VFloat{} : r;
+        g = g < 0.f ? VFloat{} : g;
+        b = b < 0.f ? VFloat{} : b;
       }
-      store8(codes + size_t(d) * code_stride + size_t(x), packR11G11B10x8(r, g, b));
+      storeV(codes + size_t(d) * code_stride + size_t(x), packR11G11B10V<L>(r, g, b));
       sr += r;
       sg += g;
       sb += b;
-      const V8f l = 0.2126f * r + 0.7152f * g + 0.0722f * b;
+      const VFloat l = 0.2126f * r + 0.7152f * g + 0.0722f * b;
       sl += l;
       sx += l * s.from_x[size_t(d)];
       sy += l * s.from_y[size_t(d)];
       sz += l * s.from_z[size_t(d)];
     }
     if constexpr (kFinish) {
-      store8(average + x, packR11G11B10x8(sr / kFourPi, sg / kFourPi, sb / kFourPi));
+      storeV(average + x, packR11G11B10V<L>(sr / kFourPi, sg / kFourPi, sb / kFourPi));
       const auto lit = sl > 0.f;
-      const V8f dx = lit ? sx / sl : V8f{}, dy = lit ? sy / sl : V8f{}, dz = lit ? sz / sl : V8f{};
-      store8(dominant + x, snormByte8(dx) | (snormByte8(dy) << 8) | (snormByte8(dz) << 16));
+      const VFloat dx = lit ? sx / sl : VFloat{}, dy = lit ? sy / sl : VFloat{}, dz = lit ? sz / sl : VFloat{};
+      storeV(dominant + x, snormByteV<L>(dx) | (snormByteV<L>(dy) << 8) | (snormByteV<L>(dz) << 16));
     } else {
       int row = 0;
-      for (const V8f v : {sr, sg, sb, sl, sx, sy, sz}) store8(sums + size_t(row++) * sum_stride + size_t(x), v);
+      for (const VFloat v : {sr, sg, sb, sl, sx, sy, sz}) storeV(sums + size_t(row++) * sum_stride + size_t(x), v);
     }
   }
 }
+#if DRTV_SWEEP_DISPATCH
+template <bool kSubtract, bool kFinish, bool kResume>
+__attribute__((target("arch=x86-64-v4"))) void storeCellsV4(DRTV_SWEEP_STORE_PARAMS) {
+  storeCellsBody<kSubtract, kFinish, kResume, 16>(DRTV_SWEEP_STORE_ARGS);
+}
+template <bool kSubtract, bool kFinish, bool kResume>
+__attribute__((target("avx2"))) void storeCellsAvx2(DRTV_SWEEP_STORE_PARAMS) {
+  storeCellsBody<kSubtract, kFinish, kResume, 8>(DRTV_SWEEP_STORE_ARGS);
+}
+#endif
+template <bool kSubtract, bool kFinish, bool kResume = false>
+void storeCells(DRTV_SWEEP_STORE_PARAMS) {
+#if DRTV_SWEEP_DISPATCH
+  switch (isa()) {
+    case Isa::kV4: return storeCellsV4<kSubtract, kFinish, kResume>(DRTV_SWEEP_STORE_ARGS);
+    case Isa::kAvx2: return storeCellsAvx2<kSubtract, kFinish, kResume>(DRTV_SWEEP_STORE_ARGS);
+    case Isa::kBase: break;
+  }
+#endif
+  storeCellsBody<kSubtract, kFinish, kResume, 8>(DRTV_SWEEP_STORE_ARGS);
+}
+#undef DRTV_SWEEP_STORE_PARAMS
+#undef DRTV_SWEEP_STORE_ARGS
 
 // The bottom-up pass in a row of n cells, for one up-going direction: its gathered light v (3 rows,
 // channels `stride` apart) passes the cell as T (row t) plus what the cell reflects up (e, 3 rows
@@ -426,9 +512,6 @@ DRTV_SWEEP_CLONES void upCells(int n, float* __restrict v, size_t stride, const 
   }
 }
 
-// The most material cells one tap's path crosses (makePath; checked in Sweeper::setUp).
-constexpr int kMaxCrossed = 8;
-
 // One direction's gather along a row of n cells, its 3 channels at once (channel c's rows are
 // c * stride after channel 0's): a[x] = the sum over the taps t, in tap order (the reference's
 // order of accumulation), of w_t[x] s[t][x], where
@@ -444,48 +527,72 @@ struct TapRows {
   size_t stride = 0;
 };
 
-[[gnu::always_inline]] inline V8f splat8(float v) {
-  V8f r;
-  for (int i = 0; i < kLanes; ++i) r[i] = v;
+template <int L>
+[[gnu::always_inline]] inline typename Vec<L>::F splatV(float v) {
+  typename Vec<L>::F r;
+  for (int i = 0; i < L; ++i) r[i] = v;
   return r;
 }
 
-// Tap t's weights at cells x..x + kLanes - 1 (gatherRow).
-[[gnu::always_inline]] inline V8f tapWeight(const TapRows& g, int nf, int t, int x, const V8f& w) {
+// Tap t's weights at cells x..x + L - 1 (gatherRow).
+template <int L>
+[[gnu::always_inline]] inline typename Vec<L>::F tapWeight(const TapRows& g, int nf, int t, int x, const typename Vec<L>::F& w) {
   if (nf == 0) return w;
   const std::array<const float*, kMaxCrossed>& f = g.f[size_t(t)];
-  V8f p = load8(f[0] + x);
-  for (int c = 1; c < nf; ++c) p = p * load8(f[size_t(c)] + x);
+  typename Vec<L>::F p = loadV<L>(f[0] + x);
+  for (int c = 1; c < nf; ++c) p = p * loadV<L>(f[size_t(c)] + x);
   return w * p;
 }
 
 // The weights' rows of the first version: a row of each crossed factor, multiplied in, then the
 // tap's weight; one loop per tap and channel: with 3 channels and the weights in registers, 8 %
 // of the sweep's instructions go.
-template <bool kVarying>
-DRTV_SWEEP_CLONES void gatherRow(int n, const TapRows& g) {
+template <bool kVarying, int L>
+[[gnu::always_inline]] inline void gatherRowBody(int n, const TapRows& g) {
+  using VFloat = typename Vec<L>::F;
   const float *s0 = g.s[0], *s1 = g.s[1], *s2 = g.s[2], *s3 = g.s[3], *s4 = g.s[4];
   float* __restrict a = g.a;
   const size_t stride = g.stride;
   // Copies: the stores through `a` could alias g's weights for all the compiler knows.
-  const V8f c0 = splat8(g.w[0]), c1 = splat8(g.w[1]), c2 = splat8(g.w[2]), c3 = splat8(g.w[3]), c4 = splat8(g.w[4]);
+  const VFloat c0 = splatV<L>(g.w[0]), c1 = splatV<L>(g.w[1]), c2 = splatV<L>(g.w[2]), c3 = splatV<L>(g.w[3]), c4 = splatV<L>(g.w[4]);
   const int nf0 = g.nf[0], nf1 = g.nf[1], nf2 = g.nf[2], nf3 = g.nf[3], nf4 = g.nf[4];
-  for (int x = 0; x < n; x += kLanes) {
-    const V8f w[kTaps] = {kVarying ? tapWeight(g, nf0, 0, x, c0) : c0, kVarying ? tapWeight(g, nf1, 1, x, c1) : c1,
-                          kVarying ? tapWeight(g, nf2, 2, x, c2) : c2, kVarying ? tapWeight(g, nf3, 3, x, c3) : c3,
-                          kVarying ? tapWeight(g, nf4, 4, x, c4) : c4};
+  for (int x = 0; x < n; x += L) {
+    const VFloat w[kTaps] = {kVarying ? tapWeight<L>(g, nf0, 0, x, c0) : c0, kVarying ? tapWeight<L>(g, nf1, 1, x, c1) : c1,
+                          kVarying ? tapWeight<L>(g, nf2, 2, x, c2) : c2, kVarying ? tapWeight<L>(g, nf3, 3, x, c3) : c3,
+                          kVarying ? tapWeight<L>(g, nf4, 4, x, c4) : c4};
     for (size_t c = 0; c < 3; ++c) {
       const size_t at = c * stride + size_t(x);
-      const V8f v = w[0] * load8(s0 + at) + w[1] * load8(s1 + at) + w[2] * load8(s2 + at) + w[3] * load8(s3 + at) + w[4] * load8(s4 + at);
-      if (x + kLanes <= n) {
-        store8(a + at, v);
+      const VFloat v = w[0] * loadV<L>(s0 + at) + w[1] * loadV<L>(s1 + at) + w[2] * loadV<L>(s2 + at) + w[3] * loadV<L>(s3 + at) + w[4] * loadV<L>(s4 + at);
+      if (x + L <= n) {
+        storeV(a + at, v);
       } else {
-        float tail[kLanes];
-        store8(tail, v);
+        float tail[L];
+        storeV(tail, v);
         std::copy_n(tail, n - x, a + at);
       }
     }
   }
+}
+#if DRTV_SWEEP_DISPATCH
+template <bool kVarying>
+__attribute__((target("arch=x86-64-v4"))) void gatherRowV4(int n, const TapRows& g) {
+  gatherRowBody<kVarying, 16>(n, g);
+}
+template <bool kVarying>
+__attribute__((target("avx2"))) void gatherRowAvx2(int n, const TapRows& g) {
+  gatherRowBody<kVarying, 8>(n, g);
+}
+#endif
+template <bool kVarying>
+void gatherRow(int n, const TapRows& g) {
+#if DRTV_SWEEP_DISPATCH
+  switch (isa()) {
+    case Isa::kV4: return gatherRowV4<kVarying>(n, g);
+    case Isa::kAvx2: return gatherRowAvx2<kVarying>(n, g);
+    case Isa::kBase: break;
+  }
+#endif
+  gatherRowBody<kVarying, 8>(n, g);
 }
 
 // The batch's rows for the reflection (Sweeper::interactRow), per cell of a span: the cell's
@@ -645,8 +752,8 @@ class Sweeper {
     codes_.assign(size_t(kDirections) * stride_, 0u);
     // Rows of w_ floats like the level buffers', so that every row storeCells reads has its
     // channels w_ apart.
-    up_half_.assign(size_t(3 * kUp) * size_t(w_), 0.f);
-    zeros_.assign(3 * size_t(w_), 0.f);
+    // kLanes more: storeCells reads the last row past nx rounded up to kLanes, which can pass w_.
+    up_half_.assign(size_t(3 * kUp) * size_t(w_) + kLanes, 0.f);
     store_rows_.stride = size_t(w_);
     average_.assign(stride_, 0u);
     dominant_.assign(stride_, 0u);
@@ -719,9 +826,15 @@ class Sweeper {
       for (int t = 0; t < kTaps; ++t) path.taps[size_t(t)].w = t == 0 ? o_.smoothing : (1.f - o_.smoothing) / 4.f;  // as makePath
       for (Tap& t : path.taps) {
         DRTV_CHECK_LE(t.crossed.size(), size_t(kMaxCrossed));
-        for (Crossed& c : t.crossed) {
+        for (size_t i = 0; i < t.crossed.size(); ++i) {
+          Crossed& c = t.crossed[i];
           c.len_id = lengthId(crossed_len_, c.len);
           c.offset = ptrdiff_t(c.len_id) * ptrdiff_t(plane_) + ptrdiff_t(c.dy) * w_ + kPad + c.dx;
+          DRTV_CHECK(c.dy >= -kPad && c.dy <= kPad);
+          t.offset[i] = c.offset;
+          t.bit[i] = uint8_t((c.src_level ? kRowBits : 0) + c.dy + kPad);
+          t.src_level[i] = c.src_level;
+          t.mask |= 1u << t.bit[i];
         }
       }
       path.target_len_id = lengthId(target_len_, path.target_len);
@@ -783,8 +896,16 @@ class Sweeper {
     const size_t row = size_t(j + kPad) * size_t(w_);
     const float* rows_target = f_target ? f_target + row : nullptr;
     const float* rows_src = f_src ? f_src + row : nullptr;
-    const uint8_t* lit_target = row_has_material_.data() + size_t(k) * size_t(h_) + size_t(j + kPad);
-    const uint8_t* lit_src = src_in ? row_has_material_.data() + size_t(k_src) * size_t(h_) + size_t(j + kPad) : nullptr;
+    // Bit kPad + dy (kRowBits + kPad + dy): row j + dy of the target's (source's) level holds
+    // material and has factors.
+    uint64_t lit = 0;
+    for (int dy = -kPad; dy <= kPad; ++dy) {
+      const size_t r = size_t(j + kPad + dy);
+      if (rows_target && row_has_material_[size_t(k) * size_t(h_) + r]) lit |= uint64_t(1) << (kPad + dy);
+      if (rows_src && row_has_material_[size_t(k_src) * size_t(h_) + r]) lit |= uint64_t(1) << (kRowBits + kPad + dy);
+    }
+    // A pointer that is never read where a level has no factors (its bits are 0).
+    const float* rows[2] = {rows_target ? rows_target : sigma_.data(), rows_src ? rows_src : sigma_.data()};
     TapRows g;
     for (size_t b = 0; b < p.bins.size(); ++b) {
       const BinPath& path = p.paths[b];
@@ -793,12 +914,24 @@ class Sweeper {
         const Tap& tap = path.taps[size_t(t)];
         g.w[size_t(t)] = tap.w;
         int nf = 0;
-        for (const Crossed& c : tap.crossed) {
-          const float* f = c.src_level ? rows_src : rows_target;
-          if (f && (c.src_level ? lit_src : lit_target)[c.dy]) g.f[size_t(t)][size_t(nf++)] = f + c.offset;
+        if (tap.mask & lit) {
+          // Branch-free, in the crossed cells' order (the order the factors multiply in).
+          for (size_t c = 0; c < tap.crossed.size(); ++c) {
+            g.f[size_t(t)][size_t(nf)] = rows[tap.src_level[c]] + tap.offset[c];
+            nf += int((lit >> tap.bit[c]) & 1u);
+          }
         }
         g.nf[size_t(t)] = nf;
         any = any || nf > 0;
+      }
+      if (prefetch_) {
+        // The row's grid words, written by storeRow after the gathers: their cache lines fetched
+        // a few at a time during the gathers. Fetched all at once, the prefetches stalled on the
+        // line fill buffers; not at all, the transposition's stores waited on them (18 % of a
+        // re-sweep's samples).
+        const size_t bytes = size_t(nx_) * kDirections * sizeof(uint32_t), lines = (bytes + 63) / 64;
+        const size_t per_bin = (lines + p.bins.size() - 1) / p.bins.size();
+        for (size_t l = b * per_bin; l < std::min(lines, (b + 1) * per_bin); ++l) __builtin_prefetch(prefetch_ + 64 * l, 1, 3);
       }
       gatherDirection(p, b, path, any, j, g);
       if (q && direct_of_bin_[size_t(path.bin)] >= 0) gatherDirection(*q, size_t(direct_of_bin_[size_t(path.bin)]), path, any, j, g);
@@ -821,7 +954,9 @@ class Sweeper {
 
   void level(int k, SweptGrid& out) {
     for (int j = 0; j < g_.size.y; ++j) {
+      prefetch_ = reinterpret_cast<const char*>(out.light.light.data() + g_.index(0, j, k) * kDirections);
       gather(full_, direct_.bins.empty() ? nullptr : &direct_, k, k + 1, j);
+      prefetch_ = nullptr;
       interactRow(k, j);
       storeRow(k, j, out);
       // What the cells with material send on replaces what they stored.
@@ -939,7 +1074,7 @@ class Sweeper {
       const float* r = full_.dstRow(size_t(3 * b), j + kPad) + kPad;
       rows.light[size_t(b)] = r;
       const int d = direct_of_bin_[size_t(b)];
-      rows.direct[size_t(b)] = d >= 0 ? direct_.dstRow(size_t(3 * d), j + kPad) + kPad : zeros_.data();
+      rows.direct[size_t(b)] = d >= 0 ? direct_.dstRow(size_t(3 * d), j + kPad) + kPad : nullptr;
     }
     if (out.direct)
       for (size_t d = 0; d < direct_.bins.size(); ++d) {
@@ -1076,12 +1211,12 @@ class Sweeper {
   // The row's words, direction-major (kDirections rows of nx), transposed into the grid
   // (transposeCodes).
   std::vector<uint32_t> codes_;
+  const char* prefetch_ = nullptr;  // the grid's words of the row being swept (level)
   size_t stride_ = 0;             // nx_ rounded up to kLanes: the rows of codes_, average_, down_sums_
   // 3 kUp rows of w_: the up-going light as stored (the cells' reflection halved, or with
   // bottom_up what bottomUp carried up), read by storeCells.
   std::vector<float> up_half_;
   int half_lo_ = 0, half_n_ = 0;  // the cells of up_half_ not 0: the last row's span
-  std::vector<float> zeros_;     // 3 rows of 0: the sun's unscattered light of a bin without it
   std::vector<uint32_t> average_, dominant_;  // one row each: storeCells' words before the grid's
   StoreRows store_rows_;
   int span_lo_ = 0, span_n_ = 0;  // the row's span of cells with material (interactRow)

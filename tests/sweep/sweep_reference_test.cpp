@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <cstdlib>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -160,6 +161,43 @@ TEST(SweepOptimised, AgreesWithTheReferenceUnderACoarseGrid) {
     expectSameSweep(sweep(fine_m, sky, &coarse_sun, o), reference::sweepReference(fine_m, sky, &coarse_sun, o),
                     "parent with direct sun, bottom_up " + std::to_string(bottom_up));
   }
+}
+
+// FNV-1a (64 bits) over the bytes of every stored word, little-endian: light, average and dominant
+// direction, then the direct grid's.
+uint64_t hashWords(const std::vector<uint32_t>& words, uint64_t h) {
+  for (const uint32_t w : words)
+    for (int i = 0; i < 4; ++i) {
+      h ^= (w >> (8 * i)) & 0xffu;
+      h *= 1099511628211ull;
+    }
+  return h;
+}
+uint64_t hashGrid(const SweptGrid& g) {
+  uint64_t h = 14695981039346656037ull;
+  for (const LightGrid* grid : {&g.light, g.direct ? &*g.direct : nullptr})
+    if (grid) h = hashWords(grid->dominant, hashWords(grid->average, hashWords(grid->light, h)));
+  return h;
+}
+
+// The stored words pinned: the hashes of main's sweep at 8d5a99d (8-lane AVX2 code), which the
+// 16-lane AVX-512 code, the AVX2 code and the baseline code all reproduce (docs/sweep.md, third
+// round). A change to the model, or to the order of its float operations, changes them; re-pin
+// only with the reason and the size of the difference (the test above bounds it). They also
+// depend on libm's expf, log1pf and sqrtf (glibc here).
+TEST(SweepOptimised, StoredWordsArePinnedUnderEveryOption) {
+  const GridShape s{{3.0, -7.0, 1.0}, 1.0, {23, 19, 12}};
+  const MaterialGrid m = mixedMaterial(s, 11);
+  const SkyInput sky = morningSky();
+  // Index: bottom_up + 2 direct_sun + 4 keep_direct.
+  constexpr uint64_t kPinned[8] = {0xcb40b9cf37bbca2full, 0x13ddc4d419fc349dull, 0xa672fe5dd6cca01full, 0xd00a6eeffd561077ull,
+                                   0x9ad38a3d9b983f89ull, 0x869a16253811a637ull, 0x2d72c2e55f1723d9ull, 0x7da9ef30a3424de1ull};
+  for (int i = 0; i < 8; ++i)
+    EXPECT_EQ(hashGrid(sweep(m, sky, nullptr, options(i & 1, i & 2, i & 4))), kPinned[i]) << "options " << i;
+  const GridShape coarse_s{{-64.0, -64.0, -8.0}, 8.0, {16, 16, 5}};
+  const SweptGrid coarse = sweep(mixedMaterial(coarse_s, 5), sky, nullptr, options(false, false, true));
+  const GridShape fine_s{{-13.5, 40.25, -3.0}, 1.0, {30, 27, 14}};
+  EXPECT_EQ(hashGrid(sweep(mixedMaterial(fine_s, 7), sky, &coarse, {})), 0x39782b5e8aac8afaull) << "under a coarse grid";
 }
 
 // sweepInto refills a grid that holds another sweep (other options, another sky, another shape,

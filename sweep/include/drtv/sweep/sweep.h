@@ -43,8 +43,8 @@
 //    scattered light plus the sky's.
 //
 // Deterministic: a fixed order of operations, no threads inside; its row loops give the same bytes
-// as AVX2 or baseline x86-64 code (the same operations in the same order, no FMA: compared on the
-// benchmark's sector under every option). Thread-safe (no shared state beyond read-only tables
+// as AVX-512, AVX2 or baseline x86-64 code (the same operations in the same order, no FMA:
+// compared on the benchmark's sector under every option). Thread-safe (no shared state beyond read-only tables
 // built once).
 #pragma once
 

@@ -36,8 +36,17 @@ struct AlignedFloats {
   }
 };
 
+// A source that carried light in a slot's relight, and how much (what relightChangedLights compares).
+struct LitSource {
+  size_t j;  // index into the slot's LPRT sources
+  glm::vec3 colour;
+  friend bool operator==(const LitSource&, const LitSource&) = default;
+};
+
 struct Slot {
   bool used = false;
+  bool relit = false;             // relit since it was added
+  std::vector<LitSource> lit;     // the lit sources of its last relight, in source order
   SectorKey key{};
   int count = 0;
   glm::dvec2 origin{0.0};
@@ -275,8 +284,21 @@ struct ProbeCache::Impl {
     }
   }
 
+  uint64_t slot_relights = 0;  // relightSlot calls (slotRelightCount)
+
   std::vector<LightShare> distribute(std::span<const PointLight> lights) const;
   void setLights(std::span<const PointLight> lights);
+  // The sources of slot `s` that the current light shares light, in source order (all of a
+  // slot's dependence on the lights: relightSlot reads nothing else of them).
+  void litSources(int s, const RelightInput& li, std::vector<LitSource>& lit) const {
+    lit.clear();
+    if (!(li.components & kComponentLocalLights) || touched.empty()) return;
+    const Slot& sl = slots[s];
+    for (size_t j = 0; j < sl.sources.size(); ++j) {
+      const int id = sl.source_ids[j];
+      if (id >= 0 && light_colour[id] != glm::vec3(0.f)) lit.push_back({j, light_colour[id]});
+    }
+  }
   void relightSlot(int s, const RelightInput& in);
 };
 
@@ -573,16 +595,10 @@ void ProbeCache::Impl::relightSlot(int s, const RelightInput& li) {
       direct[c][b] = li.components & kComponentDirectSky ? glm::dot(sh::cosineLobe(sh::kBasis[b]), li.sky_direct_sh[c]) : 0.f;
   }
   // Local lights: only sources that received light cost anything.
-  struct Active {
-    size_t j;
-    glm::vec3 colour;
-  };
-  std::vector<Active> active;
-  if ((li.components & kComponentLocalLights) && !touched.empty())
-    for (size_t j = 0; j < sl.sources.size(); ++j) {
-      const int id = sl.source_ids[j];
-      if (id >= 0 && light_colour[id] != glm::vec3(0.f)) active.push_back({j, light_colour[id]});
-    }
+  litSources(s, li, sl.lit);
+  sl.relit = true;
+  ++slot_relights;
+  const std::vector<LitSource>& active = sl.lit;
   const bool lprt = !active.empty();
   const int stride = this->stride(s);
   const int n16 = (n + 15) & ~15;
@@ -624,7 +640,7 @@ void ProbeCache::Impl::relightSlot(int s, const RelightInput& li) {
     if (lprt) {
       thread_local std::vector<float> scratch;
       scratch.assign(size_t(12) * stride, 0.f);
-      for (const Active& a : active) {
+      for (const LitSource& a : active) {
         float colour[12];
         for (int c = 0; c < 3; ++c)
           for (int k = 0; k < 4; ++k) colour[c * 4 + k] = a.colour[c];
@@ -651,7 +667,7 @@ void ProbeCache::Impl::relightSlot(int s, const RelightInput& li) {
       scratch.assign(size_t(12) * stride, 0.f);
       acc = scratch.data();
     }
-    for (const Active& a : active) {
+    for (const LitSource& a : active) {
       float colour[12];
       for (int c = 0; c < 3; ++c)
         for (int k = 0; k < 4; ++k) colour[c * 4 + k] = a.colour[c];
@@ -679,6 +695,26 @@ void ProbeCache::relightAll(const RelightInput& in) {
   for (size_t s = 0; s < m.slots.size(); ++s)
     if (m.slots[s].used) m.relightSlot(int(s), in);
 }
+
+std::vector<int> ProbeCache::relightChangedLights(const RelightInput& in) {
+  Impl& m = *impl_;
+  m.setLights(in.components & kComponentLocalLights ? in.lights : std::span<const PointLight>{});
+  std::vector<int> relit;
+  thread_local std::vector<LitSource> now;
+  for (size_t s = 0; s < m.slots.size(); ++s) {
+    Slot& sl = m.slots[s];
+    if (!sl.used) continue;
+    if (sl.relit) {
+      m.litSources(int(s), in, now);
+      if (now == sl.lit) continue;  // the same shares on the same sources: the same colours
+    }
+    m.relightSlot(int(s), in);
+    relit.push_back(int(s));
+  }
+  return relit;
+}
+
+uint64_t ProbeCache::slotRelightCount() const { return impl_->slot_relights; }
 
 void ProbeCache::relightSector(SectorKey key, const RelightInput& in) {
   Impl& m = *impl_;

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <mutex>
+#include <vector>
 
 namespace drtv::runtime {
 
@@ -44,8 +45,12 @@ void PublishedVolume::update(const glm::ivec3& origin, const ProbeCache& cache) 
       if (e.seq > b.seen && e.all) relit = true;
     auto catchUp = [&] {
       b.volume.scrollTo(origin, cache);
+      // A refill reads the cache as it is now, so a sector named by several missed events (lights
+      // moving frame after frame) is refilled once.
+      std::vector<SectorKey> keys;
       for (const Event& e : events_)
-        if (e.seq > b.seen) b.volume.refillSector(e.key, cache);
+        if (e.seq > b.seen && std::find(keys.begin(), keys.end(), e.key) == keys.end()) keys.push_back(e.key);
+      for (SectorKey k : keys) b.volume.refillSector(k, cache);
       b.seen = next_event_ - 1;
     };
     const int n_z = b.volume.period().z;

@@ -162,6 +162,19 @@ class ProbeCache {
   // resident source probes, but other sectors keep their colours until the next relightAll.
   void relightSector(SectorKey key, const RelightInput& in);
 
+  // Redistributes `in.lights` and relights only the slots whose lit sources (the sources with a
+  // light share, and their shares) differ from those of the slot's own last relight, plus any slot
+  // never relit; returns those slots in slot order. A light reaches a slot only through its LPRT
+  // sources, so a slot none of whose sources a moved light's old or new shares land on keeps its
+  // colours. Precondition: the rest of `in` (sky, sun, components) is that of every slot's last
+  // relight; then every slot's colours equal relightAll(in)'s bit for bit (the same sums in the
+  // same order). This also catches slots whose sources' shares changed because a sector streamed
+  // in or left (which relightSector leaves stale).
+  std::vector<int> relightChangedLights(const RelightInput& in);
+  // Slot relights done so far by relightAll, relightSector and relightChangedLights (for tests
+  // and benchmarks of "relight only what the lights reach").
+  uint64_t slotRelightCount() const;
+
   // The shares of `lights` on resident LPRT source probes (see the header comment).
   std::vector<LightShare> distributeLights(std::span<const PointLight> lights) const;
 

@@ -762,18 +762,45 @@ DRTV_HOT_CLONES void packPlanes(const float* __restrict p0, const float* __restr
 }
 }  // namespace
 
-void ProbeCache::packSlot(int s) {
+std::bitset<kSlotProbes> ProbeCache::packSlot(int s) {
   Impl& m = *impl_;
   const Slot& sl = m.slots[s];
   const float inv = 1.f / m.scale;
   const bool sh_l1 = m.opt.representation == Representation::kShL1;
   uint32_t* out = m.packed.data() + size_t(s) * kSlotProbes * 3;
+  std::bitset<kSlotProbes> changed;
   std::array<uint32_t, kSlotProbes> channel;
   for (int c = 0; c < 3; ++c) {
     packPlanes(m.outPlane(s, c * 4 + 0), m.outPlane(s, c * 4 + 1), m.outPlane(s, c * 4 + 2), m.outPlane(s, c * 4 + 3), sl.count, inv,
                sh_l1, channel.data());
-    for (int i = 0; i < sl.count; ++i) out[i * 3 + c] = channel[size_t(i)];
+    for (int i = 0; i < sl.count; ++i) {
+      if (out[i * 3 + c] != channel[size_t(i)]) changed.set(size_t(i));
+      out[i * 3 + c] = channel[size_t(i)];
+    }
   }
+  return changed;
+}
+
+ProbeCache::WorldBox ProbeCache::cellsNaming(int s, const std::bitset<kSlotProbes>& probes) const {
+  DRTV_CHECK(slotUsed(s));
+  const Slot& sl = impl_->slots[s];
+  glm::ivec3 lo(kGridDim), hi(-1);
+  for (int z = 0; z < kGridDim; ++z)
+    for (int y = 0; y < kGridDim; ++y)
+      for (int x = 0; x < kGridDim; ++x) {
+        const uint8_t p = sl.nearest[IndexGrid::cellIndex(x, y, z)];
+        if (p == kNoProbe || !probes.test(p)) continue;
+        lo = glm::min(lo, glm::ivec3(x, y, z));
+        hi = glm::max(hi, glm::ivec3(x, y, z));
+      }
+  WorldBox b;
+  if (hi.x < 0) return b;
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  b.lo = {sl.origin.x + lo.x * kGridCellSizeM, sl.origin.y + lo.y * kGridCellSizeM,
+          lo.z == 0 ? -kInf : sl.z_min + double(lo.z) * sl.cell_h};
+  b.hi = {sl.origin.x + (hi.x + 1) * kGridCellSizeM, sl.origin.y + (hi.y + 1) * kGridCellSizeM,
+          hi.z == kGridDim - 1 ? kInf : sl.z_min + double(hi.z + 1) * sl.cell_h};
+  return b;
 }
 
 void ProbeCache::pack(float hdr_scale) {

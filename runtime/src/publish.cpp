@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <mutex>
 #include <vector>
 
@@ -19,7 +20,15 @@ void PublishedVolume::invalidateAll() {
   events_.push_back({next_event_++, true, {}});
 }
 
-void PublishedVolume::invalidateSector(SectorKey k) { events_.push_back({next_event_++, false, k}); }
+void PublishedVolume::invalidateSector(SectorKey k) {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  const glm::dvec3 lo(k.ix * kSectorSizeM, k.iy * kSectorSizeM, -kInf);
+  events_.push_back({next_event_++, false, k, lo, glm::dvec3(lo.x + kSectorSizeM, lo.y + kSectorSizeM, kInf)});
+}
+
+void PublishedVolume::invalidateBox(SectorKey k, const glm::dvec3& lo, const glm::dvec3& hi) {
+  events_.push_back({next_event_++, false, k, lo, hi});
+}
 
 namespace {
 // What an update of a time-sliced refill blurs, in layers of `n_z`: the updates share the fill
@@ -46,11 +55,23 @@ void PublishedVolume::update(const glm::ivec3& origin, const ProbeCache& cache) 
     auto catchUp = [&] {
       b.volume.scrollTo(origin, cache);
       // A refill reads the cache as it is now, so a sector named by several missed events (lights
-      // moving frame after frame) is refilled once.
-      std::vector<SectorKey> keys;
-      for (const Event& e : events_)
-        if (e.seq > b.seen && std::find(keys.begin(), keys.end(), e.key) == keys.end()) keys.push_back(e.key);
-      for (SectorKey k : keys) b.volume.refillSector(k, cache);
+      // moving frame after frame) is refilled once, over the union of their boxes.
+      struct Box {
+        SectorKey key;
+        glm::dvec3 lo, hi;
+      };
+      std::vector<Box> boxes;
+      for (const Event& e : events_) {
+        if (e.seq <= b.seen) continue;
+        auto it = std::find_if(boxes.begin(), boxes.end(), [&](const Box& x) { return x.key == e.key; });
+        if (it == boxes.end()) {
+          boxes.push_back({e.key, e.lo, e.hi});
+        } else {
+          it->lo = glm::min(it->lo, e.lo);
+          it->hi = glm::max(it->hi, e.hi);
+        }
+      }
+      for (const Box& x : boxes) b.volume.refillBox(x.lo, x.hi, cache);
       b.seen = next_event_ - 1;
     };
     const int n_z = b.volume.period().z;

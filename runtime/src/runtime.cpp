@@ -127,9 +127,19 @@ void Runtime::relightMovedLights() {
     ++light_rescales_;
     return;
   }
+  // The nearest fill reads a probe's packed texels only: refill the cells that name a probe whose
+  // texels changed (a moving light changes few by a step of 8 bits). The smooth fill reads the
+  // float colours: refill the sector.
+  const bool nearest = options_.volume.fill == FillMode::kNearest;
   for (int s : slots) {
-    cache_.packSlot(s);
-    volume_.invalidateSector(cache_.slot(s).key);
+    const std::bitset<kSlotProbes> changed = cache_.packSlot(s);
+    const SectorKey key = cache_.slot(s).key;
+    if (!nearest) {
+      volume_.invalidateSector(key);
+    } else if (changed.any()) {
+      const ProbeCache::WorldBox box = cache_.cellsNaming(s, changed);
+      if (!box.empty()) volume_.invalidateBox(key, box.lo, box.hi);
+    }
   }
 }
 

@@ -54,6 +54,7 @@
 #pragma once
 
 #include <array>
+#include <bitset>
 #include <cstdint>
 #include <memory>
 #include <span>
@@ -186,7 +187,18 @@ class ProbeCache {
   // colour / hdr_scale)); kShL1 as representation.h. The fallback colours (what a volume texel
   // with no probe holds) are packed too.
   void pack(float hdr_scale);
-  void packSlot(int slot);  // with the scale of the last pack()
+  // One slot with the scale of the last pack(); returns the probes whose packed texels changed
+  // (the only ones whose nearest-fill volume texels change).
+  std::bitset<kSlotProbes> packSlot(int slot);
+  // The world box (metres) of the index-grid cells of used `slot` that name a probe in `probes`:
+  // the texels whose nearest fill takes one of them. z is open below (-inf) when the grid's bottom
+  // layer names one and above (+inf) when its top layer does (look-ups clamp into the grid). Empty
+  // (lo.x > hi.x) when no cell names one. O(16^3).
+  struct WorldBox {
+    glm::dvec3 lo{0.0}, hi{-1.0};
+    bool empty() const { return lo.x > hi.x; }
+  };
+  WorldBox cellsNaming(int slot, const std::bitset<kSlotProbes>& probes) const;
   float packedScale() const;
   Representation representation() const;
   void setFallback(const BasisColours& colours);

@@ -43,6 +43,9 @@ class PublishedVolume {
   // Content changes the buffers must replay (writer thread).
   void invalidateAll();               // relit or rescaled: every texel
   void invalidateSector(SectorKey k); // one sector streamed in, was relit alone, or left
+  // Part of sector k's footprint: the texels whose centres lie in [lo, hi] (world metres; z may
+  // be infinite), as Volume::refillBox. Its probes changed there only.
+  void invalidateBox(SectorKey k, const glm::dvec3& lo, const glm::dvec3& hi);
 
   // Brings the back buffer to `origin` and the current content of `cache`, then publishes it.
   void update(const glm::ivec3& origin, const ProbeCache& cache);
@@ -73,6 +76,7 @@ class PublishedVolume {
     uint64_t seq;
     bool all;
     SectorKey key;
+    glm::dvec3 lo, hi;  // the part of key's footprint (the whole sector for invalidateSector)
   };
   struct Buffer {
     Volume volume;

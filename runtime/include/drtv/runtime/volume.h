@@ -106,6 +106,10 @@ class Volume {
   void scrollTo(const glm::ivec3& origin, const ProbeCache& cache);
   // Refills the texels inside sector `key`'s footprint (after it streamed in, was relit or left).
   void refillSector(SectorKey key, const ProbeCache& cache);
+  // Refills the texels whose centres lie in the world box [lo, hi] (metres; z may be infinite),
+  // widened as refillSector widens a sector (the smooth fill's reach, the blur's), and not beyond
+  // the covered range. Afterwards those texels equal rebuild()'s, if the cache changed there only.
+  void refillBox(const glm::dvec3& lo, const glm::dvec3& hi, const ProbeCache& cache);
 
   // RGBA8 texels of channel c (0 = R, 1 = G, 2 = B), layout as in the header.
   std::span<const uint32_t> texture(int channel) const { return texels_[channel]; }

@@ -52,6 +52,9 @@ struct Slot {
   glm::dvec2 origin{0.0};
   float z_min = 0.f, cell_h = 1.f;
   std::array<uint8_t, kGridCells> nearest{};
+  // Per probe, the bounds of the cells `nearest` names it in: x0, y0, z0, x1, y1, z1 (inclusive;
+  // x0 > x1 when none), so that cellsNaming is a union over the changed probes.
+  std::vector<std::array<uint8_t, 6>> cell_bounds;
   std::vector<glm::vec3> position;  // sector-relative x, y; world z
   std::vector<uint16_t> flags, interior;
   std::vector<float> height;
@@ -434,6 +437,16 @@ Result<void> ProbeCache::addSector(const Sector& sector) {
         }
         sl.nearest[cell] = p;
       }
+  sl.cell_bounds.assign(size_t(n), {uint8_t(kGridDim), uint8_t(kGridDim), uint8_t(kGridDim), 0, 0, 0});
+  for (int z = 0; z < kGridDim; ++z)
+    for (int y = 0; y < kGridDim; ++y)
+      for (int x = 0; x < kGridDim; ++x) {
+        const uint8_t p = sl.nearest[IndexGrid::cellIndex(x, y, z)];
+        if (p >= n) continue;
+        std::array<uint8_t, 6>& b = sl.cell_bounds[p];
+        const uint8_t c[3] = {uint8_t(x), uint8_t(y), uint8_t(z)};
+        for (int a = 0; a < 3; ++a) b[a] = std::min(b[a], c[a]), b[3 + a] = std::max(b[3 + a], c[a]);
+      }
   if (sources > 0) {
     // Transposed once to planes per source, so that a lit source is 12 streams over the probes.
     const int stride = m.stride(s);
@@ -785,14 +798,13 @@ ProbeCache::WorldBox ProbeCache::cellsNaming(int s, const std::bitset<kSlotProbe
   DRTV_CHECK(slotUsed(s));
   const Slot& sl = impl_->slots[s];
   glm::ivec3 lo(kGridDim), hi(-1);
-  for (int z = 0; z < kGridDim; ++z)
-    for (int y = 0; y < kGridDim; ++y)
-      for (int x = 0; x < kGridDim; ++x) {
-        const uint8_t p = sl.nearest[IndexGrid::cellIndex(x, y, z)];
-        if (p == kNoProbe || !probes.test(p)) continue;
-        lo = glm::min(lo, glm::ivec3(x, y, z));
-        hi = glm::max(hi, glm::ivec3(x, y, z));
-      }
+  for (int i = 0; i < sl.count; ++i) {
+    if (!probes.test(size_t(i))) continue;
+    const std::array<uint8_t, 6>& c = sl.cell_bounds[size_t(i)];
+    if (c[0] > c[3]) continue;  // no cell names it
+    lo = glm::min(lo, glm::ivec3(c[0], c[1], c[2]));
+    hi = glm::max(hi, glm::ivec3(c[3], c[4], c[5]));
+  }
   WorldBox b;
   if (hi.x < 0) return b;
   constexpr double kInf = std::numeric_limits<double>::infinity();

@@ -71,7 +71,16 @@ void PublishedVolume::update(const glm::ivec3& origin, const ProbeCache& cache) 
           it->hi = glm::max(it->hi, e.hi);
         }
       }
-      for (const Box& x : boxes) b.volume.refillBox(x.lo, x.hi, cache);
+      // Boxes that together reach half the volume cost more than a rebuild (theirs overlap and
+      // each has its own set-up): rebuild then, with the same texels.
+      uint64_t texels = 0;
+      for (const Box& x : boxes) texels += b.volume.refillTexels(x.lo, x.hi);
+      const glm::ivec3 n = b.volume.period();
+      if (2 * texels >= uint64_t(n.x) * uint64_t(n.y) * uint64_t(n.z)) {
+        b.volume.rebuild(origin, cache);
+      } else {
+        for (const Box& x : boxes) b.volume.refillBox(x.lo, x.hi, cache);
+      }
       b.seen = next_event_ - 1;
     };
     const int n_z = b.volume.period().z;

@@ -599,10 +599,9 @@ void Volume::refillSector(SectorKey key, const ProbeCache& cache) {
   refillBox(lo, glm::dvec3(lo.x + kSectorSizeM, lo.y + kSectorSizeM, kInf), cache);
 }
 
-void Volume::refillBox(const glm::dvec3& box_lo, const glm::dvec3& box_hi, const ProbeCache& cache) {
-  if (!built_) return;
+bool Volume::refillRange(const glm::dvec3& box_lo, const glm::dvec3& box_hi, glm::ivec3& lo, glm::ivec3& hi) const {
   const glm::ivec3 n = period();
-  glm::ivec3 lo = origin_, hi = origin_ + n;
+  lo = origin_, hi = origin_ + n;
   // The smooth fill reaches one index cell (4 m) into the neighbours: widen by that much, and in
   // z (cells of each sector's own height) take the whole column.
   const bool smooth = options_.fill == FillMode::kSmooth;
@@ -612,7 +611,19 @@ void Volume::refillBox(const glm::dvec3& box_lo, const glm::dvec3& box_hi, const
     lo[a] = std::max(lo[a], clampIdx(std::floor((box_lo[a] - margin) / options_.texel_size_m[a])) - 1);
     hi[a] = std::min(hi[a], clampIdx(std::floor((box_hi[a] + margin) / options_.texel_size_m[a])) + 2);
   }
-  if (lo.x >= hi.x || lo.y >= hi.y || lo.z >= hi.z) return;
+  return lo.x < hi.x && lo.y < hi.y && lo.z < hi.z;
+}
+
+uint64_t Volume::refillTexels(const glm::dvec3& box_lo, const glm::dvec3& box_hi) const {
+  glm::ivec3 lo, hi;
+  if (!built_ || !refillRange(box_lo, box_hi, lo, hi)) return 0;
+  const glm::ivec3 d = hi - lo;
+  return uint64_t(d.x) * uint64_t(d.y) * uint64_t(d.z);
+}
+
+void Volume::refillBox(const glm::dvec3& box_lo, const glm::dvec3& box_hi, const ProbeCache& cache) {
+  glm::ivec3 lo, hi;
+  if (!built_ || !refillRange(box_lo, box_hi, lo, hi)) return;
   if (scale_ != cache.packedScale()) return rebuild(origin_, cache);
   writeRangeBox(lo, hi, cache);
   if (options_.blur) blurBox(lo - 1, hi + 1);

@@ -193,7 +193,7 @@ class ProbeCache {
   // The world box (metres) of the index-grid cells of used `slot` that name a probe in `probes`:
   // the texels whose nearest fill takes one of them. z is open below (-inf) when the grid's bottom
   // layer names one and above (+inf) when its top layer does (look-ups clamp into the grid). Empty
-  // (lo.x > hi.x) when no cell names one. O(16^3).
+  // (lo.x > hi.x) when no cell names one. O(probes): each probe's cell bounds are kept.
   struct WorldBox {
     glm::dvec3 lo{0.0}, hi{-1.0};
     bool empty() const { return lo.x > hi.x; }

@@ -52,35 +52,34 @@ void PublishedVolume::update(const glm::ivec3& origin, const ProbeCache& cache) 
     bool relit = false;  // a full refill asked for since this buffer last caught up
     for (const Event& e : events_)
       if (e.seq > b.seen && e.all) relit = true;
-    auto catchUp = [&] {
-      b.volume.scrollTo(origin, cache);
-      // A refill reads the cache as it is now, so a sector named by several missed events (lights
-      // moving frame after frame) is refilled once, over the union of their boxes.
-      struct Box {
-        SectorKey key;
-        glm::dvec3 lo, hi;
-      };
-      std::vector<Box> boxes;
-      for (const Event& e : events_) {
-        if (e.seq <= b.seen) continue;
-        auto it = std::find_if(boxes.begin(), boxes.end(), [&](const Box& x) { return x.key == e.key; });
-        if (it == boxes.end()) {
-          boxes.push_back({e.key, e.lo, e.hi});
-        } else {
-          it->lo = glm::min(it->lo, e.lo);
-          it->hi = glm::max(it->hi, e.hi);
-        }
+    // A refill reads the cache as it is now, so a sector named by several missed events (lights
+    // moving frame after frame) is refilled once, over the union of their boxes.
+    struct Box {
+      SectorKey key;
+      glm::dvec3 lo, hi;
+    };
+    std::vector<Box> boxes;
+    for (const Event& e : events_) {
+      if (e.seq <= b.seen || e.all) continue;
+      auto it = std::find_if(boxes.begin(), boxes.end(), [&](const Box& x) { return x.key == e.key; });
+      if (it == boxes.end()) {
+        boxes.push_back({e.key, e.lo, e.hi});
+      } else {
+        it->lo = glm::min(it->lo, e.lo);
+        it->hi = glm::max(it->hi, e.hi);
       }
-      // Boxes that together reach half the volume cost more than a rebuild (theirs overlap and
-      // each has its own set-up): rebuild then, with the same texels.
+    }
+    // Boxes that together reach half the volume cost more than a full refill (they overlap and
+    // each has its own set-up): they are then refilled as after a relight, time-sliced with blur.
+    auto boxesReachHalf = [&] {
       uint64_t texels = 0;
       for (const Box& x : boxes) texels += b.volume.refillTexels(x.lo, x.hi);
       const glm::ivec3 n = b.volume.period();
-      if (2 * texels >= uint64_t(n.x) * uint64_t(n.y) * uint64_t(n.z)) {
-        b.volume.rebuild(origin, cache);
-      } else {
-        for (const Box& x : boxes) b.volume.refillBox(x.lo, x.hi, cache);
-      }
+      return 2 * texels >= uint64_t(n.x) * uint64_t(n.y) * uint64_t(n.z);
+    };
+    auto catchUp = [&] {
+      b.volume.scrollTo(origin, cache);
+      for (const Box& x : boxes) b.volume.refillBox(x.lo, x.hi, cache);
       b.seen = next_event_ - 1;
     };
     const int n_z = b.volume.period().z;
@@ -88,8 +87,9 @@ void PublishedVolume::update(const glm::ivec3& origin, const ProbeCache& cache) 
       b.volume.advanceRebuild(blurLayersPerUpdate(n_z, rebuild_updates_));
       b.refilling = !b.volume.built();
       publish = !b.refilling;
-      if (publish && !relit) catchUp();  // else published as it is; its next turn refills it
-    } else if (!b.volume.built() || relit) {
+      // Else (or with boxes that call for a refill) published as it is; its next turn refills it.
+      if (publish && !relit && !boxesReachHalf()) catchUp();
+    } else if (!b.volume.built() || relit || boxesReachHalf()) {
       const bool sliced = rebuild_updates_ > 1 && b.volume.options().blur && publishes_ > 0;
       b.volume.beginRebuild(origin, cache, sliced ? blurLayersOfFirstUpdate(n_z, rebuild_updates_) : n_z);
       b.seen = next_event_ - 1;

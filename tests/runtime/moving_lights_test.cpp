@@ -88,6 +88,9 @@ TEST(MovingLights, AfterManyFramesTheColoursAndTexelsEqualARelightFromScratch) {
       rt.update(kCamera);
       texels += rt.volume().lastUpdateTexels();
     }
+    // A blurred refill that many lights call for is spread over two updates and shows one update
+    // late (publish.h): with the lights still, the next updates complete it.
+    for (int settle = 0; settle < 4; ++settle) rt.update(kCamera);
     // Fewer texels refilled than a full refill a frame (147,456), although lights reach most of
     // the volume here (their LPRT spreads over whole synthetic sectors).
     EXPECT_LT(texels, uint64_t(kFrames) * 96u * 96u * 16u);

@@ -9,7 +9,9 @@
 // lookups). The writer takes the back buffer's lock exclusively while writing, so a reader that
 // still holds an old front delays the writer (never the reverse tearing). Each buffer catches up
 // on its own: it scrolls from its own origin and replays the content changes (full or per sector)
-// it missed since its last update, so the back buffer costs a slab per frame, not a refill.
+// it missed since its last update, so the back buffer costs a slab per frame, not a refill. A
+// sector named by several missed changes (per sector or per box of one) is refilled once, over
+// their union; changes that together reach half the volume are refilled as after a relight.
 //
 // A full refill with blur can be spread over `rebuild_updates` updates (time slicing, as the
 // talk's consoles spread their volume jobs): the back buffer fills its unblurred texels once,

@@ -168,6 +168,37 @@ TEST(MovingLights, ALightFarFromASectorDoesNotRelightIt) {
   EXPECT_TRUE(cache.relightChangedLights(inputAt(lights)).empty());
 }
 
+TEST(MovingLights, ShL1WithSunTransferRelitIncrementallyEqualsARelightFromScratch) {
+  // The lit island's representation: sh-l1 records, LPRT in SH, a sun transfer.
+  const ProbeCacheOptions o{.representation = Representation::kShL1};
+  std::vector<Sector> sectors;
+  for (int y = -2; y <= 2; ++y)
+    for (int x = -2; x <= 2; ++x)
+      sectors.push_back(testing::makeSector({x, y}, {.probes = 70, .sources = 24, .lprt_on_bases = false, .sky_fit = true, .sun_samples = 6}, 4));
+  ProbeCache cache(o), ref(o);
+  for (const Sector& s : sectors) ASSERT_TRUE(cache.addSector(s) && ref.addSector(s));
+  auto input = [](std::span<const PointLight> lights) {
+    RelightInput in = inputAt(lights);
+    const SkyLighting s = evaluateSky(Sky::tropicalDefault(), kHour, kLinearSunBand1, 0.f);
+    in.sky_sh = s.sky_sh, in.sun_sh = s.sun_sh, in.sky_direct_sh = s.sky_direct_sh;
+    in.sun_transfer = true;
+    return in;
+  };
+  cache.relightAll(input(lightsAt(0)));
+  size_t relit = 0;
+  for (int f = 1; f <= 12; ++f) relit += cache.relightChangedLights(input(lightsAt(f))).size();
+  EXPECT_GT(relit, 0u);
+  EXPECT_LT(relit, 12u * 25u);
+  ref.relightAll(input(lightsAt(12)));
+  int mismatches = 0;
+  for (SectorKey k : ref.keys()) {
+    const int s = ref.slotOf(k);
+    ASSERT_EQ(s, cache.slotOf(k));
+    for (int i = 0; i < ref.slot(s).probe_count; ++i) mismatches += !sameBits(ref.colours({s, i}), cache.colours({s, i}));
+  }
+  EXPECT_EQ(mismatches, 0);
+}
+
 TEST(MovingLights, LightsAndTheTimeOfDayChangingTogetherRelightEverything) {
   Runtime rt;
   for (const Sector& s : lprtSectors()) ASSERT_TRUE(rt.addSector(s));

@@ -115,6 +115,70 @@ void BM_RelightWith32MovingLights(benchmark::State& state) {
 }
 BENCHMARK(BM_RelightWith32MovingLights)->Unit(benchmark::kMicrosecond);
 
+// The 32 movers of BM_RelightWith32MovingLights at frame `frame`.
+struct Movers {
+  std::vector<PointLight> lights = std::vector<PointLight>(32);
+  std::vector<double> phase = std::vector<double>(32), radius = std::vector<double>(32);
+  Movers() {
+    std::mt19937 rng(2);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    for (size_t i = 0; i < lights.size(); ++i) {
+      lights[i] = {"mover", {}, glm::vec3(2.f), 12.f};
+      phase[i] = 6.283185307 * u(rng);
+      radius[i] = 20.0 + 160.0 * u(rng);
+    }
+  }
+  const std::vector<PointLight>& at(int frame) {
+    const double t = frame / 60.0;
+    for (size_t i = 0; i < lights.size(); ++i) {
+      const double a = phase[i] + 100.0 * t / radius[i];
+      lights[i].position = {radius[i] * std::cos(a), radius[i] * std::sin(a), 12.0};
+    }
+    return lights;
+  }
+};
+
+// The same movers, relighting only the sectors whose sources' shares changed (what
+// Runtime::update does when the lights alone moved). Counter: sectors relit per frame.
+void BM_RelightChangedWith32MovingLights(benchmark::State& state) {
+  ProbeCache cache = makeCache(128);
+  Movers m;
+  int frame = 0;
+  cache.relightAll(noonInput(m.at(frame++)));
+  const uint64_t before = cache.slotRelightCount();
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(cache.relightChangedLights(noonInput(m.at(frame++))));
+    benchmark::ClobberMemory();
+  }
+  state.SetItemsProcessed(state.iterations() * cache.probeCount());
+  state.counters["sectors_relit"] = double(cache.slotRelightCount() - before) / double(state.iterations());
+}
+BENCHMARK(BM_RelightChangedWith32MovingLights)->Unit(benchmark::kMicrosecond);
+
+// A whole frame of the engine with the 32 movers and the time of day standing still:
+// Runtime::setLights + update (relight, pack, refill the back buffer's changed texels, publish),
+// the camera still. Arg: blur (the lit island's volume is blurred).
+void BM_RuntimeFrameWith32MovingLights(benchmark::State& state) {
+  RuntimeOptions o;
+  o.volume.blur = state.range(0) != 0;
+  Runtime rt(o);
+  for (SectorKey k : residentKeys())
+    if (!rt.addSector(testing::makeSector(k, {.probes = 70, .sources = 128}, 1))) std::abort();
+  (void)rt.setTime(12.0);
+  Movers m;
+  int frame = 0;
+  (void)rt.setLights(m.at(frame++));
+  rt.update({0.0, 0.0, 12.0});
+  uint64_t texels = 0;
+  for (auto _ : state) {
+    (void)rt.setLights(m.at(frame++));
+    rt.update({0.0, 0.0, 12.0});
+    texels += rt.volume().lastUpdateTexels();
+  }
+  state.counters["texels"] = double(texels) / double(state.iterations());
+}
+BENCHMARK(BM_RuntimeFrameWith32MovingLights)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
+
 // The worst case: one huge light spread on 64 source probes (the most sources_per_light allows,
 // by the nearest rule), so that most sources of every probe carry energy and the LPRT block streams.
 void BM_RelightWithLprtAllSourcesLit(benchmark::State& state) {

@@ -36,13 +36,25 @@ struct AlignedFloats {
   }
 };
 
+// A source that carried light in a slot's relight, and how much (what relightChangedLights compares).
+struct LitSource {
+  size_t j;  // index into the slot's LPRT sources
+  glm::vec3 colour;
+  friend bool operator==(const LitSource&, const LitSource&) = default;
+};
+
 struct Slot {
   bool used = false;
+  bool relit = false;             // relit since it was added
+  std::vector<LitSource> lit;     // the lit sources of its last relight, in source order
   SectorKey key{};
   int count = 0;
   glm::dvec2 origin{0.0};
   float z_min = 0.f, cell_h = 1.f;
   std::array<uint8_t, kGridCells> nearest{};
+  // Per probe, the bounds of the cells `nearest` names it in: x0, y0, z0, x1, y1, z1 (inclusive;
+  // x0 > x1 when none), so that cellsNaming is a union over the changed probes.
+  std::vector<std::array<uint8_t, 6>> cell_bounds;
   std::vector<glm::vec3> position;  // sector-relative x, y; world z
   std::vector<uint16_t> flags, interior;
   std::vector<float> height;
@@ -275,8 +287,21 @@ struct ProbeCache::Impl {
     }
   }
 
+  uint64_t slot_relights = 0;  // relightSlot calls (slotRelightCount)
+
   std::vector<LightShare> distribute(std::span<const PointLight> lights) const;
   void setLights(std::span<const PointLight> lights);
+  // The sources of slot `s` that the current light shares light, in source order (all of a
+  // slot's dependence on the lights: relightSlot reads nothing else of them).
+  void litSources(int s, const RelightInput& li, std::vector<LitSource>& lit) const {
+    lit.clear();
+    if (!(li.components & kComponentLocalLights) || touched.empty()) return;
+    const Slot& sl = slots[s];
+    for (size_t j = 0; j < sl.sources.size(); ++j) {
+      const int id = sl.source_ids[j];
+      if (id >= 0 && light_colour[id] != glm::vec3(0.f)) lit.push_back({j, light_colour[id]});
+    }
+  }
   void relightSlot(int s, const RelightInput& in);
 };
 
@@ -411,6 +436,16 @@ Result<void> ProbeCache::addSector(const Sector& sector) {
           }
         }
         sl.nearest[cell] = p;
+      }
+  sl.cell_bounds.assign(size_t(n), {uint8_t(kGridDim), uint8_t(kGridDim), uint8_t(kGridDim), 0, 0, 0});
+  for (int z = 0; z < kGridDim; ++z)
+    for (int y = 0; y < kGridDim; ++y)
+      for (int x = 0; x < kGridDim; ++x) {
+        const uint8_t p = sl.nearest[IndexGrid::cellIndex(x, y, z)];
+        if (p >= n) continue;
+        std::array<uint8_t, 6>& b = sl.cell_bounds[p];
+        const uint8_t c[3] = {uint8_t(x), uint8_t(y), uint8_t(z)};
+        for (int a = 0; a < 3; ++a) b[a] = std::min(b[a], c[a]), b[3 + a] = std::max(b[3 + a], c[a]);
       }
   if (sources > 0) {
     // Transposed once to planes per source, so that a lit source is 12 streams over the probes.
@@ -573,16 +608,10 @@ void ProbeCache::Impl::relightSlot(int s, const RelightInput& li) {
       direct[c][b] = li.components & kComponentDirectSky ? glm::dot(sh::cosineLobe(sh::kBasis[b]), li.sky_direct_sh[c]) : 0.f;
   }
   // Local lights: only sources that received light cost anything.
-  struct Active {
-    size_t j;
-    glm::vec3 colour;
-  };
-  std::vector<Active> active;
-  if ((li.components & kComponentLocalLights) && !touched.empty())
-    for (size_t j = 0; j < sl.sources.size(); ++j) {
-      const int id = sl.source_ids[j];
-      if (id >= 0 && light_colour[id] != glm::vec3(0.f)) active.push_back({j, light_colour[id]});
-    }
+  litSources(s, li, sl.lit);
+  sl.relit = true;
+  ++slot_relights;
+  const std::vector<LitSource>& active = sl.lit;
   const bool lprt = !active.empty();
   const int stride = this->stride(s);
   const int n16 = (n + 15) & ~15;
@@ -624,7 +653,7 @@ void ProbeCache::Impl::relightSlot(int s, const RelightInput& li) {
     if (lprt) {
       thread_local std::vector<float> scratch;
       scratch.assign(size_t(12) * stride, 0.f);
-      for (const Active& a : active) {
+      for (const LitSource& a : active) {
         float colour[12];
         for (int c = 0; c < 3; ++c)
           for (int k = 0; k < 4; ++k) colour[c * 4 + k] = a.colour[c];
@@ -651,7 +680,7 @@ void ProbeCache::Impl::relightSlot(int s, const RelightInput& li) {
       scratch.assign(size_t(12) * stride, 0.f);
       acc = scratch.data();
     }
-    for (const Active& a : active) {
+    for (const LitSource& a : active) {
       float colour[12];
       for (int c = 0; c < 3; ++c)
         for (int k = 0; k < 4; ++k) colour[c * 4 + k] = a.colour[c];
@@ -679,6 +708,26 @@ void ProbeCache::relightAll(const RelightInput& in) {
   for (size_t s = 0; s < m.slots.size(); ++s)
     if (m.slots[s].used) m.relightSlot(int(s), in);
 }
+
+std::vector<int> ProbeCache::relightChangedLights(const RelightInput& in) {
+  Impl& m = *impl_;
+  m.setLights(in.components & kComponentLocalLights ? in.lights : std::span<const PointLight>{});
+  std::vector<int> relit;
+  thread_local std::vector<LitSource> now;
+  for (size_t s = 0; s < m.slots.size(); ++s) {
+    Slot& sl = m.slots[s];
+    if (!sl.used) continue;
+    if (sl.relit) {
+      m.litSources(int(s), in, now);
+      if (now == sl.lit) continue;  // the same shares on the same sources: the same colours
+    }
+    m.relightSlot(int(s), in);
+    relit.push_back(int(s));
+  }
+  return relit;
+}
+
+uint64_t ProbeCache::slotRelightCount() const { return impl_->slot_relights; }
 
 void ProbeCache::relightSector(SectorKey key, const RelightInput& in) {
   Impl& m = *impl_;
@@ -726,18 +775,44 @@ DRTV_HOT_CLONES void packPlanes(const float* __restrict p0, const float* __restr
 }
 }  // namespace
 
-void ProbeCache::packSlot(int s) {
+std::bitset<kSlotProbes> ProbeCache::packSlot(int s) {
   Impl& m = *impl_;
   const Slot& sl = m.slots[s];
   const float inv = 1.f / m.scale;
   const bool sh_l1 = m.opt.representation == Representation::kShL1;
   uint32_t* out = m.packed.data() + size_t(s) * kSlotProbes * 3;
+  std::bitset<kSlotProbes> changed;
   std::array<uint32_t, kSlotProbes> channel;
   for (int c = 0; c < 3; ++c) {
     packPlanes(m.outPlane(s, c * 4 + 0), m.outPlane(s, c * 4 + 1), m.outPlane(s, c * 4 + 2), m.outPlane(s, c * 4 + 3), sl.count, inv,
                sh_l1, channel.data());
-    for (int i = 0; i < sl.count; ++i) out[i * 3 + c] = channel[size_t(i)];
+    for (int i = 0; i < sl.count; ++i) {
+      if (out[i * 3 + c] != channel[size_t(i)]) changed.set(size_t(i));
+      out[i * 3 + c] = channel[size_t(i)];
+    }
   }
+  return changed;
+}
+
+ProbeCache::WorldBox ProbeCache::cellsNaming(int s, const std::bitset<kSlotProbes>& probes) const {
+  DRTV_CHECK(slotUsed(s));
+  const Slot& sl = impl_->slots[s];
+  glm::ivec3 lo(kGridDim), hi(-1);
+  for (int i = 0; i < sl.count; ++i) {
+    if (!probes.test(size_t(i))) continue;
+    const std::array<uint8_t, 6>& c = sl.cell_bounds[size_t(i)];
+    if (c[0] > c[3]) continue;  // no cell names it
+    lo = glm::min(lo, glm::ivec3(c[0], c[1], c[2]));
+    hi = glm::max(hi, glm::ivec3(c[3], c[4], c[5]));
+  }
+  WorldBox b;
+  if (hi.x < 0) return b;
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  b.lo = {sl.origin.x + lo.x * kGridCellSizeM, sl.origin.y + lo.y * kGridCellSizeM,
+          lo.z == 0 ? -kInf : sl.z_min + double(lo.z) * sl.cell_h};
+  b.hi = {sl.origin.x + (hi.x + 1) * kGridCellSizeM, sl.origin.y + (hi.y + 1) * kGridCellSizeM,
+          hi.z == kGridDim - 1 ? kInf : sl.z_min + double(hi.z + 1) * sl.cell_h};
+  return b;
 }
 
 void ProbeCache::pack(float hdr_scale) {

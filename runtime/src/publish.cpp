@@ -3,7 +3,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <mutex>
+#include <vector>
 
 namespace drtv::runtime {
 
@@ -18,7 +20,15 @@ void PublishedVolume::invalidateAll() {
   events_.push_back({next_event_++, true, {}});
 }
 
-void PublishedVolume::invalidateSector(SectorKey k) { events_.push_back({next_event_++, false, k}); }
+void PublishedVolume::invalidateSector(SectorKey k) {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  const glm::dvec3 lo(k.ix * kSectorSizeM, k.iy * kSectorSizeM, -kInf);
+  events_.push_back({next_event_++, false, k, lo, glm::dvec3(lo.x + kSectorSizeM, lo.y + kSectorSizeM, kInf)});
+}
+
+void PublishedVolume::invalidateBox(SectorKey k, const glm::dvec3& lo, const glm::dvec3& hi) {
+  events_.push_back({next_event_++, false, k, lo, hi});
+}
 
 namespace {
 // What an update of a time-sliced refill blurs, in layers of `n_z`: the updates share the fill
@@ -42,10 +52,34 @@ void PublishedVolume::update(const glm::ivec3& origin, const ProbeCache& cache) 
     bool relit = false;  // a full refill asked for since this buffer last caught up
     for (const Event& e : events_)
       if (e.seq > b.seen && e.all) relit = true;
+    // A refill reads the cache as it is now, so a sector named by several missed events (lights
+    // moving frame after frame) is refilled once, over the union of their boxes.
+    struct Box {
+      SectorKey key;
+      glm::dvec3 lo, hi;
+    };
+    std::vector<Box> boxes;
+    for (const Event& e : events_) {
+      if (e.seq <= b.seen || e.all) continue;
+      auto it = std::find_if(boxes.begin(), boxes.end(), [&](const Box& x) { return x.key == e.key; });
+      if (it == boxes.end()) {
+        boxes.push_back({e.key, e.lo, e.hi});
+      } else {
+        it->lo = glm::min(it->lo, e.lo);
+        it->hi = glm::max(it->hi, e.hi);
+      }
+    }
+    // Boxes that together reach half the volume cost more than a full refill (they overlap and
+    // each has its own set-up): they are then refilled as after a relight, time-sliced with blur.
+    auto boxesReachHalf = [&] {
+      uint64_t texels = 0;
+      for (const Box& x : boxes) texels += b.volume.refillTexels(x.lo, x.hi);
+      const glm::ivec3 n = b.volume.period();
+      return 2 * texels >= uint64_t(n.x) * uint64_t(n.y) * uint64_t(n.z);
+    };
     auto catchUp = [&] {
       b.volume.scrollTo(origin, cache);
-      for (const Event& e : events_)
-        if (e.seq > b.seen) b.volume.refillSector(e.key, cache);
+      for (const Box& x : boxes) b.volume.refillBox(x.lo, x.hi, cache);
       b.seen = next_event_ - 1;
     };
     const int n_z = b.volume.period().z;
@@ -53,8 +87,9 @@ void PublishedVolume::update(const glm::ivec3& origin, const ProbeCache& cache) 
       b.volume.advanceRebuild(blurLayersPerUpdate(n_z, rebuild_updates_));
       b.refilling = !b.volume.built();
       publish = !b.refilling;
-      if (publish && !relit) catchUp();  // else published as it is; its next turn refills it
-    } else if (!b.volume.built() || relit) {
+      // Else (or with boxes that call for a refill) published as it is; its next turn refills it.
+      if (publish && !relit && !boxesReachHalf()) catchUp();
+    } else if (!b.volume.built() || relit || boxesReachHalf()) {
       const bool sliced = rebuild_updates_ > 1 && b.volume.options().blur && publishes_ > 0;
       b.volume.beginRebuild(origin, cache, sliced ? blurLayersOfFirstUpdate(n_z, rebuild_updates_) : n_z);
       b.seen = next_event_ - 1;

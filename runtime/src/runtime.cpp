@@ -9,6 +9,11 @@ namespace drtv::runtime {
 namespace {
 // The HDR scale never drops below this, so that an all-black world packs without dividing by 0.
 constexpr float kMinHdrScale = 1e-6f;
+// A relight of the sectors that moved lights reach keeps the packed HDR scale while the scale a
+// full relight would choose is at least this fraction of it: at worst one bit of the 8 is spent on
+// a bright light that moved away. Below it (or when a relit sector exceeds the scale) everything is
+// repacked and refilled, as after a full relight.
+constexpr float kMinScaleKept = 0.5f;
 
 glm::vec3 sanitizeNormal(const glm::vec3& n) {
   const glm::dvec3 d(n);
@@ -63,7 +68,7 @@ Result<void> Runtime::setLighting(const Sky& sky, std::vector<PointLight> lights
   sky_ = sky;
   lights_ = std::move(lights);
   interiors_ = std::move(interiors);
-  lights_changed_ = true;  // also forces a relight for a changed sun path or ground scale
+  sky_changed_ = true;  // a changed sun path or ground scale: a full relight
   current_ = evaluateSky(sky_, hour_, options_.sun_band1_window, options_.sun_band0_scale);
   resolveInteriors();
   return {};
@@ -92,6 +97,12 @@ RelightInput Runtime::relightInput() const {
   return in;
 }
 
+float Runtime::hdrScale() const {
+  float mx = cache_.maxColour();
+  for (const glm::vec3& f : cache_.fallback()) mx = std::max({mx, std::fabs(f.r), std::fabs(f.g), std::fabs(f.b)});
+  return std::max(kMinHdrScale, std::min(mx * options_.hdr_headroom, kMaxColour));
+}
+
 void Runtime::rescale() {
   BasisColours fallback{};
   const bool sh_l1 = options_.representation == Representation::kShL1;
@@ -101,10 +112,35 @@ void Runtime::rescale() {
         fallback[b][c] = sh_l1 ? (b == 0 ? sh::kCosineLobe0 : sh::kCosineLobe1) * applied_.sky_sh[c][b]
                                : std::max(0.f, glm::dot(sh::cosineLobe(sh::kBasis[b]), applied_.sky_sh[c]));
   cache_.setFallback(fallback);
-  float mx = cache_.maxColour();
-  for (const glm::vec3& f : cache_.fallback()) mx = std::max({mx, std::fabs(f.r), std::fabs(f.g), std::fabs(f.b)});
-  cache_.pack(std::max(kMinHdrScale, std::min(mx * options_.hdr_headroom, kMaxColour)));
+  cache_.pack(hdrScale());
   volume_.invalidateAll();
+}
+
+void Runtime::relightMovedLights() {
+  const std::vector<int> slots = cache_.relightChangedLights(relightInput());
+  if (slots.empty()) return;
+  ++light_relights_;
+  float mx = 0.f;
+  for (int s : slots) mx = std::max(mx, cache_.maxColour(s));
+  if (mx > cache_.packedScale() || hdrScale() < kMinScaleKept * cache_.packedScale()) {
+    rescale();
+    ++light_rescales_;
+    return;
+  }
+  // The nearest fill reads a probe's packed texels only: refill the cells that name a probe whose
+  // texels changed (a moving light changes few by a step of 8 bits). The smooth fill reads the
+  // float colours: refill the sector.
+  const bool nearest = options_.volume.fill == FillMode::kNearest;
+  for (int s : slots) {
+    const std::bitset<kSlotProbes> changed = cache_.packSlot(s);
+    const SectorKey key = cache_.slot(s).key;
+    if (!nearest) {
+      volume_.invalidateSector(key);
+    } else if (changed.any()) {
+      const ProbeCache::WorldBox box = cache_.cellsNaming(s, changed);
+      if (!box.empty()) volume_.invalidateBox(key, box.lo, box.hi);
+    }
+  }
 }
 
 Result<void> Runtime::addSector(const Sector& sector, const OcclusionTile* tile) {
@@ -113,6 +149,9 @@ Result<void> Runtime::addSector(const Sector& sector, const OcclusionTile* tile)
   if (options_.effects & kEffectDistantOcclusion) occlusion_.add(tile ? *tile : makeOcclusionTile(sector));
   resolveInteriors();
   if (!relit_once_) return {};  // the first update() relights everything
+  // New sources may take shares of the lights from probes of resident neighbours: those are
+  // relit at the next update() (relightMovedLights).
+  if (!lights_.empty()) lights_changed_ = true;
   cache_.relightSector(sector.key, relightInput());
   const int slot = cache_.slotOf(sector.key);
   if (cache_.maxColour(slot) > cache_.packedScale()) {
@@ -129,6 +168,7 @@ bool Runtime::removeSector(SectorKey key) {
   occlusion_.remove(key);
   resolveInteriors();
   volume_.invalidateSector(key);
+  if (!lights_.empty()) lights_changed_ = true;  // the shares its sources held go elsewhere
   return true;
 }
 
@@ -143,13 +183,17 @@ void Runtime::resolveInteriors() {
 }
 
 void Runtime::update(const glm::dvec3& camera) {
-  if (!relit_once_ || lights_changed_ || lightingChange(applied_, current_) > options_.relight_threshold) {
+  if (!relit_once_ || sky_changed_ || lightingChange(applied_, current_) > options_.relight_threshold) {
     applied_ = current_;
     cache_.relightAll(relightInput());
     rescale();
     relit_once_ = true;
-    lights_changed_ = false;
+    sky_changed_ = lights_changed_ = false;
     ++relights_;
+  } else if (lights_changed_) {
+    // Only the lights moved: the sky and sun are those every slot was last relit with.
+    lights_changed_ = false;
+    relightMovedLights();
   }
   volume_.update(volumeOriginFor(options_.volume, camera), cache_);
 }

@@ -5,6 +5,7 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <span>
 
 #include "drtv/formats/error.h"
@@ -593,19 +594,36 @@ void Volume::scrollTo(const glm::ivec3& origin, const ProbeCache& cache) {
 }
 
 void Volume::refillSector(SectorKey key, const ProbeCache& cache) {
-  if (!built_) return;
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  const glm::dvec3 lo(key.ix * kSectorSizeM, key.iy * kSectorSizeM, -kInf);
+  refillBox(lo, glm::dvec3(lo.x + kSectorSizeM, lo.y + kSectorSizeM, kInf), cache);
+}
+
+bool Volume::refillRange(const glm::dvec3& box_lo, const glm::dvec3& box_hi, glm::ivec3& lo, glm::ivec3& hi) const {
   const glm::ivec3 n = period();
-  glm::ivec3 lo = origin_, hi = origin_ + n;
-  // The smooth fill reaches one index cell (4 m) into the neighbours: widen by that much.
-  const double margin = options_.fill == FillMode::kSmooth ? kGridCellSizeM : 0.0;
-  const double x0 = key.ix * kSectorSizeM - margin, x1 = (key.ix + 1) * kSectorSizeM + margin;
-  const double y0 = key.iy * kSectorSizeM - margin, y1 = (key.iy + 1) * kSectorSizeM + margin;
-  auto clampIdx = [](double v) { return int(std::clamp(v, -2e9, 2e9)); };
-  lo.x = std::max(lo.x, clampIdx(std::floor(x0 / options_.texel_size_m.x)) - 1);
-  hi.x = std::min(hi.x, clampIdx(std::floor(x1 / options_.texel_size_m.x)) + 2);
-  lo.y = std::max(lo.y, clampIdx(std::floor(y0 / options_.texel_size_m.y)) - 1);
-  hi.y = std::min(hi.y, clampIdx(std::floor(y1 / options_.texel_size_m.y)) + 2);
-  if (lo.x >= hi.x || lo.y >= hi.y) return;
+  lo = origin_, hi = origin_ + n;
+  // The smooth fill reaches one index cell (4 m) into the neighbours: widen by that much, and in
+  // z (cells of each sector's own height) take the whole column.
+  const bool smooth = options_.fill == FillMode::kSmooth;
+  auto clampIdx = [](double v) { return int(std::clamp(v, -2e9, 2e9)); };  // also +-inf
+  for (int a = 0; a < (smooth ? 2 : 3); ++a) {
+    const double margin = smooth ? kGridCellSizeM : 0.0;
+    lo[a] = std::max(lo[a], clampIdx(std::floor((box_lo[a] - margin) / options_.texel_size_m[a])) - 1);
+    hi[a] = std::min(hi[a], clampIdx(std::floor((box_hi[a] + margin) / options_.texel_size_m[a])) + 2);
+  }
+  return lo.x < hi.x && lo.y < hi.y && lo.z < hi.z;
+}
+
+uint64_t Volume::refillTexels(const glm::dvec3& box_lo, const glm::dvec3& box_hi) const {
+  glm::ivec3 lo, hi;
+  if (!built_ || !refillRange(box_lo, box_hi, lo, hi)) return 0;
+  const glm::ivec3 d = hi - lo;
+  return uint64_t(d.x) * uint64_t(d.y) * uint64_t(d.z);
+}
+
+void Volume::refillBox(const glm::dvec3& box_lo, const glm::dvec3& box_hi, const ProbeCache& cache) {
+  glm::ivec3 lo, hi;
+  if (!built_ || !refillRange(box_lo, box_hi, lo, hi)) return;
   if (scale_ != cache.packedScale()) return rebuild(origin_, cache);
   writeRangeBox(lo, hi, cache);
   if (options_.blur) blurBox(lo - 1, hi + 1);

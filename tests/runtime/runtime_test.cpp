@@ -34,7 +34,13 @@ TEST(Runtime, RelightsOnlyWhenTheLightingMovesPastTheThreshold) {
   ASSERT_TRUE(rt.setTime(11.0));
   rt.update({10.0, 10.0, 12.0});
   EXPECT_EQ(rt.relightCount(), 2u);
+  // Lights alone relight only the sectors they reach (moving_lights_test.cpp): these have no LPRT.
   ASSERT_TRUE(rt.setLights({{"lamp", {0.0, 0.0, 12.0}, glm::vec3(1.f), 5.f}}));
+  rt.update({10.0, 10.0, 12.0});
+  EXPECT_EQ(rt.relightCount(), 2u);
+  EXPECT_EQ(rt.lightRelightCount(), 0u);
+  // A new sky description relights everything.
+  ASSERT_TRUE(rt.setLighting(Sky::tropicalDefault(), {}, {}));
   rt.update({10.0, 10.0, 12.0});
   EXPECT_EQ(rt.relightCount(), 3u);
 }

@@ -252,12 +252,13 @@ Result<FlyResult> fly(Streamer& streamer, const CatmullRomPath& path, const FlyO
       ff.technique_ms = c->ms + sink.technique_ms;
     }
     if (rt) {
-      const uint64_t relights = rt->relightCount();
+      const uint64_t relights = rt->relightCount(), light_relights = rt->lightRelightCount();
       const auto t0 = Clock::now();
       (void)rt->setTime(ff.hour);  // finite by construction
       rt->update(cam.position_m);
       ff.volume_ms = msSince(t0);
       ff.full_relight = rt->relightCount() != relights;
+      ff.lights_relit = rt->lightRelightCount() != light_relights;
     }
     ff.frame_ms = ff.stats.update_ms + ff.relight_ms + ff.lights_ms + ff.volume_ms + ff.technique_ms;
     r.frames.push_back(ff);

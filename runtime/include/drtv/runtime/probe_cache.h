@@ -54,6 +54,7 @@
 #pragma once
 
 #include <array>
+#include <bitset>
 #include <cstdint>
 #include <memory>
 #include <span>
@@ -162,6 +163,19 @@ class ProbeCache {
   // resident source probes, but other sectors keep their colours until the next relightAll.
   void relightSector(SectorKey key, const RelightInput& in);
 
+  // Redistributes `in.lights` and relights only the slots whose lit sources (the sources with a
+  // light share, and their shares) differ from those of the slot's own last relight, plus any slot
+  // never relit; returns those slots in slot order. A light reaches a slot only through its LPRT
+  // sources, so a slot none of whose sources a moved light's old or new shares land on keeps its
+  // colours. Precondition: the rest of `in` (sky, sun, components) is that of every slot's last
+  // relight; then every slot's colours equal relightAll(in)'s bit for bit (the same sums in the
+  // same order). This also catches slots whose sources' shares changed because a sector streamed
+  // in or left (which relightSector leaves stale).
+  std::vector<int> relightChangedLights(const RelightInput& in);
+  // Slot relights done so far by relightAll, relightSector and relightChangedLights (for tests
+  // and benchmarks of "relight only what the lights reach").
+  uint64_t slotRelightCount() const;
+
   // The shares of `lights` on resident LPRT source probes (see the header comment).
   std::vector<LightShare> distributeLights(std::span<const PointLight> lights) const;
 
@@ -173,7 +187,18 @@ class ProbeCache {
   // colour / hdr_scale)); kShL1 as representation.h. The fallback colours (what a volume texel
   // with no probe holds) are packed too.
   void pack(float hdr_scale);
-  void packSlot(int slot);  // with the scale of the last pack()
+  // One slot with the scale of the last pack(); returns the probes whose packed texels changed
+  // (the only ones whose nearest-fill volume texels change).
+  std::bitset<kSlotProbes> packSlot(int slot);
+  // The world box (metres) of the index-grid cells of used `slot` that name a probe in `probes`:
+  // the texels whose nearest fill takes one of them. z is open below (-inf) when the grid's bottom
+  // layer names one and above (+inf) when its top layer does (look-ups clamp into the grid). Empty
+  // (lo.x > hi.x) when no cell names one. O(probes): each probe's cell bounds are kept.
+  struct WorldBox {
+    glm::dvec3 lo{0.0}, hi{-1.0};
+    bool empty() const { return lo.x > hi.x; }
+  };
+  WorldBox cellsNaming(int slot, const std::bitset<kSlotProbes>& probes) const;
   float packedScale() const;
   Representation representation() const;
   void setFallback(const BasisColours& colours);

@@ -9,7 +9,9 @@
 // lookups). The writer takes the back buffer's lock exclusively while writing, so a reader that
 // still holds an old front delays the writer (never the reverse tearing). Each buffer catches up
 // on its own: it scrolls from its own origin and replays the content changes (full or per sector)
-// it missed since its last update, so the back buffer costs a slab per frame, not a refill.
+// it missed since its last update, so the back buffer costs a slab per frame, not a refill. A
+// sector named by several missed changes (per sector or per box of one) is refilled once, over
+// their union; changes that together reach half the volume are refilled as after a relight.
 //
 // A full refill with blur can be spread over `rebuild_updates` updates (time slicing, as the
 // talk's consoles spread their volume jobs): the back buffer fills its unblurred texels once,
@@ -43,6 +45,9 @@ class PublishedVolume {
   // Content changes the buffers must replay (writer thread).
   void invalidateAll();               // relit or rescaled: every texel
   void invalidateSector(SectorKey k); // one sector streamed in, was relit alone, or left
+  // Part of sector k's footprint: the texels whose centres lie in [lo, hi] (world metres; z may
+  // be infinite), as Volume::refillBox. Its probes changed there only.
+  void invalidateBox(SectorKey k, const glm::dvec3& lo, const glm::dvec3& hi);
 
   // Brings the back buffer to `origin` and the current content of `cache`, then publishes it.
   void update(const glm::ivec3& origin, const ProbeCache& cache);
@@ -73,6 +78,7 @@ class PublishedVolume {
     uint64_t seq;
     bool all;
     SectorKey key;
+    glm::dvec3 lo, hi;  // the part of key's footprint (the whole sector for invalidateSector)
   };
   struct Buffer {
     Volume volume;

@@ -7,10 +7,16 @@
 //      for transparencies), 55-56 (interior volumes), 57-58 (distant ambient), 60 (blur).
 //
 // What is recomputed when (DESIGN.md "relight only what changed"):
-//  - setTime/setLights/setLighting evaluate the sun and sky; update() relights every resident
-//    probe only when the lighting moved more than `relight_threshold` since the last relight
-//    (lightingChange, lighting_sh.h), or the lights or the sky description changed. A relight
+//  - setTime/setLighting evaluate the sun and sky; update() relights every resident probe only
+//    when the lighting moved more than `relight_threshold` since the last relight
+//    (lightingChange, lighting_sh.h), or setLighting changed the sky description. A full relight
 //    repacks all probes with a new HDR scale (max colour x `hdr_headroom`) and refills the volumes.
+//  - setLights alone (lights moved, appeared, dimmed): update() relights only the sectors whose
+//    LPRT sources the lights' old or new shares land on (ProbeCache::relightChangedLights), packs
+//    those and refills their footprints. The packed HDR scale is kept unless a relit sector
+//    exceeds it or the scale a full relight would choose fell below half of it; then everything is
+//    repacked and refilled. The colours equal a full relight's bit for bit either way. A sector
+//    streaming in or leaving with lights set also runs this at the next update() (it moves shares).
 //  - addSector relights that sector alone with the lighting last applied and refills its
 //    footprint; only if its colours exceed the HDR scale is everything repacked and refilled.
 //  - update(camera) scrolls the volumes: only slabs that entered are computed. A blurred full
@@ -139,10 +145,16 @@ class Runtime {
   ProbeRef interiorProbe(size_t k) const { return k < interior_probes_.size() ? interior_probes_[k] : ProbeRef{}; }
   // Full relights done so far (for tests of "relight only what changed").
   uint64_t relightCount() const { return relights_; }
+  // Updates that relit only the sectors changed lights reach (at least one sector relit), and
+  // how many of those fell back to repacking and refilling everything (the HDR scale).
+  uint64_t lightRelightCount() const { return light_relights_; }
+  uint64_t lightRescaleCount() const { return light_rescales_; }
 
  private:
   RelightInput relightInput() const;
+  float hdrScale() const;  // the scale rescale() packs with: max colour (and fallback) x headroom
   void rescale();
+  void relightMovedLights();
   void resolveInteriors();
 
   RuntimeOptions options_;
@@ -152,11 +164,11 @@ class Runtime {
   std::vector<ProbeRef> interior_probes_;
   double hour_ = 12.0;
   SkyLighting current_, applied_;
-  bool relit_once_ = false, lights_changed_ = false;
+  bool relit_once_ = false, sky_changed_ = false, lights_changed_ = false;
   ProbeCache cache_;
   PublishedVolume volume_;
   OcclusionMap occlusion_;
-  uint64_t relights_ = 0;
+  uint64_t relights_ = 0, light_relights_ = 0, light_rescales_ = 0;
 };
 
 // The one way a runtime is set up from an archive (the engine's, `drtv query`'s, the fly-through's,

@@ -106,6 +106,13 @@ class Volume {
   void scrollTo(const glm::ivec3& origin, const ProbeCache& cache);
   // Refills the texels inside sector `key`'s footprint (after it streamed in, was relit or left).
   void refillSector(SectorKey key, const ProbeCache& cache);
+  // Refills the texels whose centres lie in the world box [lo, hi] (metres; z may be infinite),
+  // widened as refillSector widens a sector (the smooth fill's reach, the blur's), and not beyond
+  // the covered range. Afterwards those texels equal rebuild()'s, if the cache changed there only.
+  void refillBox(const glm::dvec3& lo, const glm::dvec3& hi, const ProbeCache& cache);
+  // The texels refillBox(lo, hi) would fill now (0 when not built): for choosing between refills
+  // and a rebuild.
+  uint64_t refillTexels(const glm::dvec3& lo, const glm::dvec3& hi) const;
 
   // RGBA8 texels of channel c (0 = R, 1 = G, 2 = B), layout as in the header.
   std::span<const uint32_t> texture(int channel) const { return texels_[channel]; }
@@ -131,6 +138,8 @@ class Volume {
   // mirrors storage index 0 on each axis. xs, ys, zs: the box's storage indices per axis.
   void mirrorBoundary(uint32_t* tex, std::span<const int> xs, std::span<const int> ys, std::span<const int> zs) const;
   void writeRangeBox(const glm::ivec3& g0, const glm::ivec3& g1, const ProbeCache& cache);
+  // refillBox's texel range [lo, hi) for a world box; false when empty.
+  bool refillRange(const glm::dvec3& box_lo, const glm::dvec3& box_hi, glm::ivec3& lo, glm::ivec3& hi) const;
   size_t physicalIndex(const glm::ivec3& s) const { return size_t(s.x) + size_t(options_.size.x) * (size_t(s.y) + size_t(options_.size.y) * s.z); }
 
   VolumeOptions options_;

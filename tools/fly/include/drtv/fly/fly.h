@@ -102,6 +102,7 @@ struct FlyFrame {
   double relight_ms = 0.0;      // Runtime::addSector of this frame's loads (0 without runtime)
   double volume_ms = 0.0;       // Runtime::setTime + update: relight if needed, scroll, publish
   bool full_relight = false;    // the runtime relit every resident probe this frame
+  bool lights_relit = false;    // it relit only the sectors changed lights reach (Runtime::lightRelightCount)
   double lights_ms = 0.0;       // Runtime::setLights of this frame's moving lights (0 without)
   double technique_ms = 0.0;    // FlyOptions::technique_frame's update (0 without)
   TechniqueFrameCost technique; // its whole report (reach -1 unless streamed)

@@ -39,8 +39,8 @@ constexpr int kMaxGroundHits = 128;
 // Version of what the sector journals hold; part of the resume fingerprint (2: journals instead
 // of a pair of files per sector; 3: records keep their LPRT source positions for packing; 4: a
 // placement pass names LPRT sources, records keep no positions; 6: placement keeps a clearance
-// and its records count dropped_gap).
-constexpr int kBakeFormat = 6;
+// and its records count dropped_gap; 7: index cells inside geometry take a neighbour's choice).
+constexpr int kBakeFormat = 7;
 
 std::string fmt(double v) {
   std::ostringstream s;
@@ -286,6 +286,7 @@ std::vector<std::pair<std::string, std::string>> BakeSettings::describe() const 
   // Only when not the talk's: a kFc3 bake with the talk's placement (clearance 0) describes
   // itself (and hashes, and packs) as before.
   if (placement.clearance_m != 0.0) d.emplace_back("clearance_m", fmt(placement.clearance_m));
+  if (grid.inside_from_neighbours) d.emplace_back("grid_inside_from_neighbours", "1");
   if (transfer.representation != Representation::kFc3) d.emplace_back("representation", representationName(transfer.representation));
   if (transfer.representation == Representation::kShL1) d.emplace_back("sun_samples", std::to_string(transfer.sun_samples));
   return d;
@@ -643,6 +644,7 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
   report.settings = options.settings ? *options.settings : BakeSettings::forQuality(options.quality, options.seed);
   if (options.representation) report.settings.transfer.representation = *options.representation;
   if (options.clearance_m) report.settings.placement.clearance_m = *options.clearance_m;
+  if (options.inside_from_neighbours) report.settings.grid.inside_from_neighbours = *options.inside_from_neighbours;
   else if (world.representation && !options.settings) report.settings.transfer.representation = *world.representation;
   if (std::string why = validateSettings(report.settings); !why.empty()) return fail("bake settings: " + why);
   report.threads = options.threads > 0 ? options.threads : int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));

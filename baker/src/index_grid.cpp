@@ -15,6 +15,8 @@ namespace {
 // never sits within 5 cm of one.
 constexpr float kProbeClearanceM = 0.05f;
 constexpr float kBelowM = 2.f, kAboveM = 4.f;
+// `unresolved` marks: 1 = no probe visible, kInsideCell = centre inside geometry.
+constexpr uint8_t kInsideCell = 2;
 }  // namespace
 
 void chooseGridExtent(std::span<const glm::vec3> probes, float ground_min_z, IndexGrid& grid) {
@@ -74,7 +76,7 @@ void fillIndexGrid(const raytrace::RayScene& scene, std::span<const glm::vec3> p
             order[j] = e;
           }
           uint32_t chosen = order[0].second;
-          bool found = false;
+          bool found = false, inside = false;
           for (size_t j = 0; j < k && !found; ++j) {
             const glm::vec3 to = probes[order[j].second] - c;
             const float dist = std::sqrt(order[j].first);
@@ -92,11 +94,13 @@ void fillIndexGrid(const raytrace::RayScene& scene, std::span<const glm::vec3> p
               found = true;
               j == 0 ? ++n_nearest : ++n_farther;
             } else if (j == 0 && !scene.frontFace(ray, h.prim)) {
-              found = true;  // centre inside geometry: keep the nearest
+              // Centre inside geometry: a resolved neighbour's choice (below), or the nearest.
+              (settings.inside_from_neighbours ? inside : found) = true;
               ++n_inside;
+              break;
             }
           }
-          if (!found && settings.search_beyond) {
+          if (!found && !inside && settings.search_beyond) {
             // None of the k nearest is visible: search the rest, nearest first, before falling
             // back (a cell must not name a probe behind a wall when one it can see exists).
             std::vector<std::pair<float, uint32_t>> rest;
@@ -117,7 +121,9 @@ void fillIndexGrid(const raytrace::RayScene& scene, std::span<const glm::vec3> p
               }
             }
           }
-          if (!found) {
+          if (inside) {
+            unresolved[IndexGrid::cellIndex(x, y, z)] = kInsideCell;  // search_beyond or not: never a hidden probe
+          } else if (!found) {
             ++n_unseen;
             unresolved[IndexGrid::cellIndex(x, y, z)] = settings.search_beyond;
           }
@@ -130,6 +136,22 @@ void fillIndexGrid(const raytrace::RayScene& scene, std::span<const glm::vec3> p
     unseen += n_unseen;
     searched += n_searched;
   });
+  // A cell inside geometry takes the choice of the first resolved cell above it in its column:
+  // under terrain or a floor that is the air just over the surface, on the same side of every
+  // wall (a texel under the ground beside a room then repeats the outside, not the room).
+  for (int y = 0; y < kGridDim; ++y)
+    for (int x = 0; x < kGridDim; ++x) {
+      int above = -1;  // the choice of the nearest resolved cell above, if any
+      for (int z = kGridDim - 1; z >= 0; --z) {
+        const size_t i = IndexGrid::cellIndex(x, y, z);
+        if (!unresolved[i])
+          above = grid.cells[i];
+        else if (unresolved[i] == kInsideCell && above >= 0) {
+          grid.cells[i] = uint8_t(above);
+          unresolved[i] = 0;
+        }
+      }
+    }
   // A cell no probe is visible from takes the choice of the nearest resolved cell along the grid
   // (breadth-first over the 6 face neighbours, in index order: deterministic): light from where
   // it is, not from the nearest probe, which may be on the far side of a wall. A sector where no

@@ -167,7 +167,7 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
        << fixed(bytes.max, 0) << " |\n";
   md << "| without LPRT | " << fixed(bytes_no_lprt.min, 0) << " | " << fixed(bytes_no_lprt.mean, 0) << " | " << fixed(bytes_no_lprt.max, 0) << " |\n";
   md << "\n## Index grid\n\n" << cells_near << " cells took the nearest probe, " << cells_far
-     << " a farther one because nearer ones were hidden, " << cells_inside << " lie inside geometry (nearest), "
+     << " a farther one because nearer ones were hidden, " << cells_inside << " lie inside geometry (a neighbour cell's choice), "
      << cells_searched << " saw none of the nearest candidates but a farther probe, " << cells_unseen
      << " saw no probe at all (a neighbour cell's choice).\n";
   md << "\n## Rays\n\n| stage | rays |\n|---|---|\n";

@@ -17,7 +17,7 @@ PublishedVolume::PublishedVolume(const VolumeOptions& options, int rebuild_updat
 
 void PublishedVolume::invalidateAll() {
   events_.clear();  // a full refill supersedes every earlier event
-  events_.push_back({next_event_++, true, {}});
+  events_.push_back({next_event_++, true, {}, glm::dvec3(0.0), glm::dvec3(0.0)});
 }
 
 void PublishedVolume::invalidateSector(SectorKey k) {

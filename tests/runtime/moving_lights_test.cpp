@@ -83,8 +83,12 @@ TEST(MovingLights, AfterManyFramesTheColoursAndTexelsEqualARelightFromScratch) {
       ASSERT_TRUE(rt.setLights(lightsAt(f, k.gain)));
       // A sector leaves and another streams in mid-flight: the shares their sources held or take
       // move to or from the neighbours, which must be relit too.
-      if (f == 9) ASSERT_TRUE(rt.removeSector({2, 0}));
-      if (f == 10) ASSERT_TRUE(rt.addSector(streamed));
+      if (f == 9) {
+        ASSERT_TRUE(rt.removeSector({2, 0}));
+      }
+      if (f == 10) {
+        ASSERT_TRUE(rt.addSector(streamed));
+      }
       rt.update(kCamera);
       texels += rt.volume().lastUpdateTexels();
     }

@@ -27,6 +27,7 @@ struct BakeCliOptions {
   uint64_t seed = 1;
   std::string representation;  // "" = the world's (else sh-l1)
   std::optional<double> clearance_m;
+  std::string inside_cells;
 };
 
 void drawProgress(size_t done, size_t total) {
@@ -51,6 +52,7 @@ Result<void> runBake(const BakeCliOptions& o) {
     options.representation = *r;
   }
   options.clearance_m = o.clearance_m;
+  if (!o.inside_cells.empty()) options.inside_from_neighbours = o.inside_cells == "neighbour";
   options.fresh = o.fresh;
   options.keep_sector_files = o.keep_sectors;
   options.merge_only = o.merge;
@@ -134,6 +136,10 @@ Command registerBake(CLI::App& app) {
                   "Least distance from a probe to static geometry, metres, and half the least gap a probe may stand in "
                   "(default 0.25; 0 = the talk's placement)")
       ->check(CLI::Range(0.0, 64.0));
+  sub->add_option("--inside-cells", o->inside_cells,
+                  "What an index cell whose centre is inside geometry names: neighbour (a resolved neighbour cell's probe, "
+                  "default) | nearest (the talk's nearest probe, which may be behind a wall)")
+      ->check(CLI::IsMember({"neighbour", "nearest"}));
   return {sub, [o]() { return runBake(*o); }, &o->world};
 }
 

@@ -22,6 +22,12 @@ struct QueryOptions {
 
 nlohmann::json rgb(const glm::vec3& v) { return {v.r, v.g, v.b}; }
 
+// The normal as Runtime::ambient reads it, for shading the named probe: unit, +Z when it has none.
+glm::vec3 unitOrUp(const glm::vec3& n) {
+  const float len = glm::length(n);
+  return len > 1e-20f && std::isfinite(len) ? n / len : glm::vec3(0.f, 0.f, 1.f);
+}
+
 Result<void> runQuery(const QueryOptions& o) {
   auto at = parseVec3(o.at, "--at");
   if (!at) return std::unexpected(at.error());
@@ -43,6 +49,15 @@ Result<void> runQuery(const QueryOptions& o) {
     sectors.push_back(std::move(*s));
   }
   const uint32_t baked = runtime::componentsFromEffects(m.effects);
+  // The probe the index grid names at the point (what the volume texel there was filled from),
+  // for reading a leak or a dark spot back to its probe; from the first (total) evaluation.
+  struct NamedProbe {
+    bool valid = false;
+    SectorKey sector{};
+    int index = 0;
+    glm::dvec3 position{0.0};
+    glm::vec3 shaded{0.f};  // its colours shaded for the normal, all components
+  } probe;
   auto evaluate = [&](uint32_t components) -> Result<runtime::AmbientSample> {
     runtime::RuntimeOptions options = runtime::optionsForEffects(m.effects);
     options.components = components;
@@ -52,6 +67,16 @@ Result<void> runQuery(const QueryOptions& o) {
     for (const Sector& s : sectors)
       if (auto r = rt->addSector(s); !r) return std::unexpected(r.error().context(o.path));
     rt->update(*at);
+    if (components == baked) {
+      const runtime::ProbeRef ref = rt->cache().probeAt(*at);
+      if (ref.valid()) {
+        probe.valid = true;
+        probe.sector = rt->cache().slot(ref.slot).key;
+        probe.index = ref.index;
+        probe.position = rt->cache().worldPosition(ref);
+        probe.shaded = runtime::shade(m.representation, rt->cache().colours(ref), unitOrUp(glm::vec3(*normal)));
+      }
+    }
     return rt->ambient(*at, glm::vec3(*normal));
   };
   auto total = evaluate(baked);
@@ -92,6 +117,13 @@ Result<void> runQuery(const QueryOptions& o) {
     nlohmann::json pj = nlohmann::json::object();
     for (const Part& p : parts) pj[p.name] = p.baked ? rgb(p.value) : nlohmann::json(nullptr);
     j["parts"] = pj;
+    if (probe.valid)
+      j["probe"] = {{"sector", {probe.sector.ix, probe.sector.iy}},
+                    {"index", probe.index},
+                    {"position", {probe.position.x, probe.position.y, probe.position.z}},
+                    {"shaded", rgb(probe.shaded)}};
+    else
+      j["probe"] = nullptr;
     j["note"] = "parts are evaluated one at a time through the 8-bit volume; they sum to the total up to quantisation and the final clamp";
     std::puts(j.dump(2).c_str());
     return {};
@@ -109,6 +141,10 @@ Result<void> runQuery(const QueryOptions& o) {
       std::printf("  %-13s not baked\n", p.name);
   }
   std::printf("  %-13s %.5f %.5f %.5f\n", "distant", total->distant.r, total->distant.g, total->distant.b);
+  if (probe.valid)
+    std::printf("probe named here: sector (%d,%d) #%d at (%.2f, %.2f, %.2f), shaded for the normal %.5f %.5f %.5f\n", probe.sector.ix,
+                probe.sector.iy, probe.index, probe.position.x, probe.position.y, probe.position.z, probe.shaded.r, probe.shaded.g,
+                probe.shaded.b);
   std::printf("(%zu sectors loaded; parts go through the 8-bit volume one at a time)\n", sectors.size());
   return {};
 }

@@ -113,6 +113,9 @@ struct BakeOptions {
   // Probe clearance (placement.h PlacementSettings::clearance_m); unset = the preset's. 0 is the
   // talk's placement, and bakes the archives of every build before the clearance, byte for byte.
   std::optional<double> clearance_m;
+  // Index cells inside geometry (index_grid.h IndexGridSettings::inside_from_neighbours); unset =
+  // the preset's (true). false, with clearance 0, bakes the archives of every earlier build.
+  std::optional<bool> inside_from_neighbours;
   // Called after each sector with (done, total), from one thread at a time. May be empty.
   std::function<void(size_t, size_t)> progress;
 };

@@ -6,13 +6,16 @@
 // Each cell holds the one-byte index of a probe. The talk takes the nearest probe; here a cell
 // takes the nearest probe that its centre can SEE (an unoccluded segment), among the
 // `visibility_candidates` nearest, so that a cell inside a house takes the probe in the room and
-// not the one outside the wall 3 m away. Fallbacks, in order: when the segment to the nearest
-// probe starts inside geometry (its first hit is a back face: the cell centre is under terrain
-// or inside a wall) the cell takes the nearest probe — nothing better can be known from there;
-// when none of the candidates is visible, the nearest visible probe of the whole sector (issue 16:
-// the nearest was often hidden behind a wall or inside a building, and its light leaked); when no
-// probe is visible, the choice of the nearest cell that resolved (breadth-first over face
-// neighbours). A sector without probes keeps 255.
+// not the one outside the wall 3 m away. Fallbacks: when none of the candidates is visible, the
+// nearest visible probe of the whole sector (issue 16: the nearest was often hidden behind a wall
+// or inside a building, and its light leaked); when the segment to the nearest probe starts
+// inside geometry (its first hit is a back face: the cell centre is under terrain or inside a
+// wall), the choice of the first resolved cell above it in its column (the air over the surface,
+// on the same side of every wall); then, for those and for cells that see no probe, the choice of
+// the nearest cell that resolved (breadth-first over face neighbours). An inside cell took the nearest probe until 2026-12-02: under the ground by a
+// closed room that was the room's probe, and the volume's trilinear filter carried its lamp to
+// the ground outside the walls (0.095 of the floor's 0.78, tests/reference/data/room.json). A
+// sector where no cell resolves keeps the nearest; one without probes keeps 255.
 //
 // Vertical extent (chooseGridExtent): from 2 m below the lower of the lowest ground sample and
 // the lowest probe, to 4 m above the highest probe, split in 16 cells, each at least
@@ -38,13 +41,17 @@ struct IndexGridSettings {
   // When none of them is visible: try the sector's other probes, nearest first, and give a cell
   // that sees none a neighbour cell's choice (false with 1 candidate = the talk's nearest probe).
   bool search_beyond = true;
+  // A cell whose centre is inside geometry takes a resolved neighbour cell's choice (true), or
+  // the nearest probe (false: the talk's rule, and the archives of every build before
+  // 2026-12-02, byte for byte; `drtv bake --inside-cells nearest`).
+  bool inside_from_neighbours = true;
 };
 
 struct IndexGridStats {
   uint64_t rays = 0;
   size_t cells_nearest = 0;      // took the nearest probe, visible
   size_t cells_farther = 0;      // took a farther probe because the nearer ones were hidden
-  size_t cells_inside = 0;       // centre inside geometry: nearest
+  size_t cells_inside = 0;       // centre inside geometry: a resolved neighbour's choice
   size_t cells_unseen = 0;       // no probe visible at all: a neighbour cell's choice
   size_t cells_searched = 0;     // no candidate visible, a farther probe beyond them is
 };

@@ -12,6 +12,17 @@
 namespace drtv::runtime {
 namespace {
 
+// Five sectors in a row along x, relit at 10:00 and packed with the runtime's headroom.
+ProbeCache rowLitAtTen() {
+  ProbeCache cache;
+  for (int x = -2; x <= 2; ++x)
+    if (!cache.addSector(testing::makeSector({x, 0}, {}, 1))) ADD_FAILURE() << "sector " << x;
+  const SkyLighting s = evaluateSky(Sky::tropicalDefault(), 10.0);
+  cache.relightAll({s.sky_sh, s.sun_sh, s.sky_direct_sh, {}, kAllComponents});
+  cache.pack(cache.maxColour() * 1.25f);
+  return cache;
+}
+
 TEST(PublishedVolume, AConcurrentReaderNeverSeesAHalfUpdatedVolume) {
   // Identical probes everywhere: each publish is a uniform volume whose value depends only on
   // the time of day. A torn read would mix two values inside one view.
@@ -59,11 +70,7 @@ TEST(PublishedVolume, AConcurrentReaderNeverSeesAHalfUpdatedVolume) {
 }
 
 TEST(PublishedVolume, TheBackBufferCatchesUpWithSlabsAndSectorRefills) {
-  ProbeCache cache;
-  for (int x = -2; x <= 2; ++x) ASSERT_TRUE(cache.addSector(testing::makeSector({x, 0}, {}, 1)));
-  const SkyLighting s = evaluateSky(Sky::tropicalDefault(), 10.0);
-  cache.relightAll({s.sky_sh, s.sun_sh, s.sky_direct_sh, {}, kAllComponents});
-  cache.pack(cache.maxColour() * 1.25f);
+  ProbeCache cache = rowLitAtTen();
   const VolumeOptions o;
   PublishedVolume published(o);
   published.invalidateAll();
@@ -71,6 +78,7 @@ TEST(PublishedVolume, TheBackBufferCatchesUpWithSlabsAndSectorRefills) {
   published.update(origin, cache);
   published.update(origin, cache);  // the second buffer's first build
   ASSERT_TRUE(cache.addSector(testing::makeSector({0, 1}, {}, 1)));
+  const SkyLighting s = evaluateSky(Sky::tropicalDefault(), 10.0);
   cache.relightSector({0, 1}, {s.sky_sh, s.sun_sh, s.sky_direct_sh, {}, kAllComponents});
   cache.packSlot(cache.slotOf({0, 1}));
   published.invalidateSector({0, 1});
@@ -155,11 +163,7 @@ TEST(PublishedVolume, ATimeSlicedBlurredRefillPublishesOneLightingStateWhole) {
 // Without blur a full refill always takes one update (a fill reads the cache, which a relight
 // in between would change under it).
 TEST(PublishedVolume, AnUnblurredRefillIsPublishedByTheUpdateThatAskedForIt) {
-  ProbeCache cache;
-  for (int x = -2; x <= 2; ++x) ASSERT_TRUE(cache.addSector(testing::makeSector({x, 0}, {}, 1)));
-  const SkyLighting s = evaluateSky(Sky::tropicalDefault(), 10.0);
-  cache.relightAll({s.sky_sh, s.sun_sh, s.sky_direct_sh, {}, kAllComponents});
-  cache.pack(cache.maxColour() * 1.25f);
+  ProbeCache cache = rowLitAtTen();
   const VolumeOptions o;
   PublishedVolume published(o, 4);
   const glm::ivec3 origin = volumeOriginFor(o, {0.0, 30.0, 12.0});

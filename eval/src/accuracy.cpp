@@ -224,6 +224,8 @@ std::vector<RowSpec> drtvRows(const BakeSettings& base, uint32_t effects, const 
                     {{"basis", basis}, {"probe_samples", std::to_string(probe_samples)}}, "path-traced probe values, nearest probe, no volume"});
   rows.push_back({"fill", "nearest", true, "drtv", {{"fill", "nearest"}}, "the default bake"});
   rows.push_back({"fill", "smooth", false, "drtv", {{"fill", "smooth"}}, "trilinear over index-grid cells"});
+  rows.push_back({"lookup", "trilinear", true, "drtv", {{"lookup", "trilinear"}}, "the shaders' filter"});
+  rows.push_back({"lookup", "facing", false, "drtv", {{"lookup", "facing"}}, "texels behind the surface left out (CPU only)"});
   for (float t : {1.f, 2.f, 4.f})
     rows.push_back({"texel_m", fmt(t), glm::vec3(t, t, 2.f * t) == runtime::VolumeOptions{}.texel_size_m, "drtv", {{"texel_m", fmt(t)}},
                     "96x96x16 texels cover +-" + fmt(47.5 * t) + " m"});

@@ -208,7 +208,10 @@ AmbientSample Runtime::ambient(const glm::dvec3& position, const glm::vec3& norm
     const PublishedVolume::ReadView view = volume_.read();
     const glm::dvec3 sample = position + glm::dvec3(n) * double(options_.normal_offset_m);
     s.volume_weight = view->coverage(sample, options_.edge_fade_texels);
-    if (s.volume_weight > 0.f) s.volume = sampleVolume(view.volume(), position, n, options_.normal_offset_m);
+    if (s.volume_weight > 0.f)
+      s.volume = options_.volume_lookup == RuntimeOptions::VolumeLookup::kFacing
+                     ? sampleVolumeFacing(view.volume(), position, n, options_.normal_offset_m)
+                     : sampleVolume(view.volume(), position, n, options_.normal_offset_m);
   }
   s.irradiance = s.distant + (s.volume - s.distant) * s.volume_weight;
   if (options_.effects & kEffectInteriors) {

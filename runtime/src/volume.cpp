@@ -708,6 +708,46 @@ glm::vec3 sampleVolume(const Volume& volume, const glm::dvec3& position, const g
   return {glm::dot(w, f[0]), glm::dot(w, f[1]), glm::dot(w, f[2])};                // A8, A9
 }
 
+glm::vec3 sampleVolumeFacing(const Volume& volume, const glm::dvec3& position, const glm::vec3& normal, float normal_offset_m) {
+  const glm::dvec3 ts(volume.options().texel_size_m);
+  const glm::ivec3 lo = volume.origin(), hi = volume.origin() + volume.period() - 1;
+  // World texel coordinates of the offset sample, texel centres at integers.
+  const glm::dvec3 t = (position + glm::dvec3(normal) * double(normal_offset_m)) / ts - 0.5;
+  const glm::dvec3 g0 = glm::floor(t), f = t - g0;
+  std::array<double, 8> w{}, facing{};
+  std::array<glm::ivec3, 8> g{};
+  double sum_facing = 0.0;
+  for (int c = 0; c < 8; ++c) {
+    const glm::dvec3 corner = g0 + glm::dvec3(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+    w[size_t(c)] = (c & 1 ? f.x : 1 - f.x) * (c & 2 ? f.y : 1 - f.y) * (c & 4 ? f.z : 1 - f.z);
+    // Clamped into the covered range, as the texture's clamp addressing does at its edges.
+    for (int a = 0; a < 3; ++a) g[size_t(c)][a] = int(std::clamp(corner[a], double(lo[a]), double(hi[a])));
+    const glm::dvec3 centre = (glm::dvec3(g[size_t(c)]) + 0.5) * ts;
+    facing[size_t(c)] = glm::dot(glm::dvec3(normal), centre - position) > 0.0 ? w[size_t(c)] : 0.0;
+    sum_facing += facing[size_t(c)];
+  }
+  const std::array<double, 8>& weights = sum_facing > 0.0 ? facing : w;
+  const double norm = sum_facing > 0.0 ? 1.0 / sum_facing : 1.0;
+  const bool sh_l1 = volume.options().representation == Representation::kShL1;
+  std::array<glm::vec4, 3> fetched{};
+  for (int ch = 0; ch < 3; ++ch)
+    for (int c = 0; c < 8; ++c) {
+      if (weights[size_t(c)] == 0.0) continue;
+      const uint32_t q = volume.worldTexel(ch, g[size_t(c)]);
+      glm::vec4 x(float(q & 0xff), float(q >> 8 & 0xff), float(q >> 16 & 0xff), float(q >> 24));
+      x *= 1.f / 255.f;
+      if (sh_l1)
+        for (int i = 1; i < 4; ++i) x[i] = (x[i] * 255.f - 128.f) * (1.f / 127.f);
+      fetched[size_t(ch)] += float(weights[size_t(c)] * norm) * x * volume.hdrScale();
+    }
+  if (sh_l1) {
+    const glm::vec4 y(1.f, normal.y, normal.z, normal.x);
+    return glm::max(glm::vec3(glm::dot(y, fetched[0]), glm::dot(y, fetched[1]), glm::dot(y, fetched[2])), glm::vec3(0.f));
+  }
+  const glm::vec4 sw = sh::shadingWeights(normal);
+  return {glm::dot(sw, fetched[0]), glm::dot(sw, fetched[1]), glm::dot(sw, fetched[2])};
+}
+
 BasisColours fetchVolume(const Volume& volume, const glm::dvec3& position) {
   const VolumeShaderConstants k = volume.shaderConstants();
   const std::array<glm::vec4, 3> f = fetchAt(volume, k, glm::vec3(position - k.snapped_camera));

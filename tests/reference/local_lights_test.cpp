@@ -1,6 +1,8 @@
 // Local lights (LPRT) against physics where it has a plain answer: a lamp inside a closed room
 // does not light the outside of its roof. The talk's runtime spreads a light onto the source
 // probes nearest to it; a probe standing on the roof is often among them.
+#include <cstdio>
+
 #include <gtest/gtest.h>
 
 #include "../baker/test_worlds.h"
@@ -71,6 +73,36 @@ TEST(LocalLights, ALampInAClosedRoomLendsItsLightOnlyToProbesInTheRoom) {
   EXPECT_GT(floor, 0.1);
   for (const glm::dvec3 at : {glm::dvec3(31.0, 31.0, 3.3), glm::dvec3(40.0, 31.0, 0.0)})
     EXPECT_LT(reference::referenceIrradiance(*scene, lighting, {at, {0, 0, 1}}, settings).parts[reference::kRefLocalLights].mean.g, 0.01 * floor);
+}
+
+// The runtime's lamp light at the points the reference gives nothing (above): the ground outside
+// the walls reads none of it (index cells under the ground take the cell above them, index_grid.h),
+// and the roof's top none with the facing lookup (sampleVolumeFacing). With the shaders' trilinear
+// filter the roof's top still reads the room through the 4 m texels that straddle the roof: a
+// known leak, asserted here as one so that a fix shows.
+TEST(LocalLights, TheRuntimeKeepsAClosedRoomsLampInsideItsWalls) {
+  const worlds::World w = closedRoomWithLamp();
+  const BakedWorld baked = bakeWorld(w, baker::Quality::kDraft);
+  ASSERT_FALSE(baked.sectors.empty());
+  const glm::vec3 up(0, 0, 1);
+  for (const auto lookup : {runtime::RuntimeOptions::VolumeLookup::kTrilinear, runtime::RuntimeOptions::VolumeLookup::kFacing}) {
+    runtime::RuntimeOptions o;
+    o.volume_lookup = lookup;
+    o.components = runtime::kComponentLocalLights;
+    auto rt = relit(baked, 23.0, {32, 32, 2}, o);
+    rt->update({32, 32, 2});  // a blurred refill publishes one update late (publish.h)
+    const float floor = rt->ambient({31.0, 31.0, 0.02}, up).irradiance.g;
+    const float ground = rt->ambient({40.0, 31.0, 0.02}, up).irradiance.g;
+    const float roof = rt->ambient({31.0, 31.0, 3.32}, up).irradiance.g;
+    const char* name = lookup == runtime::RuntimeOptions::VolumeLookup::kFacing ? "facing" : "trilinear";
+    std::printf("%s: floor %.4f, ground outside %.4f, roof top %.4f\n", name, floor, ground, roof);
+    EXPECT_GT(floor, 0.1f) << name;
+    EXPECT_LT(ground, 0.01f * floor) << name;
+    if (lookup == runtime::RuntimeOptions::VolumeLookup::kFacing)
+      EXPECT_LT(roof, 0.01f * floor) << name;
+    else
+      EXPECT_GT(roof, 0.1f * floor) << "the trilinear roof leak is gone: say so in docs/accuracy.md and assert it here";
+  }
 }
 
 }  // namespace

@@ -7,6 +7,9 @@
 //   representation     fc3 | sh-l1                  the directional representation baked
 //                                                   (representation.h; default sh-l1)
 //   fill               nearest | smooth             the volume fill (runtime FillMode)
+//   lookup             trilinear | facing           how ambient reads the volume: the shaders'
+//                                                   filter, or without the texels behind the
+//                                                   surface (runtime::sampleVolumeFacing)
 //   texel_m            metres in (0, 1e4]           the volume's horizontal texel size (the
 //                                                   vertical one twice it, as the default 2 x 4 m)
 //   sun_window         hanning | lanczos | none | linear
@@ -55,6 +58,7 @@ struct BakeParams {
 
 struct RuntimeParams {
   runtime::FillMode fill = runtime::FillMode::kNearest;
+  runtime::RuntimeOptions::VolumeLookup lookup = runtime::RuntimeOptions::VolumeLookup::kTrilinear;
   std::optional<float> texel_m;
   std::optional<float> sun_window;
   float sun_band0 = 1.f;
@@ -89,6 +93,10 @@ Result<Params> parseParams(const TechniqueParams& p) {
       if (v == "nearest") out.runtime.fill = runtime::FillMode::kNearest;
       else if (v == "smooth") out.runtime.fill = runtime::FillMode::kSmooth;
       else return fail("fill=" + v + ": expected nearest or smooth");
+    } else if (k == "lookup") {
+      if (v == "trilinear") out.runtime.lookup = runtime::RuntimeOptions::VolumeLookup::kTrilinear;
+      else if (v == "facing") out.runtime.lookup = runtime::RuntimeOptions::VolumeLookup::kFacing;
+      else return fail("lookup=" + v + ": expected trilinear or facing");
     } else if (k == "texel_m") {
       char* end = nullptr;
       const double x = std::strtod(v.c_str(), &end);
@@ -132,7 +140,7 @@ Result<Params> parseParams(const TechniqueParams& p) {
       else return fail("storage=" + v + ": expected runtime, 8-bit, snorm8, 16-bit or float");
     } else {
       return fail("no parameter '" + k +
-                  "' (drtv takes quality, rays_per_basis, bounces, representation, fill, texel_m, sun_window, part, "
+                  "' (drtv takes quality, rays_per_basis, bounces, representation, fill, lookup, texel_m, sun_window, part, "
                   "sources_per_light, light_sources, lprt_sources, storage)");
     }
   }
@@ -252,6 +260,7 @@ class DrtvTechnique final : public Technique {
     runtime::RuntimeOptions o = runtime::optionsForEffects(effects);
     const RuntimeParams& p = params_.runtime;
     o.volume.fill = p.fill;
+    o.volume_lookup = p.lookup;
     if (p.texel_m) o.volume.texel_size_m = glm::vec3(*p.texel_m, *p.texel_m, 2.f * *p.texel_m);
     if (p.sun_window) o.sun_band1_window = *p.sun_window, o.sun_band0_scale = p.sun_band0;
     if (p.part) o.components = *p.part;

@@ -86,6 +86,9 @@ struct RuntimeOptions {
   float normal_offset_m = 1.f;
   // Volume lookups fade to distant ambient over this many texels before the volume's edge.
   float edge_fade_texels = 2.f;
+  // How ambient() reads the volume: the talk's trilinear filter (what the shaders do), or with
+  // the texels behind the surface left out (sampleVolumeFacing; the CPU only, for evaluation).
+  enum class VolumeLookup { kTrilinear, kFacing } volume_lookup = VolumeLookup::kTrilinear;
   // A relight's blurred full refill is spread over this many updates (publish.h): each frame
   // does half the fill and blur, and the volume shows a time-of-day change one frame late. 1:
   // every update publishes its own lighting. Without blur a refill always takes one update. >= 1.

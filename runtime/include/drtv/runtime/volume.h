@@ -160,6 +160,15 @@ class Volume {
 // Only meaningful where coverage() > 0. Thread-safe (const).
 glm::vec3 sampleVolume(const Volume& volume, const glm::dvec3& position, const glm::vec3& normal, float normal_offset_m);
 
+// sampleVolume with the 8 texels of the trilinear filter weighed by which side of the surface
+// their centres lie on (the "normal-based" leak reduction of Unity's adaptive probe volumes): a
+// texel whose centre is behind the plane through `position` with `normal` gets no weight, and the
+// others share the filter's weight; if all 8 are behind, the plain filter. A roof's top then does
+// not read the room under it through a 4 m texel that straddles the roof. Eight fetches per
+// channel where the hardware filter does one; the shaders do not have it (an evaluation option,
+// RuntimeOptions::volume_lookup). Thread-safe (const).
+glm::vec3 sampleVolumeFacing(const Volume& volume, const glm::dvec3& position, const glm::vec3& normal, float normal_offset_m);
+
 // The four colours the hardware would fetch at `position` (no normal offset), decoded (kFc3: basis
 // intensities; kShL1: e0..e3): what sampleVolume shades. Exposed for tests and the query tool.
 BasisColours fetchVolume(const Volume& volume, const glm::dvec3& position);

@@ -133,6 +133,31 @@ TEST(Techniques, DrtvOverAWhitePlaneUnderAUniformSkyGivesPiLFacingEveryWay) {
   EXPECT_NEAR((*fc3)->ambient(at, tilted).y, 1.10 * want, 0.03 * want) << "and to 1.10 at 37 deg";
 }
 
+// The technique measures the lighting of the hour it is given: with the volume blur on (a world
+// that asks for it), whose engine-side refill is spread over two frames (publish.h), the first
+// point evaluated after a change of hour reads what a technique set up at that hour reads.
+TEST(Techniques, DrtvEvaluatesTheHourItIsGivenWithTheBlurOn) {
+  worlds::World world = testing::planeWorld(200.0, glm::vec3(0.5f));
+  world.effects |= kEffectVolumeBlur;
+  const std::vector<SurfacePoint> pts = {{glm::dvec3(-30, -30, 0.01), glm::vec3(0, 0, 1)}, {glm::dvec3(-20, -40, 0.01), glm::vec3(1, 0, 0)}};
+  auto at = [&](std::vector<double> hours) {
+    auto t = makeTechnique("drtv", {{"quality", "draft"}});
+    EXPECT_TRUE(t.has_value());
+    EXPECT_TRUE((*t)->prepare({world, "plane", {-1, 0, -1, 0}, 1, 0}).has_value());
+    std::vector<glm::vec3> v;
+    for (double h : hours) {
+      EXPECT_TRUE((*t)->setLighting(h, {}).has_value());
+      auto e = (*t)->evaluate(pts);
+      EXPECT_TRUE(e.has_value());
+      v = *e;
+    }
+    return v;
+  };
+  const std::vector<glm::vec3> fresh = at({16.0}), after = at({9.0, 16.0});
+  ASSERT_EQ(fresh.size(), after.size());
+  for (size_t i = 0; i < fresh.size(); ++i) EXPECT_EQ(fresh[i], after[i]) << "point " << i << " read another hour's volume";
+}
+
 // Runtime parameters change on a prepared technique; bake parameters need another prepare.
 TEST(Techniques, DrtvTakesRuntimeParametersAfterPrepareAndRefusesBakeOnes) {
   worlds::World world = testing::planeWorld(200.0, glm::vec3(0.5f));

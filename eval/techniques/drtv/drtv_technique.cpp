@@ -216,6 +216,9 @@ class DrtvTechnique final : public Technique {
   Result<void> setLighting(double hour, const std::vector<PointLight>& lights) override {
     if (!rt_) {
       options_ = runtimeOptions(manifest_.effects);
+      // An evaluation reads the lighting of the hour it set: every update publishes its own
+      // refill (an engine's blurred refill takes two frames, publish.h; the fly keeps that).
+      options_.volume_rebuild_updates = 1;
       const RuntimeParams& p = params_.runtime;
       options_.cache.max_sectors = std::max<int>(options_.cache.max_sectors, int(active().size()));
       auto rt = runtime::runtimeForArchive(manifest_, options_, hour, &lights);

@@ -64,7 +64,7 @@ void GridStreamer::setWanted(std::vector<Wanted> wanted) {
   wanted_ = std::move(wanted);
 }
 
-GridStreamer::Done GridStreamer::run(const Job& job) const {
+GridStreamer::Done GridStreamer::run(const Job& job) {
   Done d;
   d.job = job;
   const double hour = double(job.step) * options_.resweep_hours;
@@ -74,7 +74,7 @@ GridStreamer::Done GridStreamer::run(const Job& job) const {
     // the fine grids' edges.
     const SkyInput sky{skyLight(sky_, hour), sunLight(sky_, hour, options_.sun_disc_rad)};
     o.keep_direct = true;
-    d.grid = std::make_shared<const SweptGrid>(sweep(coarse_material_, sky, nullptr, o));
+    d.grid = std::make_shared<SweptGrid>(sweep(coarse_material_, sky, nullptr, o));
     return d;
   }
   auto m = decodeMaterial(*job.material);
@@ -83,8 +83,25 @@ GridStreamer::Done GridStreamer::run(const Job& job) const {
     return d;
   }
   o.keep_direct = false;
-  d.grid = std::make_shared<const SweptGrid>(sweep(*m, job.parent->sky, job.parent.get(), o));
+  std::shared_ptr<SweptGrid> into;
+  {
+    std::lock_guard lk(mutex_);
+    if (!spares_.empty()) {
+      into = std::move(spares_.back());
+      spares_.pop_back();
+    }
+  }
+  if (!into) into = std::make_shared<SweptGrid>();
+  sweepInto(*m, job.parent->sky, job.parent.get(), o, *into);  // bit for bit sweep()'s
+  d.grid = std::move(into);
   return d;
+}
+
+void GridStreamer::keepSpares(std::vector<std::shared_ptr<const SweptGrid>>& retire) {
+  const size_t most = size_t(std::max(1, threads_.empty() ? options_.simulated_workers : int(threads_.size())));
+  std::lock_guard lk(mutex_);
+  for (auto& r : retire)
+    if (r && r.use_count() == 1 && spares_.size() < most) spares_.push_back(std::const_pointer_cast<SweptGrid>(std::move(r)));
 }
 
 void GridStreamer::workerLoop() {
@@ -194,6 +211,8 @@ GridStreamerStats GridStreamer::update(double time_s, double hour) {
   }
   for (Job& j : stale) jobs.push_back(std::move(j));
 
+  keepSpares(retire);
+
   // 4. Hand them out.
   auto markInFlight = [&](const Job& j) {
     if (j.coarse) coarse_in_flight_ = true;
@@ -227,6 +246,10 @@ GridStreamerStats GridStreamer::update(double time_s, double hour) {
     st.queued = int(fine_in_flight_.size()) + (coarse_in_flight_ ? 1 : 0);
   }
 
+  {
+    std::lock_guard lk(mutex_);
+    st.spares = int(spares_.size());
+  }
   st.fine_grids = int(fine_.size());
   st.bytes = coarse_->bytes();
   for (const auto& [k, f] : fine_) {

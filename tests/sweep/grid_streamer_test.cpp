@@ -126,6 +126,13 @@ TEST(GridStreamer, FineGridIsTheSweepOfItsMaterialUnderItsStepsCoarseGridWhateve
     EXPECT_TRUE(sameWords(g.coarse().light, coarse15.light)) << workers << " workers";
     EXPECT_TRUE(sameWords(g.fine({1, 0})->light, fine15.light)) << workers << " workers";
     EXPECT_FALSE(sameWords(fine9.light, fine15.light));  // the comparison can tell hours apart
+    // The 9:00 grid, retired when 15:30's landed, is kept as a spare; the next step's fine grid is
+    // swept into it (sweepInto), and is still the sweep of its material word for word.
+    EXPECT_EQ(g.update(t, 15.4).spares, 1) << workers << " workers";
+    runUntilIdle(g, t, 20.1);
+    auto [coarse20, fine20] = direct(s, o, 20.0);
+    EXPECT_EQ(g.fineHour({1, 0}), 20.0);
+    EXPECT_TRUE(sameWords(g.fine({1, 0})->light, fine20.light)) << workers << " workers: swept into a spare";
   }
 }
 

@@ -73,6 +73,7 @@ struct GridStreamerStats {
   double inline_ms = 0.0;      // workers == 0: the jobs and frees run inline in this update
   double coarse_hour = 0.0;    // the installed coarse grid's step hour
   size_t bytes = 0;            // light grids installed (coarse + fine)
+  int spares = 0;              // retired grids kept for the next jobs to sweep into, after this update
   bool idle = false;           // nothing queued or running, nothing wanted missing or stale
 };
 
@@ -125,7 +126,11 @@ class GridStreamer {
   };
 
   int64_t stepOf(double hour) const;
-  Done run(const Job& job) const;
+  Done run(const Job& job);
+  // Retired grids nobody else holds become spares (at most one per worker) that the next jobs
+  // sweep into (sweepInto: no allocation, no zeroing of a 9-15 MB grid); the rest stay in
+  // `retire`, to be freed.
+  void keepSpares(std::vector<std::shared_ptr<const SweptGrid>>& retire);
   void workerLoop();
 
   Sky sky_;
@@ -150,6 +155,8 @@ class GridStreamer {
   std::vector<Job> queue_;                                  // best first
   std::vector<Done> done_;
   std::vector<std::shared_ptr<const SweptGrid>> retired_;   // freed by a worker
+  // Grids made non-const (every grid here is: run() makes them so), held by nobody else.
+  std::vector<std::shared_ptr<SweptGrid>> spares_;
   bool stop_ = false;
   std::vector<std::thread> threads_;
 };

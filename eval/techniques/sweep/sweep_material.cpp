@@ -97,7 +97,10 @@ struct Tracer {
           acc.object_albedo[ci] += albedo;
           ++acc.object_hits[ci];
         }
-        if (cls == InstanceClass::kStatic) depth = scene.frontFace(ray, h.prim) ? depth + 1 : std::max(0, depth - 1);
+        // A double-sided triangle is a surface from both sides (docs/world-format.md), never the
+        // skin of a solid: it opens and closes nothing.
+        if (cls == InstanceClass::kStatic && !scene.twoSided(h.prim))
+          depth = scene.frontFace(ray, h.prim) ? depth + 1 : std::max(0, depth - 1);
       }
       t_prev = t;
       ray.t_near = float(t) + 1e-4f + 1e-6f * float(t);
@@ -129,7 +132,7 @@ Result<sweep::MaterialGrid> voxelise(const raytrace::WorldGeometry& geometry, co
       const SectorKey key{sx, sy};
       const raytrace::SectorGeometry sg = geometry.gather(key, o.halo_m);
       if (sg.triangleCount() == 0) continue;
-      auto scene = raytrace::RayScene::build(sg.vertices);
+      auto scene = raytrace::RayScene::build(sg.vertices, sg.twoSided());
       if (!scene) return std::unexpected(scene.error().context("sweep: sector " + toString(key)));
       const glm::dvec3 local(kSectorSizeM * sx, kSectorSizeM * sy, 0.0);
       // This sector's cells.

@@ -10,7 +10,8 @@
 // ray_spacing_m), at most kMaxRaysPerEdge):
 //  - objects: the share o of rays that hit a static or vegetation triangle in the cell, or pass
 //    through it inside a static mesh (between a front-face and a back-face hit: rocks and
-//    buildings are closed), averaged over the three axes;
+//    buildings are closed; a double-sided triangle is a surface only and bounds no inside),
+//    averaged over the three axes;
 //  - ground: each downward ray's first terrain hit at height h makes the cell's share below
 //    h - ground_bias g = clamp((h - bias - z_cell_bottom) / cell_m, 0, 1): the seed's linear
 //    transition; g is averaged over the cell's downward rays;

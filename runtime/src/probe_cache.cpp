@@ -749,29 +749,16 @@ float ProbeCache::maxColour() const {
 }
 
 namespace {
-// One channel's texels of a slot, plane by plane: the same bytes as detail::packTexel and
-// packTexelShL1 (pack.h), written without branches so that the loop vectorises. Per probe and
+// One channel's texels of a slot, plane by plane, in pack.h's encodings (branch-free there, so
+// that these loops vectorise). Per probe and
 // channel the scalar form, with the representation tested per texel, made the pack after each
 // relight as costly as half a volume refill (perf of a fly at 0.2 h/s).
 DRTV_HOT_CLONES void packPlanes(const float* __restrict p0, const float* __restrict p1, const float* __restrict p2,
                                 const float* __restrict p3, int n, float inv, bool sh_l1, uint32_t* __restrict out) {
-  auto q = [inv](float v) {  // round(255 min(1, x)); negative and NaN: 0
-    float x = v * inv;
-    x = x > 0.f ? x : 0.f;
-    x = x < 1.f ? x : 1.f;
-    return uint32_t(x * 255.f + 0.5f);
-  };
-  auto sq = [inv](float v) {  // 128 + round(127 clamp(x, -1, 1)), half away from zero; NaN: 128
-    float x = v * inv;
-    x = x == x ? x : 0.f;
-    x = x < -1.f ? -1.f : (x > 1.f ? 1.f : x);
-    const float r = x * 127.f;
-    return uint32_t(128 + int32_t(r + (r >= 0.f ? 0.5f : -0.5f)));
-  };
   if (sh_l1)
-    for (int i = 0; i < n; ++i) out[i] = q(p0[i]) | sq(p1[i]) << 8 | sq(p2[i]) << 16 | sq(p3[i]) << 24;
+    for (int i = 0; i < n; ++i) out[i] = detail::packTexelShL1(p0[i], p1[i], p2[i], p3[i], inv);
   else
-    for (int i = 0; i < n; ++i) out[i] = q(p0[i]) | q(p1[i]) << 8 | q(p2[i]) << 16 | q(p3[i]) << 24;
+    for (int i = 0; i < n; ++i) out[i] = detail::packTexel(p0[i], p1[i], p2[i], p3[i], inv);
 }
 }  // namespace
 

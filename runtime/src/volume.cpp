@@ -679,17 +679,32 @@ glm::vec4 tex3D(const Volume& v, int channel, const glm::vec3& uv) {
   return glm::mix(glm::mix(c00, c10, t[1]), glm::mix(c01, c11, t[1]), t[2]);
 }
 
+// A fetch's normalised bytes (byte / 255, filtered or not: the decoding is linear) as the values
+// they encode: sh-l1's bytes 1..3 are offset binary (representation.h), (byte - 128) / 127; then
+// times the HDR scale.
+glm::vec4 decodeFetched(const Volume& v, glm::vec4 x) {
+  if (v.options().representation == Representation::kShL1)
+    for (int i = 1; i < 4; ++i) x[i] = (x[i] * 255.f - 128.f) * (1.f / 127.f);
+  return x * v.hdrScale();
+}
+
 // The shader from `ws` (position relative to SnappedCamera, offset applied) to the three fetches.
 std::array<glm::vec4, 3> fetchAt(const Volume& v, const VolumeShaderConstants& k, const glm::vec3& ws) {
   const glm::vec3 uv = glm::fract(ws * k.uv_scale + 0.5f + k.wrap_offset) * k.uv_remap_scale + k.uv_remap_bias;  // A3
   std::array<glm::vec4, 3> f = {tex3D(v, 0, uv), tex3D(v, 1, uv), tex3D(v, 2, uv)};
-  for (glm::vec4& x : f) {
-    // sh-l1: bytes 1..3 are offset binary (representation.h): (byte - 128) / 127.
-    if (v.options().representation == Representation::kShL1)
-      for (int i = 1; i < 4; ++i) x[i] = (x[i] * 255.f - 128.f) * (1.f / 127.f);
-    x *= k.hdr_scale;  // A4
-  }
+  for (glm::vec4& x : f) x = decodeFetched(v, x);  // A4
   return f;
+}
+
+// Ambient from the three decoded fetches: sh-l1's E(n) (S5-S6) or fc3's weights (A5-A9).
+glm::vec3 shadeFetched(const Volume& volume, const std::array<glm::vec4, 3>& f, const glm::vec3& normal) {
+  if (volume.options().representation == Representation::kShL1) {
+    // S5-S6: E(n) = max(0, e0 + e1 n.y + e2 n.z + e3 n.x) per channel.
+    const glm::vec4 y(1.f, normal.y, normal.z, normal.x);                          // S5
+    return glm::max(glm::vec3(glm::dot(y, f[0]), glm::dot(y, f[1]), glm::dot(y, f[2])), glm::vec3(0.f));  // S6
+  }
+  const glm::vec4 w = sh::shadingWeights(normal);                                  // A5-A7
+  return {glm::dot(w, f[0]), glm::dot(w, f[1]), glm::dot(w, f[2])};                // A8, A9
 }
 }  // namespace
 
@@ -698,14 +713,7 @@ glm::vec3 sampleVolume(const Volume& volume, const glm::dvec3& position, const g
   // The numbered lines correspond one to one with runtime/shaders/ambient.{glsl,hlsl}.
   const glm::vec3 sampling_offset = normal * normal_offset_m;                      // A1
   const glm::vec3 ws = glm::vec3(position - k.snapped_camera) + sampling_offset;   // A2
-  const std::array<glm::vec4, 3> f = fetchAt(volume, k, ws);                       // A3, A4
-  if (volume.options().representation == Representation::kShL1) {
-    // S5-S6: E(n) = max(0, e0 + e1 n.y + e2 n.z + e3 n.x) per channel.
-    const glm::vec4 y(1.f, normal.y, normal.z, normal.x);                          // S5
-    return glm::max(glm::vec3(glm::dot(y, f[0]), glm::dot(y, f[1]), glm::dot(y, f[2])), glm::vec3(0.f));  // S6
-  }
-  const glm::vec4 w = sh::shadingWeights(normal);                                  // A5-A7
-  return {glm::dot(w, f[0]), glm::dot(w, f[1]), glm::dot(w, f[2])};                // A8, A9
+  return shadeFetched(volume, fetchAt(volume, k, ws), normal);                     // A3-A9, S5-S6
 }
 
 glm::vec3 sampleVolumeFacing(const Volume& volume, const glm::dvec3& position, const glm::vec3& normal, float normal_offset_m) {
@@ -728,24 +736,17 @@ glm::vec3 sampleVolumeFacing(const Volume& volume, const glm::dvec3& position, c
   }
   const std::array<double, 8>& weights = sum_facing > 0.0 ? facing : w;
   const double norm = sum_facing > 0.0 ? 1.0 / sum_facing : 1.0;
-  const bool sh_l1 = volume.options().representation == Representation::kShL1;
   std::array<glm::vec4, 3> fetched{};
-  for (int ch = 0; ch < 3; ++ch)
+  for (int ch = 0; ch < 3; ++ch) {
     for (int c = 0; c < 8; ++c) {
       if (weights[size_t(c)] == 0.0) continue;
       const uint32_t q = volume.worldTexel(ch, g[size_t(c)]);
-      glm::vec4 x(float(q & 0xff), float(q >> 8 & 0xff), float(q >> 16 & 0xff), float(q >> 24));
-      x *= 1.f / 255.f;
-      if (sh_l1)
-        for (int i = 1; i < 4; ++i) x[i] = (x[i] * 255.f - 128.f) * (1.f / 127.f);
-      fetched[size_t(ch)] += float(weights[size_t(c)] * norm) * x * volume.hdrScale();
+      const glm::vec4 x(float(q & 0xff), float(q >> 8 & 0xff), float(q >> 16 & 0xff), float(q >> 24));
+      fetched[size_t(ch)] += float(weights[size_t(c)] * norm) * (x * (1.f / 255.f));
     }
-  if (sh_l1) {
-    const glm::vec4 y(1.f, normal.y, normal.z, normal.x);
-    return glm::max(glm::vec3(glm::dot(y, fetched[0]), glm::dot(y, fetched[1]), glm::dot(y, fetched[2])), glm::vec3(0.f));
+    fetched[size_t(ch)] = decodeFetched(volume, fetched[size_t(ch)]);
   }
-  const glm::vec4 sw = sh::shadingWeights(normal);
-  return {glm::dot(sw, fetched[0]), glm::dot(sw, fetched[1]), glm::dot(sw, fetched[2])};
+  return shadeFetched(volume, fetched, normal);
 }
 
 BasisColours fetchVolume(const Volume& volume, const glm::dvec3& position) {

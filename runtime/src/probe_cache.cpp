@@ -78,6 +78,7 @@ struct Slot {
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__SANITIZE_ADDRESS__) && \
     !defined(__SANITIZE_THREAD__)
 #define DRTV_HOT_CLONES __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
+#define DRTV_HOT_MULTIVERSION 1
 #else
 #define DRTV_HOT_CLONES
 #endif
@@ -127,65 +128,136 @@ DRTV_HOT_CLONES int32_t relightPlanes(const float* in, float* out, int n, int st
   return clamp ? maxMagnitudeBits(out, n, stride) : 0;
 }
 
-// sh-l1: e[c][i][k] = sum_j lc[c][j] M'[c][i][j][k] + d0[c] P0_i[k] + d2[c] P2_i[k] (probe_cache.h),
-// then clamped if `clamp` (e0 to [0, kMaxColour], e1..3 to +-kMaxColour, NaN to 0). Returns the
-// bit pattern of the largest |clamped value| (0 if not clamping).
+// sh-l1's clamp of e1..3 (probe_cache.h): to +-kMaxColour, NaN to 0.
 inline float clampSigned(float x) {
   const float y = x > -kMaxColour ? x : -kMaxColour;  // NaN -> -kMaxColour here, fixed below
   const float z = y < kMaxColour ? y : kMaxColour;
   return x == x ? z : 0.f;
 }
-// The sun transfer's share of one relight (sector.h SunBlock): the two samples nearest the sun,
-// as the slot holds them (12 float planes each), weighted per (channel, i) plane by a[q] and b[q].
-struct SunPlanes {
-  const float* x = nullptr;
-  const float* y = nullptr;
-  float a[12] = {}, b[12] = {};
+// sh-l1 keeps its inputs in blocks of 16 probes: block b holds the kInputPlanes planes' 16 values
+// of probes 16b..16b+15 side by side (kShL1Block floats), and the sun transfer likewise, 12 planes
+// per sample and block. The relight then runs a block through all 12 (channel, coefficient)
+// outputs with every input at a fixed offset from one pointer. Relit plane
+// by plane, each 16-probe step was one chain of 8 dependent multiply-adds on 10 pointers, and the
+// relight waited on their latency (1.6x fc3's, whose chain is 5).
+inline constexpr int kShL1Block = kInputPlanes * 16;
+inline constexpr int kSunBlock = 12 * 16;
+// GCC's vector extensions, L lanes: 16 (one register) in the AVX-512 version, 8 in the AVX2 and
+// baseline ones (where 16 lanes spilled: a block is then two halves). The helpers are always
+// inlined into the kernels below, so no vector crosses a call, and GCC's -Wpsabi note on how one
+// would be returned without AVX does not apply (runtime/CMakeLists.txt turns it off here).
+template <int L>
+struct Lanes;
+template <>
+struct Lanes<8> {
+  using F = float __attribute__((vector_size(32)));
+  using I = int32_t __attribute__((vector_size(32)));
+};
+template <>
+struct Lanes<16> {
+  using F = float __attribute__((vector_size(64)));
+  using I = int32_t __attribute__((vector_size(64)));
+};
+template <class V>
+[[gnu::always_inline]] inline V loadLanes(const float* p) {
+  V v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+template <class V>
+[[gnu::always_inline]] inline void storeLanes(float* p, V v) {
+  std::memcpy(p, &v, sizeof v);
+}
+// clampColour and clampSigned on a vector (NaN to 0 in both).
+template <class V>
+[[gnu::always_inline]] inline V clampColourLanes(V x) {
+  const V zero{}, hi = zero + kMaxColour;
+  const V y = x > zero ? x : zero;
+  return y < hi ? y : hi;
+}
+template <class V>
+[[gnu::always_inline]] inline V clampSignedLanes(V x) {
+  const V zero{}, lo = zero - kMaxColour, hi = zero + kMaxColour;
+  const V y = x > lo ? x : lo;
+  const V z = y < hi ? y : hi;
+  return x == x ? z : zero;
+}
+
+// The weights of one relight: per channel the bounce light and the direct sky's d0, d2, and per
+// (channel, coefficient) plane the sun samples' a, b.
+struct ShL1Weights {
+  float lc[3][4];
+  float d0[3], d2[3];
+  float a[12], b[12];
 };
 
-// e[q][k] for one (channel c, coefficient i) plane q, with the sun's two samples if kSun.
-template <bool kSun>
-[[gnu::always_inline]] inline float shL1Value(const float* __restrict t0, const float* __restrict p0, const float* __restrict p2,
-                                              const float* __restrict x, const float* __restrict y, int stride, int k,
-                                              const float (&l)[4], float a, float b, float sa, float sb) {
-  const float e = l[0] * t0[k] + l[1] * t0[stride + k] + l[2] * t0[2 * stride + k] + l[3] * t0[3 * stride + k] + a * p0[k] + b * p2[k];
-  if constexpr (kSun) return e + sa * x[k] + sb * y[k];
-  return e;
-}
-
-template <bool kSun>
-[[gnu::always_inline]] inline int32_t shL1Planes(const float* in, float* out, int n, int stride, const float (&lc)[3][4],
-                                                 const float (&d0)[3], const float (&d2)[3], const SunPlanes& sun, bool clamp) {
-  for (int c = 0; c < 3; ++c)
-    for (int i = 0; i < 4; ++i) {
-      const int q = c * 4 + i;
-      const float* t0 = in + (q * 4) * stride;
-      const float* p0 = in + (kTransferPlanes + i) * stride;
-      const float* p2 = in + (kTransferPlanes + 4 + i) * stride;
-      const float* x = kSun ? sun.x + q * stride : nullptr;
-      const float* y = kSun ? sun.y + q * stride : nullptr;
-      float* __restrict o = out + q * stride;
-      const float a = d0[c], b = d2[c], sa = sun.a[q], sb = sun.b[q];
-      // The branches stay outside the loops, so that each loop vectorises (as relightPlanes').
-      if (!clamp) {
-        for (int k = 0; k < n; ++k) o[k] = shL1Value<kSun>(t0, p0, p2, x, y, stride, k, lc[c], a, b, sa, sb);
-      } else if (i == 0) {
-        for (int k = 0; k < n; ++k) o[k] = clampColour(shL1Value<kSun>(t0, p0, p2, x, y, stride, k, lc[c], a, b, sa, sb));
-      } else {
-        for (int k = 0; k < n; ++k) o[k] = clampSigned(shL1Value<kSun>(t0, p0, p2, x, y, stride, k, lc[c], a, b, sa, sb));
+template <int L, bool kSun, bool kClamp>
+[[gnu::always_inline]] inline int32_t shL1Blocks(const float* __restrict in, float* __restrict out, int n, int stride,
+                                                 const ShL1Weights& w_, const float* __restrict sx, const float* __restrict sy) {
+  using F = typename Lanes<L>::F;
+  using I = typename Lanes<L>::I;
+  const ShL1Weights w = w_;
+  I mx{};
+  for (int k = 0; k < n; k += 16, in += kShL1Block, sx += kSunBlock, sy += kSunBlock)
+    for (int h = 0; h < 16; h += L) {
+      float* o = out + k + h;
+#pragma GCC unroll 12
+      for (int q = 0; q < 12; ++q) {
+        const int c = q / 4, i = q % 4;
+        const float* t = in + q * 64 + h;
+        // The terms in the order of one chain (fused by GCC where the target has FMA): the 12
+        // outputs of a block are independent, so that their chains overlap.
+        const F p0 = loadLanes<F>(in + (kTransferPlanes + i) * 16 + h), p2 = loadLanes<F>(in + (kTransferPlanes + 4 + i) * 16 + h);
+        F v = w.lc[c][0] * loadLanes<F>(t) + w.lc[c][1] * loadLanes<F>(t + 16) + w.lc[c][2] * loadLanes<F>(t + 32) +
+              w.lc[c][3] * loadLanes<F>(t + 48) + w.d0[c] * p0 + w.d2[c] * p2;
+        if constexpr (kSun) v = v + w.a[q] * loadLanes<F>(sx + q * 16 + h) + w.b[q] * loadLanes<F>(sy + q * 16 + h);
+        if constexpr (kClamp) {
+          v = i == 0 ? clampColourLanes(v) : clampSignedLanes(v);
+          // Clamped values order like their bit patterns once the sign bit is cleared.
+          I bits;
+          std::memcpy(&bits, &v, sizeof bits);
+          bits &= 0x7fffffff;
+          mx = bits > mx ? bits : mx;
+        }
+        storeLanes(o, v);
+        o += stride;
       }
     }
-  return clamp ? maxMagnitudeBits(out, n, stride) : 0;
+  int32_t m = 0;
+  for (int l = 0; l < L; ++l) m = std::max(m, mx[l]);
+  return m;
 }
 
-// sh-l1's relight of one slot's planes, without and with its sun transfer, each in one pass.
-DRTV_HOT_CLONES int32_t relightPlanesShL1(const float* in, float* out, int n, int stride, const float (&lc)[3][4],
-                                          const float (&d0)[3], const float (&d2)[3], bool clamp) {
-  return shL1Planes<false>(in, out, n, stride, lc, d0, d2, SunPlanes{}, clamp);
+template <int L>
+[[gnu::always_inline]] inline int32_t shL1Relight(const float* in, float* out, int n, int stride, const ShL1Weights& w,
+                                                  const float* sx, const float* sy, bool clamp) {
+  if (sx)
+    return clamp ? shL1Blocks<L, true, true>(in, out, n, stride, w, sx, sy) : shL1Blocks<L, true, false>(in, out, n, stride, w, sx, sy);
+  return clamp ? shL1Blocks<L, false, true>(in, out, n, stride, w, in, in) : shL1Blocks<L, false, false>(in, out, n, stride, w, in, in);
 }
-DRTV_HOT_CLONES int32_t relightPlanesShL1Sun(const float* in, float* out, int n, int stride, const float (&lc)[3][4],
-                                             const float (&d0)[3], const float (&d2)[3], const SunPlanes& sun, bool clamp) {
-  return shL1Planes<true>(in, out, n, stride, lc, d0, d2, sun, clamp);
+
+// sh-l1's relight of one slot's blocks, with its sun transfer's two samples sx, sy (or without,
+// sx = nullptr): e[c][i][k] = sum_j lc[c][j] M'[c][i][j][k] + d0[c] P0_i[k] + d2[c] P2_i[k]
+// (+ the sun's a x + b y), then clamped if `clamp` (e0 to [0, kMaxColour], e1..3 to +-kMaxColour,
+// NaN to 0). Returns the bit pattern of the largest |clamped value| (0 if not clamping). `n` a
+// multiple of 16. One version per target (GCC's function multiversioning, as DRTV_HOT_CLONES but
+// with the lanes each target wants).
+#ifdef DRTV_HOT_MULTIVERSION
+__attribute__((target("arch=x86-64-v4"))) int32_t relightBlocksShL1(const float* in, float* out, int n, int stride,
+                                                                    const ShL1Weights& w, const float* sx, const float* sy,
+                                                                    bool clamp) {
+  return shL1Relight<16>(in, out, n, stride, w, sx, sy, clamp);
+}
+__attribute__((target("arch=x86-64-v3"))) int32_t relightBlocksShL1(const float* in, float* out, int n, int stride,
+                                                                    const ShL1Weights& w, const float* sx, const float* sy,
+                                                                    bool clamp) {
+  return shL1Relight<8>(in, out, n, stride, w, sx, sy, clamp);
+}
+__attribute__((target("default")))
+#endif
+int32_t relightBlocksShL1(const float* in, float* out, int n, int stride, const ShL1Weights& w, const float* sx, const float* sy,
+                          bool clamp) {
+  return shL1Relight<8>(in, out, n, stride, w, sx, sy, clamp);
 }
 
 // `n` a multiple of 16 (the slot's padded count), as for the relight loops.
@@ -249,6 +321,10 @@ struct ProbeCache::Impl {
   // 64-byte line), so relighting a slot streams one contiguous block.
   int stride(int s) const { return std::max(16, (slots[s].count + 15) & ~15); }
   float* inPlane(int s, int p) { return in.data + size_t(s) * kInputPlanes * kSlotProbes + size_t(p) * stride(s); }
+  // sh-l1's input value of plane p for probe i, in its blocks of 16 probes (kShL1Block).
+  float& inShL1(int s, int p, int i) {
+    return in.data[size_t(s) * kInputPlanes * kSlotProbes + size_t(i / 16) * kShL1Block + size_t(p) * 16 + size_t(i % 16)];
+  }
   float* outPlane(int s, int p) { return out.data + size_t(s) * kColourPlanes * kSlotProbes + size_t(p) * stride(s); }
   const float* outPlane(int s, int p) const {
     return out.data + size_t(s) * kColourPlanes * kSlotProbes + size_t(p) * stride(s);
@@ -395,21 +471,21 @@ Result<void> ProbeCache::addSector(const Sector& sector) {
     if (sh_l1) {
       for (int c = 0; c < 3; ++c)
         for (int r = 0; r < 4; ++r)
-          for (int k = 0; k < 4; ++k) m.inPlane(s, (c * 4 + r) * 4 + k)[i] = kLobe[r] * d.prt[c][r][k];
+          for (int k = 0; k < 4; ++k) m.inShL1(s, (c * 4 + r) * 4 + k, i) = kLobe[r] * d.prt[c][r][k];
       if (d.flags & kProbeSkyFit) {
         // e = H a + (Z - H) b (probe.h) in the relight's terms: with the sky continued through the
         // horizon, SkyDirectSH[c][0] = 4 pi Y0 (H + (Z - H) / 3) and SkyDirectSH[c][2] = (4 pi / 5) Y1 (Z - H)
         // (lighting_sh.h), so P0 = a / (4 pi Y0) and P2 = 5 (b - a / 3) / (4 pi Y1).
         for (int r = 0; r < 4; ++r) {
-          m.inPlane(s, kTransferPlanes + r)[i] = d.sky_fit_h[r] / (4.f * sh::kPi * sh::kY0);
-          m.inPlane(s, kTransferPlanes + 4 + r)[i] = 5.f * (d.sky_fit_delta[r] - d.sky_fit_h[r] / 3.f) / (4.f * sh::kPi * sh::kY1);
+          m.inShL1(s, kTransferPlanes + r, i) = d.sky_fit_h[r] / (4.f * sh::kPi * sh::kY0);
+          m.inShL1(s, kTransferPlanes + 4 + r, i) = 5.f * (d.sky_fit_delta[r] - d.sky_fit_h[r] / 3.f) / (4.f * sh::kPi * sh::kY1);
         }
         continue;
       }
       const float p2[4] = {sh::kY0 * d.sky_vis_sh[2], d.sky_moments[0], d.sky_moments[1], d.sky_moments[2]};
       for (int r = 0; r < 4; ++r) {
-        m.inPlane(s, kTransferPlanes + r)[i] = kLobe[r] * sh::kY0 * d.sky_vis_sh[r];
-        m.inPlane(s, kTransferPlanes + 4 + r)[i] = kLobe[r] * p2[r];
+        m.inShL1(s, kTransferPlanes + r, i) = kLobe[r] * sh::kY0 * d.sky_vis_sh[r];
+        m.inShL1(s, kTransferPlanes + 4 + r, i) = kLobe[r] * p2[r];
       }
       continue;
     }
@@ -464,12 +540,13 @@ Result<void> ProbeCache::addSector(const Sector& sector) {
     const size_t K = sun.samples();
     const int stride = m.stride(s);
     sl.sun_dirs = sun.directions;
-    // Dequantised once (as the transfer planes are): 6 x 12 floats a probe, 1.2 MB for 51 sectors.
+    // Dequantised once (as the transfer planes are): 6 x 12 floats a probe, 1.2 MB for 51 sectors;
+    // per sample in blocks of 16 probes, as the transfer (kSunBlock).
     sl.sun = AlignedFloats(K * 12 * size_t(stride));  // on cache lines, as the transfer planes
     for (int i = 0; i < n; ++i)
       for (size_t k = 0; k < K; ++k)
         for (int q = 0; q < 12; ++q)
-          sl.sun.data[(k * 12 + q) * stride + i] = dequantizeSnorm8(sun.coeffs[sun.index(size_t(i), k, q / 4, q % 4)], sun.ranges[size_t(i)]);
+          sl.sun.data[k * 12 * stride + size_t(i / 16) * kSunBlock + size_t(q) * 16 + size_t(i % 16)] = dequantizeSnorm8(sun.coeffs[sun.index(size_t(i), k, q / 4, q % 4)], sun.ranges[size_t(i)]);
   }
   m.resolveSources();
   return {};
@@ -616,11 +693,12 @@ void ProbeCache::Impl::relightSlot(int s, const RelightInput& li) {
   const int stride = this->stride(s);
   const int n16 = (n + 15) & ~15;
   if (opt.representation == Representation::kShL1) {
-    float d0[3], d2[3];
+    ShL1Weights w{};
+    std::memcpy(w.lc, lc, sizeof lc);
     for (int c = 0; c < 3; ++c) {
       const bool on = li.components & kComponentDirectSky;
-      d0[c] = on ? li.sky_direct_sh[c][0] : 0.f;
-      d2[c] = on ? li.sky_direct_sh[c][2] : 0.f;
+      w.d0[c] = on ? li.sky_direct_sh[c][0] : 0.f;
+      w.d2[c] = on ? li.sky_direct_sh[c][2] : 0.f;
     }
     const size_t K = sl.sun_dirs.size();
     const bool sun = K > 0 && li.sun_transfer && (li.components & kComponentSunBounce) && li.sun_irradiance != glm::vec3(0.f);
@@ -636,19 +714,18 @@ void ProbeCache::Impl::relightSlot(int s, const RelightInput& li) {
       for (size_t k = 0; k < K; ++k)
         if (sun_w_seen[k] != 0.f) (k0 == K ? k0 : k1) = k;
     int32_t bits = 0;
+    const float* blocks = in.data + size_t(s) * kInputPlanes * kSlotProbes;
     if (k0 < K) {
       if (k1 == K) k1 = k0;
-      SunPlanes sp;
-      sp.x = sl.sun.data + k0 * 12 * size_t(stride);
-      sp.y = sl.sun.data + k1 * 12 * size_t(stride);
       for (int q = 0; q < 12; ++q) {
         const float e = li.sun_irradiance[q / 4] * kLobe[q % 4];
-        sp.a[q] = sun_w_seen[k0] * e;
-        sp.b[q] = k1 == k0 ? 0.f : sun_w_seen[k1] * e;
+        w.a[q] = sun_w_seen[k0] * e;
+        w.b[q] = k1 == k0 ? 0.f : sun_w_seen[k1] * e;
       }
-      bits = relightPlanesShL1Sun(inPlane(s, 0), outPlane(s, 0), n16, stride, lc, d0, d2, sp, !lprt);
+      bits = relightBlocksShL1(blocks, outPlane(s, 0), n16, stride, w, sl.sun.data + k0 * 12 * size_t(stride),
+                               sl.sun.data + k1 * 12 * size_t(stride), !lprt);
     } else {
-      bits = relightPlanesShL1(inPlane(s, 0), outPlane(s, 0), n16, stride, lc, d0, d2, !lprt);
+      bits = relightBlocksShL1(blocks, outPlane(s, 0), n16, stride, w, nullptr, nullptr, !lprt);
     }
     if (lprt) {
       thread_local std::vector<float> scratch;

@@ -119,7 +119,9 @@ uint32_t Volume::worldTexel(int channel, const glm::ivec3& g) const {
   return texels_[channel][physicalIndex({floorMod(g.x, n.x), floorMod(g.y, n.y), floorMod(g.z, n.z)})];
 }
 
-void Volume::fillBox(const glm::ivec3& g0, const glm::ivec3& g1, const ProbeCache& cache) {
+// On a 64-byte boundary: where the code before it left it 16 bytes past one, its loops sat across
+// other fetch windows and a nearest refill took 1.25x as long (BM_FullRefillNearest, 190 vs 240 us).
+[[gnu::aligned(64)]] void Volume::fillBox(const glm::ivec3& g0, const glm::ivec3& g1, const ProbeCache& cache) {
   const glm::ivec3 n = period();
   const glm::ivec3 d = g1 - g0;
   if (d.x <= 0 || d.y <= 0 || d.z <= 0) return;

@@ -14,8 +14,9 @@ constexpr float kMinHdrScale = 1e-6f;
 // a bright light that moved away. Below it (or when a relit sector exceeds the scale) everything is
 // repacked and refilled, as after a full relight.
 constexpr float kMinScaleKept = 0.5f;
+}  // namespace
 
-glm::vec3 sanitizeNormal(const glm::vec3& n) {
+glm::vec3 ambientNormal(const glm::vec3& n) {
   const glm::dvec3 d(n);
   const double len = std::sqrt(glm::dot(d, d));
   if (!(len > 1e-30) || !std::isfinite(len)) {
@@ -26,7 +27,6 @@ glm::vec3 sanitizeNormal(const glm::vec3& n) {
   }
   return glm::vec3(d / len);
 }
-}  // namespace
 
 uint32_t componentsFromEffects(uint32_t effects) {
   uint32_t c = 0;
@@ -199,7 +199,7 @@ void Runtime::update(const glm::dvec3& camera) {
 }
 
 AmbientSample Runtime::ambient(const glm::dvec3& position, const glm::vec3& normal) const {
-  const glm::vec3 n = sanitizeNormal(normal);
+  const glm::vec3 n = ambientNormal(normal);
   AmbientSample s;
   static const OcclusionMap kOpenSky;
   const sh::Sh4Rgb sky = options_.components & kComponentDirectSky ? applied_.sky_sh : sh::Sh4Rgb{};

@@ -80,6 +80,23 @@ TEST(Runtime, AmbientInsideTheVolumeIsTheVolumeLookup) {
   EXPECT_GT(s.irradiance.b, 0.f);
 }
 
+TEST(Runtime, AmbientNormalIsUnitOrUpForAnyInput) {
+  const float inf = std::numeric_limits<float>::infinity(), nan = std::numeric_limits<float>::quiet_NaN();
+  const glm::vec3 up(0.f, 0.f, 1.f);
+  EXPECT_EQ(ambientNormal({3.f, 0.f, 4.f}), glm::vec3(0.6f, 0.f, 0.8f));
+  // Squared, these overflow (3e38^2) or underflow (1e-30^2) a float: the direction survives.
+  const glm::vec3 big = ambientNormal({3e38f, 0.f, -3e38f}), tiny = ambientNormal({0.f, 1e-30f, 0.f});
+  EXPECT_NEAR(big.x, 0.70710678f, 1e-6f);
+  EXPECT_NEAR(big.z, -0.70710678f, 1e-6f);
+  EXPECT_EQ(tiny, glm::vec3(0.f, 1.f, 0.f));
+  for (const glm::vec3& n : {glm::vec3(0.f), glm::vec3(nan, 0.f, 0.f), glm::vec3(inf, 0.f, 0.f), glm::vec3(inf, -inf, 1.f)})
+    EXPECT_EQ(ambientNormal(n), up);
+  // ambient() reads the normal so: a zero normal shades as +Z.
+  Runtime rt;
+  populate(rt);
+  EXPECT_EQ(rt.ambient({12.0, 3.0, 12.0}, glm::vec3(0.f)).irradiance, rt.ambient({12.0, 3.0, 12.0}, up).irradiance);
+}
+
 TEST(Runtime, FarFromTheCameraAmbientIsTheOccludedSky) {
   Runtime rt;
   populate(rt);

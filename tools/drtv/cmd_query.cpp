@@ -22,12 +22,6 @@ struct QueryOptions {
 
 nlohmann::json rgb(const glm::vec3& v) { return {v.r, v.g, v.b}; }
 
-// The normal as Runtime::ambient reads it, for shading the named probe: unit, +Z when it has none.
-glm::vec3 unitOrUp(const glm::vec3& n) {
-  const float len = glm::length(n);
-  return len > 1e-20f && std::isfinite(len) ? n / len : glm::vec3(0.f, 0.f, 1.f);
-}
-
 Result<void> runQuery(const QueryOptions& o) {
   auto at = parseVec3(o.at, "--at");
   if (!at) return std::unexpected(at.error());
@@ -74,7 +68,7 @@ Result<void> runQuery(const QueryOptions& o) {
         probe.sector = rt->cache().slot(ref.slot).key;
         probe.index = ref.index;
         probe.position = rt->cache().worldPosition(ref);
-        probe.shaded = runtime::shade(m.representation, rt->cache().colours(ref), unitOrUp(glm::vec3(*normal)));
+        probe.shaded = runtime::shade(m.representation, rt->cache().colours(ref), runtime::ambientNormal(glm::vec3(*normal)));
       }
     }
     return rt->ambient(*at, glm::vec3(*normal));

@@ -56,6 +56,10 @@
 
 namespace drtv::runtime {
 
+// The normal as ambient() reads it: `n` made unit length (a huge finite one rescaled first, so
+// that its squared length cannot overflow), +Z when it has no direction (zero, NaN, infinite).
+glm::vec3 ambientNormal(const glm::vec3& n);
+
 inline constexpr float kSunLobeOfRepresentation = -1.f;  // RuntimeOptions::sun_band1_window
 
 // The relighting components a world's effect mask asks for (effects.h -> probe_cache.h).

@@ -207,10 +207,18 @@ Result<RenderResult> render(const worlds::World& world, const std::string& where
   };
   out.stats.preview_s = since(t_preview);
 
-  // Automatic exposure over the preview [3].
+  // Automatic exposure over the preview [3], over the pixels that are not black: black stays
+  // black at any exposure, and a view half filled with a black surface (the palm-tree asset's
+  // albedo-0 water) otherwise pulled the average down 100-fold and burnt the rest to white.
   double log_sum = 0;
-  for (size_t i = 0; i < n; ++i) log_sum += std::log(kLogDelta + std::max(0.0, detail::luminance(radiance(i, out.preview_ambient[i]))));
-  const double log_avg = std::exp(log_sum / double(n));
+  size_t lit = 0;
+  for (size_t i = 0; i < n; ++i) {
+    const double y = detail::luminance(radiance(i, out.preview_ambient[i]));
+    if (!(y > 0.0)) continue;
+    log_sum += std::log(kLogDelta + y);
+    ++lit;
+  }
+  const double log_avg = lit ? std::exp(log_sum / double(lit)) : 1.0;
   out.stats.exposure = options.exposure > 0.f ? options.exposure : float(kExposureKey / std::max(log_avg, kLogDelta));
   if (!std::isfinite(out.stats.exposure)) out.stats.exposure = 1.f;
 

@@ -108,5 +108,30 @@ TEST(TestBoxRender, GivesFiniteNonNegativeImagesOfTheAskedSize) {
   EXPECT_TRUE(std::isfinite(r->stats.mean_abs_rel_error));
 }
 
+// A view whose ground is black (albedo 0, as the palm-tree asset's water) keeps the automatic
+// exposure on what is lit: the walls and spheres are not burnt to white.
+TEST(TestBoxRender, ABlackGroundInViewLeavesTheLitSurfacesUnsaturated) {
+  worlds::World w = testBox();
+  for (worlds::Instance& in : w.instances)
+    if (in.cls == worlds::InstanceClass::kTerrain) w.meshes[in.mesh].albedo = glm::vec3(0.f);
+  const testing::BakedWorld baked = testing::bakeWorld(w, Quality::kDraft);
+  RenderOptions o;
+  o.camera.width = 64;
+  o.camera.height = 36;
+  o.hour = kMorning;
+  o.camera.position = {0.0, -14.0, 16.0};  // looking down: most of the view is the ground
+  auto r = render(w, "fc3_testbox, black ground", baked.manifest, baked.sectors, o);
+  ASSERT_TRUE(r.has_value()) << r.error().message;
+  size_t lit = 0, white = 0;
+  for (size_t i = 0; i < r->hit.size(); ++i) {
+    const uint8_t* p = &r->preview.pixels[i * 3];
+    if (!r->hit[i] || (p[0] == 0 && p[1] == 0 && p[2] == 0)) continue;
+    ++lit;
+    white += p[0] >= 245 && p[1] >= 245 && p[2] >= 245;  // ACES reaches 255 only asymptotically
+  }
+  ASSERT_GT(lit, 64u * 36u / 20) << "the walls and spheres are in view";
+  EXPECT_LT(white, lit / 10) << white << " of " << lit << " lit pixels burnt to white; exposure " << r->stats.exposure;
+}
+
 }  // namespace
 }  // namespace drtv::baker

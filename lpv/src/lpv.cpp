@@ -352,11 +352,16 @@ void CascadedLpv::injectLight(int c, std::span<const Surfel> surfels) {
       for (int ch = 0; ch < 3; ++ch) lit[run_row + size_t(ch) * np] |= uint8_t((run_lit >> ch) & 1);
     };
     for (const Surfel& v : surfels) {
-      // Half a cell along the normal [1] sec. 4.1: the VPL lights the space in front of it.
-      const glm::dvec3 p = (v.position - box_min) * inv_s + 0.5 * glm::dvec3(v.normal);
-      if (!(p.x >= 0 && p.y >= 0 && p.z >= 0 && p.x < n && p.y < n && p.z < n)) continue;
-      const int i = int(p.x), j = int(p.y), k = int(p.z);
+      // Half a cell along the normal [1] sec. 4.1: the VPL lights the space in front of it. The
+      // row first: with threads, a job skips the other jobs' surfels before the rest of the work.
+      const double py = (v.position.y - box_min.y) * inv_s + 0.5 * double(v.normal.y);
+      if (!(py >= 0 && py < n)) continue;
+      const int j = int(py);
       if (jobs > 1 && (j / 4) % jobs != job) continue;
+      const double px = (v.position.x - box_min.x) * inv_s + 0.5 * double(v.normal.x);
+      const double pz = (v.position.z - box_min.z) * inv_s + 0.5 * double(v.normal.z);
+      if (!(px >= 0 && pz >= 0 && px < n && pz < n)) continue;
+      const int i = int(px), k = int(pz);
       const size_t idx = size_t(i + 1) + np * (size_t(j + 1) + np * size_t(k + 1));
       if (idx != run) {
         flush();

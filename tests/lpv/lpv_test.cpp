@@ -254,8 +254,9 @@ TEST(LpvRobustness, NoNanOrInfForFiniteInput) {
 TEST(LpvPropagation, ThreadsGiveTheSameBits) {
   // Slabs of z on 1, 2 and 3 threads, with occlusion and light in only part of the grid (so that
   // rows are skipped): every coefficient of every cell is the same float. 2 threads cut each
-  // channel's steps in two sweeps, one per thread (6 steps: 3 + 3; 13: 6 + 7, where one thread
-  // makes sweeps of 8 + 5); 20 steps are more than that cut takes (channel jobs again).
+  // channel's steps in two sweeps, one per thread (6 steps: 4 + 2, where one thread makes them
+  // in one sweep; 13: 8 + 5, as one thread does); 20 steps are more than that cut takes (channel
+  // jobs again).
   for (int iterations : {6, 13, 20}) {
     std::vector<sh::Sh4Rgb> first;
     for (int threads : {1, 2, 3}) {

@@ -114,7 +114,7 @@ struct LpvOptions {
   bool damping = true;         // damping of self-bleeding at lookups (indirect(); lpv.h, "Lookup")
   int threads = 1;             // threads injectLight (blocks of rows) and propagate run on, [1, 64]
                                // (propagate: one colour channel each, at most 3; on 2, each
-                               // thread half of every channel's steps); the same bits for any count
+                               // thread about half of every channel's steps); the same bits for any count
 };
 // What is wrong with `o` ("" if nothing), naming the field.
 std::string validate(const LpvOptions& o);

@@ -146,8 +146,8 @@ struct CascadedLpv::Scratch {
   std::array<StepGrid, 2> grids;  // allocated when needed
 };
 
-// Two threads' propagation (see propagate): per channel, the grid where the first half of the
-// steps leaves its last step for the second half, and how many of its slabs of z are made.
+// Two threads' propagation (see propagate): per channel, the grid where the first job leaves
+// the last of its steps for the second job, and how many of that grid's slabs of z are made.
 struct CascadedLpv::Pipeline {
   std::array<StepGrid, 3> grids;  // allocated when needed
   std::array<std::atomic<int>, 3> made{};

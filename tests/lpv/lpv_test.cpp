@@ -253,33 +253,39 @@ TEST(LpvRobustness, NoNanOrInfForFiniteInput) {
 
 TEST(LpvPropagation, ThreadsGiveTheSameBits) {
   // Slabs of z on 1, 2 and 3 threads, with occlusion and light in only part of the grid (so that
-  // rows are skipped): every coefficient of every cell is the same float.
-  std::vector<sh::Sh4Rgb> first;
-  for (int threads : {1, 2, 3}) {
-    LpvOptions o = freeSpace(6);
-    o.occlusion = true;
-    o.threads = threads;
-    auto lpv = CascadedLpv::create(o);
-    ASSERT_TRUE(lpv);
-    lpv->setCamera(glm::dvec3(0.5));
-    std::vector<Surfel> s;
-    for (int i = 0; i < 40; ++i)
-      s.push_back({glm::dvec3(-6.0 + 0.3 * i, 0.1 * i, -3.0 + 0.05 * i), glm::normalize(glm::vec3(0.1f * i - 2, 1, 2)),
-                   glm::vec3(1.f + i, 2.f, 0.5f), 0.3f});
-    lpv->injectLight(0, s);
-    lpv->injectGeometry(0, s);
-    lpv->computeOcclusion(0);
-    lpv->propagate(0);
-    std::vector<sh::Sh4Rgb> cells;
-    for (int k = 0; k < 32; ++k)
-      for (int j = 0; j < 32; ++j)
-        for (int i = 0; i < 32; ++i) cells.push_back(lpv->cellLight(0, i, j, k));
-    if (first.empty()) {
-      first = cells;
-      continue;
+  // rows are skipped): every coefficient of every cell is the same float. 2 threads cut each
+  // channel's steps in two sweeps, one per thread (6 steps: 4 + 2, where one thread makes them
+  // in one sweep; 13: 8 + 5, as one thread does); 20 steps are more than that cut takes (channel
+  // jobs again).
+  for (int iterations : {6, 13, 20}) {
+    std::vector<sh::Sh4Rgb> first;
+    for (int threads : {1, 2, 3}) {
+      LpvOptions o = freeSpace(iterations);
+      o.occlusion = true;
+      o.threads = threads;
+      auto lpv = CascadedLpv::create(o);
+      ASSERT_TRUE(lpv);
+      lpv->setCamera(glm::dvec3(0.5));
+      std::vector<Surfel> s;
+      for (int i = 0; i < 40; ++i)
+        s.push_back({glm::dvec3(-6.0 + 0.3 * i, 0.1 * i, -3.0 + 0.05 * i), glm::normalize(glm::vec3(0.1f * i - 2, 1, 2)),
+                     glm::vec3(1.f + i, 2.f, 0.5f), 0.3f});
+      lpv->injectLight(0, s);
+      lpv->injectGeometry(0, s);
+      lpv->computeOcclusion(0);
+      lpv->propagate(0);
+      std::vector<sh::Sh4Rgb> cells;
+      for (int k = 0; k < 32; ++k)
+        for (int j = 0; j < 32; ++j)
+          for (int i = 0; i < 32; ++i) cells.push_back(lpv->cellLight(0, i, j, k));
+      if (first.empty()) {
+        first = cells;
+        continue;
+      }
+      for (size_t c = 0; c < cells.size(); ++c)
+        for (int ch = 0; ch < 3; ++ch)
+          ASSERT_EQ(cells[c][size_t(ch)], first[c][size_t(ch)]) << iterations << " " << threads << " " << c;
     }
-    for (size_t c = 0; c < cells.size(); ++c)
-      for (int ch = 0; ch < 3; ++ch) ASSERT_EQ(cells[c][size_t(ch)], first[c][size_t(ch)]) << threads << " " << c;
   }
 }
 

@@ -112,8 +112,9 @@ struct LpvOptions {
   float lookup_offset_cells = 0.5f;  // the lookup point moves this far along the normal, cells
   float blend_cells = 3.f;     // width of the blend to the next cascade at a cascade's border, cells
   bool damping = true;         // damping of self-bleeding at lookups (indirect(); lpv.h, "Lookup")
-  int threads = 1;             // threads injectLight (blocks of rows) and propagate (one colour
-                               // channel each) run on, [1, 64]; the same bits for any count
+  int threads = 1;             // threads injectLight (blocks of rows) and propagate run on, [1, 64]
+                               // (propagate: one colour channel each, at most 3; on 2, each
+                               // thread about half of every channel's steps); the same bits for any count
 };
 // What is wrong with `o` ("" if nothing), naming the field.
 std::string validate(const LpvOptions& o);
@@ -197,11 +198,14 @@ class CascadedLpv {
 
   LpvOptions options_;
   std::vector<Cascade> cascades_;
-  // Propagation scratch, one per thread (lpv.cpp), shared by the cascades; the workers.
+  // Propagation scratch, one per thread (lpv.cpp), shared by the cascades; the workers; with
+  // two threads, the grids between the halves of a propagation's steps.
   struct Scratch;
   class Workers;
+  struct Pipeline;
   std::vector<Scratch> scratch_;
   std::unique_ptr<Workers> workers_;
+  std::unique_ptr<Pipeline> pipeline_;
   bool placed_ = false;
 
  public:

@@ -169,7 +169,9 @@ TEST(LpvCascades, AgreeAtTheSameDistanceInCellsAndBlendContinuously) {
   float prev = -1.f;
   for (double x = 8.0; x < 16.0; x += 0.1) {
     const float e = lpv->indirect(glm::dvec3(x, 0.2, -6.5), glm::vec3(0, 0, -1)).x;
-    if (prev >= 0.f) EXPECT_NEAR(e, prev, kBlendStep * prev) << x;
+    if (prev >= 0.f) {
+      EXPECT_NEAR(e, prev, kBlendStep * prev) << x;
+    }
     prev = e;
   }
 }

@@ -771,15 +771,16 @@ class Sweeper {
   }
 
   // Sweeps into `out` (sweepInto). The light grid's words are all written below (each row's 26
-  // words per cell, every cell's average and dominant direction), so a buffer of the right size
-  // is kept as it is; the direct grid's words outside the sun's bins stay 0, so it is zeroed.
+  // words per cell, every cell's average and dominant direction), so its buffers are only sized,
+  // never zeroed (Words: a fresh grid's 13.6 MB memset was 10 % of a 1 m sector's sweep); the
+  // direct grid's words outside the sun's bins stay 0, so it is zeroed.
   void run(const SkyInput& sky, SweptGrid& out) {
     out.sky = sky;
     out.light_has_direct = o_.direct_sun;
     out.light.shape = g_;
     for (auto [v, n] : {std::pair{&out.light.light, g_.cellCount() * kDirections}, std::pair{&out.light.average, g_.cellCount()},
                         std::pair{&out.light.dominant, g_.cellCount()}})
-      if (v->size() != n) v->assign(n, 0);
+      v->resize(n);
     if (o_.keep_direct) {
       if (!out.direct) out.direct.emplace();
       out.direct->shape = g_;

@@ -242,6 +242,9 @@ class Edges {
   std::vector<LightVector> full_, direct_, slice_;
 };
 
+// The level buffers' rows are padded to a multiple of this many floats (64 bytes, 16 lanes).
+constexpr int kRowFloats = 16;
+
 // One stream of light through the grid: a set of directions, its ping-pong level buffers. While a
 // row is being swept, dst's row holds the light gathered into it, then what its cells store; the
 // light the cells with material send on replaces theirs once the row is stored.
@@ -256,12 +259,26 @@ struct Pass {
   // streams (plane by plane, the gathers waited on memory: 44 % of their time on one tap's load).
   // Not initialised: the edges' fill writes all of src above the top level and dst's ring, and
   // the gather every interior row of dst before a level reads it.
-  std::unique_ptr<float[]> src, dst;
+  struct Buffer {
+    std::unique_ptr<float[]> memory;
+    // Padded row 0 of plane 0: its first cell (column kPad) on a 64-byte boundary, and with w a
+    // multiple of kLanes every row's is: a row's gather stores, and the taps straight above its
+    // cells load, whole cache lines (unaligned, each 16-lane access touched two).
+    float* base = nullptr;
+    // `floats` and kRowFloats more past them (storeCells reads rows in whole groups of 16).
+    void allocate(size_t floats) {
+      memory.reset(new float[floats + 2 * kRowFloats]);
+      constexpr uintptr_t kMask = kRowFloats * sizeof(float) - 1;
+      const uintptr_t first = reinterpret_cast<uintptr_t>(memory.get() + kPad);
+      base = reinterpret_cast<float*>((first + kMask) & ~kMask) - kPad;
+    }
+  };
+  Buffer src, dst;
   size_t w = 0;  // padded row length
   size_t planes() const { return bins.size() * 3; }
   size_t rowStride() const { return planes() * w; }
-  float* srcRow(size_t plane, int r) const { return src.get() + size_t(r) * rowStride() + plane * w; }
-  float* dstRow(size_t plane, int r) const { return dst.get() + size_t(r) * rowStride() + plane * w; }
+  float* srcRow(size_t plane, int r) const { return src.base + size_t(r) * rowStride() + plane * w; }
+  float* dstRow(size_t plane, int r) const { return dst.base + size_t(r) * rowStride() + plane * w; }
 };
 
 // A row's words from direction-major (codes[d * stride + x]) to the light grid's cell-major layout
@@ -349,6 +366,7 @@ struct Vec<16> {
 };
 // The most lanes of any code: the rows the vector loops read are padded for it.
 constexpr int kLanes = 16;
+static_assert(kLanes <= kRowFloats, "the level buffers' rows hold whole groups of lanes");
 
 template <int L>
 [[gnu::always_inline]] inline typename Vec<L>::F loadV(const float* p) {
@@ -714,7 +732,9 @@ class Sweeper {
     DRTV_CHECK_EQ(m.density.size(), g_.cellCount());
     DRTV_CHECK_EQ(m.reflectance.size(), g_.cellCount());
     nx_ = g_.size.x;
-    w_ = g_.size.x + 2 * kPad;
+    // Padded rows, rounded up so that every row of a level buffer starts its cells on a 64-byte
+    // boundary (Pass::Buffer); the columns past nx + kPad are never filled nor used.
+    w_ = (g_.size.x + 2 * kPad + kRowFloats - 1) / kRowFloats * kRowFloats;
     h_ = g_.size.y + 2 * kPad;
     plane_ = size_t(w_) * size_t(h_);
     // Optical depth per cell length, padded; outside the grid's sides: clear. Per level and padded
@@ -832,13 +852,13 @@ class Sweeper {
       }
     }
     for (Pass* p : {&full_, &direct_})
-      if (!p->bins.empty()) edges_.fill(nz, p->direct, p->bins, all_cells_, p->src.get(), p->w, p->rowStride());
+      if (!p->bins.empty()) edges_.fill(nz, p->direct, p->bins, all_cells_, p->src.base, p->w, p->rowStride());
     for (int k = nz - 1; k >= 0; --k) {
       // The open sky's ring is the same at every level, and the levels never write it: both
       // buffers have it once the first level's is filled.
       if (k == nz - 1 || !edges_.sameAtEveryLevel())
         for (Pass* p : {&full_, &direct_})
-          if (!p->bins.empty()) edges_.fill(k, p->direct, p->bins, ring_cells_, p->dst.get(), p->w, p->rowStride());
+          if (!p->bins.empty()) edges_.fill(k, p->direct, p->bins, ring_cells_, p->dst.base, p->w, p->rowStride());
       level(k, out);
       for (Pass* p : {&full_, &direct_}) std::swap(p->src, p->dst);
     }
@@ -868,9 +888,8 @@ class Sweeper {
       p.paths.push_back(std::move(path));
     }
     p.w = size_t(w_);
-    // kLanes more: storeCells reads rows in whole groups of kLanes, past the last row's end.
-    p.src.reset(new float[p.bins.size() * 3 * plane_ + kLanes]);
-    p.dst.reset(new float[p.bins.size() * 3 * plane_ + kLanes]);
+    p.src.allocate(p.bins.size() * 3 * plane_);
+    p.dst.allocate(p.bins.size() * 3 * plane_);
   }
 
   static int lengthId(std::vector<float>& lengths, float len) {
@@ -1145,12 +1164,12 @@ class Sweeper {
     std::array<int, kUp> length_of{};
     for (int o = 0; o < kUp; ++o) length_of[size_t(o)] = lengthId(lengths, up_.paths[size_t(o)].target_len);
     std::vector<float> t(2 * lengths.size() * stride_), e(size_t(3 * kUp) * stride_, 0.f);
-    std::fill_n(up_.src.get(), up_.bins.size() * 3 * plane_, 0.f);  // below the grid: nothing comes up
+    std::fill_n(up_.src.base, up_.bins.size() * 3 * plane_, 0.f);  // below the grid: nothing comes up
     StoreRows& rows = store_rows_;  // light[kSwept + o]: up_half_'s rows, the stored light
     rows.first = kSwept;
     rows.end = kDirections;
     for (int k = 0; k < nz; ++k) {
-      edges_.fill(k, false, up_.bins, ring_cells_, up_.dst.get(), up_.w, up_.rowStride());
+      edges_.fill(k, false, up_.bins, ring_cells_, up_.dst.base, up_.w, up_.rowStride());
       for (int j = 0; j < ny; ++j) {
         gather(up_, nullptr, k, k - 1, j);
         const float* sig = sigma_.data() + size_t(k) * plane_ + size_t(j + kPad) * size_t(w_) + size_t(kPad);

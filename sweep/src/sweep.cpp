@@ -538,13 +538,18 @@ DRTV_SWEEP_CLONES DensityRow opticalDepthRow(int n, const float* __restrict d, f
   return {material, fractional, outside};
 }
 
+#if defined(__GNUC__) && !defined(__clang__)
+#define DRTV_SWEEP_NO_MEMCPY_IDIOM __attribute__((optimize("no-tree-loop-distribute-patterns")))
+#else
+#define DRTV_SWEEP_NO_MEMCPY_IDIOM
+#endif
+
 // `rows` rows of n floats from src (rows src_stride apart; 0: the same row each time) to dst (rows
 // dst_stride apart). A row's span is short (tens of floats) and copied into 6-57 rows: one memcpy
 // call per row, with its set-up, was 3 % of a re-sweep; GCC would turn this loop back into those
 // calls (-ftree-loop-distribute-patterns), hence the attribute.
-DRTV_SWEEP_CLONES __attribute__((optimize("no-tree-loop-distribute-patterns"))) void copyRows(int rows, int n, const float* __restrict src,
-                                                                                              size_t src_stride, float* __restrict dst,
-                                                                                              size_t dst_stride) {
+DRTV_SWEEP_CLONES DRTV_SWEEP_NO_MEMCPY_IDIOM void copyRows(int rows, int n, const float* __restrict src, size_t src_stride,
+                                                         float* __restrict dst, size_t dst_stride) {
   for (int r = 0; r < rows; ++r, src += src_stride, dst += dst_stride)
     for (int x = 0; x < n; ++x) dst[x] = src[x];
 }

@@ -72,8 +72,6 @@ struct Crossed {
   bool src_level;
   float len;
   int len_id = -1;  // its length's factor plane (Sweeper::crossed_len_)
-  // Its factor row's offset from the target's row in a level's factor planes (Sweeper::setUp).
-  ptrdiff_t offset = 0;
 };
 // The most material cells one tap's path crosses (makePath; checked in Sweeper::setUp).
 constexpr int kMaxCrossed = 8;
@@ -84,9 +82,11 @@ struct Tap {
   int ox, oy;  // source offset from the target, cells
   float w;
   std::vector<Crossed> crossed;
-  // The crossed cells flattened for the gather (Sweeper::setUp): their offsets, row bits, and the
-  // union of those bits.
-  std::array<ptrdiff_t, kMaxCrossed> offset{};
+  // The crossed cells flattened for the gather (Sweeper::setUp): their factor rows (the index in a
+  // level's table of factor rows, LevelFactors::rows, less the target's row j) and columns (the
+  // offset from the target's padded column), row bits, and the union of those bits.
+  std::array<int, kMaxCrossed> row{};
+  std::array<int, kMaxCrossed> column{};
   std::array<uint8_t, kMaxCrossed> bit{};
   std::array<uint8_t, kMaxCrossed> src_level{};
   uint32_t mask = 0;
@@ -839,6 +839,8 @@ class Sweeper {
     up_.direct = false;
     for (int b = kSwept; b < kDirections; ++b) up_.bins.push_back(b);
     if (o_.bottom_up) setUp(up_);
+    // The rows of a level without factors: never read (their bits in gather's mask are 0).
+    no_factors_.assign(crossed_len_.size() * size_t(h_), sigma_.data());
     stride_ = (size_t(nx_) + kLanes - 1) / kLanes * kLanes;
     codes_.assign(size_t(kDirections) * stride_, 0u);
     // Rows of w_ floats like the level buffers', so that every row storeCells reads has its
@@ -921,9 +923,9 @@ class Sweeper {
         for (size_t i = 0; i < t.crossed.size(); ++i) {
           Crossed& c = t.crossed[i];
           c.len_id = lengthId(crossed_len_, c.len);
-          c.offset = ptrdiff_t(c.len_id) * ptrdiff_t(plane_) + ptrdiff_t(c.dy) * w_ + kPad + c.dx;
           DRTV_CHECK(c.dy >= -kPad && c.dy <= kPad);
-          t.offset[i] = c.offset;
+          t.row[i] = c.len_id * h_ + kPad + c.dy;
+          t.column[i] = kPad + c.dx;
           t.bit[i] = uint8_t((c.src_level ? kRowBits : 0) + c.dy + kPad);
           t.src_level[i] = c.src_level;
           t.mask |= 1u << t.bit[i];
@@ -953,25 +955,39 @@ class Sweeper {
 
   // Level k's factor planes, (1 - d)^len = exp(-len sigma) per crossed length, valid in the rows
   // that hold material (the only ones read). Two levels are kept; the one holding `keep` stays.
-  const float* factors(int k, int keep) {
+  // As a table of rows (LevelFactors::rows): a row without cells of fractional density has the
+  // same factors, 1 or 0, at every length, so its lengths share one row of a common plane; only the
+  // rows with fractional cells have a row per length (filling every length's plane in full was
+  // 1.8 % of a re-sweep).
+  const float* const* factors(int k, int keep) {
     for (LevelFactors& f : factors_)
-      if (f.level == k) return f.planes.data();
+      if (f.level == k) return f.rows.data();
     LevelFactors& f = factors_[0].level == keep ? factors_[1] : factors_[0];
     f.level = k;
-    f.planes.resize(crossed_len_.size() * plane_ + kLanes);  // kLanes: gatherRow reads whole groups
+    const size_t lengths = crossed_len_.size(), w = size_t(w_);
+    f.planes.resize((lengths + 1) * plane_ + kLanes);  // the lengths', then the common one; kLanes: gatherRow reads whole groups
+    f.rows.resize(lengths * size_t(h_));
     const float* sig = sigma_.data() + size_t(k) * plane_;
-    for (size_t l = 0; l < crossed_len_.size(); ++l) {
-      float* out = f.planes.data() + l * plane_;
-      for (int r = 0; r < h_; ++r) {
-        if (!hasMaterial(k, r, 0, w_ - 1)) continue;
-        const float* s = sig + size_t(r) * size_t(w_);
-        float* o = out + size_t(r) * size_t(w_);
-        clearOrFull(w_, s, o);
-      }
-      const float len = crossed_len_[l];
-      for (uint32_t pi : fractional_[size_t(k)]) out[pi] = std::exp(-(len * sig[pi]));
+    float* common = f.planes.data() + lengths * plane_;
+    for (int r = 0; r < h_; ++r) {
+      if (hasMaterial(k, r, 0, w_ - 1)) clearOrFull(w_, sig + size_t(r) * w, common + size_t(r) * w);
+      for (size_t l = 0; l < lengths; ++l) f.rows[l * size_t(h_) + size_t(r)] = common + size_t(r) * w;
     }
-    return f.planes.data();
+    const std::vector<uint32_t>& fractional = fractional_[size_t(k)];  // in row order
+    for (size_t a = 0; a < fractional.size();) {
+      const size_t r = fractional[a] / w;
+      size_t b = a;
+      while (b < fractional.size() && fractional[b] / w == r) ++b;
+      for (size_t l = 0; l < lengths; ++l) {
+        float* out = f.planes.data() + l * plane_ + r * w;
+        std::copy_n(common + r * w, w, out);
+        const float len = crossed_len_[l];
+        for (size_t i = a; i < b; ++i) out[fractional[i] - r * w] = std::exp(-(len * sig[fractional[i]]));
+        f.rows[l * size_t(h_) + r] = out;
+      }
+      a = b;
+    }
+    return f.rows.data();
   }
 
   // Gathers row j of level k (source level k_src) into p.dst's row, and into q->dst's for the
@@ -980,13 +996,10 @@ class Sweeper {
     const bool src_in = k_src >= 0 && k_src < g_.size.z;
     const bool target_material = level_has_material_[size_t(k)] != 0;
     const bool src_material = src_in && level_has_material_[size_t(k_src)] != 0;
-    const float* f_target = target_material ? factors(k, src_material ? k_src : k) : nullptr;
-    const float* f_src = src_material ? factors(k_src, k) : nullptr;
     // A crossed cell is taken if its row holds material at all: where it holds none within the
     // row's cells, its factors there are 1, and multiplying by 1 changes nothing.
-    const size_t row = size_t(j + kPad) * size_t(w_);
-    const float* rows_target = f_target ? f_target + row : nullptr;
-    const float* rows_src = f_src ? f_src + row : nullptr;
+    const float* const* rows_target = target_material ? factors(k, src_material ? k_src : k) + j : nullptr;
+    const float* const* rows_src = src_material ? factors(k_src, k) + j : nullptr;
     // Bit kPad + dy (kRowBits + kPad + dy): row j + dy of the target's (source's) level holds
     // material and has factors.
     uint64_t lit = 0;
@@ -996,7 +1009,7 @@ class Sweeper {
       if (rows_src && row_has_material_[size_t(k_src) * size_t(h_) + r]) lit |= uint64_t(1) << (kRowBits + kPad + dy);
     }
     // A pointer that is never read where a level has no factors (its bits are 0).
-    const float* rows[2] = {rows_target ? rows_target : sigma_.data(), rows_src ? rows_src : sigma_.data()};
+    const float* const* rows[2] = {rows_target ? rows_target : no_factors_.data() + j, rows_src ? rows_src : no_factors_.data() + j};
     TapRows g;
     for (size_t b = 0; b < p.bins.size(); ++b) {
       const BinPath& path = p.paths[b];
@@ -1008,7 +1021,7 @@ class Sweeper {
         if (tap.mask & lit) {
           // Branch-free, in the crossed cells' order (the order the factors multiply in).
           for (size_t c = 0; c < tap.crossed.size(); ++c) {
-            g.f[size_t(t)][size_t(nf)] = rows[tap.src_level[c]] + tap.offset[c];
+            g.f[size_t(t)][size_t(nf)] = rows[tap.src_level[c]][tap.row[c]] + tap.column[c];
             nf += int((lit >> tap.bit[c]) & 1u);
           }
         }
@@ -1270,7 +1283,8 @@ class Sweeper {
 
   struct LevelFactors {
     int level = std::numeric_limits<int>::min();
-    std::vector<float> planes;  // crossed_len_.size() planes
+    std::vector<float> planes;  // crossed_len_.size() planes, then the common one (factors)
+    std::vector<const float*> rows;  // per length l and padded row r, [l h_ + r]: its factors' row
   };
 
   const MaterialGrid& m_;
@@ -1286,6 +1300,7 @@ class Sweeper {
   std::vector<std::vector<uint32_t>> fractional_;
   std::vector<float> crossed_len_, target_len_;
   std::array<LevelFactors, 2> factors_;
+  std::vector<const float*> no_factors_;  // as LevelFactors::rows, for a level without material
   std::vector<Edges::Cell> all_cells_, ring_cells_;
   std::array<float, kDirections> cos_sum_{}, omega_{};
   std::array<glm::vec3, kDirections> travel_{}, unit_from_{};

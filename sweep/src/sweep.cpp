@@ -72,8 +72,6 @@ struct Crossed {
   bool src_level;
   float len;
   int len_id = -1;  // its length's factor plane (Sweeper::crossed_len_)
-  // Its factor row's offset from the target's row in a level's factor planes (Sweeper::setUp).
-  ptrdiff_t offset = 0;
 };
 // The most material cells one tap's path crosses (makePath; checked in Sweeper::setUp).
 constexpr int kMaxCrossed = 8;
@@ -84,9 +82,11 @@ struct Tap {
   int ox, oy;  // source offset from the target, cells
   float w;
   std::vector<Crossed> crossed;
-  // The crossed cells flattened for the gather (Sweeper::setUp): their offsets, row bits, and the
-  // union of those bits.
-  std::array<ptrdiff_t, kMaxCrossed> offset{};
+  // The crossed cells flattened for the gather (Sweeper::setUp): their factor rows (the index in a
+  // level's table of factor rows, LevelFactors::rows, less the target's row j) and columns (the
+  // offset from the target's padded column), row bits, and the union of those bits.
+  std::array<int, kMaxCrossed> row{};
+  std::array<int, kMaxCrossed> column{};
   std::array<uint8_t, kMaxCrossed> bit{};
   std::array<uint8_t, kMaxCrossed> src_level{};
   uint32_t mask = 0;
@@ -242,6 +242,9 @@ class Edges {
   std::vector<LightVector> full_, direct_, slice_;
 };
 
+// The level buffers' rows are padded to a multiple of this many floats (64 bytes, 16 lanes).
+constexpr int kRowFloats = 16;
+
 // One stream of light through the grid: a set of directions, its ping-pong level buffers. While a
 // row is being swept, dst's row holds the light gathered into it, then what its cells store; the
 // light the cells with material send on replaces theirs once the row is stored.
@@ -256,12 +259,26 @@ struct Pass {
   // streams (plane by plane, the gathers waited on memory: 44 % of their time on one tap's load).
   // Not initialised: the edges' fill writes all of src above the top level and dst's ring, and
   // the gather every interior row of dst before a level reads it.
-  std::unique_ptr<float[]> src, dst;
+  struct Buffer {
+    std::unique_ptr<float[]> memory;
+    // Padded row 0 of plane 0: its first cell (column kPad) on a 64-byte boundary, and with w a
+    // multiple of kLanes every row's is: a row's gather stores, and the taps straight above its
+    // cells load, whole cache lines (unaligned, each 16-lane access touched two).
+    float* base = nullptr;
+    // `floats` and kRowFloats more past them (storeCells reads rows in whole groups of 16).
+    void allocate(size_t floats) {
+      memory.reset(new float[floats + 2 * kRowFloats]);
+      constexpr uintptr_t kMask = kRowFloats * sizeof(float) - 1;
+      const uintptr_t first = reinterpret_cast<uintptr_t>(memory.get() + kPad);
+      base = reinterpret_cast<float*>((first + kMask) & ~kMask) - kPad;
+    }
+  };
+  Buffer src, dst;
   size_t w = 0;  // padded row length
   size_t planes() const { return bins.size() * 3; }
   size_t rowStride() const { return planes() * w; }
-  float* srcRow(size_t plane, int r) const { return src.get() + size_t(r) * rowStride() + plane * w; }
-  float* dstRow(size_t plane, int r) const { return dst.get() + size_t(r) * rowStride() + plane * w; }
+  float* srcRow(size_t plane, int r) const { return src.base + size_t(r) * rowStride() + plane * w; }
+  float* dstRow(size_t plane, int r) const { return dst.base + size_t(r) * rowStride() + plane * w; }
 };
 
 // A row's words from direction-major (codes[d * stride + x]) to the light grid's cell-major layout
@@ -349,6 +366,7 @@ struct Vec<16> {
 };
 // The most lanes of any code: the rows the vector loops read are padded for it.
 constexpr int kLanes = 16;
+static_assert(kLanes <= kRowFloats, "the level buffers' rows hold whole groups of lanes");
 
 template <int L>
 [[gnu::always_inline]] inline typename Vec<L>::F loadV(const float* p) {
@@ -493,6 +511,66 @@ void storeCells(DRTV_SWEEP_STORE_PARAMS) {
 }
 #undef DRTV_SWEEP_STORE_PARAMS
 #undef DRTV_SWEEP_STORE_ARGS
+
+// A row's pass-through where it is 0 or 1: 1 in a clear cell (sigma 0), 0 in a full one (sigma inf);
+// the cells of fractional density are patched in after. Sweeper's own code is the baseline's (SSE):
+// its row loops are clones like these so that the v4 code runs them 16 floats at a time.
+DRTV_SWEEP_CLONES void clearOrFull(int n, const float* __restrict sigma, float* __restrict out) {
+  for (int x = 0; x < n; ++x) out[x] = sigma[x] == 0.f ? 1.f : 0.f;
+}
+
+// A row of n densities: their optical depths per cell length where no log is needed (0 for clear
+// cells, inf for full ones; 0 for now in the cells of fractional density), and how many cells
+// have material, fractional density, or a density outside [0, 1] (NaN too).
+struct DensityRow {
+  int material = 0, fractional = 0, outside = 0;
+};
+DRTV_SWEEP_CLONES DensityRow opticalDepthRow(int n, const float* __restrict d, float* __restrict s) {
+  int material = 0, fractional = 0, outside = 0;
+  for (int x = 0; x < n; ++x) {  // as ints and &: with && GCC did not vectorise the loop
+    const float v = d[x];
+    const int some = v > 0.f ? 1 : 0, part = v < 1.f ? 1 : 0, in = (v >= 0.f ? 1 : 0) & (v <= 1.f ? 1 : 0);
+    material += some;
+    fractional += some & part;
+    outside += 1 - in;
+    s[x] = v >= 1.f ? kInf : 0.f;
+  }
+  return {material, fractional, outside};
+}
+
+#if defined(__GNUC__) && !defined(__clang__)
+#define DRTV_SWEEP_NO_MEMCPY_IDIOM __attribute__((optimize("no-tree-loop-distribute-patterns")))
+#else
+#define DRTV_SWEEP_NO_MEMCPY_IDIOM
+#endif
+
+// `rows` rows of n floats from src (rows src_stride apart; 0: the same row each time) to dst (rows
+// dst_stride apart). A row's span is short (tens of floats) and copied into 6-57 rows: one memcpy
+// call per row, with its set-up, was 3 % of a re-sweep; GCC would turn this loop back into those
+// calls (-ftree-loop-distribute-patterns), hence the attribute.
+DRTV_SWEEP_CLONES DRTV_SWEEP_NO_MEMCPY_IDIOM void copyRows(int rows, int n, const float* __restrict src, size_t src_stride,
+                                                         float* __restrict dst, size_t dst_stride) {
+  for (int r = 0; r < rows; ++r, src += src_stride, dst += dst_stride)
+    for (int x = 0; x < n; ++x) dst[x] = src[x];
+}
+
+// (1 + tau) / 2 and (1 - tau) / 2 of a row's cells (Sweeper::interactRow).
+DRTV_SWEEP_CLONES void halfSums(int n, const float* __restrict tau, float* __restrict fa, float* __restrict fb) {
+  for (int m = 0; m < n; ++m) {
+    fa[m] = 0.5f * (1.f + tau[m]);
+    fb[m] = 0.5f * (1.f - tau[m]);
+  }
+}
+
+// n RGB triples (glm::vec3, 3 floats each) into 3 rows. Through glm's operator[] GCC switched on
+// the channel per element.
+DRTV_SWEEP_CLONES void splitRgb(int n, const float* __restrict rgb, float* __restrict r, float* __restrict g, float* __restrict b) {
+  for (int m = 0; m < n; ++m) {
+    r[m] = rgb[3 * m];
+    g[m] = rgb[3 * m + 1];
+    b[m] = rgb[3 * m + 2];
+  }
+}
 
 // The bottom-up pass in a row of n cells, for one up-going direction: its gathered light v (3 rows,
 // channels `stride` apart) passes the cell as T (row t) plus what the cell reflects up (e, 3 rows
@@ -689,7 +767,9 @@ class Sweeper {
     DRTV_CHECK_EQ(m.density.size(), g_.cellCount());
     DRTV_CHECK_EQ(m.reflectance.size(), g_.cellCount());
     nx_ = g_.size.x;
-    w_ = g_.size.x + 2 * kPad;
+    // Padded rows, rounded up so that every row of a level buffer starts its cells on a 64-byte
+    // boundary (Pass::Buffer); the columns past nx + kPad are never filled nor used.
+    w_ = (g_.size.x + 2 * kPad + kRowFloats - 1) / kRowFloats * kRowFloats;
     h_ = g_.size.y + 2 * kPad;
     plane_ = size_t(w_) * size_t(h_);
     // Optical depth per cell length, padded; outside the grid's sides: clear. Per level and padded
@@ -701,23 +781,34 @@ class Sweeper {
     row_has_material_.assign(size_t(g_.size.z) * size_t(h_), 0);
     row_hi_.assign(size_t(g_.size.z) * size_t(h_), -1);
     fractional_.resize(size_t(g_.size.z));
+    // Row by row: the clear and full cells in a vector loop (cell by cell, with a branch per
+    // cell, this was 3 % of a re-sweep), log1p only in the cells of fractional density.
+    const int nx = g_.size.x;
     for (int k = 0; k < g_.size.z; ++k)
-      for (int j = 0; j < g_.size.y; ++j)
-        for (int i = 0; i < g_.size.x; ++i) {
-          const float d = m.density[g_.index(i, j, k)];
-          DRTV_CHECK(d >= 0.f && d <= 1.f);
-          const float s = d >= 1.f ? kInf : d == 0.f ? 0.f : -std::log1p(-d);  // -log1p(-0) is +0 too
-          const size_t pi = size_t(j + kPad) * size_t(w_) + size_t(i + kPad);
-          sigma_[size_t(k) * plane_ + pi] = s;
-          if (s > 0) {
-            level_has_material_[size_t(k)] = 1;
-            const size_t r = size_t(k) * size_t(h_) + size_t(j + kPad);
-            row_has_material_[r] = 1;
-            row_lo_[r] = std::min(row_lo_[r], i + kPad);
-            row_hi_[r] = std::max(row_hi_[r], i + kPad);
-            if (s < kInf) fractional_[size_t(k)].push_back(uint32_t(pi));
-          }
-        }
+      for (int j = 0; j < g_.size.y; ++j) {
+        const float* d = m.density.data() + g_.index(0, j, k);
+        const size_t row = size_t(k) * plane_ + size_t(j + kPad) * size_t(w_) + size_t(kPad);  // cell (0, j) in sigma_
+        float* s = sigma_.data() + row;
+        const DensityRow scan = opticalDepthRow(nx, d, s);
+        if (scan.outside > 0)
+          for (int i = 0; i < nx; ++i) DRTV_CHECK(d[i] >= 0.f && d[i] <= 1.f);
+        if (scan.material == 0) continue;
+        if (scan.fractional > 0)
+          for (int i = 0; i < nx; ++i)
+            if (d[i] > 0.f && d[i] < 1.f) s[i] = -std::log1p(-d[i]);
+        int lo = 0, hi = nx - 1;
+        while (lo < nx && !(s[lo] > 0)) ++lo;
+        if (lo == nx) continue;  // log1p of a fractional density gave 0
+        while (!(s[hi] > 0)) --hi;
+        level_has_material_[size_t(k)] = 1;
+        const size_t r = size_t(k) * size_t(h_) + size_t(j + kPad);
+        row_has_material_[r] = 1;
+        row_lo_[r] = lo + kPad;
+        row_hi_[r] = hi + kPad;
+        if (scan.fractional > 0)
+          for (int i = lo; i <= hi; ++i)
+            if (s[i] > 0 && s[i] < kInf) fractional_[size_t(k)].push_back(uint32_t(row - size_t(k) * plane_ + size_t(i)));
+      }
     for (int j = -kPad; j < g_.size.y + kPad; ++j)
       for (int i = -kPad; i < g_.size.x + kPad; ++i) {
         const Edges::Cell cell{i, j, size_t(j + kPad), size_t(i + kPad)};
@@ -748,6 +839,8 @@ class Sweeper {
     up_.direct = false;
     for (int b = kSwept; b < kDirections; ++b) up_.bins.push_back(b);
     if (o_.bottom_up) setUp(up_);
+    // The rows of a level without factors: never read (their bits in gather's mask are 0).
+    no_factors_.assign(crossed_len_.size() * size_t(h_), sigma_.data());
     stride_ = (size_t(nx_) + kLanes - 1) / kLanes * kLanes;
     codes_.assign(size_t(kDirections) * stride_, 0u);
     // Rows of w_ floats like the level buffers', so that every row storeCells reads has its
@@ -771,15 +864,16 @@ class Sweeper {
   }
 
   // Sweeps into `out` (sweepInto). The light grid's words are all written below (each row's 26
-  // words per cell, every cell's average and dominant direction), so a buffer of the right size
-  // is kept as it is; the direct grid's words outside the sun's bins stay 0, so it is zeroed.
+  // words per cell, every cell's average and dominant direction), so its buffers are only sized,
+  // never zeroed (Words: a fresh grid's 13.6 MB memset was 10 % of a 1 m sector's sweep); the
+  // direct grid's words outside the sun's bins stay 0, so it is zeroed.
   void run(const SkyInput& sky, SweptGrid& out) {
     out.sky = sky;
     out.light_has_direct = o_.direct_sun;
     out.light.shape = g_;
     for (auto [v, n] : {std::pair{&out.light.light, g_.cellCount() * kDirections}, std::pair{&out.light.average, g_.cellCount()},
                         std::pair{&out.light.dominant, g_.cellCount()}})
-      if (v->size() != n) v->assign(n, 0);
+      v->resize(n);
     if (o_.keep_direct) {
       if (!out.direct) out.direct.emplace();
       out.direct->shape = g_;
@@ -806,13 +900,13 @@ class Sweeper {
       }
     }
     for (Pass* p : {&full_, &direct_})
-      if (!p->bins.empty()) edges_.fill(nz, p->direct, p->bins, all_cells_, p->src.get(), p->w, p->rowStride());
+      if (!p->bins.empty()) edges_.fill(nz, p->direct, p->bins, all_cells_, p->src.base, p->w, p->rowStride());
     for (int k = nz - 1; k >= 0; --k) {
       // The open sky's ring is the same at every level, and the levels never write it: both
       // buffers have it once the first level's is filled.
       if (k == nz - 1 || !edges_.sameAtEveryLevel())
         for (Pass* p : {&full_, &direct_})
-          if (!p->bins.empty()) edges_.fill(k, p->direct, p->bins, ring_cells_, p->dst.get(), p->w, p->rowStride());
+          if (!p->bins.empty()) edges_.fill(k, p->direct, p->bins, ring_cells_, p->dst.base, p->w, p->rowStride());
       level(k, out);
       for (Pass* p : {&full_, &direct_}) std::swap(p->src, p->dst);
     }
@@ -829,9 +923,9 @@ class Sweeper {
         for (size_t i = 0; i < t.crossed.size(); ++i) {
           Crossed& c = t.crossed[i];
           c.len_id = lengthId(crossed_len_, c.len);
-          c.offset = ptrdiff_t(c.len_id) * ptrdiff_t(plane_) + ptrdiff_t(c.dy) * w_ + kPad + c.dx;
           DRTV_CHECK(c.dy >= -kPad && c.dy <= kPad);
-          t.offset[i] = c.offset;
+          t.row[i] = c.len_id * h_ + kPad + c.dy;
+          t.column[i] = kPad + c.dx;
           t.bit[i] = uint8_t((c.src_level ? kRowBits : 0) + c.dy + kPad);
           t.src_level[i] = c.src_level;
           t.mask |= 1u << t.bit[i];
@@ -842,9 +936,8 @@ class Sweeper {
       p.paths.push_back(std::move(path));
     }
     p.w = size_t(w_);
-    // kLanes more: storeCells reads rows in whole groups of kLanes, past the last row's end.
-    p.src.reset(new float[p.bins.size() * 3 * plane_ + kLanes]);
-    p.dst.reset(new float[p.bins.size() * 3 * plane_ + kLanes]);
+    p.src.allocate(p.bins.size() * 3 * plane_);
+    p.dst.allocate(p.bins.size() * 3 * plane_);
   }
 
   static int lengthId(std::vector<float>& lengths, float len) {
@@ -862,25 +955,39 @@ class Sweeper {
 
   // Level k's factor planes, (1 - d)^len = exp(-len sigma) per crossed length, valid in the rows
   // that hold material (the only ones read). Two levels are kept; the one holding `keep` stays.
-  const float* factors(int k, int keep) {
+  // As a table of rows (LevelFactors::rows): a row without cells of fractional density has the
+  // same factors, 1 or 0, at every length, so its lengths share one row of a common plane; only the
+  // rows with fractional cells have a row per length (filling every length's plane in full was
+  // 1.8 % of a re-sweep).
+  const float* const* factors(int k, int keep) {
     for (LevelFactors& f : factors_)
-      if (f.level == k) return f.planes.data();
+      if (f.level == k) return f.rows.data();
     LevelFactors& f = factors_[0].level == keep ? factors_[1] : factors_[0];
     f.level = k;
-    f.planes.resize(crossed_len_.size() * plane_ + kLanes);  // kLanes: gatherRow reads whole groups
+    const size_t lengths = crossed_len_.size(), w = size_t(w_);
+    f.planes.resize((lengths + 1) * plane_ + kLanes);  // the lengths', then the common one; kLanes: gatherRow reads whole groups
+    f.rows.resize(lengths * size_t(h_));
     const float* sig = sigma_.data() + size_t(k) * plane_;
-    for (size_t l = 0; l < crossed_len_.size(); ++l) {
-      float* out = f.planes.data() + l * plane_;
-      for (int r = 0; r < h_; ++r) {
-        if (!hasMaterial(k, r, 0, w_ - 1)) continue;
-        const float* s = sig + size_t(r) * size_t(w_);
-        float* o = out + size_t(r) * size_t(w_);
-        for (int x = 0; x < w_; ++x) o[x] = s[x] == 0.f ? 1.f : 0.f;  // clear, or full (sigma inf)
-      }
-      const float len = crossed_len_[l];
-      for (uint32_t pi : fractional_[size_t(k)]) out[pi] = std::exp(-(len * sig[pi]));
+    float* common = f.planes.data() + lengths * plane_;
+    for (int r = 0; r < h_; ++r) {
+      if (hasMaterial(k, r, 0, w_ - 1)) clearOrFull(w_, sig + size_t(r) * w, common + size_t(r) * w);
+      for (size_t l = 0; l < lengths; ++l) f.rows[l * size_t(h_) + size_t(r)] = common + size_t(r) * w;
     }
-    return f.planes.data();
+    const std::vector<uint32_t>& fractional = fractional_[size_t(k)];  // in row order
+    for (size_t a = 0; a < fractional.size();) {
+      const size_t r = fractional[a] / w;
+      size_t b = a;
+      while (b < fractional.size() && fractional[b] / w == r) ++b;
+      for (size_t l = 0; l < lengths; ++l) {
+        float* out = f.planes.data() + l * plane_ + r * w;
+        std::copy_n(common + r * w, w, out);
+        const float len = crossed_len_[l];
+        for (size_t i = a; i < b; ++i) out[fractional[i] - r * w] = std::exp(-(len * sig[fractional[i]]));
+        f.rows[l * size_t(h_) + r] = out;
+      }
+      a = b;
+    }
+    return f.rows.data();
   }
 
   // Gathers row j of level k (source level k_src) into p.dst's row, and into q->dst's for the
@@ -889,13 +996,10 @@ class Sweeper {
     const bool src_in = k_src >= 0 && k_src < g_.size.z;
     const bool target_material = level_has_material_[size_t(k)] != 0;
     const bool src_material = src_in && level_has_material_[size_t(k_src)] != 0;
-    const float* f_target = target_material ? factors(k, src_material ? k_src : k) : nullptr;
-    const float* f_src = src_material ? factors(k_src, k) : nullptr;
     // A crossed cell is taken if its row holds material at all: where it holds none within the
     // row's cells, its factors there are 1, and multiplying by 1 changes nothing.
-    const size_t row = size_t(j + kPad) * size_t(w_);
-    const float* rows_target = f_target ? f_target + row : nullptr;
-    const float* rows_src = f_src ? f_src + row : nullptr;
+    const float* const* rows_target = target_material ? factors(k, src_material ? k_src : k) + j : nullptr;
+    const float* const* rows_src = src_material ? factors(k_src, k) + j : nullptr;
     // Bit kPad + dy (kRowBits + kPad + dy): row j + dy of the target's (source's) level holds
     // material and has factors.
     uint64_t lit = 0;
@@ -905,7 +1009,7 @@ class Sweeper {
       if (rows_src && row_has_material_[size_t(k_src) * size_t(h_) + r]) lit |= uint64_t(1) << (kRowBits + kPad + dy);
     }
     // A pointer that is never read where a level has no factors (its bits are 0).
-    const float* rows[2] = {rows_target ? rows_target : sigma_.data(), rows_src ? rows_src : sigma_.data()};
+    const float* const* rows[2] = {rows_target ? rows_target : no_factors_.data() + j, rows_src ? rows_src : no_factors_.data() + j};
     TapRows g;
     for (size_t b = 0; b < p.bins.size(); ++b) {
       const BinPath& path = p.paths[b];
@@ -917,7 +1021,7 @@ class Sweeper {
         if (tap.mask & lit) {
           // Branch-free, in the crossed cells' order (the order the factors multiply in).
           for (size_t c = 0; c < tap.crossed.size(); ++c) {
-            g.f[size_t(t)][size_t(nf)] = rows[tap.src_level[c]] + tap.offset[c];
+            g.f[size_t(t)][size_t(nf)] = rows[tap.src_level[c]][tap.row[c]] + tap.column[c];
             nf += int((lit >> tap.bit[c]) & 1u);
           }
         }
@@ -961,8 +1065,8 @@ class Sweeper {
       storeRow(k, j, out);
       // What the cells with material send on replaces what they stored.
       for (const auto& [p, leave] : {std::pair{&full_, &leave_}, std::pair{&direct_, &direct_leave_}})
-        for (size_t plane = 0; plane < p->planes(); ++plane)
-          std::memcpy(p->dstRow(plane, j + kPad) + kPad + span_lo_, leave->data() + plane * size_t(nx_), size_t(span_n_) * sizeof(float));
+        if (span_n_ > 0 && p->planes() > 0)
+          copyRows(int(p->planes()), span_n_, leave->data(), size_t(nx_), p->dstRow(0, j + kPad) + kPad + span_lo_, p->w);
     }
   }
 
@@ -992,11 +1096,9 @@ class Sweeper {
     const size_t lengths = target_len_.size();
     // The cells' own pass-through per distinct path length: 1 in an empty cell, 0 in a full one
     // (row loops), exp in the cells of fractional density (patched in after).
-    for (int m = 0; m < n; ++m) tau[m] = sig[m] == 0.f ? 1.f : 0.f;
-    for (size_t l = 0; l < lengths; ++l) {
-      std::copy_n(tau, n, batch(kT + int(l)));
-      std::copy_n(tau, n, batch(kSqrtT + int(l)));
-    }
+    clearOrFull(n, sig, tau);
+    copyRows(int(lengths), n, tau, 0, batch(kT), size_t(nx));
+    copyRows(int(lengths), n, tau, 0, batch(kSqrtT), size_t(nx));
     for (int m = 0; m < n; ++m) {
       const float s = sig[m];
       if (s == 0.f || s == kInf) continue;
@@ -1007,15 +1109,9 @@ class Sweeper {
         batch(kSqrtT + int(l))[m] = std::sqrt(t);
       }
     }
-    for (int m = 0; m < n; ++m) {
-      fa[m] = 0.5f * (1.f + tau[m]);
-      fb[m] = 0.5f * (1.f - tau[m]);
-    }
-    const glm::vec3* rho = m_.reflectance.data() + g_.index(lo, j, k);
-    for (int c = 0; c < 3; ++c) {
-      float* row_rho = batch(kRho + c);
-      for (int m = 0; m < n; ++m) row_rho[m] = rho[m][c];
-    }
+    halfSums(n, tau, fa, fb);
+    static_assert(sizeof(glm::vec3) == 3 * sizeof(float));
+    splitRgb(n, &m_.reflectance[g_.index(lo, j, k)].x, batch(kRho), batch(kRho + 1), batch(kRho + 2));
     auto in = [&](int b, int c) { return full_.dstRow(size_t(3 * b + c), j + kPad) + kPad + lo; };
     // What each direction loses in the cell, I (1 - T), normalised, summed as sum and q (columns
     // x, y, z of sum_i q_i travel_i, per channel); then the reflected light per outgoing direction.
@@ -1125,12 +1221,12 @@ class Sweeper {
     std::array<int, kUp> length_of{};
     for (int o = 0; o < kUp; ++o) length_of[size_t(o)] = lengthId(lengths, up_.paths[size_t(o)].target_len);
     std::vector<float> t(2 * lengths.size() * stride_), e(size_t(3 * kUp) * stride_, 0.f);
-    std::fill_n(up_.src.get(), up_.bins.size() * 3 * plane_, 0.f);  // below the grid: nothing comes up
+    std::fill_n(up_.src.base, up_.bins.size() * 3 * plane_, 0.f);  // below the grid: nothing comes up
     StoreRows& rows = store_rows_;  // light[kSwept + o]: up_half_'s rows, the stored light
     rows.first = kSwept;
     rows.end = kDirections;
     for (int k = 0; k < nz; ++k) {
-      edges_.fill(k, false, up_.bins, ring_cells_, up_.dst.get(), up_.w, up_.rowStride());
+      edges_.fill(k, false, up_.bins, ring_cells_, up_.dst.base, up_.w, up_.rowStride());
       for (int j = 0; j < ny; ++j) {
         gather(up_, nullptr, k, k - 1, j);
         const float* sig = sigma_.data() + size_t(k) * plane_ + size_t(j + kPad) * size_t(w_) + size_t(kPad);
@@ -1187,7 +1283,8 @@ class Sweeper {
 
   struct LevelFactors {
     int level = std::numeric_limits<int>::min();
-    std::vector<float> planes;  // crossed_len_.size() planes
+    std::vector<float> planes;  // crossed_len_.size() planes, then the common one (factors)
+    std::vector<const float*> rows;  // per length l and padded row r, [l h_ + r]: its factors' row
   };
 
   const MaterialGrid& m_;
@@ -1203,6 +1300,7 @@ class Sweeper {
   std::vector<std::vector<uint32_t>> fractional_;
   std::vector<float> crossed_len_, target_len_;
   std::array<LevelFactors, 2> factors_;
+  std::vector<const float*> no_factors_;  // as LevelFactors::rows, for a level without material
   std::vector<Edges::Cell> all_cells_, ring_cells_;
   std::array<float, kDirections> cos_sum_{}, omega_{};
   std::array<glm::vec3, kDirections> travel_{}, unit_from_{};

@@ -33,8 +33,8 @@ MaterialGrid testMaterial(const GridShape& s) {
   return m;
 }
 
-template <class T>
-bool sameBits(const std::vector<T>& a, const std::vector<T>& b) {
+template <class T, class A>
+bool sameBits(const std::vector<T, A>& a, const std::vector<T, A>& b) {
   return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0);
 }
 bool sameWords(const LightGrid& a, const LightGrid& b) {

@@ -165,7 +165,7 @@ TEST(SweepOptimised, AgreesWithTheReferenceUnderACoarseGrid) {
 
 // FNV-1a (64 bits) over the bytes of every stored word, little-endian: light, average and dominant
 // direction, then the direct grid's.
-uint64_t hashWords(const std::vector<uint32_t>& words, uint64_t h) {
+uint64_t hashWords(const Words& words, uint64_t h) {
   for (const uint32_t w : words)
     for (int i = 0; i < 4; ++i) {
       h ^= (w >> (8 * i)) & 0xffu;

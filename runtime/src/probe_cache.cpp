@@ -290,6 +290,7 @@ struct ProbeCache::Impl {
   uint64_t slot_relights = 0;  // relightSlot calls (slotRelightCount)
 
   std::vector<LightShare> distribute(std::span<const PointLight> lights) const;
+
   void setLights(std::span<const PointLight> lights);
   // The sources of slot `s` that the current light shares light, in source order (all of a
   // slot's dependence on the lights: relightSlot reads nothing else of them).
@@ -532,21 +533,35 @@ std::vector<LightShare> ProbeCache::Impl::distribute(std::span<const PointLight>
       // The probes the index grid names in the 4 cells at the light's height whose centres
       // surround it (a bilinear look-up's cells). The bake named, for each cell, a probe that
       // sees it, so a probe on the far side of a roof or wall is not among them unless a cell
-      // centre lies there too. Not the cells above and below: 4 m x 4 m x ~1.5 m cells put a
-      // centre above a roof as soon as a lamp hangs within a cell of it.
+      // centre lies there too. Not the cells above: 4 m x 4 m x ~1.5 m cells put a centre above
+      // a roof as soon as a lamp hangs within a cell of it. Such a cell names the probe standing
+      // on the roof, whose floor (height_m below it) is above the light: that probe cannot see
+      // the light, so the column is walked down, a cell at a time, to the first named source that
+      // does not stand on a surface above the light (a ceiling quad 1 cm under the Cornell box's
+      // roof sent all its light to the roof's top before: docs/runtime.md, "Local lights").
+      auto lower = [](double v) { return (std::floor(v / kGridCellSizeM - 0.5) + 0.5) * kGridCellSizeM; };
       for (int k = 0; k < 4; ++k) {
         glm::dvec3 at = light.position;
         // The lower corner of the surrounding centres, then this corner's offset.
-        auto lower = [](double v) { return (std::floor(v / kGridCellSizeM - 0.5) + 0.5) * kGridCellSizeM; };
         at.x = lower(at.x) + ((k & 1) ? kGridCellSizeM : 0.0);
         at.y = lower(at.y) + ((k & 2) ? kGridCellSizeM : 0.0);
         if (!(std::fabs(at.x) < kMaxWorldM && std::fabs(at.y) < kMaxWorldM && std::isfinite(at.z))) continue;
         const int s = slotOf(sectorAt(at.x, at.y));
         if (s < 0 || slots[s].count == 0) continue;
-        const int i = namedProbe(s, at);
-        if (i >= slots[s].count || !is_source[s * kSlotProbes + i]) continue;
-        const glm::dvec3 d = world(s, i) - light.position;
-        if (glm::dot(d, d) < r2) consider({s, i}, glm::dot(d, d));
+        const Slot& sl = slots[s];
+        for (int step = 0; step < kGridDim; ++step, at.z -= sl.cell_h) {
+          const int i = namedProbe(s, at);
+          if (i >= sl.count) break;
+          const double floor_z = double(sl.position[i].z) - double(sl.height[i]);
+          if (floor_z > light.position.z) {
+            if (at.z < double(sl.z_min)) break;  // clamped into the bottom cell: nothing lower
+            continue;
+          }
+          if (!is_source[s * kSlotProbes + i]) break;
+          const glm::dvec3 d = world(s, i) - light.position;
+          if (glm::dot(d, d) < r2) consider({s, i}, glm::dot(d, d));
+          break;
+        }
       }
     } else {
       for (size_t s = 0; s < slots.size(); ++s) {

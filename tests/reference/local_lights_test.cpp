@@ -8,6 +8,7 @@
 #include "../baker/test_worlds.h"
 #include "baked_world.h"
 #include "drtv/reference/reference.h"
+#include "drtv/worlds/load.h"
 
 namespace drtv::testing {
 using namespace raytrace;
@@ -73,6 +74,44 @@ TEST(LocalLights, ALampInAClosedRoomLendsItsLightOnlyToProbesInTheRoom) {
   EXPECT_GT(floor, 0.1);
   for (const glm::dvec3 at : {glm::dvec3(31.0, 31.0, 3.3), glm::dvec3(40.0, 31.0, 0.0)})
     EXPECT_LT(reference::referenceIrradiance(*scene, lighting, {at, {0, 0, 1}}, settings).parts[reference::kRefLocalLights].mean.g, 0.01 * floor);
+}
+
+// The Cornell world's emissive ceiling quad becomes 8 point lights 1 cm under the box's roof
+// (worlds/gltf). The index cells at their height straddle the roof and name the probes standing on
+// the roof's top, 1.5 m over it, which see nothing of them; the runtime walks such a column down
+// to a probe that does not stand on a surface above the light. Before, every share of the 8
+// lights (83 % of the world's local light) went to the roof's top (docs/runtime.md, "Local
+// lights"), which the path tracer does not light at all.
+TEST(LocalLights, TheCornellBoxsCeilingLightsLendNoLightToTheProbesOnItsRoof) {
+  auto w = worlds::loadWorld(DRTV_SOURCE_DIR "/tests/reference/data/cornell_world.json");
+  ASSERT_TRUE(w.has_value()) << w.error().message;
+  const BakedWorld baked = bakeWorld(*w, baker::Quality::kDraft);
+  ASSERT_FALSE(baked.sectors.empty());
+  constexpr double kRoofZ = 10.99;  // the box's ceiling (the quad's lights hang at 10.95)
+  auto rt = relit(baked, 22.0, {0, 0, 2}, runtime::RuntimeOptions{});
+  int ceiling_lights = 0;
+  for (const PointLight& light : baked.manifest.lights) {
+    if (light.position.z < kRoofZ - 0.1) continue;  // the world's lamp, 8 m up
+    ++ceiling_lights;
+    float above = 0.f, below = 0.f;
+    for (const runtime::LightShare& sh : rt->cache().distributeLights(std::span(&light, 1)))
+      (rt->cache().worldPosition(sh.probe).z > kRoofZ ? above : below) += sh.colour.g;
+    EXPECT_GT(below, 0.f) << light.name << ": its light goes into the box";
+    EXPECT_EQ(above, 0.f) << light.name << ": and none onto the roof";
+  }
+  EXPECT_EQ(ceiling_lights, 8);
+
+  // The path tracer: the roof's top gets nothing of the local lights, the box's floor plenty.
+  auto scene = reference::ReferenceScene::build(*w, "cornell_world.json");
+  ASSERT_TRUE(scene);
+  reference::ReferenceLighting lighting{w->sky, 22.0, baked.manifest.lights};  // the lamp and the quad's 8
+  reference::ReferenceSettings settings;
+  settings.samples = 256;
+  const double floor =
+      reference::referenceIrradiance(*scene, lighting, {{-3.5, -4.0, 0.01}, {0, 0, 1}}, settings).parts[reference::kRefLocalLights].mean.g;
+  EXPECT_GT(floor, 0.1);
+  EXPECT_LT(reference::referenceIrradiance(*scene, lighting, {{2.0, -2.0, 11.1}, {0, 0, 1}}, settings).parts[reference::kRefLocalLights].mean.g,
+            0.01 * floor);
 }
 
 // The runtime's lamp light at the points the reference gives nothing (above): the ground outside

@@ -42,11 +42,13 @@
 // normalised to sum to 1 so that the light's energy is kept. The weight is finite and largest (1)
 // at d = 0, so a light exactly on a probe is fine; a light with no candidate within its radius
 // contributes nothing (no baked bounce exists for it there). The candidates (LightSources):
-//  - kVisibleFromLight (default): the probes the index grid names in the light's cell and the 8
-//    cells beside it at the light's height. The bake named for each cell a probe that sees it, so
-//    a lamp under a roof never lends its light to a probe standing on the roof (which would then
-//    light the roof's outside: tests/reference/local_lights_test.cpp). Costs 9 cell look-ups per
-//    light, independent of how many probes are resident.
+//  - kVisibleFromLight (default): the probes the index grid names in the 4 cells whose centres
+//    surround the light, at its height. The bake named for each cell a probe that sees it, so a
+//    lamp under a roof never lends its light to a probe standing on the roof (which would then
+//    light the roof's outside: tests/reference/local_lights_test.cpp); where such a cell's centre
+//    lies above the roof (a lamp within half a cell of it) and names a probe standing on a surface
+//    above the light, the column is walked down to the first probe that does not. A few cell
+//    look-ups per light, independent of how many probes are resident.
 //  - kNearest: every resident source probe (the talk's rule); leaks through roofs and walls.
 //
 // Thread-safety: not thread-safe; one writer. Const member functions may run concurrently with

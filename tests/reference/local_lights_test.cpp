@@ -19,6 +19,11 @@ namespace {
 using baker::test::add;
 using baker::test::box;
 
+// ALampHungHighLightsTheGroundBelowItAsThePathTracerDoes: the summed error over the three points,
+// as a share of the reference's sum: 0.43 measured (quoted there), with room for the bake's noise;
+// the share kept whole on its source (1.19) and a 2 m footprint (0.72) fail it.
+constexpr double kHungLampTolerance = 0.6;
+
 // A closed room (walls 0.4 m, roof slab 0.3 m, no door) on a ground plane, with a lamp 0.5 m
 // under its roof: its room spans [27.4, 36.6] x [28.4, 35.6] x [0, 3] in sector (0, 0).
 worlds::World closedRoomWithLamp() {
@@ -56,11 +61,13 @@ TEST(LocalLights, ALampInAClosedRoomLendsItsLightOnlyToProbesInTheRoom) {
     float inside = 0.f, outside = 0.f;
     for (const runtime::LightShare& sh : rt->cache().distributeLights(baked.manifest.lights))
       (inRoom(rt->cache().worldPosition(sh.probe)) ? inside : outside) += sh.colour.g;
+    // (A share is the light's intensity scaled by the footprint factor, probe_cache.h: they need
+    // not sum to the light's intensity.)
     if (mode == runtime::LightSources::kVisibleFromLight) {
-      EXPECT_FLOAT_EQ(inside, w.lights[0].intensity.g) << "all of the lamp, and only it, goes to the room's probes";
-      EXPECT_EQ(outside, 0.f);
+      EXPECT_GT(inside, 0.f) << "the lamp goes to the room's probes";
+      EXPECT_EQ(outside, 0.f) << "and only to them";
     } else {
-      EXPECT_GT(outside, 0.25f * w.lights[0].intensity.g) << "the talk's nearest rule leaks here (what the default avoids)";
+      EXPECT_GT(outside, 0.25f * (inside + outside)) << "the talk's nearest rule leaks here (what the default avoids)";
     }
   }
 
@@ -112,6 +119,49 @@ TEST(LocalLights, TheCornellBoxsCeilingLightsLendNoLightToTheProbesOnItsRoof) {
   EXPECT_GT(floor, 0.1);
   EXPECT_LT(reference::referenceIrradiance(*scene, lighting, {{2.0, -2.0, 11.1}, {0, 0, 1}}, settings).parts[reference::kRefLocalLights].mean.g,
             0.01 * floor);
+}
+
+// A lamp hung 6 m over open ground: the bake lit its source probes 1.5 m over the ground, where the
+// same lamp would put 16x the irradiance under it. What the runtime gives an object's underside
+// 1 m over the ground (facing it: it sees the lit ground and nothing else of the lamp's light)
+// against the path tracer, under the lamp and 4 and 8 m beside it.
+TEST(LocalLights, ALampHungHighLightsTheGroundBelowItAsThePathTracerDoes) {
+  worlds::World w = baker::test::planeWorld(64.0, {0.5f, 0.5f, 0.5f});
+  w.name = "lamp over ground";
+  w.lights.push_back({"lamp", {32.0, 32.0, 6.0}, glm::vec3(40.f), 16.f});
+  w.effects |= kEffectLocalLights;
+  const BakedWorld baked = bakeWorld(w, baker::Quality::kDraft);
+  ASSERT_FALSE(baked.sectors.empty());
+  runtime::RuntimeOptions o;
+  o.effects = baked.manifest.effects;
+  o.representation = baked.manifest.representation;
+  o.components = runtime::kComponentLocalLights;
+  o.cache.max_sectors = std::max<int>(o.cache.max_sectors, int(baked.sectors.size()));
+  runtime::Runtime rt(o);
+  ASSERT_TRUE(rt.setLighting(baked.manifest.sky, baked.manifest.lights, baked.manifest.interiors).has_value());
+  ASSERT_TRUE(rt.setTime(23.0).has_value());
+  for (const Sector& sec : baked.sectors) ASSERT_TRUE(rt.addSector(sec).has_value());
+  rt.update({32, 32, 2});
+  rt.update({32, 32, 2});  // a blurred refill publishes one update late (publish.h)
+
+  auto scene = reference::ReferenceScene::build(w, "lamp over ground");
+  ASSERT_TRUE(scene);
+  reference::ReferenceLighting lighting{w.sky, 23.0, w.lights};
+  reference::ReferenceSettings settings;
+  settings.samples = 1024;
+  const glm::vec3 down(0, 0, -1);
+  double sum_ref = 0.0, sum_err = 0.0;
+  for (const double dx : {0.0, 4.0, 8.0}) {
+    const glm::dvec3 at(32.0 + dx, 31.0, 1.0);
+    const double ref = reference::referenceIrradiance(*scene, lighting, {at, down}, settings).parts[reference::kRefLocalLights].mean.g;
+    const double got = rt.ambient(at, down).irradiance.g;
+    std::printf("%.0f m beside the lamp: runtime %.4f, reference %.4f\n", dx, got, ref);
+    sum_ref += ref;
+    sum_err += std::fabs(got - ref);
+  }
+  // Measured 0.43 with the footprint factor (probe_cache.cpp kLightFootprintM); 1.19 without it
+  // (the share kept whole on a source 1.5 m up: 1.4-3.7x too bright), 0.72 with a 2 m footprint.
+  EXPECT_LT(sum_err, kHungLampTolerance * sum_ref);
 }
 
 // The runtime's lamp light at the points the reference gives nothing (above): the ground outside

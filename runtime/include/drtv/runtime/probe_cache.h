@@ -39,9 +39,15 @@
 //
 // Local lights [2]: a light's intensity is distributed onto LPRT source probes within its radius:
 // the `sources_per_light` nearest candidates (default 4) with weights w = (1 - (d/R)^2)^2,
-// normalised to sum to 1 so that the light's energy is kept. The weight is finite and largest (1)
-// at d = 0, so a light exactly on a probe is fine; a light with no candidate within its radius
-// contributes nothing (no baked bounce exists for it there). The candidates (LightSources):
+// normalised to sum to 1. The weight is finite and largest (1) at d = 0, so a light exactly on a
+// probe is fine; a light with no candidate within its radius contributes nothing (no baked bounce
+// exists for it there). The bake lit a source with a unit point light at the probe, h = height_m
+// above the surface below it; a light hung H > h above that surface puts far less light on it
+// under the light. Each share is therefore scaled by the footprint factor
+//   Ebar(H) / Ebar(h),  Ebar(z) = 2 (1 - z / sqrt(z^2 + r^2)) / r^2, r = 4 m (an index cell),
+// the mean irradiance a unit light at height z puts on the disk of radius r under it (1 when
+// H <= h: energy kept). It was 1.4-3.7x too bright over open ground without it, 26x on the
+// Cornell box's short block (docs/runtime.md, "Local lights"). The candidates (LightSources):
 //  - kVisibleFromLight (default): the probes the index grid names in the 4 cells whose centres
 //    surround the light, at its height. The bake named for each cell a probe that sees it, so a
 //    lamp under a roof never lends its light to a probe standing on the roof (which would then

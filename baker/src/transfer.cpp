@@ -113,6 +113,13 @@ struct Edge {
 
 using Sh4Rgb = std::array<sh::Sh4, 3>;
 
+// The surface cache's graph: surfels [0, traced) were traced, and ray i of surfel si landed on
+// surfel edges[si * M + i].child (kNoSurfel: escaped, a back face, or past the last level).
+struct SurfelLinks {
+  std::vector<Edge> edges;
+  size_t traced = 0;
+};
+
 glm::vec2 shiftFor(uint64_t key) { return {raytrace::unitFloat(raytrace::hashKey(key, 1)), raytrace::unitFloat(raytrace::hashKey(key, 2))}; }
 
 // Ray i of a probe's basis b, or of a surfel: cosine-weighted about `n`.
@@ -282,9 +289,10 @@ size_t levelOneSurfels(const TransferContext& ctx, const std::vector<RayResult>&
 // The surface cache: trace level by level from level 1 (cells found while tracing, new ones
 // created in (surfel, ray) order), then Jacobi sweeps for the bounces. Returns each traced
 // surfel's transfer.
-// `direct_out` (optional) receives each traced surfel's direct part D_x (the sky it sees).
+// `direct_out` (optional) receives each traced surfel's direct part D_x (the sky it sees), `links_out`
+// (optional) the surfel-to-surfel edges the sweeps used, for LPRT's own sweeps.
 std::vector<Sh4Rgb> surfaceCache(const TransferContext& ctx, CellMap& cells, std::vector<Surfel>& surfels, TransferStats& stats,
-                                 std::vector<sh::Sh4>* direct_out = nullptr) {
+                                 std::vector<sh::Sh4>* direct_out = nullptr, SurfelLinks* links_out = nullptr) {
   const raytrace::RayScene& scene = ctx.scene;
   const raytrace::SectorGeometry& geometry = ctx.geometry;
   const TransferSettings& s = ctx.s;
@@ -375,6 +383,10 @@ std::vector<Sh4Rgb> surfaceCache(const TransferContext& ctx, CellMap& cells, std
   }
   stats.surfels += count;
   if (direct_out) *direct_out = std::move(direct);
+  if (links_out) {
+    links_out->edges = std::move(edges);
+    links_out->traced = count;
+  }
   return transfer;
 }
 
@@ -504,13 +516,15 @@ void gatherPrt(const TransferContext& ctx, const std::vector<RayResult>& probe_r
 }
 
 // One bounce of per-surfel values to the probes, the sh-l1 (and cube) gather: for J values v[si][j]
-// per level-1 surfel, out[p][j][c][w] = (1/N) sum over the probe's 4N rays that end on a cached
-// surfel si of rho_c v[si][j] W_w(probe, hit), with the weights W of sphereWeight (4) or cubeWeight
-// (6); accumulated in double. Used by the sun transfer and by LPRT.
-template <size_t kW, class WeightFn>
+// per level-1 surfel (kC = 1: one for all channels; kC = 3: v[si][j][c], per channel),
+// out[p][j][c][w] = (1/N) sum over the probe's 4N rays that end on a cached surfel si of
+// rho_c v[si][j] W_w(probe, hit), with the weights W of sphereWeight (4) or cubeWeight (6);
+// accumulated in double. Used by the sun transfer and by LPRT.
+template <size_t kW, size_t kC = 1, class WeightFn>
 void bounceToProbes(const TransferContext& ctx, std::span<const glm::vec3> probes, const std::vector<RayResult>& probe_res,
                     const std::vector<uint32_t>& probe_surfel, const std::vector<float>& v, size_t J, WeightFn weight,
                     std::vector<float>& out) {
+  static_assert(kC == 1 || kC == 3);
   const size_t P = ctx.P, N = ctx.N, row = J * 3 * kW;
   out.assign(P * row, 0.f);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, P, 1), [&](const tbb::blocked_range<size_t>& range) {
@@ -522,11 +536,13 @@ void bounceToProbes(const TransferContext& ctx, std::span<const glm::vec3> probe
         if (si == kNoSurfel) continue;
         const glm::vec3& rho = ctx.albedo(probe_res[idx].prim);
         const auto y = weight(probes[p], probe_res[idx].position);
-        const float* e = &v[si * J];
+        const float* e = &v[si * J * kC];
         for (size_t j = 0; j < J; ++j) {
-          if (e[j] == 0.f) continue;
-          for (int c = 0; c < 3; ++c)
-            for (size_t w = 0; w < kW; ++w) acc[(j * 3 + size_t(c)) * kW + w] += double(rho[c] * e[j] * y[w]);
+          for (int c = 0; c < 3; ++c) {
+            const float ej = e[j * kC + (kC == 3 ? size_t(c) : 0)];
+            if (ej == 0.f) continue;
+            for (size_t w = 0; w < kW; ++w) acc[(j * 3 + size_t(c)) * kW + w] += double(rho[c] * ej * y[w]);
+          }
         }
       }
       for (size_t q = 0; q < row; ++q) out[p * row + q] = float(acc[q] / double(N));
@@ -576,17 +592,22 @@ void bakeSunTransfer(const TransferContext& ctx, std::span<const glm::vec3> prob
   if (out_sh) bounceToProbes<4>(ctx, probes, probe_res, probe_surfel, wrong, K, sphereWeight, *out_sh);
 }
 
-// LPRT: the direct irradiance of each source at each level-1 surfel, then one bounce to the probes.
+// LPRT: the direct irradiance of each source at each traced surfel, `bounces - 1` sweeps through
+// the surface cache's links (the same as T's), then one bounce to the probes.
 void bakeLprt(const TransferContext& ctx, std::span<const glm::vec3> probes, const std::vector<Surfel>& surfels, size_t level1,
-              const std::vector<RayResult>& probe_res,
+              const SurfelLinks* links, const std::vector<RayResult>& probe_res,
               const std::vector<uint32_t>& probe_surfel, std::span<const glm::vec3> lprt_sources, std::vector<float>* lprt,
               std::vector<float>* cube_lprt, TransferStats& stats) {
   const raytrace::RayScene& scene = ctx.scene;
-  const size_t P = ctx.P, N = ctx.N, S = lprt_sources.size();
+  const size_t P = ctx.P, N = ctx.N, M = ctx.M, S = lprt_sources.size();
+  const bool sweeps = links != nullptr && ctx.s.bounces > 1;
+  // Without later bounces only level 1 (what the probes see) needs the light.
+  const size_t lit = sweeps ? links->traced : level1;
+  DRTV_CHECK_LE(level1, lit);
   auto albedo = [&](uint32_t prim) -> const glm::vec3& { return ctx.albedo(prim); };
-  std::vector<float> irradiance(level1 * S, 0.f);
+  std::vector<float> irradiance(lit * S, 0.f);
   std::atomic<uint64_t> lprt_rays{0};
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, level1, 16), [&](const tbb::blocked_range<size_t>& range) {
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, lit, 16), [&](const tbb::blocked_range<size_t>& range) {
     uint64_t cast = 0;
     std::vector<raytrace::Ray> rays;
     std::vector<uint32_t> which;
@@ -619,15 +640,60 @@ void bakeLprt(const TransferContext& ctx, std::span<const glm::vec3> probes, con
     lprt_rays += cast;
   });
   stats.lprt_rays += lprt_rays;
-  // The ambient cube's LPRT and sh-l1's: the same surfel irradiance, each with its weights.
-  if (cube_lprt) bounceToProbes<kCubeAxes>(ctx, probes, probe_res, probe_surfel, irradiance, S, cubeWeight, *cube_lprt);
-  if (!lprt) return;
-  if (ctx.s.representation == Representation::kShL1) {
-    bounceToProbes<4>(ctx, probes, probe_res, probe_surfel, irradiance, S, sphereWeight, *lprt);
-    return;
+
+  if (!sweeps) {
+    // One bounce: the same surfel irradiance for every channel.
+    irradiance.resize(level1 * S);
+    if (cube_lprt) bounceToProbes<kCubeAxes>(ctx, probes, probe_res, probe_surfel, irradiance, S, cubeWeight, *cube_lprt);
+    if (!lprt) return;
+    if (ctx.s.representation == Representation::kShL1) {
+      bounceToProbes<4>(ctx, probes, probe_res, probe_surfel, irradiance, S, sphereWeight, *lprt);
+      return;
+    }
+  }
+  // Later bounces: the Jacobi sweeps of surfaceCache, B_s = E_s + (1/M) sum rho B_child, per
+  // channel (walls of different colours tint what they pass on), so that the local light carries
+  // as many bounces as the sun and sky do (the path tracer carries all of them).
+  std::vector<float> bounced;  // [surfel][source][channel], level-1 surfels only at the end
+  if (sweeps) {
+    const raytrace::SectorGeometry& geometry = ctx.geometry;
+    std::vector<float> cur(lit * S * 3), next(lit * S * 3);
+    for (size_t si = 0; si < lit; ++si)
+      for (size_t j = 0; j < S; ++j)
+        for (size_t c = 0; c < 3; ++c) cur[(si * S + j) * 3 + c] = irradiance[si * S + j];
+    for (int sweep = 1; sweep < ctx.s.bounces; ++sweep) {
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, lit, 64), [&](const tbb::blocked_range<size_t>& range) {
+        std::vector<float> acc(S * 3);
+        for (size_t si = range.begin(); si < range.end(); ++si) {
+          std::fill(acc.begin(), acc.end(), 0.f);
+          for (size_t i = 0; i < M; ++i) {
+            const Edge& e = links->edges[si * M + i];
+            if (e.child == kNoSurfel) continue;
+            const glm::vec3& rho = geometry.materials[e.material];
+            const float* b = &cur[size_t(e.child) * S * 3];
+            for (size_t j = 0; j < S; ++j)
+              for (int c = 0; c < 3; ++c) acc[j * 3 + size_t(c)] += rho[c] * b[j * 3 + size_t(c)];
+          }
+          for (size_t j = 0; j < S; ++j)
+            for (size_t c = 0; c < 3; ++c)
+              next[(si * S + j) * 3 + c] = irradiance[si * S + j] + acc[j * 3 + c] * (1.f / float(M));
+        }
+      });
+      std::swap(cur, next);
+    }
+    cur.resize(level1 * S * 3);
+    bounced = std::move(cur);
+    if (cube_lprt) bounceToProbes<kCubeAxes, 3>(ctx, probes, probe_res, probe_surfel, bounced, S, cubeWeight, *cube_lprt);
+    if (!lprt) return;
+    if (ctx.s.representation == Representation::kShL1) {
+      bounceToProbes<4, 3>(ctx, probes, probe_res, probe_surfel, bounced, S, sphereWeight, *lprt);
+      return;
+    }
   }
   // fc3: on the bases, each ray counting towards the basis it was cast about (k).
   lprt->assign(P * S * 12, 0.f);
+  const size_t kc = sweeps ? 3 : 1;
+  const std::vector<float>& v = sweeps ? bounced : irradiance;
   tbb::parallel_for(tbb::blocked_range<size_t>(0, P, 1), [&](const tbb::blocked_range<size_t>& range) {
     std::vector<float> acc(S * 12);
     for (size_t p = range.begin(); p < range.end(); ++p) {
@@ -638,11 +704,13 @@ void bakeLprt(const TransferContext& ctx, std::span<const glm::vec3> probes, con
           const uint32_t si = probe_surfel[idx];
           if (si == kNoSurfel) continue;
           const glm::vec3& rho = albedo(probe_res[idx].prim);
-          const float* e = &irradiance[si * S];
-          for (size_t j = 0; j < S; ++j) {
-            if (e[j] == 0.f) continue;
-            for (int c = 0; c < 3; ++c) acc[(j * 3 + c) * 4 + k] += rho[c] * e[j];
-          }
+          const float* e = &v[si * S * kc];
+          for (size_t j = 0; j < S; ++j)
+            for (int c = 0; c < 3; ++c) {
+              const float ej = e[j * kc + (kc == 3 ? size_t(c) : 0)];
+              if (ej == 0.f) continue;
+              acc[(j * 3 + c) * 4 + k] += rho[c] * ej;
+            }
         }
       for (size_t q = 0; q < S * 12; ++q) (*lprt)[p * S * 12 + q] = acc[q] / float(N);
     }
@@ -685,8 +753,17 @@ std::vector<ProbeData> bakeTransfer(const raytrace::RayScene& scene, const raytr
   std::vector<uint32_t> probe_surfel;
   const size_t level1 = levelOneSurfels(ctx, probe_res, cells, surfels, probe_surfel, stats);
   std::vector<sh::Sh4> direct;
+  // LPRT's later bounces walk the surface cache's links; without PRT the cache is traced for them
+  // alone (its transfer is then dropped: T stays 0).
+  // fc3 keeps the talk's single bounce, so that its archives stay those of every build before
+  // (DESIGN.md: fc3 reproducible bit for bit); sh-l1 (and a cube baked beside it) carries all
+  // `bounces`.
+  SurfelLinks links;
+  const bool lprt_links = want_lprt && s.bounces > 1 && s.representation == Representation::kShL1;
+  std::vector<Sh4Rgb> transfer;
+  if (s.prt || lprt_links)
+    transfer = surfaceCache(ctx, cells, surfels, stats, want_sun || want_cube_sun ? &direct : nullptr, lprt_links ? &links : nullptr);
   if (s.prt) {
-    const std::vector<Sh4Rgb> transfer = surfaceCache(ctx, cells, surfels, stats, want_sun || want_cube_sun ? &direct : nullptr);
     if (cube) gatherPrtCube(ctx, probes, probe_res, probe_surfel, transfer, *cube);
     if (s.representation == Representation::kShL1)
       gatherPrtShL1(ctx, probes, probe_res, probe_surfel, transfer, out);
@@ -703,7 +780,8 @@ std::vector<ProbeData> bakeTransfer(const raytrace::RayScene& scene, const raytr
   if (!want_lprt) return out;
 
   t0 = Clock::now();
-  bakeLprt(ctx, probes, surfels, level1, probe_res, probe_surfel, lprt_sources, lprt, cube ? &cube->lprt : nullptr, stats);
+  bakeLprt(ctx, probes, surfels, level1, lprt_links ? &links : nullptr, probe_res, probe_surfel, lprt_sources, lprt,
+           cube ? &cube->lprt : nullptr, stats);
   stats.lprt_seconds += since(t0);
   return out;
 }

@@ -431,9 +431,9 @@ TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
       {"worlds/island.json", "2", "sh-l1", "0", "nearest", 0xe8bac1df9b7359e6ull},  // archive version 3: fitted direct sky, sun transfer
       {"worlds/island.json", "2", "fc3", "", "nearest", 0x6cf058d923e27201ull},    // placement with its 0.25 m clearance
       {"worlds/island.json", "2", "sh-l1", "", "nearest", 0xe8d2e310cf5b1d54ull},  // the default bake until 2026-12-02
-      {"worlds/island_lit.json", "2", "sh-l1", "", "nearest", 0x50d8adbc11366b8cull},  // its LPRT gathered in double (bounceToProbes)
+      {"worlds/island_lit.json", "2", "sh-l1", "", "nearest", 0xbdd1ef89c7eb3c06ull},  // sh-l1's LPRT with the bake's 2 bounces (was 0x50d8adbc11366b8c)
       {"worlds/island.json", "2", "sh-l1", "", "", 0x072449dbca20d076ull},      // the default bake
-      {"worlds/island_lit.json", "2", "sh-l1", "", "", 0x55997894e273fcc1ull},  // the default bake with LPRT
+      {"worlds/island_lit.json", "2", "sh-l1", "", "", 0x8a1b5e95aed2d67cull},  // the default bake with LPRT of 2 bounces (was 0x55997894e273fcc1)
   };
   for (const Golden& g : goldens) {
     const std::string out = scratch("golden.drtv");

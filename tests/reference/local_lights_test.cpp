@@ -8,6 +8,7 @@
 #include "../baker/test_worlds.h"
 #include "baked_world.h"
 #include "drtv/reference/reference.h"
+#include "drtv/worlds/load.h"
 
 namespace drtv::testing {
 using namespace raytrace;
@@ -17,6 +18,11 @@ namespace {
 
 using baker::test::add;
 using baker::test::box;
+
+// ALampHungHighLightsTheGroundBelowItAsThePathTracerDoes: the summed error over the three points,
+// as a share of the reference's sum: 0.43 measured (quoted there), with room for the bake's noise;
+// the share kept whole on its source (1.19) and a 2 m footprint (0.72) fail it.
+constexpr double kHungLampTolerance = 0.6;
 
 // A closed room (walls 0.4 m, roof slab 0.3 m, no door) on a ground plane, with a lamp 0.5 m
 // under its roof: its room spans [27.4, 36.6] x [28.4, 35.6] x [0, 3] in sector (0, 0).
@@ -55,11 +61,13 @@ TEST(LocalLights, ALampInAClosedRoomLendsItsLightOnlyToProbesInTheRoom) {
     float inside = 0.f, outside = 0.f;
     for (const runtime::LightShare& sh : rt->cache().distributeLights(baked.manifest.lights))
       (inRoom(rt->cache().worldPosition(sh.probe)) ? inside : outside) += sh.colour.g;
+    // (A share is the light's intensity scaled by the footprint factor, probe_cache.h: they need
+    // not sum to the light's intensity.)
     if (mode == runtime::LightSources::kVisibleFromLight) {
-      EXPECT_FLOAT_EQ(inside, w.lights[0].intensity.g) << "all of the lamp, and only it, goes to the room's probes";
-      EXPECT_EQ(outside, 0.f);
+      EXPECT_GT(inside, 0.f) << "the lamp goes to the room's probes";
+      EXPECT_EQ(outside, 0.f) << "and only to them";
     } else {
-      EXPECT_GT(outside, 0.25f * w.lights[0].intensity.g) << "the talk's nearest rule leaks here (what the default avoids)";
+      EXPECT_GT(outside, 0.25f * (inside + outside)) << "the talk's nearest rule leaks here (what the default avoids)";
     }
   }
 
@@ -73,6 +81,133 @@ TEST(LocalLights, ALampInAClosedRoomLendsItsLightOnlyToProbesInTheRoom) {
   EXPECT_GT(floor, 0.1);
   for (const glm::dvec3 at : {glm::dvec3(31.0, 31.0, 3.3), glm::dvec3(40.0, 31.0, 0.0)})
     EXPECT_LT(reference::referenceIrradiance(*scene, lighting, {at, {0, 0, 1}}, settings).parts[reference::kRefLocalLights].mean.g, 0.01 * floor);
+}
+
+// The Cornell world's emissive ceiling quad becomes 8 point lights 1 cm under the box's roof
+// (worlds/gltf). The index cells at their height straddle the roof and name the probes standing on
+// the roof's top, 1.5 m over it, which see nothing of them; the runtime walks such a column down
+// to a probe that does not stand on a surface above the light. Before, every share of the 8
+// lights (83 % of the world's local light) went to the roof's top (docs/runtime.md, "Local
+// lights"), which the path tracer does not light at all.
+TEST(LocalLights, TheCornellBoxsCeilingLightsLendNoLightToTheProbesOnItsRoof) {
+  auto w = worlds::loadWorld(DRTV_SOURCE_DIR "/tests/reference/data/cornell_world.json");
+  ASSERT_TRUE(w.has_value()) << w.error().message;
+  const BakedWorld baked = bakeWorld(*w, baker::Quality::kDraft);
+  ASSERT_FALSE(baked.sectors.empty());
+  constexpr double kRoofZ = 10.99;  // the box's ceiling (the quad's lights hang at 10.95)
+  auto rt = relit(baked, 22.0, {0, 0, 2}, runtime::RuntimeOptions{});
+  int ceiling_lights = 0;
+  for (const PointLight& light : baked.manifest.lights) {
+    if (light.position.z < kRoofZ - 0.1) continue;  // the world's lamp, 8 m up
+    ++ceiling_lights;
+    float above = 0.f, below = 0.f;
+    for (const runtime::LightShare& sh : rt->cache().distributeLights(std::span(&light, 1)))
+      (rt->cache().worldPosition(sh.probe).z > kRoofZ ? above : below) += sh.colour.g;
+    EXPECT_GT(below, 0.f) << light.name << ": its light goes into the box";
+    EXPECT_EQ(above, 0.f) << light.name << ": and none onto the roof";
+  }
+  EXPECT_EQ(ceiling_lights, 8);
+
+  // The path tracer: the roof's top gets nothing of the local lights, the box's floor plenty.
+  auto scene = reference::ReferenceScene::build(*w, "cornell_world.json");
+  ASSERT_TRUE(scene);
+  reference::ReferenceLighting lighting{w->sky, 22.0, baked.manifest.lights};  // the lamp and the quad's 8
+  reference::ReferenceSettings settings;
+  settings.samples = 256;
+  const double floor =
+      reference::referenceIrradiance(*scene, lighting, {{-3.5, -4.0, 0.01}, {0, 0, 1}}, settings).parts[reference::kRefLocalLights].mean.g;
+  EXPECT_GT(floor, 0.1);
+  EXPECT_LT(reference::referenceIrradiance(*scene, lighting, {{2.0, -2.0, 11.1}, {0, 0, 1}}, settings).parts[reference::kRefLocalLights].mean.g,
+            0.01 * floor);
+}
+
+// A lamp hung 6 m over open ground: the bake lit its source probes 1.5 m over the ground, where the
+// same lamp would put 16x the irradiance under it. What the runtime gives an object's underside
+// 1 m over the ground (facing it: it sees the lit ground and nothing else of the lamp's light)
+// against the path tracer, under the lamp and 4 and 8 m beside it.
+TEST(LocalLights, ALampHungHighLightsTheGroundBelowItAsThePathTracerDoes) {
+  worlds::World w = baker::test::planeWorld(64.0, {0.5f, 0.5f, 0.5f});
+  w.name = "lamp over ground";
+  w.lights.push_back({"lamp", {32.0, 32.0, 6.0}, glm::vec3(40.f), 16.f});
+  w.effects |= kEffectLocalLights;
+  const BakedWorld baked = bakeWorld(w, baker::Quality::kDraft);
+  ASSERT_FALSE(baked.sectors.empty());
+  runtime::RuntimeOptions o;
+  o.effects = baked.manifest.effects;
+  o.representation = baked.manifest.representation;
+  o.components = runtime::kComponentLocalLights;
+  o.cache.max_sectors = std::max<int>(o.cache.max_sectors, int(baked.sectors.size()));
+  runtime::Runtime rt(o);
+  ASSERT_TRUE(rt.setLighting(baked.manifest.sky, baked.manifest.lights, baked.manifest.interiors).has_value());
+  ASSERT_TRUE(rt.setTime(23.0).has_value());
+  for (const Sector& sec : baked.sectors) ASSERT_TRUE(rt.addSector(sec).has_value());
+  rt.update({32, 32, 2});
+  rt.update({32, 32, 2});  // a blurred refill publishes one update late (publish.h)
+
+  auto scene = reference::ReferenceScene::build(w, "lamp over ground");
+  ASSERT_TRUE(scene);
+  reference::ReferenceLighting lighting{w.sky, 23.0, w.lights};
+  reference::ReferenceSettings settings;
+  settings.samples = 1024;
+  const glm::vec3 down(0, 0, -1);
+  double sum_ref = 0.0, sum_err = 0.0;
+  for (const double dx : {0.0, 4.0, 8.0}) {
+    const glm::dvec3 at(32.0 + dx, 31.0, 1.0);
+    const double ref = reference::referenceIrradiance(*scene, lighting, {at, down}, settings).parts[reference::kRefLocalLights].mean.g;
+    const double got = rt.ambient(at, down).irradiance.g;
+    std::printf("%.0f m beside the lamp: runtime %.4f, reference %.4f\n", dx, got, ref);
+    sum_ref += ref;
+    sum_err += std::fabs(got - ref);
+  }
+  // Measured 0.43 with the footprint factor (probe_cache.cpp kLightFootprintM); 1.19 without it
+  // (the share kept whole on a source 1.5 m up: 1.4-3.7x too bright), 0.72 with a 2 m footprint.
+  EXPECT_LT(sum_err, kHungLampTolerance * sum_ref);
+}
+
+// TheLampsLightInAClosedRoomCarriesTheBakesBounces: measured 3.68 / 5.32 / 6.20 with 1 / 2 / 3
+// bounces against the reference's 5.02 (4096 paths): 2 bounces (the default) within 6 %; 3 are
+// 23 % high, so the rest of the model (source position, footprint factor, lookup) is some 5-20 %
+// bright here and the bound leaves room for it, not for the single bounce's -27 %.
+constexpr double kClosedRoomBounceTolerance = 0.12;
+
+// In the closed white room most of the lamp's light on an object's top reaches it after two
+// bounces or more (walls and roof of albedo 0.7 all round). The local-light term at a point 1 m
+// over the floor, facing up (it sees the roof, lit by the floor's bounce), with the bake's bounces
+// against the path tracer's (all of them).
+TEST(LocalLights, TheLampsLightInAClosedRoomCarriesTheBakesBounces) {
+  const worlds::World w = closedRoomWithLamp();
+  auto scene = reference::ReferenceScene::build(w, "closed room");
+  ASSERT_TRUE(scene);
+  reference::ReferenceLighting lighting{w.sky, 23.0, w.lights};
+  reference::ReferenceSettings settings;
+  settings.samples = 4096;
+  const glm::dvec3 at(31.0, 31.0, 1.0);
+  const glm::vec3 up(0, 0, 1);
+  const double ref = reference::referenceIrradiance(*scene, lighting, {at, up}, settings).parts[reference::kRefLocalLights].mean.g;
+  for (const int bounces : {1, 2, 3}) {
+    baker::BakeSettings bs = baker::BakeSettings::forQuality(baker::Quality::kDraft, 1);
+    bs.transfer.bounces = bounces;
+    auto b = baker::bakeInMemory(w, w.name, bs, std::nullopt);
+    ASSERT_TRUE(b.has_value());
+    runtime::RuntimeOptions o;
+    o.effects = b->manifest.effects;
+    o.representation = b->manifest.representation;
+    o.components = runtime::kComponentLocalLights;
+    o.cache.max_sectors = std::max<int>(o.cache.max_sectors, int(b->sectors.size()));
+    runtime::Runtime rt(o);
+    ASSERT_TRUE(rt.setLighting(b->manifest.sky, b->manifest.lights, b->manifest.interiors).has_value());
+    ASSERT_TRUE(rt.setTime(23.0).has_value());
+    for (const Sector& sec : b->sectors) ASSERT_TRUE(rt.addSector(sec).has_value());
+    rt.update({32, 32, 2});
+    rt.update({32, 32, 2});
+    const double got = rt.ambient(at, up).irradiance.g;
+    std::printf("bounces %d: runtime %.4f, reference %.4f\n", bounces, got, ref);
+    if (bounces == 1) {
+      EXPECT_LT(got, 0.8 * ref) << "one bounce (LPRT before) misses a quarter of the light here";
+    } else if (bounces == 2) {
+      EXPECT_NEAR(got, ref, kClosedRoomBounceTolerance * ref) << "the default bake";
+    }
+  }
 }
 
 // The runtime's lamp light at the points the reference gives nothing (above): the ground outside

@@ -42,6 +42,11 @@
 // one batch per surfel); then per probe, basis and source, one diffuse bounce:
 //   LPRT[p][j][c][k] = (1/N) sum over basis-k rays' front hits of rho_c(x_i) E_j(x_i)
 // i.e. the bounced irradiance on a surface facing B_k (sector.h's kSectorLprtOnBases layout).
+// That is fc3, the talk's single bounce, kept bit for bit. sh-l1 (and a cube baked beside it)
+// carries `bounces` bounces as T does: E_j is traced at every surfel of the cache, then
+// `bounces - 1` Jacobi sweeps of B_s,c = E_s + (1/M) sum rho_c B_child,c over the cache's links
+// (per channel: coloured walls tint what they pass on), and B takes E's place in the gather below
+// (the path tracer carries every bounce; docs/runtime.md, "Local lights", measures the change).
 // The light's direct contribution is the runtime's business and is not included.
 //
 // sh-l1 (representation.h): the same rays, weighed for the sphere instead of each basis' lobe.
@@ -50,7 +55,7 @@
 //   M[c][i][j] = integral Y_i(w) (rho_c(x)/pi) T_x[c][j] dw ~= 1/N sum rho_c(x) T_x[c][j] Y_i(w) / S(w)
 // (the bounced radiance arriving at the probe, projected), sky_moments = 3/(4 pi) integral of
 // (y z, z z, x z) V dw from the escaped rays, and the LPRT block in SH (on_bases = false):
-//   LPRT[p][j][c][i] = 1/N sum rho_c(x) E_j(x) Y_i(w) / S(w).
+//   LPRT[p][j][c][i] = 1/N sum rho_c(x) B_j,c(x) Y_i(w) / S(w).
 // sky_vis keeps its kFc3 meaning (the distant-occlusion tile and the tools read it).
 //
 // The sun transfer (sh-l1 only; sector.h SunBlock): the linear sun lobe s(d) = 2 [0, Y1(d)]

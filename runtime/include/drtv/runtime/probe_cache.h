@@ -39,14 +39,22 @@
 //
 // Local lights [2]: a light's intensity is distributed onto LPRT source probes within its radius:
 // the `sources_per_light` nearest candidates (default 4) with weights w = (1 - (d/R)^2)^2,
-// normalised to sum to 1 so that the light's energy is kept. The weight is finite and largest (1)
-// at d = 0, so a light exactly on a probe is fine; a light with no candidate within its radius
-// contributes nothing (no baked bounce exists for it there). The candidates (LightSources):
-//  - kVisibleFromLight (default): the probes the index grid names in the light's cell and the 8
-//    cells beside it at the light's height. The bake named for each cell a probe that sees it, so
-//    a lamp under a roof never lends its light to a probe standing on the roof (which would then
-//    light the roof's outside: tests/reference/local_lights_test.cpp). Costs 9 cell look-ups per
-//    light, independent of how many probes are resident.
+// normalised to sum to 1. The weight is finite and largest (1) at d = 0, so a light exactly on a
+// probe is fine; a light with no candidate within its radius contributes nothing (no baked bounce
+// exists for it there). The bake lit a source with a unit point light at the probe, h = height_m
+// above the surface below it; a light hung H > h above that surface puts far less light on it
+// under the light. Each share is therefore scaled by the footprint factor
+//   Ebar(H) / Ebar(h),  Ebar(z) = 2 (1 - z / sqrt(z^2 + r^2)) / r^2, r = 4 m (an index cell),
+// the mean irradiance a unit light at height z puts on the disk of radius r under it (1 when
+// H <= h: energy kept). It was 1.4-3.7x too bright over open ground without it, 26x on the
+// Cornell box's short block (docs/runtime.md, "Local lights"). The candidates (LightSources):
+//  - kVisibleFromLight (default): the probes the index grid names in the 4 cells whose centres
+//    surround the light, at its height. The bake named for each cell a probe that sees it, so a
+//    lamp under a roof never lends its light to a probe standing on the roof (which would then
+//    light the roof's outside: tests/reference/local_lights_test.cpp); where such a cell's centre
+//    lies above the roof (a lamp within half a cell of it) and names a probe standing on a surface
+//    above the light, the column is walked down to the first probe that does not. A few cell
+//    look-ups per light, independent of how many probes are resident.
 //  - kNearest: every resident source probe (the talk's rule); leaks through roofs and walls.
 //
 // Thread-safety: not thread-safe; one writer. Const member functions may run concurrently with

@@ -241,7 +241,6 @@ void traceProbes(const TransferContext& ctx, std::span<const glm::vec3> probes, 
 // names each probe ray's surfel. Returns how many there are (level 1's size).
 size_t levelOneSurfels(const TransferContext& ctx, const std::vector<RayResult>& probe_res, CellMap& cells,
                        std::vector<Surfel>& surfels, std::vector<uint32_t>& probe_surfel, TransferStats& stats) {
-  const raytrace::RayScene& scene = ctx.scene;
   const size_t P = ctx.P, N = ctx.N;
   probe_surfel.assign(P * 4 * N, kNoSurfel);
   for (size_t p = 0; p < P; ++p)
@@ -557,7 +556,7 @@ void bakeSunTransfer(const TransferContext& ctx, std::span<const glm::vec3> prob
                      size_t level1, const std::vector<sh::Sh4>& direct, const std::vector<RayResult>& probe_res,
                      const std::vector<uint32_t>& probe_surfel, std::span<const glm::vec3> sun, std::vector<float>* out_sh,
                      std::vector<float>* out_cube, TransferStats& stats) {
-  const size_t P = ctx.P, N = ctx.N, K = sun.size();
+  const size_t K = sun.size();
   std::vector<sh::Sh4> lobe(K);
   for (size_t k = 0; k < K; ++k) lobe[k] = linearSunLobe(sun[k]);
   std::vector<float> wrong(level1 * K, 0.f);

@@ -40,7 +40,8 @@ void writeProbe(ByteWriter& w, const ProbeRecord& r) {
   DRTV_CHECK_EQ(w.size() - start, kProbeBytes);
 }
 
-void readProbe(ByteReader& rd, ProbeRecord& r) {
+// Field by field: the big-endian path (decodeSector copies the records whole on little-endian hosts).
+[[maybe_unused]] void readProbe(ByteReader& rd, ProbeRecord& r) {
   for (float& v : r.position) rd.get(v);
   rd.get(r.flags);
   rd.get(r.interior);

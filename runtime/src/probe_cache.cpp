@@ -160,6 +160,10 @@ inline float clampSigned(float x) {
 // relight waited on their latency (1.6x fc3's, whose chain is 5).
 inline constexpr int kShL1Block = kInputPlanes * 16;
 inline constexpr int kSunBlock = 12 * 16;
+// Where plane p of probe i sits in a run of blocks of `planes` planes x 16 probes.
+constexpr size_t blockOffset(int i, int p, int planes) {
+  return size_t(i / 16) * size_t(planes) * 16 + size_t(p) * 16 + size_t(i % 16);
+}
 // GCC's vector extensions, L lanes: 16 (one register) in the AVX-512 version, 8 in the AVX2 and
 // baseline ones (where 16 lanes spilled: a block is then two halves). The helpers are always
 // inlined into the kernels below, so no vector crosses a call, and GCC's -Wpsabi note on how one
@@ -341,7 +345,7 @@ struct ProbeCache::Impl {
   float* inPlane(int s, int p) { return in.data + size_t(s) * kInputPlanes * kSlotProbes + size_t(p) * stride(s); }
   // sh-l1's input value of plane p for probe i, in its blocks of 16 probes (kShL1Block).
   float& inShL1(int s, int p, int i) {
-    return in.data[size_t(s) * kInputPlanes * kSlotProbes + size_t(i / 16) * kShL1Block + size_t(p) * 16 + size_t(i % 16)];
+    return in.data[size_t(s) * kInputPlanes * kSlotProbes + blockOffset(i, p, kInputPlanes)];
   }
   float* outPlane(int s, int p) { return out.data + size_t(s) * kColourPlanes * kSlotProbes + size_t(p) * stride(s); }
   const float* outPlane(int s, int p) const {
@@ -577,7 +581,7 @@ Result<void> ProbeCache::addSector(const Sector& sector) {
     for (int i = 0; i < n; ++i)
       for (size_t k = 0; k < K; ++k)
         for (int q = 0; q < 12; ++q)
-          sl.sun.data[k * 12 * stride + size_t(i / 16) * kSunBlock + size_t(q) * 16 + size_t(i % 16)] = dequantizeSnorm8(sun.coeffs[sun.index(size_t(i), k, q / 4, q % 4)], sun.ranges[size_t(i)]);
+          sl.sun.data[k * 12 * stride + blockOffset(i, q, 12)] = dequantizeSnorm8(sun.coeffs[sun.index(size_t(i), k, q / 4, q % 4)], sun.ranges[size_t(i)]);
   }
   m.resolveSources();
   return {};

@@ -306,18 +306,13 @@ uint32_t CascadedLpv::setCamera(const glm::dvec3& camera) {
 }
 
 void CascadedLpv::clearLight(int c) {
+  clearInjected(c);
   Cascade& g = cascades_[size_t(c)];
   const int n = g.n;
-  const size_t np = size_t(n) + 2, P = g.padded();
-  // Only the rows an injection or a propagation flagged can hold anything but zeros.
+  // Only the rows a propagation flagged can hold anything but zeros.
   for (int k = 0; k < n; ++k)
     for (int ch = 0; ch < 3; ++ch)
       for (int j = 0; j < n; ++j) {
-        uint8_t& inj = g.inj_lit[(size_t(k + 1) * 3 + size_t(ch)) * np + size_t(j + 1)];
-        if (inj) {
-          for (int q = 0; q < 4; ++q) std::fill_n(g.injected.data() + size_t(ch * 4 + q) * P + g.paddedIndex(0, j, k), n, 0.f);
-          inj = 0;
-        }
         uint8_t& lit = g.light_lit[(size_t(k) * 3 + size_t(ch)) * size_t(n) + size_t(j)];
         if (lit) {  // until the next propagate
           for (int q = 0; q < 4; ++q) std::fill_n(g.light.data() + size_t(ch * 4 + q) * g.cells + g.index(0, j, k), n, 0.f);
@@ -326,8 +321,29 @@ void CascadedLpv::clearLight(int c) {
       }
 }
 
+void CascadedLpv::clearInjected(int c) {
+  Cascade& g = cascades_[size_t(c)];
+  const int n = g.n;
+  const size_t np = size_t(n) + 2, P = g.padded();
+  // Only the rows an injection flagged can hold anything but zeros.
+  for (int k = 0; k < n; ++k)
+    for (int ch = 0; ch < 3; ++ch)
+      for (int j = 0; j < n; ++j) {
+        uint8_t& inj = g.inj_lit[(size_t(k + 1) * 3 + size_t(ch)) * np + size_t(j + 1)];
+        if (!inj) continue;
+        for (int q = 0; q < 4; ++q) std::fill_n(g.injected.data() + size_t(ch * 4 + q) * P + g.paddedIndex(0, j, k), n, 0.f);
+        inj = 0;
+      }
+}
+
 void CascadedLpv::injectLight(int c, std::span<const Surfel> surfels) {
   DRTV_CHECK(c >= 0 && c < cascadeCount());
+  const int jobs = int(scratch_.size());
+  if (jobs == 1) injectJob(c, surfels, 0, 1);
+  else workers_->run(jobs, [&](int job, int) { injectJob(c, surfels, job, jobs); });
+}
+
+void CascadedLpv::injectJob(int c, std::span<const Surfel> surfels, int job, int jobs) {
   Cascade& g = cascades_[size_t(c)];
   const double s = g.box.cell_m, inv_s = 1.0 / s;
   const float scale = float(1.0 / (double(sh::kPi) * s * s));
@@ -336,54 +352,49 @@ void CascadedLpv::injectLight(int c, std::span<const Surfel> surfels) {
   const size_t P = g.padded(), np = size_t(n) + 2;
   float* const planes = g.injected.data();
   uint8_t* const lit = g.inj_lit.data();
-  // With threads, each job takes the surfels landing in its blocks of 4 rows of y, in the given
-  // order, so every cell's sum is made in the same order whatever the count.
-  const int jobs = int(scratch_.size());
-  auto inject = [&, n, P, np, planes, lit, jobs](int job, int) {
-    // The cell of a run of surfels (an RSM's neighbouring texels share cells) is held in
-    // registers: the same additions in the same order as adding to memory, without waiting on
-    // each store before the next load of the same address.
-    size_t run = SIZE_MAX, run_row = 0;
-    float acc[kPlanes];
-    uint8_t run_lit = 0;
-    auto flush = [&] {
-      if (run == SIZE_MAX) return;
-      for (int p = 0; p < kPlanes; ++p) planes[size_t(p) * P + run] = acc[p];
-      for (int ch = 0; ch < 3; ++ch) lit[run_row + size_t(ch) * np] |= uint8_t((run_lit >> ch) & 1);
-    };
-    for (const Surfel& v : surfels) {
-      // Half a cell along the normal [1] sec. 4.1: the VPL lights the space in front of it. The
-      // row first: with threads, a job skips the other jobs' surfels before the rest of the work.
-      const double py = (v.position.y - box_min.y) * inv_s + 0.5 * double(v.normal.y);
-      if (!(py >= 0 && py < n)) continue;
-      const int j = int(py);
-      if (jobs > 1 && (j / 4) % jobs != job) continue;
-      const double px = (v.position.x - box_min.x) * inv_s + 0.5 * double(v.normal.x);
-      const double pz = (v.position.z - box_min.z) * inv_s + 0.5 * double(v.normal.z);
-      if (!(px >= 0 && pz >= 0 && px < n && pz < n)) continue;
-      const int i = int(px), k = int(pz);
-      const size_t idx = size_t(i + 1) + np * (size_t(j + 1) + np * size_t(k + 1));
-      if (idx != run) {
-        flush();
-        run = idx;
-        run_row = size_t(k + 1) * 3 * np + size_t(j + 1);
-        run_lit = 0;
-        for (int q = 0; q < kPlanes; ++q) acc[q] = planes[size_t(q) * P + idx];
-      }
-      const sh::Sh4 lobe = sh::cosineLobe(v.normal) * scale;
-      for (int ch = 0; ch < 3; ++ch) {
-        const float f = v.flux[ch];
-        acc[ch * 4] += f * lobe.x;
-        acc[ch * 4 + 1] += f * lobe.y;
-        acc[ch * 4 + 2] += f * lobe.z;
-        acc[ch * 4 + 3] += f * lobe.w;
-        run_lit |= uint8_t(f != 0.f) << ch;
-      }
-    }
-    flush();
+  // With `jobs` > 1, this job takes the surfels landing in its blocks of 4 rows of y, in the
+  // given order, so every cell's sum is made in the same order whatever the count.
+  // The cell of a run of surfels (an RSM's neighbouring texels share cells) is held in
+  // registers: the same additions in the same order as adding to memory, without waiting on
+  // each store before the next load of the same address.
+  size_t run = SIZE_MAX, run_row = 0;
+  float acc[kPlanes];
+  uint8_t run_lit = 0;
+  auto flush = [&] {
+    if (run == SIZE_MAX) return;
+    for (int p = 0; p < kPlanes; ++p) planes[size_t(p) * P + run] = acc[p];
+    for (int ch = 0; ch < 3; ++ch) lit[run_row + size_t(ch) * np] |= uint8_t((run_lit >> ch) & 1);
   };
-  if (jobs == 1) inject(0, 0);
-  else workers_->run(jobs, inject);
+  for (const Surfel& v : surfels) {
+    // Half a cell along the normal [1] sec. 4.1: the VPL lights the space in front of it. The
+    // row first: with threads, a job skips the other jobs' surfels before the rest of the work.
+    const double py = (v.position.y - box_min.y) * inv_s + 0.5 * double(v.normal.y);
+    if (!(py >= 0 && py < n)) continue;
+    const int j = int(py);
+    if (jobs > 1 && (j / 4) % jobs != job) continue;
+    const double px = (v.position.x - box_min.x) * inv_s + 0.5 * double(v.normal.x);
+    const double pz = (v.position.z - box_min.z) * inv_s + 0.5 * double(v.normal.z);
+    if (!(px >= 0 && pz >= 0 && px < n && pz < n)) continue;
+    const int i = int(px), k = int(pz);
+    const size_t idx = size_t(i + 1) + np * (size_t(j + 1) + np * size_t(k + 1));
+    if (idx != run) {
+      flush();
+      run = idx;
+      run_row = size_t(k + 1) * 3 * np + size_t(j + 1);
+      run_lit = 0;
+      for (int q = 0; q < kPlanes; ++q) acc[q] = planes[size_t(q) * P + idx];
+    }
+    const sh::Sh4 lobe = sh::cosineLobe(v.normal) * scale;
+    for (int ch = 0; ch < 3; ++ch) {
+      const float f = v.flux[ch];
+      acc[ch * 4] += f * lobe.x;
+      acc[ch * 4 + 1] += f * lobe.y;
+      acc[ch * 4 + 2] += f * lobe.z;
+      acc[ch * 4 + 3] += f * lobe.w;
+      run_lit |= uint8_t(f != 0.f) << ch;
+    }
+  }
+  flush();
 }
 
 void CascadedLpv::clearGeometry(int c) {
@@ -668,10 +679,15 @@ void propagateSlab(int n, const Slab& below, const Slab& mid, const Slab& above,
   }
 }
 
+// The steps the two-thread pipeline's first job makes (propagate): 5/8 of them, not half: light
+// spreads a cell per step, so later steps have more rows to make. On the benchmark's ground (3
+// cascades, occlusion on, one thread) 4, 5 and 8 steps took 0.84, 1.18 and 2.18 ms: half the
+// steps left the second job 61 % of the work, 5 of 8 leave it 46 %.
+int pipelineFront(int iterations) { return std::clamp((iterations * 5 + 4) / 8, iterations - kWaveDepth, kWaveDepth); }
+
 }  // namespace
 
-void CascadedLpv::propagate(int c) {
-  DRTV_CHECK(c >= 0 && c < cascadeCount());
+void CascadedLpv::propagateJob(int c, int job, int worker, bool pipelined) {
   Cascade& g = cascades_[size_t(c)];
   const int n = g.n;
   const size_t N = g.cells;
@@ -759,10 +775,11 @@ void CascadedLpv::propagate(int c) {
     }
   };
   auto always = [](int) {};
-  // A channel on one worker: sweeps of up to kWaveDepth steps; between two, one of the worker's
-  // padded grids holds the earlier one's last step.
-  auto channel = [&](int ch, int worker) {
-    Scratch& w = scratch_[size_t(worker)];
+  Scratch& w = scratch_[size_t(worker)];
+  if (!pipelined) {
+    // A channel on one worker: sweeps of up to kWaveDepth steps; between two, one of the
+    // worker's padded grids holds the earlier one's last step.
+    const int ch = job;
     if (iterations == 0) {
       for (int z = 0; z < n; ++z) startLight(ch, z);
       std::fill_n(g.last_step.data() + size_t(ch) * N, N, 0.f);
@@ -780,45 +797,88 @@ void CascadedLpv::propagate(int c) {
       done += depth;
       from = to;
     }
-  };
+    return;
+  }
+  // The two-thread pipeline (propagate): job 0 makes the first `front` steps of every channel
+  // into the pipeline's grids, job 1 the rest a slab behind.
+  Pipeline& pl = *pipeline_;
+  const int front = pipelineFront(iterations);
+  for (int ch = 0; ch < 3; ++ch) {
+    std::atomic<int>& made = pl.made[size_t(ch)];
+    StepGrid* grid = &pl.grids[size_t(ch)];
+    if (job == 0) {
+      sweep(ch, w, 0, front, nullptr, grid, always, [&](int z) { made.store(z + 1, std::memory_order_release); });
+    } else {
+      auto ready = [&](int t) {
+        const int need = std::min(t + 1, n);  // slabs 0 .. t: step 1 at t - 1 reads up to t
+        for (int spins = 0; made.load(std::memory_order_acquire) < need; ++spins) {
+          if (spins > 64) std::this_thread::yield();
+        }
+      };
+      sweep(ch, w, front, iterations - front, grid, nullptr, ready, always);
+    }
+  }
+}
+
+void CascadedLpv::propagate(int c) {
+  DRTV_CHECK(c >= 0 && c < cascadeCount());
+  const int iterations = options_.iterations;
   if (!workers_) {
-    for (int ch = 0; ch < 3; ++ch) channel(ch, 0);
+    for (int ch = 0; ch < 3; ++ch) propagateJob(c, ch, 0, false);
   } else if (scratch_.size() == 2 && iterations >= 2 && iterations <= 2 * kWaveDepth) {
     // Two threads: 3 channel jobs would keep one thread idle a third of the time. Instead a
     // pipeline: job 0 makes the first steps of every channel in one sweep, into a grid per
     // channel, and job 1 the rest in a sweep that follows it a slab behind (it waits on the
     // first's progress), so each thread does about half the work. Whichever thread takes job 1,
     // job 0 has been taken before it, so the wait always ends (one thread runs them in turn).
-    // The first job takes 5/8 of the steps, not half: light spreads a cell per step, so later
-    // steps have more rows to make. On the benchmark's ground (3 cascades, occlusion on, one
-    // thread) 4, 5 and 8 steps took 0.84, 1.18 and 2.18 ms: half the steps left the second job
-    // 61 % of the work, 5 of 8 leave it 46 %.
-    Pipeline& pl = *pipeline_;
-    const int front = std::clamp((iterations * 5 + 4) / 8, iterations - kWaveDepth, kWaveDepth);
     for (int ch = 0; ch < 3; ++ch) {
-      pl.grids[size_t(ch)].allocate(n);
-      pl.made[size_t(ch)].store(0, std::memory_order_relaxed);
+      pipeline_->grids[size_t(ch)].allocate(cascades_[size_t(c)].n);
+      pipeline_->made[size_t(ch)].store(0, std::memory_order_relaxed);
     }
-    workers_->run(2, [&](int job, int worker) {
-      Scratch& w = scratch_[size_t(worker)];
-      for (int ch = 0; ch < 3; ++ch) {
-        std::atomic<int>& made = pl.made[size_t(ch)];
-        StepGrid* grid = &pl.grids[size_t(ch)];
-        if (job == 0) {
-          sweep(ch, w, 0, front, nullptr, grid, always, [&](int z) { made.store(z + 1, std::memory_order_release); });
-        } else {
-          auto ready = [&](int t) {
-            const int need = std::min(t + 1, n);  // slabs 0 .. t: step 1 at t - 1 reads up to t
-            for (int spins = 0; made.load(std::memory_order_acquire) < need; ++spins) {
-              if (spins > 64) std::this_thread::yield();
-            }
-          };
-          sweep(ch, w, front, iterations - front, grid, nullptr, ready, always);
-        }
-      }
-    });
+    workers_->run(2, [&](int job, int worker) { propagateJob(c, job, worker, true); });
   } else {
-    workers_->run(3, channel);
+    workers_->run(3, [&](int ch, int worker) { propagateJob(c, ch, worker, false); });
+  }
+}
+
+void CascadedLpv::relight(std::span<const VplList> lists) {
+  // The cascades named, in increasing order: one injection job each (jobs 0 .. R-1), then one
+  // job per cascade and channel for the propagation (R .. 4R-1). Workers take jobs in index
+  // order, so a cascade's injection has been taken before any of its channels: a channel job
+  // that waits for it waits on a thread that is running it, and on one thread the jobs simply
+  // run in order.
+  std::array<int, 8> relit{};
+  int R = 0;
+  for (int c = 0; c < cascadeCount(); ++c) {
+    bool named = false;
+    for (const VplList& l : lists) {
+      DRTV_CHECK(l.cascade >= 0 && l.cascade < cascadeCount());
+      named |= l.cascade == c;
+    }
+    if (named) relit[size_t(R++)] = c;
+  }
+  std::array<std::atomic<bool>, 8> injected{};
+  auto job = [&](int i, int worker) {
+    if (i < R) {
+      const int c = relit[size_t(i)];
+      // clearLight's injected half: propagate overwrites every row of the accumulation (light =
+      // injected, then += each step), so clearing it first would change nothing.
+      clearInjected(c);
+      for (const VplList& l : lists)
+        if (l.cascade == c) injectJob(c, l.surfels, 0, 1);
+      injected[size_t(i)].store(true, std::memory_order_release);
+      return;
+    }
+    const int r = (i - R) / 3, ch = (i - R) % 3;
+    for (int spins = 0; !injected[size_t(r)].load(std::memory_order_acquire); ++spins) {
+      if (spins > 64) std::this_thread::yield();
+    }
+    propagateJob(relit[size_t(r)], ch, worker, false);
+  };
+  if (!workers_) {
+    for (int i = 0; i < 4 * R; ++i) job(i, 0);
+  } else {
+    workers_->run(4 * R, job);
   }
 }
 

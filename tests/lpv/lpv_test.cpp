@@ -291,6 +291,82 @@ TEST(LpvPropagation, ThreadsGiveTheSameBits) {
   }
 }
 
+TEST(LpvPropagation, RelightGivesTheBitsOfItsCallsOnAnyThreadCount) {
+  // relight (one call, its jobs across cascades) against clearLight + injectLight per list +
+  // propagate per cascade on one thread: every coefficient of every cell of every cascade, and
+  // the last step, the same float. 3 cascades, occlusion, two lists for one cascade and none
+  // for another (left alone: it keeps its earlier light), two updates in a row (the second
+  // injects elsewhere, so rows lit by the first must be cleared), 1 to 3 threads; 6 and 13
+  // steps (13: two sweeps per channel).
+  auto surfels = [](double shift, int count) {
+    std::vector<Surfel> s;
+    for (int i = 0; i < count; ++i)
+      s.push_back({glm::dvec3(-6.0 + 0.3 * i + shift, 0.1 * i - shift, -3.0 + 0.05 * i), glm::normalize(glm::vec3(0.1f * i - 2, 1, 2)),
+                   glm::vec3(1.f + i, 2.f, 0.5f), 0.3f});
+    return s;
+  };
+  const std::vector<Surfel> a = surfels(0.0, 60), b = surfels(9.0, 25), c = surfels(-20.0, 80);
+  auto cells = [](const CascadedLpv& lpv) {
+    std::vector<float> out;
+    for (int cascade = 0; cascade < lpv.cascadeCount(); ++cascade) {
+      for (int k = 0; k < 32; ++k)
+        for (int j = 0; j < 32; ++j)
+          for (int i = 0; i < 32; ++i)
+            for (const sh::Sh4& ch : lpv.cellLight(cascade, i, j, k))
+              for (int q = 0; q < 4; ++q) out.push_back(ch[q]);
+      const glm::dvec3 last = lpv.lastStepLight(cascade);
+      for (int ch = 0; ch < 3; ++ch) out.push_back(float(last[ch]));
+    }
+    return out;
+  };
+  for (int iterations : {6, 13}) {
+    auto make = [&](int threads) {
+      LpvOptions o = freeSpace(iterations);
+      o.cascades = 3;
+      o.occlusion = true;
+      o.threads = threads;
+      auto lpv = CascadedLpv::create(o);
+      EXPECT_TRUE(lpv);
+      lpv->setCamera(glm::dvec3(0.5));
+      for (int cascade = 0; cascade < 3; ++cascade) {
+        lpv->injectGeometry(cascade, c);
+        lpv->computeOcclusion(cascade);
+      }
+      return std::move(*lpv);
+    };
+    CascadedLpv calls = make(1);
+    std::vector<std::vector<float>> expected;
+    // Update 1: a and b into cascade 0, c into 2, nothing into 1. Update 2: c into 0, a into 1.
+    const std::vector<std::vector<std::pair<int, const std::vector<Surfel>*>>> updates = {{{0, &a}, {2, &c}, {0, &b}},
+                                                                                          {{1, &a}, {0, &c}}};
+    for (const auto& update : updates) {
+      for (int cascade = 0; cascade < 3; ++cascade) {
+        bool named = false;
+        for (const auto& [which, list] : update) named |= which == cascade;
+        if (!named) continue;
+        calls.clearLight(cascade);
+        for (const auto& [which, list] : update)
+          if (which == cascade) calls.injectLight(cascade, *list);
+        calls.propagate(cascade);
+      }
+      expected.push_back(cells(calls));
+    }
+    EXPECT_NE(expected[0], expected[1]);
+    for (int threads : {1, 2, 3}) {
+      CascadedLpv lpv = make(threads);
+      for (size_t u = 0; u < updates.size(); ++u) {
+        std::vector<VplList> lists;
+        for (const auto& [which, list] : updates[u]) lists.push_back({which, *list});
+        lpv.relight(lists);
+        const std::vector<float> got = cells(lpv);
+        ASSERT_EQ(got.size(), expected[u].size());
+        for (size_t i = 0; i < got.size(); ++i)
+          ASSERT_EQ(got[i], expected[u][i]) << iterations << " steps, " << threads << " threads, update " << u << ", value " << i;
+      }
+    }
+  }
+}
+
 TEST(LpvOptions, BadOptionsAreErrorsNamingTheField) {
   LpvOptions o;
   o.cells = 31;

@@ -131,6 +131,13 @@ struct CascadeBox {
   }
 };
 
+// One list of VPLs for CascadedLpv::relight: `surfels` (as injectLight takes them) for cascade
+// `cascade`. The surfels are not copied: they must outlive the call.
+struct VplList {
+  int cascade = 0;                  // [0, cascadeCount())
+  std::span<const Surfel> surfels;  // RSM texels, their flux
+};
+
 class CascadedLpv {
  public:
   // Errors: `validate(options)`'s.
@@ -166,6 +173,15 @@ class CascadedLpv {
   }
   // Runs `iterations` propagation steps on cascade c and stores their sum with the injected light.
   void propagate(int c);
+  // A whole update of the light in one call: every cascade named in `lists` gets clearLight,
+  // then injectLight of each of its lists in the order given, then propagate, with the same bits
+  // as those calls (on any thread count); the other cascades are left alone. On more than one
+  // thread the jobs are the cascades' injections and then their channels' propagations, each
+  // channel as soon as its cascade's injection is done (the cascades are independent grids), in
+  // one wake-up of the workers instead of two per cascade, and each injection reads only its own
+  // cascade's surfels (injectLight on threads reads every surfel once per thread). A bug for a
+  // cascade out of range.
+  void relight(std::span<const VplList> lists);
 
   // The propagated (indirect) irradiance at world `position` for unit `normal`, linear RGB,
   // blended over cascades; 0 outside every cascade. Negative SH results are clamped to 0.
@@ -193,6 +209,13 @@ class CascadedLpv {
   struct Cascade;
   explicit CascadedLpv(const LpvOptions& o);
   void setSkyRadiance(int c, const std::array<glm::vec3, kSkyDirections>& L);
+  // clearLight's half for the injected grid.
+  void clearInjected(int c);
+  // Adds the surfels landing in rows j of cascade c with (j / 4) % jobs == job (injectLight).
+  void injectJob(int c, std::span<const Surfel> surfels, int job, int jobs);
+  // propagate's work on cascade c with worker `worker`'s scratch: channel `job`'s steps, or (if
+  // `pipelined`) job `job` of the two-thread pipeline, which propagate sets up.
+  void propagateJob(int c, int job, int worker, bool pipelined);
   glm::vec3 lookup(int c, const glm::dvec3& position, const glm::vec3& normal, bool sky) const;
   glm::vec3 blended(const glm::dvec3& position, const glm::vec3& normal, bool sky) const;
 

@@ -122,6 +122,7 @@ struct CascadedLpv::Cascade {
   std::vector<float> light;        // kPlanes x cells: injected + every step
   std::vector<uint8_t> light_lit;  // per slab, channel and row ((k * 3 + ch) * n + j): may be non-zero
   std::vector<float> last_step;  // band-0 of the last step, per channel (3 x cells): tests
+  std::vector<uint8_t> last_lit;  // per slab, channel and row, as light_lit: may be non-zero
   std::vector<float> geometry;   // 4 x (n+1)^3 blocking potential SH on the corners
   std::vector<float> face_t;     // kDirs x cells: transmittance of light entering through that face
   std::vector<uint8_t> sky_t;    // kSkyDirections x cells, T in 1/255
@@ -251,6 +252,7 @@ CascadedLpv::CascadedLpv(const LpvOptions& o) : options_(o) {
     c.light.assign(kPlanes * cells, 0.f);
     c.light_lit.assign(size_t(n) * 3 * size_t(n), 0);
     c.last_step.assign(3 * cells, 0.f);
+    c.last_lit.assign(size_t(n) * 3 * size_t(n), 0);
     c.geometry.assign(4 * corners, 0.f);
     c.face_t.assign(kDirs * cells, 1.f);
     c.sky_t.assign(kSkyDirections * cells, 255);
@@ -561,13 +563,15 @@ StepConstants stepConstants() {
 // scaled by its face's transmittance once (24 products), then each entry multiplies its sum of
 // them (8 products), 71 operations per cell against 94 entry by entry. `mid`, `below`, `above`:
 // the row's cell 0 in the previous step's slabs z, z-1, z+1 (planes `sp` apart in mid, `sb`,
-// `sa` in the others); `t[d]`: the transmittance rows (used when kOccluded).
+// `sa` in the others); `t[d]`: the transmittance rows (used when kOccluded). With kFirst (step
+// 1, which reads the injected grid) the accumulation is set to mid + the step instead of += the
+// step: the same sum as copying the injected light first and adding, without the copy.
 #if defined(__GNUC__)
 #define DRTV_LPV_INLINE inline __attribute__((always_inline))  // into each clone, for its vector width
 #else
 #define DRTV_LPV_INLINE inline
 #endif
-template <bool kOccluded>
+template <bool kOccluded, bool kFirst>
 DRTV_LPV_INLINE void propagateRow(int n, ptrdiff_t np, const StepConstants& k, const float* __restrict mid, ptrdiff_t sp,
                          const float* __restrict below, ptrdiff_t sb, const float* __restrict above, ptrdiff_t sa,
                          const std::array<const float*, kDirs>& t, const std::array<float*, 4>& out_q,
@@ -626,10 +630,17 @@ DRTV_LPV_INLINE void propagateRow(int n, ptrdiff_t np, const StepConstants& k, c
     out1[i] = oy;
     out2[i] = oz;
     out3[i] = ox;
-    acc0[i] += o0;
-    acc1[i] += oy;
-    acc2[i] += oz;
-    acc3[i] += ox;
+    if (kFirst) {
+      acc0[i] = m0[i] + o0;
+      acc1[i] = my[i] + oy;
+      acc2[i] = mz[i] + oz;
+      acc3[i] = mx[i] + ox;
+    } else {
+      acc0[i] += o0;
+      acc1[i] += oy;
+      acc2[i] += oz;
+      acc3[i] += ox;
+    }
   }
   if (last) std::copy_n(out0, n, last);
 }
@@ -638,14 +649,15 @@ DRTV_LPV_INLINE void propagateRow(int n, ptrdiff_t np, const StepConstants& k, c
 // transmittance x matrix x the neighbour's 4 coefficients (lpv.h, "Propagation"), the neighbours
 // read from the previous step's slabs z-1 (`below`), z (`mid`) and z+1 (`above`).
 // `tr[d]`: the unpadded transmittance plane of direction d at slab z (null: no occlusion);
-// `light[q]`: the unpadded accumulation at slab z, += the step; `light_lit`: its n row flags;
-// `last`: null, or the unpadded band-0 slab that receives the step (the last one).
+// `light[q]`: the unpadded accumulation at slab z, += the step (with `first`, step 1: = mid + the
+// step); `light_lit`: its n row flags; `last`: null, or the unpadded band-0 slab that receives
+// the step (the last one), with its n row flags `last_lit` (0: the row holds zeros).
 // Rows are skipped when neither they nor their 4 neighbour rows hold light in the previous step.
 // AVX-512 or AVX2 where the CPU has it (no FMA: -ffp-contract=off, so the same bits as SSE2).
 DRTV_LPV_CLONES
 void propagateSlab(int n, const Slab& below, const Slab& mid, const Slab& above, const Slab& dst,
                    const std::array<const float*, kDirs>& tr, const std::array<float*, 4>& light, uint8_t* light_lit,
-                   float* last) {
+                   bool first, float* last, uint8_t* last_lit) {
   static const StepConstants k = stepConstants();
   const ptrdiff_t np = n + 2;
   const ptrdiff_t sp = mid.q[1] - mid.q[0], sb = below.q[1] - below.q[0], sa = above.q[1] - above.q[0];
@@ -661,11 +673,20 @@ void propagateSlab(int n, const Slab& below, const Slab& mid, const Slab& above,
         for (int q = 0; q < 4; ++q) std::fill_n(dst.q[size_t(q)] + row_p, n, 0.f);
       }
       dst.lit[r] = 0;
-      if (last) std::fill_n(last + row_u, n, 0.f);
+      if (first) {  // mid's row is zero: so is the light's (it may hold the last update's)
+        if (light_lit[j])
+          for (int q = 0; q < 4; ++q) std::fill_n(light[size_t(q)] + row_u, n, 0.f);
+        light_lit[j] = 0;
+      }
+      if (last && last_lit[j]) {
+        std::fill_n(last + row_u, n, 0.f);
+        last_lit[j] = 0;
+      }
       continue;
     }
     dst.lit[r] = 1;
     light_lit[j] = 1;
+    if (last) last_lit[j] = 1;
     std::array<const float*, kDirs> t{};
     for (int d = 0; d < kDirs; ++d) t[size_t(d)] = tr[size_t(d)] ? tr[size_t(d)] + row_u : nullptr;
     std::array<float*, 4> out, acc;
@@ -674,8 +695,17 @@ void propagateSlab(int n, const Slab& below, const Slab& mid, const Slab& above,
       acc[size_t(q)] = light[size_t(q)] + row_u;
     }
     float* last_row = last ? last + row_u : nullptr;
-    if (tr[0]) propagateRow<true>(n, np, k, mid.q[0] + row_p, sp, below.q[0] + row_p, sb, above.q[0] + row_p, sa, t, out, acc, last_row);
-    else propagateRow<false>(n, np, k, mid.q[0] + row_p, sp, below.q[0] + row_p, sb, above.q[0] + row_p, sa, t, out, acc, last_row);
+    const float* m = mid.q[0] + row_p;
+    const float* b = below.q[0] + row_p;
+    const float* a = above.q[0] + row_p;
+    if (tr[0]) {
+      DRTV_CHECK(!first);  // occlusion starts at step 2
+      propagateRow<true, false>(n, np, k, m, sp, b, sb, a, sa, t, out, acc, last_row);
+    } else if (first) {
+      propagateRow<false, true>(n, np, k, m, sp, b, sb, a, sa, t, out, acc, last_row);
+    } else {
+      propagateRow<false, false>(n, np, k, m, sp, b, sb, a, sa, t, out, acc, last_row);
+    }
   }
 }
 
@@ -753,7 +783,6 @@ void CascadedLpv::propagateJob(int c, int job, int worker, bool pipelined) {
     };
     for (int t = 0; t < n + depth; ++t) {
       if (t < n) ready(t);  // step 1 reads slab t of step `done` now
-      if (done == 0 && t < n) startLight(ch, t);
       for (int s = 1; s <= depth; ++s) {
         const int z = t - s;
         if (z < -1 || z > n) continue;
@@ -769,7 +798,9 @@ void CascadedLpv::propagateJob(int c, int job, int worker, bool pipelined) {
         std::array<float*, 4> acc;
         for (int q = 0; q < 4; ++q) acc[size_t(q)] = light[size_t(q)] + size_t(z) * size_t(n) * size_t(n);
         float* last = step == iterations ? g.last_step.data() + size_t(ch) * N + size_t(z) * size_t(n) * size_t(n) : nullptr;
-        propagateSlab(n, slab(s - 1, z - 1), slab(s - 1, z), slab(s - 1, z + 1), slab(s, z), tr, acc, lightLit(ch, z), last);
+        uint8_t* last_lit = g.last_lit.data() + (size_t(z) * 3 + size_t(ch)) * size_t(n);
+        propagateSlab(n, slab(s - 1, z - 1), slab(s - 1, z), slab(s - 1, z + 1), slab(s, z), tr, acc, lightLit(ch, z), step == 1,
+                      last, last_lit);
         if (s == depth) made(z);
       }
     }
@@ -783,6 +814,7 @@ void CascadedLpv::propagateJob(int c, int job, int worker, bool pipelined) {
     if (iterations == 0) {
       for (int z = 0; z < n; ++z) startLight(ch, z);
       std::fill_n(g.last_step.data() + size_t(ch) * N, N, 0.f);
+      for (int z = 0; z < n; ++z) std::fill_n(g.last_lit.data() + (size_t(z) * 3 + size_t(ch)) * size_t(n), n, uint8_t(0));
     }
     StepGrid* from = nullptr;
     for (int done = 0; done < iterations;) {
@@ -1005,7 +1037,7 @@ size_t CascadedLpv::bytes() const {
   for (const Cascade& c : cascades_)
     b += (c.injected.size() + c.light.size() + c.last_step.size() + c.geometry.size() + c.face_t.size() + c.sky.size()) *
              sizeof(float) +
-         c.sky_t.size() + c.inj_lit.size() + c.light_lit.size();
+         c.sky_t.size() + c.inj_lit.size() + c.light_lit.size() + c.last_lit.size();
   return b;
 }
 

@@ -562,87 +562,94 @@ StepConstants stepConstants() {
 // the neighbour's 4 coefficients, grouped by matrix entry: each neighbour's 4 coefficients are
 // scaled by its face's transmittance once (24 products), then each entry multiplies its sum of
 // them (8 products), 71 operations per cell against 94 entry by entry. `mid`, `below`, `above`:
-// the row's cell 0 in the previous step's slabs z, z-1, z+1 (planes `sp` apart in mid, `sb`,
-// `sa` in the others); `t[d]`: the transmittance rows (used when kOccluded). With kFirst (step
-// 1, which reads the injected grid) the accumulation is set to mid + the step instead of += the
-// step: the same sum as copying the injected light first and adding, without the copy.
+// the row's cell 0 in the previous step's slabs z, z-1, z+1, each with its 4 planes `sp` apart;
+// `t`: the row of direction 0's transmittance, the others `st` apart (used when kOccluded);
+// `out`, `acc`: the row of the step's slab and of the accumulation, planes `so` and `sacc` apart.
+// With kFirst (step 1, which reads the injected grid) the accumulation is set to mid + the step
+// instead of += the step: the same sum as copying the injected light first and adding, without
+// the copy. kN > 0 fixes n (and so np and the strides of a grid of kN cells: kSrc, kDst 1 for a
+// ring slot's planes (np^2 apart), 2 for a padded grid's (np^3), 0 for the run-time ones): every
+// stream is then a base register and a constant offset, where with run-time strides the 34
+// streams' pointers did not fit in the registers and were reloaded from the stack.
 #if defined(__GNUC__)
 #define DRTV_LPV_INLINE inline __attribute__((always_inline))  // into each clone, for its vector width
 #else
 #define DRTV_LPV_INLINE inline
 #endif
-template <bool kOccluded, bool kFirst>
-DRTV_LPV_INLINE void propagateRow(int n, ptrdiff_t np, const StepConstants& k, const float* __restrict mid, ptrdiff_t sp,
-                         const float* __restrict below, ptrdiff_t sb, const float* __restrict above, ptrdiff_t sa,
-                         const std::array<const float*, kDirs>& t, const std::array<float*, 4>& out_q,
-                         const std::array<float*, 4>& acc_q, float* __restrict last) {
-  const float* __restrict t0 = t[0];
-  const float* __restrict t1 = t[1];
-  const float* __restrict t2 = t[2];
-  const float* __restrict t3 = t[3];
-  const float* __restrict t4 = t[4];
-  const float* __restrict t5 = t[5];
-  float* __restrict out0 = out_q[0];
-  float* __restrict out1 = out_q[1];
-  float* __restrict out2 = out_q[2];
-  float* __restrict out3 = out_q[3];
-  float* __restrict acc0 = acc_q[0];
-  float* __restrict acc1 = acc_q[1];
-  float* __restrict acc2 = acc_q[2];
-  float* __restrict acc3 = acc_q[3];
-  const float* __restrict m0 = mid;  // mid's 4 planes: band 0, y, z, x (sh.h)
-  const float* __restrict my = mid + sp;
-  const float* __restrict mz = mid + 2 * sp;
-  const float* __restrict mx = mid + 3 * sp;
-  const float* __restrict b0 = below;
-  const float* __restrict by = below + sb;
-  const float* __restrict bz = below + 2 * sb;
-  const float* __restrict bx = below + 3 * sb;
-  const float* __restrict a0 = above;
-  const float* __restrict ay = above + sa;
-  const float* __restrict az = above + 2 * sa;
-  const float* __restrict ax = above + 3 * sa;
+template <bool kOccluded, bool kFirst, int kN, int kSrc, int kDst>
+DRTV_LPV_INLINE void propagateRow(int n_rt, const StepConstants& k, const float* __restrict mid, const float* __restrict below,
+                                  const float* __restrict above, ptrdiff_t sp_rt, const float* __restrict t, ptrdiff_t st_rt,
+                                  float* __restrict out, ptrdiff_t so_rt, float* __restrict acc, ptrdiff_t sacc_rt,
+                                  float* __restrict last) {
+  constexpr auto planeStride = [](int kind, ptrdiff_t np) { return kind == 1 ? np * np : np * np * np; };
+  const ptrdiff_t n = kN ? kN : n_rt;
+  const ptrdiff_t np = n + 2;
+  const ptrdiff_t sp = kN && kSrc ? planeStride(kSrc, np) : sp_rt;
+  const ptrdiff_t so = kN && kDst ? planeStride(kDst, np) : so_rt;
+  const ptrdiff_t st = kN ? n * n * n : st_rt, sacc = kN ? n * n * n : sacc_rt;
   // The outputs are other buffers than the inputs (restrict on these locals does not survive the
   // inlining, and 34 streams are more than GCC versions a loop for).
 #if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC ivdep
 #endif
-  for (ptrdiff_t i = 0; i < ptrdiff_t(n); ++i) {
-    // Direction d's source: +x (d 0) from i-1, -x from i+1, +y from the row j-1, -y from j+1,
-    // +z from slab z-1 (below), -z from z+1 (above); f_d its face's transmittance.
-    const float f0 = kOccluded ? t0[i] : 1.f, f1 = kOccluded ? t1[i] : 1.f, f2 = kOccluded ? t2[i] : 1.f;
-    const float f3 = kOccluded ? t3[i] : 1.f, f4 = kOccluded ? t4[i] : 1.f, f5 = kOccluded ? t5[i] : 1.f;
+  for (ptrdiff_t i = 0; i < n; ++i) {
+    // mid's, below's and above's planes: band 0, y, z, x (sh.h). Direction d's source: +x (d 0)
+    // from i-1, -x from i+1, +y from the row j-1, -y from j+1, +z from slab z-1 (below), -z from
+    // z+1 (above); f_d its face's transmittance.
+    const float* m0 = mid;
+    const float* my = mid + sp;
+    const float* mz = mid + 2 * sp;
+    const float* mx = mid + 3 * sp;
+    const float f0 = kOccluded ? t[i] : 1.f, f1 = kOccluded ? t[st + i] : 1.f, f2 = kOccluded ? t[2 * st + i] : 1.f;
+    const float f3 = kOccluded ? t[3 * st + i] : 1.f, f4 = kOccluded ? t[4 * st + i] : 1.f, f5 = kOccluded ? t[5 * st + i] : 1.f;
     auto sc = [](float f, float v) { return kOccluded ? f * v : v; };
     // Band 0 (u) and the direction's own axis coefficient (w), scaled.
     const float u0 = sc(f0, m0[i - 1]), u1 = sc(f1, m0[i + 1]), u2 = sc(f2, m0[i - np]), u3 = sc(f3, m0[i + np]);
-    const float u4 = sc(f4, b0[i]), u5 = sc(f5, a0[i]);
+    const float u4 = sc(f4, below[i]), u5 = sc(f5, above[i]);
     const float w0 = sc(f0, mx[i - 1]), w1 = sc(f1, mx[i + 1]), w2 = sc(f2, my[i - np]), w3 = sc(f3, my[i + np]);
-    const float w4 = sc(f4, bz[i]), w5 = sc(f5, az[i]);
+    const float w4 = sc(f4, below[2 * sp + i]), w5 = sc(f5, above[2 * sp + i]);
     // Each band-1 coefficient's sum over the 4 directions across its axis.
-    const float vx = (sc(f2, mx[i - np]) + sc(f3, mx[i + np])) + (sc(f4, bx[i]) + sc(f5, ax[i]));
-    const float vy = (sc(f0, my[i - 1]) + sc(f1, my[i + 1])) + (sc(f4, by[i]) + sc(f5, ay[i]));
+    const float vx = (sc(f2, mx[i - np]) + sc(f3, mx[i + np])) + (sc(f4, below[3 * sp + i]) + sc(f5, above[3 * sp + i]));
+    const float vy = (sc(f0, my[i - 1]) + sc(f1, my[i + 1])) + (sc(f4, below[sp + i]) + sc(f5, above[sp + i]));
     const float vz = (sc(f0, mz[i - 1]) + sc(f1, mz[i + 1])) + (sc(f2, mz[i - np]) + sc(f3, mz[i + np]));
     const float o0 = k.m00 * (((u0 + u1) + (u2 + u3)) + (u4 + u5)) + k.m0a * (((w0 - w1) + (w2 - w3)) + (w4 - w5));
     const float ox = k.ma0 * (u0 - u1) + k.maa * (w0 + w1) + k.moo * vx;
     const float oy = k.ma0 * (u2 - u3) + k.maa * (w2 + w3) + k.moo * vy;
     const float oz = k.ma0 * (u4 - u5) + k.maa * (w4 + w5) + k.moo * vz;
-    out0[i] = o0;
-    out1[i] = oy;
-    out2[i] = oz;
-    out3[i] = ox;
+    out[i] = o0;
+    out[so + i] = oy;
+    out[2 * so + i] = oz;
+    out[3 * so + i] = ox;
     if (kFirst) {
-      acc0[i] = m0[i] + o0;
-      acc1[i] = my[i] + oy;
-      acc2[i] = mz[i] + oz;
-      acc3[i] = mx[i] + ox;
+      acc[i] = m0[i] + o0;
+      acc[sacc + i] = my[i] + oy;
+      acc[2 * sacc + i] = mz[i] + oz;
+      acc[3 * sacc + i] = mx[i] + ox;
     } else {
-      acc0[i] += o0;
-      acc1[i] += oy;
-      acc2[i] += oz;
-      acc3[i] += ox;
+      acc[i] += o0;
+      acc[sacc + i] += oy;
+      acc[2 * sacc + i] += oz;
+      acc[3 * sacc + i] += ox;
     }
   }
-  if (last) std::copy_n(out0, n, last);
+  if (last) std::copy_n(out, n, last);
+}
+
+// propagateRow with the strides fixed at compile time where they are the default grid's (32
+// cells: a ring slot's planes or a padded grid's, the transmittances' and the accumulation's).
+template <bool kOccluded, bool kFirst>
+DRTV_LPV_INLINE void propagateRowAt(int n, const StepConstants& k, const float* mid, const float* below, const float* above,
+                                    ptrdiff_t sp, const float* t, ptrdiff_t st, float* out, ptrdiff_t so, float* acc,
+                                    ptrdiff_t sacc, float* last) {
+  constexpr ptrdiff_t kS = 34 * 34, kP = 34 * 34 * 34, kCells = 32 * 32 * 32;
+  if (n == 32 && (!kOccluded || st == kCells) && sacc == kCells && (sp == kS || sp == kP) && (so == kS || so == kP)) {
+    if (sp == kS && so == kS) propagateRow<kOccluded, kFirst, 32, 1, 1>(n, k, mid, below, above, sp, t, st, out, so, acc, sacc, last);
+    else if (sp == kS) propagateRow<kOccluded, kFirst, 32, 1, 2>(n, k, mid, below, above, sp, t, st, out, so, acc, sacc, last);
+    else if (so == kS) propagateRow<kOccluded, kFirst, 32, 2, 1>(n, k, mid, below, above, sp, t, st, out, so, acc, sacc, last);
+    else propagateRow<kOccluded, kFirst, 32, 2, 2>(n, k, mid, below, above, sp, t, st, out, so, acc, sacc, last);
+  } else {
+    propagateRow<kOccluded, kFirst, 0, 0, 0>(n, k, mid, below, above, sp, t, st, out, so, acc, sacc, last);
+  }
 }
 
 // One propagation step of one channel on one slab z: dst = sum over the 6 directions of
@@ -660,10 +667,15 @@ void propagateSlab(int n, const Slab& below, const Slab& mid, const Slab& above,
                    bool first, float* last, uint8_t* last_lit) {
   static const StepConstants k = stepConstants();
   const ptrdiff_t np = n + 2;
-  const ptrdiff_t sp = mid.q[1] - mid.q[0], sb = below.q[1] - below.q[0], sa = above.q[1] - above.q[0];
+  // Every stream's planes evenly apart (the previous step's 3 slabs alike): propagateRow takes
+  // one base and one stride per stream.
+  const ptrdiff_t sp = mid.q[1] - mid.q[0], so = dst.q[1] - dst.q[0], sacc = light[1] - light[0];
+  const ptrdiff_t st = tr[0] ? tr[1] - tr[0] : 0;
   for (int q = 1; q < 4; ++q)
-    DRTV_CHECK(mid.q[size_t(q)] - mid.q[0] == q * sp && below.q[size_t(q)] - below.q[0] == q * sb &&
-               above.q[size_t(q)] - above.q[0] == q * sa);
+    DRTV_CHECK(mid.q[size_t(q)] - mid.q[0] == q * sp && below.q[size_t(q)] - below.q[0] == q * sp &&
+               above.q[size_t(q)] - above.q[0] == q * sp && dst.q[size_t(q)] - dst.q[0] == q * so &&
+               light[size_t(q)] - light[0] == q * sacc);
+  for (int d = 1; d < kDirs; ++d) DRTV_CHECK(tr[0] ? tr[size_t(d)] - tr[0] == d * st : !tr[size_t(d)]);
   for (int j = 0; j < n; ++j) {
     const size_t row_u = size_t(n) * size_t(j);
     const size_t row_p = size_t(1 + np * (j + 1));
@@ -687,27 +699,24 @@ void propagateSlab(int n, const Slab& below, const Slab& mid, const Slab& above,
     dst.lit[r] = 1;
     light_lit[j] = 1;
     if (last) last_lit[j] = 1;
-    std::array<const float*, kDirs> t{};
-    for (int d = 0; d < kDirs; ++d) t[size_t(d)] = tr[size_t(d)] ? tr[size_t(d)] + row_u : nullptr;
-    std::array<float*, 4> out, acc;
-    for (int q = 0; q < 4; ++q) {
-      out[size_t(q)] = dst.q[size_t(q)] + row_p;
-      acc[size_t(q)] = light[size_t(q)] + row_u;
-    }
     float* last_row = last ? last + row_u : nullptr;
     const float* m = mid.q[0] + row_p;
-    const float* b = below.q[0] + row_p;
-    const float* a = above.q[0] + row_p;
-    if (tr[0]) {
+    const float* bl = below.q[0] + row_p;
+    const float* ab = above.q[0] + row_p;
+    const float* t = tr[0] ? tr[0] + row_u : nullptr;
+    float* out = dst.q[0] + row_p;
+    float* acc = light[0] + row_u;
+    if (t) {
       DRTV_CHECK(!first);  // occlusion starts at step 2
-      propagateRow<true, false>(n, np, k, m, sp, b, sb, a, sa, t, out, acc, last_row);
+      propagateRowAt<true, false>(n, k, m, bl, ab, sp, t, st, out, so, acc, sacc, last_row);
     } else if (first) {
-      propagateRow<false, true>(n, np, k, m, sp, b, sb, a, sa, t, out, acc, last_row);
+      propagateRowAt<false, true>(n, k, m, bl, ab, sp, t, st, out, so, acc, sacc, last_row);
     } else {
-      propagateRow<false, false>(n, np, k, m, sp, b, sb, a, sa, t, out, acc, last_row);
+      propagateRowAt<false, false>(n, k, m, bl, ab, sp, t, st, out, so, acc, sacc, last_row);
     }
   }
 }
+
 
 // The steps the two-thread pipeline's first job makes (propagate): 5/8 of them, not half: light
 // spreads a cell per step, so later steps have more rows to make. On the benchmark's ground (3

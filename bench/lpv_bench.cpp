@@ -30,8 +30,8 @@ std::vector<Surfel> groundRsm(double extent_m, int res) {
 
 // A full update: injection of one 256 x 256 RSM per cascade, 8 iterations on 3 cascades of 32^3,
 // occlusion on (the geometry volume and transmittances made once, as for a still camera), in one
-// relight() call. One cell is read after it (totalLight, a test helper, summed a whole cascade:
-// 5 % of the update's time, no part of it).
+// relight() call. One cell is read after it (cellLight), so that the update is not optimised away;
+// the test helper totalLight, which sums a whole cascade, is no part of an update and is not timed.
 void BM_LpvInjectAndPropagate(benchmark::State& state) {
   LpvOptions o;
   o.iterations = int(state.range(0));

@@ -4,6 +4,7 @@
 #include <benchmark/benchmark.h>
 
 #include <cmath>
+#include <utility>
 #include <vector>
 
 #include "drtv/lpv/lpv.h"
@@ -28,6 +29,25 @@ std::vector<Surfel> groundRsm(double extent_m, int res) {
   return out;
 }
 
+// The benchmarks' scene: 3 cascades around the origin, each with one 256 x 256 RSM over its box;
+// with `occluders`, the RSM's surfels also fill the geometry volume and its transmittances (made
+// once, as for a still camera).
+struct Scene {
+  CascadedLpv lpv;
+  std::vector<std::vector<Surfel>> rsm;
+};
+Scene makeScene(const LpvOptions& o, bool occluders) {
+  Scene s{std::move(*CascadedLpv::create(o)), {}};
+  s.lpv.setCamera(glm::dvec3(0.0));
+  for (int c = 0; c < 3; ++c) {
+    s.rsm.push_back(groundRsm(s.lpv.box(c).cell_m * o.cells, 256));
+    if (!occluders) continue;
+    s.lpv.injectGeometry(c, s.rsm.back());
+    s.lpv.computeOcclusion(c);
+  }
+  return s;
+}
+
 // A full update: injection of one 256 x 256 RSM per cascade, 8 iterations on 3 cascades of 32^3,
 // occlusion on (the geometry volume and transmittances made once, as for a still camera), in one
 // relight() call. One cell is read after it (cellLight), so that the update is not optimised away;
@@ -36,16 +56,10 @@ void BM_LpvInjectAndPropagate(benchmark::State& state) {
   LpvOptions o;
   o.iterations = int(state.range(0));
   o.threads = int(state.range(1));
-  auto lpv = CascadedLpv::create(o);
-  lpv->setCamera(glm::dvec3(0.0));
-  std::vector<std::vector<Surfel>> rsm;
+  Scene s = makeScene(o, true);
+  CascadedLpv* lpv = &s.lpv;
   std::vector<drtv::lpv::VplList> lists;
-  for (int c = 0; c < 3; ++c) {
-    rsm.push_back(groundRsm(lpv->box(c).cell_m * o.cells, 256));
-    lpv->injectGeometry(c, rsm.back());
-    lpv->computeOcclusion(c);
-  }
-  for (int c = 0; c < 3; ++c) lists.push_back({c, rsm[size_t(c)]});
+  for (int c = 0; c < 3; ++c) lists.push_back({c, s.rsm[size_t(c)]});
   for (auto _ : state) {
     lpv->relight(lists);
     benchmark::DoNotOptimize(lpv->cellLight(0, 16, 16, 16));
@@ -62,18 +76,12 @@ void BM_LpvInjectAndPropagateByCascade(benchmark::State& state) {
   LpvOptions o;
   o.iterations = int(state.range(0));
   o.threads = int(state.range(1));
-  auto lpv = CascadedLpv::create(o);
-  lpv->setCamera(glm::dvec3(0.0));
-  std::vector<std::vector<Surfel>> rsm;
-  for (int c = 0; c < 3; ++c) {
-    rsm.push_back(groundRsm(lpv->box(c).cell_m * o.cells, 256));
-    lpv->injectGeometry(c, rsm.back());
-    lpv->computeOcclusion(c);
-  }
+  Scene s = makeScene(o, true);
+  CascadedLpv* lpv = &s.lpv;
   for (auto _ : state) {
     for (int c = 0; c < 3; ++c) {
       lpv->clearLight(c);
-      lpv->injectLight(c, rsm[size_t(c)]);
+      lpv->injectLight(c, s.rsm[size_t(c)]);
       lpv->propagate(c);
     }
     benchmark::DoNotOptimize(lpv->cellLight(0, 16, 16, 16));
@@ -87,14 +95,9 @@ BENCHMARK(BM_LpvInjectAndPropagateByCascade)->Args({8, 1})->Args({8, 2})->Unit(b
 void BM_LpvPropagate(benchmark::State& state) {
   LpvOptions o;
   o.threads = int(state.range(0));
-  auto lpv = CascadedLpv::create(o);
-  lpv->setCamera(glm::dvec3(0.0));
-  for (int c = 0; c < 3; ++c) {
-    const std::vector<Surfel> rsm = groundRsm(lpv->box(c).cell_m * o.cells, 256);
-    lpv->injectGeometry(c, rsm);
-    lpv->computeOcclusion(c);
-    lpv->injectLight(c, rsm);
-  }
+  Scene s = makeScene(o, true);
+  CascadedLpv* lpv = &s.lpv;
+  for (int c = 0; c < 3; ++c) lpv->injectLight(c, s.rsm[size_t(c)]);
   for (auto _ : state) {
     for (int c = 0; c < 3; ++c) lpv->propagate(c);
     benchmark::DoNotOptimize(lpv->cellLight(0, 16, 16, 16));
@@ -108,14 +111,12 @@ BENCHMARK(BM_LpvPropagate)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRe
 void BM_LpvInject(benchmark::State& state) {
   LpvOptions o;
   o.threads = int(state.range(0));
-  auto lpv = CascadedLpv::create(o);
-  lpv->setCamera(glm::dvec3(0.0));
-  std::vector<std::vector<Surfel>> rsm;
-  for (int c = 0; c < 3; ++c) rsm.push_back(groundRsm(lpv->box(c).cell_m * o.cells, 256));
+  Scene s = makeScene(o, false);
+  CascadedLpv* lpv = &s.lpv;
   for (auto _ : state) {
     for (int c = 0; c < 3; ++c) {
       lpv->clearLight(c);
-      lpv->injectLight(c, rsm[size_t(c)]);
+      lpv->injectLight(c, s.rsm[size_t(c)]);
     }
     benchmark::ClobberMemory();
   }
@@ -137,7 +138,7 @@ void BM_LpvTotalLight(benchmark::State& state) {
 BENCHMARK(BM_LpvTotalLight)->Unit(benchmark::kMillisecond);
 
 // One camera step of one cell: the finest cascade moves, its geometry volume, transmittances, sky
-// and light are made again and propagated (the coarser ones stay).
+// and light are made again and propagated (relight; the coarser ones stay). One cell is read after.
 void BM_LpvCameraStep(benchmark::State& state) {
   LpvOptions o;
   auto lpv = CascadedLpv::create(o);
@@ -152,10 +153,10 @@ void BM_LpvCameraStep(benchmark::State& state) {
       lpv->injectGeometry(c, ground);
       lpv->computeOcclusion(c);
       lpv->computeSky(c, [](const glm::vec3& w) { return glm::vec3(std::max(0.1f, w.z)); });
-      lpv->injectLight(c, ground);
-      lpv->propagate(c);
+      const drtv::lpv::VplList list{c, ground};
+      lpv->relight({&list, 1});
     }
-    benchmark::DoNotOptimize(lpv->totalLight(0));
+    benchmark::DoNotOptimize(lpv->cellLight(0, 16, 16, 16));
   }
 }
 BENCHMARK(BM_LpvCameraStep)->Unit(benchmark::kMillisecond);

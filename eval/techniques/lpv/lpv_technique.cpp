@@ -29,6 +29,7 @@
 #include <cmath>
 #include <limits>
 #include <thread>
+#include <vector>
 
 #include "drtv/lpv/lpv.h"
 #include "drtv/reference/reference.h"
@@ -172,6 +173,11 @@ class LpvTechnique final : public Technique {
     placed_ = true;
     light_dirty_ |= moved;
     sky_dirty_ |= moved;
+    // The RSMs of every cascade to relight, then one relight() for all of them (the same bits as
+    // clearLight, injectLight and propagate per cascade, with one wake-up of the workers).
+    std::vector<std::vector<lpv::Surfel>> rsms;
+    std::vector<int> owner;
+    rsms.reserve(size_t(lpv_->cascadeCount()) * (2 + lights_.size()));
     for (int c = 0; c < lpv_->cascadeCount(); ++c) {
       const uint32_t bit = 1u << c;
       if (moved & bit) {
@@ -188,12 +194,20 @@ class LpvTechnique final : public Technique {
         lpv_->computeOcclusion(c);
       }
       lpv_->computeSky(c, [&](const glm::vec3& w) { return world_->sky.skyRadiance(glm::dvec3(w), hour_); });
-      lpv_->clearLight(c);
-      lpv_->injectLight(c, sun);
-      if (params_.sky_bounce) lpv_->injectLight(c, topDown(c, true));
-      for (const PointLight& l : lights_) lpv_->injectLight(c, pointRsm(c, l));
-      lpv_->propagate(c);
+      rsms.push_back(std::move(sun));
+      owner.push_back(c);
+      if (params_.sky_bounce) {
+        rsms.push_back(topDown(c, true));
+        owner.push_back(c);
+      }
+      for (const PointLight& l : lights_) {
+        rsms.push_back(pointRsm(c, l));
+        owner.push_back(c);
+      }
     }
+    std::vector<lpv::VplList> lists(rsms.size());
+    for (size_t i = 0; i < rsms.size(); ++i) lists[i] = {owner[i], rsms[i]};
+    if (!lists.empty()) lpv_->relight(lists);
     light_dirty_ = sky_dirty_ = 0;
     costs_.update_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     return {};

@@ -139,9 +139,34 @@ RayResult classify(const raytrace::RayScene& scene, const raytrace::Ray& ray, co
   return r;
 }
 
-// K(w) of probe.h's kProbeSkyFit, in SH order [0, y, z, x].
-glm::vec4 skyFitKernel(const glm::vec3& w) {
-  return {(std::fabs(w.x) + std::fabs(w.y) + std::fabs(w.z)) / 6.f, 0.5f * w.y, 0.5f * w.z, 0.5f * w.x};
+// probe.h's kProbeSkyFit: the band-1 fit [e0, e_y, e_z, e_x] of the direct-sky irradiance at the
+// six axis normals, E_a = integral max(0, a.w) V(w) L(w) dw, by weighted least squares with weight
+// w_a = 1 + kSkyFitReceiverWeight 6 s_a, where s_a is the share of the surfaces round the probe
+// (its rays' front-face hits within kSkyFitReceiverRangeM) that face axis a (sum over hits of
+// max(0, n.a)^2, which sums to 1 over the axes). Band 1 cannot fit the sky's sqrt(z) gradient at
+// all six axes (probe.h): with equal weights open ground reads pi (H + 0.737 (Z - H)) against
+// the exact pi (H + 0.8 (Z - H)), so the fit leans towards the normals the probe's receivers
+// have. Under a uniform sky the masked irradiance is linear in n and every weighting is exact.
+inline constexpr double kSkyFitReceiverWeight = 0.5;
+inline constexpr float kSkyFitReceiverRangeM = 8.f;
+
+// The six axis integrals (cubeAxis order) of `axis` combined into the fit's 4 coefficients for
+// the receivers' axis shares `share` (all zero: the unweighted fit, K = [(|x| + |y| + |z|) / 6,
+// y / 2, z / 2, x / 2]).
+glm::dvec4 skyFit(const std::array<double, kCubeAxes>& axis, const std::array<double, kCubeAxes>& share) {
+  glm::dmat4 m(0.0);  // sum of w_a phi_a phi_a^T, phi_a = [1, a.y, a.z, a.x]
+  std::array<glm::dvec4, kCubeAxes> phi_w{};
+  for (int a = 0; a < kCubeAxes; ++a) {
+    const glm::dvec3 n(cubeAxis(a));
+    const glm::dvec4 phi(1.0, n.y, n.z, n.x);
+    const double w = 1.0 + kSkyFitReceiverWeight * double(kCubeAxes) * share[size_t(a)];
+    m += w * glm::outerProduct(phi, phi);
+    phi_w[size_t(a)] = w * phi;
+  }
+  const glm::dmat4 inv = glm::inverse(m);  // m >= the unweighted diag(6, 2, 2, 2): invertible
+  glm::dvec4 e(0.0);
+  for (int a = 0; a < kCubeAxes; ++a) e += inv * phi_w[size_t(a)] * axis[size_t(a)];
+  return e;
 }
 
 // What every step of one sector's transfer bake reads.
@@ -175,8 +200,9 @@ void traceProbes(const TransferContext& ctx, std::span<const glm::vec3> probes, 
       d.position = probes[p];
       size_t escaped_total = 0, back = 0, hit = 0;
       double hit_t = 0.0;
-      glm::dvec4 vis_sh(0.0), fit_h(0.0), fit_delta(0.0);
-      std::array<double, kCubeAxes> cube_h{}, cube_delta{};
+      glm::dvec4 vis_sh(0.0);
+      std::array<double, kCubeAxes> cube_h{}, cube_delta{}, receivers{};
+      size_t near_hits = 0;
       for (int b = 0; b < 4; ++b) {
         const raytrace::Frame frame(sh::kBasis[b]);
         const glm::vec2 shift = shiftFor(raytrace::hashKey(sector_key, p * 4 + b));
@@ -196,21 +222,25 @@ void traceProbes(const TransferContext& ctx, std::span<const glm::vec3> probes, 
             if (pdf > 0.f) {
               const glm::vec3& w = rays[i].dir;
               vis_sh += glm::dvec4(sh::evaluate(w) / pdf);
-              // The direct sky's fit kernel (probe.h, kProbeSkyFit), and its sqrt(z) gradient above the horizon.
-              const glm::dvec4 k = glm::dvec4(skyFitKernel(w)) / double(pdf);
-              fit_h += k;
-              if (w.z > 0.f) fit_delta += k * std::sqrt(double(w.z));
-              if (cube)
-                for (int a = 0; a < kCubeAxes; ++a) {
-                  const double c = std::max(0.f, glm::dot(cubeAxis(a), w)) / double(pdf);
-                  cube_h[size_t(a)] += c;
-                  if (w.z > 0.f) cube_delta[size_t(a)] += c * std::sqrt(double(w.z));
-                }
+              // The six axis irradiances of the direct sky's fit (kProbeSkyFit) and of the ambient
+              // cube, and their sqrt(z) gradient above the horizon.
+              for (int a = 0; a < kCubeAxes; ++a) {
+                const double c = std::max(0.f, glm::dot(cubeAxis(a), w)) / double(pdf);
+                cube_h[size_t(a)] += c;
+                if (w.z > 0.f) cube_delta[size_t(a)] += c * std::sqrt(double(w.z));
+              }
             }
           } else {
             ++hit;
             hit_t += r.t;
             back += r.key == kBackface;
+            if (r.key != kBackface && r.t < kSkyFitReceiverRangeM) {
+              ++near_hits;
+              for (int a = 0; a < kCubeAxes; ++a) {
+                const double c = std::max(0.f, glm::dot(cubeAxis(a), r.normal));
+                receivers[size_t(a)] += c * c;
+              }
+            }
           }
         }
         escaped_total += escaped;
@@ -220,8 +250,14 @@ void traceProbes(const TransferContext& ctx, std::span<const glm::vec3> probes, 
       if (s.representation == Representation::kShL1) {
         d.flags |= kProbeSkyFit;
         if (s.sky_visibility) {
-          d.sky_fit_h = glm::vec4(fit_h / double(4 * N));
-          d.sky_fit_delta = glm::vec4(fit_delta / double(4 * N));
+          std::array<double, kCubeAxes> share{}, h{}, delta{};
+          for (size_t a = 0; a < size_t(kCubeAxes); ++a) {
+            share[a] = near_hits ? receivers[a] / double(near_hits) : 0.0;
+            h[a] = cube_h[a] / double(4 * N);
+            delta[a] = cube_delta[a] / double(4 * N);
+          }
+          d.sky_fit_h = glm::vec4(skyFit(h, share));
+          d.sky_fit_delta = glm::vec4(skyFit(delta, share));
         }
       }
       if (cube && s.sky_visibility)

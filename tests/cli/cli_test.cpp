@@ -416,7 +416,8 @@ TEST(Cli, AMemoryLimitThatIsNotASizeIsAUsageError) {
 // x86-64 machine: its kernels take reciprocals with rcpps/rsqrtps, whose bits each CPU vendor
 // chooses, and the island baked on an AMD EPYC differs from the Xeon's bake (2026-12-02, a CI run
 // of an unchanged baker). So each CPU family has its own hashes, chosen by a fingerprint of the
-// CPU's rcpps and rsqrtps over every float in [1, 4). On a CPU with no recorded hashes the test
+// CPU's rcpps and rsqrtps over every float in [1, 4); a bake whose hash a family has not recorded
+// yet (0) is printed, not compared. On a CPU with no recorded hashes the test
 // still asserts that the bake is deterministic (1 and 2 threads, two runs), prints the hashes and
 // the fingerprint to record, and reports itself skipped. The island with its lamps covers the
 // placement pass and LPRT.
@@ -487,17 +488,19 @@ TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
     const char* name;
     uint64_t fingerprint;  // reciprocalFingerprint(); 0: matched by vendor alone
     const char* vendor;
-    std::array<uint64_t, kBakes> xxh3;
+    std::array<uint64_t, kBakes> xxh3;  // 0: not recorded on this family yet (printed to record)
   };
   const Family families[] = {
       // AMD EPYC (Zen 4), the CI host from 2026-12-02.
       {"AMD EPYC", 0xb719567d9ef9735full, "AuthenticAMD",
-       {0xb5dc41527c49bc30ull, 0xb5dc41527c49bc30ull, 0x83e674d1c0876195ull, 0x2a1112486c89e40bull, 0x602302430699b4b5ull,
-        0xa24fe4baef4daf99ull, 0x8994dd32460ceceeull, 0x587575e941b01dd5ull, 0x02c89e60ce666d17ull}},
-      // Intel Xeon, every CI host until 2026-12-01 (its fingerprint was not taken then).
+       {0xb5dc41527c49bc30ull, 0xb5dc41527c49bc30ull, 0x83e674d1c0876195ull, 0xce768512b03790c7ull, 0x602302430699b4b5ull,
+        0x403bda8d7b11fe7dull, 0xeace7813206ac06aull, 0x223f3054c17af0b1ull, 0x030e6917899684ebull}},
+      // Intel Xeon, every CI host until 2026-12-01 (its fingerprint was not taken then). The sh-l1
+      // bakes changed on 2026-12-02 (the direct sky's receiver-weighted fit) on a host without a
+      // Xeon: 0, their hashes there are still to record.
       {"Intel Xeon", 0x0ull, "GenuineIntel",
-       {0x797f2f8433a8ec21ull, 0x797f2f8433a8ec21ull, 0x906bc4b8292ce446ull, 0xe8bac1df9b7359e6ull, 0x6cf058d923e27201ull,
-        0xe8d2e310cf5b1d54ull, 0xbdd1ef89c7eb3c06ull, 0x072449dbca20d076ull, 0x8a1b5e95aed2d67cull}},
+       {0x797f2f8433a8ec21ull, 0x797f2f8433a8ec21ull, 0x906bc4b8292ce446ull, 0x0ull, 0x6cf058d923e27201ull,
+        0x0ull, 0x0ull, 0x0ull, 0x0ull}},
   };
   const uint64_t fingerprint = reciprocalFingerprint();
   const std::string vendor = cpuVendor();
@@ -529,8 +532,10 @@ TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
     const std::string what = std::string(g.world) + " --threads " + g.threads + " --representation " + g.representation +
                              " --clearance '" + g.clearance + "' --inside-cells '" + g.inside + "' baked " +
                              std::to_string(size) + " bytes hashing " + hex + " on " + vendor + " (fingerprint " + fp + ")";
-    if (family) {
+    if (family && family->xxh3[i]) {
       EXPECT_EQ(hash, family->xxh3[i]) << what << ", the " << family->name << "'s golden";
+    } else if (family) {
+      std::printf("not recorded for the %s yet: %s\n", family->name, what.c_str());
     } else if (i == 0) {
       EXPECT_EQ(bake(g).first, hash) << what << ": a second bake differs";
     }

@@ -236,12 +236,15 @@ TEST(PlanePhysics, ShL1SunTransferSeesAWallsShadowThePathTracerSees) {
 // A clear-sky gradient over the plane, no sun: L = H + (Z - H) sqrt(z), zenith darker than the
 // horizon in every channel (the tropical default's day colours). The up normal sees the upper
 // hemisphere only, so its ambient is the direct sky, pi (H + 0.8 (Z - H)) exactly. sh-l1's
-// band-1 fit of the six axis irradiances (probe.h kProbeSkyFit) reads pi (H + 0.737 (Z - H))
-// there (the sqrt(z) gradient is not linear in n; derivation in docs/accuracy.md), so the
-// tolerance is that residual, 0.0633 pi |Z - H|, plus the uniform sky's 3 %. Projecting the
-// band-1 sky and masking it (the visibility moments of archive version 2) read
-// pi (H + 0.683 (Z - H)): 0.117 pi |Z - H| off, outside it in the red channel.
-TEST(PlanePhysics, ShL1UnderASkyGradientIsWithinItsBandOneFitOfTheExactUpNormal) {
+// band-1 fit of the six axis irradiances (probe.h kProbeSkyFit) cannot be exact at every axis
+// (the sqrt(z) gradient is not linear in n; docs/accuracy.md): with equal weights it reads
+// pi (H + 0.737 (Z - H)) at the up normal, 0.0633 pi |Z - H| off (+8.9 / +4.6 / +1.7 % in R / G /
+// B). The bake weighs each axis by the probe's receivers (transfer.cpp, kSkyFitReceiverWeight):
+// over the plane every receiver faces up, and the up normal reads +3.2 / +2.2 / +0.5 %
+// (measured), 0.0245 pi |Z - H| in red. The tolerance is 0.035 pi |Z - H| plus the uniform sky's
+// 3 %; the unweighted fit (+0.0633) and the masked band-1 projection of archive version 2
+// (pi (H + 0.683 (Z - H)), 0.117 off) fall outside it in the red channel.
+TEST(PlanePhysics, ShL1UnderASkyGradientReadsTheUpNormalWithinItsReceiverWeightedFit) {
   Sky sky = testing::uniformSky(0.f, 0.f);
   const glm::vec3 zenith(0.125f, 0.225f, 0.45f), horizon(0.35f, 0.42f, 0.55f);
   sky.sky_zenith = testing::constant(zenith);
@@ -259,8 +262,8 @@ TEST(PlanePhysics, ShL1UnderASkyGradientIsWithinItsBandOneFitOfTheExactUpNormal)
   for (int c = 0; c < 3; ++c) {
     const double delta = double(zenith[c]) - horizon[c];
     const double exact = kPi * (horizon[c] + 0.8 * delta);
-    const double tolerance = 0.0633 * kPi * std::fabs(delta) + kUniformSkyRel * exact;
-    std::printf("[ gradient ] channel %d: up %.4f, exact %.4f (%+.1f %%), the fit's own %.4f\n", c, up[c], exact,
+    const double tolerance = 0.035 * kPi * std::fabs(delta) + kUniformSkyRel * exact;
+    std::printf("[ gradient ] channel %d: up %.4f, exact %.4f (%+.1f %%), the unweighted fit's %.4f\n", c, up[c], exact,
                 100 * rel(up[c], exact), kPi * (horizon[c] + 0.737 * delta));
     EXPECT_NEAR(up[c], exact, tolerance) << "channel " << c;
   }

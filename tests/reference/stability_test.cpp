@@ -141,7 +141,11 @@ TEST(StabilityOfAlbedo, ZeroKillsEveryBounceAndOneConvergesOnAnOpenPlane) {
     const glm::vec3 a = rt->ambient(glm::dvec3(32, 32, 1), glm::vec3(0, 0, -1)).irradiance;
     EXPECT_TRUE(finiteNonNegative(a));
     if (rho == 0.f) {
-      EXPECT_LT(a.x, 0.02f * testing::kPi);  // only the wrapped upward bases' sky
+      // Only the wrapped upward bases' sky and the bake's noise: 0.017 pi with the direct sky's
+      // unweighted six-axis fit, 0.023 pi with the receiver-weighted one (transfer.cpp
+      // kSkyFitReceiverWeight), which here weighs the up axis 4x and so reads the horizontal
+      // axes' noise into the down normal with a factor 8/9 instead of 2/3 (the normal equations).
+      EXPECT_LT(a.x, 0.03f * testing::kPi);
     }
   }
 }

@@ -33,8 +33,11 @@
 // world's sky L(w) = H + (Z - H) sqrt(w.z) above the horizon and H below (the horizon colour
 // continued, lighting_sh.h), the direct-sky irradiance SH is e = H a + (Z - H) b with
 //   a_i = integral K_i(w) V(w) dw,  b_i = integral over w.z > 0 of K_i(w) sqrt(w.z) V(w) dw,
-// K = [(|x| + |y| + |z|) / 6, y / 2, z / 2, x / 2]: the least-squares band-1 fit of the
-// irradiance at the six axis normals, so that E(n) = e0 + e1 n.y + e2 n.z + e3 n.x.
+// K(w) = M^-1 sum_a w_a phi_a max(0, a.w), phi_a = [1, a.y, a.z, a.x], M = sum_a w_a phi_a phi_a^T:
+// the weighted least-squares band-1 fit of the irradiance at the six axis normals a, so that
+// E(n) = e0 + e1 n.y + e2 n.z + e3 n.x. The bake weighs each axis by the share of the probe's
+// nearby receivers facing it (baker/src/transfer.cpp, kSkyFitReceiverWeight); with equal weights
+// K = [(|x| + |y| + |z|) / 6, y / 2, z / 2, x / 2]. The runtime reads only a and b.
 #pragma once
 
 #include <array>

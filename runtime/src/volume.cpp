@@ -85,6 +85,32 @@ DRTV_BLUR_CLONES void blurRows3Bytes(const uint8_t* __restrict r0, const uint8_t
 DRTV_BLUR_CLONES void blurTap3Wide(const uint16_t* __restrict m, uint16_t* __restrict out, int lo, int hi) {
   for (int i = lo; i < hi; ++i) out[i] = uint16_t(m[i - 4] + uint16_t(2 * m[i]) + m[i + 4]);
 }
+// The x pass and the rounding in one (blurWholeRows): m holds the z and y passes' sums.
+DRTV_BLUR_CLONES void blurTap3Finish(const uint16_t* __restrict m, uint8_t* __restrict out, int lo, int hi) {
+  for (int i = lo; i < hi; ++i) out[i] = uint8_t(uint16_t(m[i - 4] + uint16_t(2 * m[i]) + m[i + 4] + 32) >> 6);
+}
+// blurTap3Finish for chosen texels of `rows` rows of `stride` lanes (blurWholeRows's patches):
+// bytes [to, to + 4) of each row from the lanes at offsets left, centre and right. Each is one
+// 8-lane vector sum of two texels' lanes (the second texel's are dropped; every offset is of a
+// column before the row's last, so its successor is in the row): a few instructions, where
+// twelve scalar loads and stores per texel (this path's first form) were 15 % of a blurred refill. Cloned: the baseline
+// lacks the byte-to-word and word-to-byte moves.
+struct BlurPatch {
+  int to, left, centre, right;
+};
+using BlurBytes8 = uint8_t __attribute__((vector_size(8)));
+using BlurLanes8 = uint16_t __attribute__((vector_size(16)));
+DRTV_BLUR_CLONES void blurFinishPatches(const uint16_t* __restrict m, uint8_t* __restrict out, int rows, int stride,
+                                        const BlurPatch* __restrict patches, int count) {
+  for (int r = 0; r < rows; ++r, m += stride, out += stride)
+    for (int p = 0; p < count; ++p) {
+      BlurLanes8 l, c, x;
+      std::memcpy(&l, m + patches[p].left, sizeof l), std::memcpy(&c, m + patches[p].centre, sizeof c);
+      std::memcpy(&x, m + patches[p].right, sizeof x);
+      const BlurBytes8 bytes = __builtin_convertvector((l + c + c + x + 32) >> 6, BlurBytes8);
+      std::memcpy(out + patches[p].to, &bytes, 4);
+    }
+}
 // Weights sum to 64: round half up, back to a byte.
 DRTV_BLUR_CLONES void blurFinish(const uint16_t* __restrict r0, const uint16_t* __restrict r1, const uint16_t* __restrict r2,
                 uint8_t* __restrict out, int n) {
@@ -341,6 +367,7 @@ void Volume::blurBox(glm::ivec3 g0, glm::ivec3 g1) {
   const glm::ivec3 a0 = glm::max(g0 - 1, origin_), a1 = glm::min(g1 + 1, origin_ + n);
   const glm::ivec3 a = a1 - a0;
   if (b.x <= kThinBlurX) return blurThinX(g0, b, a0, a);
+  if (b.x == n.x) return blurWholeRows(g0, b, a0, a);
   // Storage index per apron column, row and layer, computed once (no per-texel modulo).
   thread_local std::vector<int> sx, sy, sz;
   sx.resize(a.x), sy.resize(a.y), sz.resize(a.z);
@@ -429,6 +456,99 @@ void Volume::blurBox(glm::ivec3 g0, glm::ivec3 g1) {
     }
     mirrorBoundary(dst, std::span(sx).subspan(size_t(ox), size_t(b.x)), std::span(sy).subspan(size_t(oy), size_t(b.y)),
                    std::span(sz).subspan(size_t(oz), size_t(b.z)));
+  }
+}
+
+// blurBox for a box of whole rows (b.x == n.x, so the apron is the box in x): every rebuild,
+// advanceRebuild's layers, a z or y scroll's slabs. It runs in storage order, z first: per output
+// layer, strip of kBlurStripRows rows and channel, the z pass reads the three source layers' rows
+// where they lie (bytes in, 16-bit sums out), the y pass combines rows, and the x pass with the
+// rounding writes the bytes straight into the toroidal rows, duplicated column included. Nothing
+// is copied in or out (copying rows out and back was ~20 % of a blurred refill in blurBox's strip
+// order, the separate mirror ~6 %), and no ring of blurred layers is kept. (An output layer reads
+// only three source layers, so a rebuild could blur each layer right after filling the one above
+// it, while they are in L2; measured, that was no faster: 2026-12-02, BM_FullRefillNearestBlurred.
+// Nor were strips of 16 or 24 rows.) In storage order a texel's x neighbours are adjacent except
+// across column 0 (its left neighbour is column n.x - 1), at the range's two clamped edge columns,
+// and for the duplicated column (which copies column 0); those are patched per row
+// (blurFinishPatches). The sums are the same integers as blurBox's: the texels are equal bit for
+// bit. No texel depends on the source's duplicated column, row or layer.
+void Volume::blurWholeRows(const glm::ivec3& g0, const glm::ivec3& b, const glm::ivec3& a0, const glm::ivec3& a) {
+  const glm::ivec3 n = period();
+  thread_local std::vector<int> sy, sz;
+  sy.resize(size_t(a.y)), sz.resize(size_t(a.z));
+  for (int y = 0; y < a.y; ++y) sy[size_t(y)] = floorMod(a0.y + y, n.y);
+  for (int z = 0; z < a.z; ++z) sz[size_t(z)] = floorMod(a0.z + z, n.z);
+  const int oy = g0.y - a0.y, oz = g0.z - a0.z;  // the box inside the apron (in x it is the apron)
+  const size_t row_stride = size_t(options_.size.x), layer_stride = row_stride * size_t(options_.size.y);
+  const int W = 4 * options_.size.x;  // lanes per row: the storage row, duplicated column included
+  // The patched columns (lane offsets): storage columns 0 and n.x - 1, the range's first and last
+  // (clamped to themselves), and the duplicated column from column 0's taps.
+  const int e0 = floorMod(a0.x, n.x), e1 = floorMod(a0.x + a.x - 1, n.x);
+  std::array<BlurPatch, 5> patches{};
+  int patch_count = 0;
+  auto patch = [&](int to, int s) {
+    const int left = s == e0 ? s : (s == 0 ? n.x - 1 : s - 1), right = s == e1 ? s : (s + 1 == n.x ? 0 : s + 1);
+    patches[size_t(patch_count++)] = {4 * to, 4 * left, 4 * s, 4 * right};
+  };
+  for (const int s : {0, n.x - 1, e0, e1}) {
+    bool seen = false;
+    for (int k = 0; k < patch_count; ++k) seen |= patches[size_t(k)].to == 4 * s;
+    if (!seen) patch(s, s);
+  }
+  patch(n.x, 0);
+  // Apron rows [i, rowRun(i, end)) are adjacent storage rows (sy counts up by one): at most two runs.
+  auto rowRun = [&](int i, int end) {
+    int j = i + 1;
+    while (j < end && sy[size_t(j)] == sy[size_t(j - 1)] + 1) ++j;
+    return j;
+  };
+  thread_local std::vector<uint16_t> zt, yt;
+  zt.resize(size_t(W) * (kBlurStripRows + 2)), yt.resize(size_t(W) * kBlurStripRows);
+  for (int z = 0; z < b.z; ++z) {
+    const int gz = oz + z, tz = sz[size_t(gz)];
+    const size_t lm = size_t(sz[size_t(std::max(gz - 1, 0))]) * layer_stride, l0 = size_t(tz) * layer_stride,
+                 lp = size_t(sz[size_t(std::min(gz + 1, a.z - 1))]) * layer_stride;
+    for (int c = 0; c < 3; ++c) {
+      const auto* in = reinterpret_cast<const uint8_t*>(source_[c].data());
+      uint32_t* dst = texels_[c].data();
+      for (int y0 = 0; y0 < b.y; y0 += kBlurStripRows) {
+        const int y1 = std::min(y0 + kBlurStripRows, b.y);
+        const int r0 = std::max(oy + y0 - 1, 0), r1 = std::min(oy + y1 + 1, a.y);  // apron rows the strip reads
+        // z: the strip's apron rows, one run of lanes per run of adjacent storage rows.
+        for (int r = r0; r < r1;) {
+          const int r_end = rowRun(r, r1);
+          const size_t row = size_t(sy[size_t(r)]) * row_stride * 4;
+          blurRows3Bytes(in + 4 * lm + row, in + 4 * l0 + row, in + 4 * lp + row, &zt[size_t(r - r0) * W], (r_end - r) * W);
+          r = r_end;
+        }
+        // y: box rows [y0, y1); only the apron's first and last rows clamp.
+        auto at = [&](int apron_row) { return &zt[size_t(apron_row - r0) * W]; };
+        const int first = oy + y0 == 0 ? y0 + 1 : y0, last = oy + y1 == a.y ? y1 - 1 : y1;
+        if (first > y0) blurRows3(at(0), at(0), at(std::min(1, a.y - 1)), yt.data(), W);
+        if (last > first)
+          blurRows3(at(oy + first - 1), at(oy + first), at(oy + first + 1), &yt[size_t(first - y0) * W], (last - first) * W);
+        if (last < y1 && last >= first)
+          blurRows3(at(std::max(oy + last - 1, 0)), at(oy + last), at(oy + last), &yt[size_t(last - y0) * W], W);
+        // x and the rounding, into the texels; then the patched columns.
+        for (int y = y0; y < y1;) {
+          const int y_end = rowRun(oy + y, oy + y1) - oy;
+          const uint16_t* m = &yt[size_t(y - y0) * W];
+          auto* out = reinterpret_cast<uint8_t*>(dst + l0 + size_t(sy[size_t(oy + y)]) * row_stride);
+          blurTap3Finish(m, out, 4, (y_end - y) * W - 4);
+          blurFinishPatches(m, out, y_end - y, W, patches.data(), patch_count);
+          y = y_end;
+        }
+        // The duplicated row and layer (mirrorBoundary's y and z; x is done).
+        auto row = [&](int ry, int rz) { return dst + size_t(rz) * layer_stride + size_t(ry) * row_stride; };
+        for (int y = y0; y < y1; ++y) {
+          const int ty = sy[size_t(oy + y)];
+          if (ty == 0) std::memcpy(row(n.y, tz), row(0, tz), size_t(W));
+          if (tz == 0) std::memcpy(row(ty, n.z), row(ty, 0), size_t(W));
+          if (ty == 0 && tz == 0) std::memcpy(row(n.y, n.z), row(0, 0), size_t(W));
+        }
+      }
+    }
   }
 }
 

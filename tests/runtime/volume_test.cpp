@@ -68,6 +68,34 @@ TEST(VolumeFill, NearestModeMatchesTheReferenceForEveryTexel) {
   EXPECT_EQ(v.texture(0).size(), 147456u);  // the talk's 96x96x16
 }
 
+// The texels of `blurred` that differ from the talk's PC-path blur of `plain` (same origin),
+// straight from its definition: 27 taps of [1 2 1] (x) [1 2 1] (x) [1 2 1] over the unblurred
+// texels, neighbours clamped into the volume, each byte (sum + 32) / 64.
+int blurMismatches(const Volume& plain, const Volume& blurred) {
+  const glm::ivec3 n = plain.period(), o = plain.origin();
+  EXPECT_EQ(blurred.origin(), o);
+  int mismatches = 0;
+  for (int c = 0; c < 3; ++c)
+    for (int z = 0; z < n.z; ++z)
+      for (int y = 0; y < n.y; ++y)
+        for (int x = 0; x < n.x; ++x) {
+          uint32_t want = 0;
+          for (int byte = 0; byte < 4; ++byte) {
+            uint32_t sum = 0;
+            for (int dz = -1; dz <= 1; ++dz)
+              for (int dy = -1; dy <= 1; ++dy)
+                for (int dx = -1; dx <= 1; ++dx) {
+                  const glm::ivec3 q = glm::clamp(glm::ivec3(x + dx, y + dy, z + dz), glm::ivec3(0), n - 1);
+                  const uint32_t w = (2 - std::abs(dx)) * (2 - std::abs(dy)) * (2 - std::abs(dz));
+                  sum += w * ((plain.worldTexel(c, o + q) >> (8 * byte)) & 0xff);
+                }
+            want |= ((sum + 32) / 64) << (8 * byte);
+          }
+          mismatches += blurred.worldTexel(c, o + glm::ivec3(x, y, z)) != want;
+        }
+  return mismatches;
+}
+
 // The talk's PC-path blur, straight from its definition: 27 taps of [1 2 1] (x) [1 2 1] (x) [1 2 1]
 // over the unblurred texels, neighbours clamped into the volume, each byte (sum + 32) / 64. Checked
 // after a scroll too, so that the storage wrap is exercised.
@@ -86,28 +114,40 @@ TEST(VolumeFill, BlurMatchesTheTwentySevenTapDefinitionForEveryTexel) {
     plain.rebuild(origin, cache);
     blurred.rebuild(origin - move, cache);
     blurred.scrollTo(origin, cache);
-    const glm::ivec3 n = plain.period(), o = plain.origin();
-    int mismatches = 0;
-    for (int c = 0; c < 3; ++c)
-      for (int z = 0; z < n.z; ++z)
-        for (int y = 0; y < n.y; ++y)
-          for (int x = 0; x < n.x; ++x) {
-            uint32_t want = 0;
-            for (int byte = 0; byte < 4; ++byte) {
-              uint32_t sum = 0;
-              for (int dz = -1; dz <= 1; ++dz)
-                for (int dy = -1; dy <= 1; ++dy)
-                  for (int dx = -1; dx <= 1; ++dx) {
-                    const glm::ivec3 q = glm::clamp(glm::ivec3(x + dx, y + dy, z + dz), glm::ivec3(0), n - 1);
-                    const uint32_t w = (2 - std::abs(dx)) * (2 - std::abs(dy)) * (2 - std::abs(dz));
-                    sum += w * ((plain.worldTexel(c, o + q) >> (8 * byte)) & 0xff);
-                  }
-              want |= ((sum + 32) / 64) << (8 * byte);
-            }
-            mismatches += blurred.worldTexel(c, o + glm::ivec3(x, y, z)) != want;
-          }
-    EXPECT_EQ(mismatches, 0) << "after a move of " << move.x << "," << move.y << "," << move.z;
+    EXPECT_EQ(blurMismatches(plain, blurred), 0) << "after a move of " << move.x << "," << move.y << "," << move.z;
   }
+  }
+}
+
+// Boxes of whole rows are blurred in storage order (Volume::blurWholeRows), which patches the
+// columns whose storage neighbours are not their neighbours in the volume: storage column 0, the
+// last, and the range's clamped first and last columns. Every storage position of the range's
+// first column, on volumes just wider than the thin-x path's, rebuilt and after y and z scrolls
+// (which blur whole-row slabs): against the definition, and the duplicated boundary.
+TEST(VolumeFill, WholeRowBlurMatchesTheDefinitionAtEveryStoragePhase) {
+  const ProbeCache cache = makeWorld();
+  for (const glm::ivec3 size : {glm::ivec3(6, 7, 4), glm::ivec3(9, 5, 6)}) {
+    VolumeOptions plain_o, blur_o;
+    plain_o.size = blur_o.size = size;
+    blur_o.blur = true;
+    Volume plain(plain_o), blurred(blur_o);
+    const glm::ivec3 n = plain.period(), p = plain.size();
+    for (int phase = 0; phase < n.x; ++phase)
+      for (const glm::ivec3 move : {glm::ivec3(0), glm::ivec3(0, 1, 0), glm::ivec3(0, -2, 1), glm::ivec3(0, 0, -1)}) {
+        SCOPED_TRACE(::testing::Message() << "size " << size.x << " phase " << phase << " move " << move.y << "," << move.z);
+        const glm::ivec3 origin(7 * n.x + phase, -3, 2);
+        plain.rebuild(origin, cache);
+        blurred.rebuild(origin - move, cache);
+        blurred.scrollTo(origin, cache);
+        EXPECT_EQ(blurMismatches(plain, blurred), 0);
+        int mirror_mismatches = 0;
+        for (int c = 0; c < 3; ++c)
+          for (int z = 0; z < p.z; ++z)
+            for (int y = 0; y < p.y; ++y)
+              for (int x = 0; x < p.x; ++x)
+                mirror_mismatches += blurred.physicalTexel(c, {x, y, z}) != blurred.physicalTexel(c, {x % n.x, y % n.y, z % n.z});
+        EXPECT_EQ(mirror_mismatches, 0);
+      }
   }
 }
 

@@ -134,6 +134,7 @@ class Volume {
   void fillBoxSmooth(const glm::ivec3& g0, const glm::ivec3& g1, const ProbeCache& cache);
   void blurBox(glm::ivec3 g0, glm::ivec3 g1);
   void blurThinX(const glm::ivec3& g0, const glm::ivec3& b, const glm::ivec3& a0, const glm::ivec3& a);
+  void blurWholeRows(const glm::ivec3& g0, const glm::ivec3& b, const glm::ivec3& a0, const glm::ivec3& a);
   // The duplicated boundary of the box just written into `tex` (one channel): physical index n
   // mirrors storage index 0 on each axis. xs, ys, zs: the box's storage indices per axis.
   void mirrorBoundary(uint32_t* tex, std::span<const int> xs, std::span<const int> ys, std::span<const int> zs) const;

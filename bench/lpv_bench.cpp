@@ -138,8 +138,7 @@ void BM_LpvTotalLight(benchmark::State& state) {
 BENCHMARK(BM_LpvTotalLight)->Unit(benchmark::kMillisecond);
 
 // One camera step of one cell: the finest cascade moves, its geometry volume, transmittances, sky
-// and light are made again and propagated (the calls per cascade: relight() injects a cascade on one
-// thread, 20 % slower for one cascade); the coarser ones stay. One cell is read after.
+// and light are made again and propagated (relight; the coarser ones stay). One cell is read after.
 void BM_LpvCameraStep(benchmark::State& state) {
   LpvOptions o;
   auto lpv = CascadedLpv::create(o);
@@ -154,8 +153,8 @@ void BM_LpvCameraStep(benchmark::State& state) {
       lpv->injectGeometry(c, ground);
       lpv->computeOcclusion(c);
       lpv->computeSky(c, [](const glm::vec3& w) { return glm::vec3(std::max(0.1f, w.z)); });
-      lpv->injectLight(c, ground);
-      lpv->propagate(c);
+      const drtv::lpv::VplList list{c, ground};
+      lpv->relight({&list, 1});
     }
     benchmark::DoNotOptimize(lpv->cellLight(0, 16, 16, 16));
   }

@@ -150,23 +150,22 @@ RayResult classify(const raytrace::RayScene& scene, const raytrace::Ray& ray, co
 inline constexpr double kSkyFitReceiverWeight = 0.5;
 inline constexpr float kSkyFitReceiverRangeM = 8.f;
 
-// The six axis integrals (cubeAxis order) of `axis` combined into the fit's 4 coefficients for
-// the receivers' axis shares `share` (all zero: the unweighted fit, K = [(|x| + |y| + |z|) / 6,
-// y / 2, z / 2, x / 2]).
-glm::dvec4 skyFit(const std::array<double, kCubeAxes>& axis, const std::array<double, kCubeAxes>& share) {
+// The fit's coefficients as a combination of the six axis integrals (cubeAxis order): e =
+// sum_a k[a] E_a, for the receivers' axis shares `share` (all zero: the unweighted fit,
+// K = [(|x| + |y| + |z|) / 6, y / 2, z / 2, x / 2]).
+std::array<glm::dvec4, kCubeAxes> skyFitWeights(const std::array<double, kCubeAxes>& share) {
   glm::dmat4 m(0.0);  // sum of w_a phi_a phi_a^T, phi_a = [1, a.y, a.z, a.x]
-  std::array<glm::dvec4, kCubeAxes> phi_w{};
+  std::array<glm::dvec4, kCubeAxes> k{};
   for (int a = 0; a < kCubeAxes; ++a) {
     const glm::dvec3 n(cubeAxis(a));
     const glm::dvec4 phi(1.0, n.y, n.z, n.x);
     const double w = 1.0 + kSkyFitReceiverWeight * double(kCubeAxes) * share[size_t(a)];
     m += w * glm::outerProduct(phi, phi);
-    phi_w[size_t(a)] = w * phi;
+    k[size_t(a)] = w * phi;
   }
   const glm::dmat4 inv = glm::inverse(m);  // m >= the unweighted diag(6, 2, 2, 2): invertible
-  glm::dvec4 e(0.0);
-  for (int a = 0; a < kCubeAxes; ++a) e += inv * phi_w[size_t(a)] * axis[size_t(a)];
-  return e;
+  for (glm::dvec4& v : k) v = inv * v;
+  return k;
 }
 
 // What every step of one sector's transfer bake reads.
@@ -250,14 +249,16 @@ void traceProbes(const TransferContext& ctx, std::span<const glm::vec3> probes, 
       if (s.representation == Representation::kShL1) {
         d.flags |= kProbeSkyFit;
         if (s.sky_visibility) {
-          std::array<double, kCubeAxes> share{}, h{}, delta{};
+          std::array<double, kCubeAxes> share{};
+          for (size_t a = 0; a < size_t(kCubeAxes); ++a) share[a] = near_hits ? receivers[a] / double(near_hits) : 0.0;
+          const std::array<glm::dvec4, kCubeAxes> k = skyFitWeights(share);
+          glm::dvec4 h(0.0), delta(0.0);
           for (size_t a = 0; a < size_t(kCubeAxes); ++a) {
-            share[a] = near_hits ? receivers[a] / double(near_hits) : 0.0;
-            h[a] = cube_h[a] / double(4 * N);
-            delta[a] = cube_delta[a] / double(4 * N);
+            h += k[a] * (cube_h[a] / double(4 * N));
+            delta += k[a] * (cube_delta[a] / double(4 * N));
           }
-          d.sky_fit_h = glm::vec4(skyFit(h, share));
-          d.sky_fit_delta = glm::vec4(skyFit(delta, share));
+          d.sky_fit_h = glm::vec4(h);
+          d.sky_fit_delta = glm::vec4(delta);
         }
       }
       if (cube && s.sky_visibility)

@@ -523,9 +523,11 @@ TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
   char fp[32];
   std::snprintf(fp, sizeof fp, "0x%016llxull", (unsigned long long)fingerprint);
   std::string record;
+  std::array<uint64_t, kBakes> hashes{};
   for (size_t i = 0; i < kBakes; ++i) {
     const Bake& g = bakes[i];
     const auto [hash, size] = bake(g);
+    hashes[i] = hash;
     char hex[32];
     std::snprintf(hex, sizeof hex, "0x%016llxull", (unsigned long long)hash);
     record += std::string(i ? ", " : "") + hex;
@@ -541,8 +543,7 @@ TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
     }
   }
   if (!family) {
-    const auto [hash1, size1] = bake(bakes[1]);
-    EXPECT_EQ(hash1, bake(bakes[0]).first) << "1 and 2 threads bake different archives";
+    EXPECT_EQ(hashes[0], hashes[1]) << "1 and 2 threads bake different archives";  // bakes 0 and 1
     GTEST_SKIP() << "no golden hashes recorded for this CPU (" << vendor << ", fingerprint " << fp
                  << "); the bake is deterministic here; its hashes, to record: " << record;
   }

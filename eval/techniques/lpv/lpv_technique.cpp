@@ -27,7 +27,6 @@
 #include <charconv>
 #include <chrono>
 #include <cmath>
-#include <functional>
 #include <limits>
 #include <thread>
 #include <vector>
@@ -206,15 +205,7 @@ class LpvTechnique final : public Technique {
         owner.push_back(c);
       }
     }
-    // relight() takes one injection job per cascade, so a single cascade (a camera step moves the
-    // finest alone) is relit by the calls, whose injection splits over the threads: BM_LpvCameraStep
-    // 18.8-19.2 ms by the calls against 22.8-23.9 ms through relight() (2026-12-02, same run).
-    if (!owner.empty() && std::adjacent_find(owner.begin(), owner.end(), std::not_equal_to<>()) == owner.end()) {
-      const int c = owner.front();
-      lpv_->clearLight(c);
-      for (const std::vector<lpv::Surfel>& r : rsms) lpv_->injectLight(c, r);
-      lpv_->propagate(c);
-    } else if (!owner.empty()) {
+    if (!owner.empty()) {
       std::vector<lpv::VplList> lists(rsms.size());
       for (size_t i = 0; i < rsms.size(); ++i) lists[i] = {owner[i], rsms[i]};
       lpv_->relight(lists);

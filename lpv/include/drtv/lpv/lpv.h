@@ -180,7 +180,8 @@ class CascadedLpv {
   // channel as soon as its cascade's injection is done (the cascades are independent grids), in
   // one wake-up of the workers instead of two per cascade, and each injection reads only its own
   // cascade's surfels (injectLight on threads reads every surfel once per thread). A bug for a
-  // cascade out of range.
+  // cascade out of range. A single cascade on threads is relit by those calls (its injection then
+  // splits over the threads).
   void relight(std::span<const VplList> lists);
 
   // The propagated (indirect) irradiance at world `position` for unit `normal`, linear RGB,

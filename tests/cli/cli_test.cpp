@@ -495,12 +495,12 @@ TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
       {"AMD EPYC", 0xb719567d9ef9735full, "AuthenticAMD",
        {0xb5dc41527c49bc30ull, 0xb5dc41527c49bc30ull, 0x83e674d1c0876195ull, 0xce768512b03790c7ull, 0x602302430699b4b5ull,
         0x403bda8d7b11fe7dull, 0xeace7813206ac06aull, 0x223f3054c17af0b1ull, 0x030e6917899684ebull}},
-      // Intel Xeon, every CI host until 2026-12-01 (its fingerprint was not taken then). The sh-l1
-      // bakes changed on 2026-12-02 (the direct sky's receiver-weighted fit) on a host without a
-      // Xeon: 0, their hashes there are still to record.
+      // Intel Xeon, every CI host until 2026-12-01 (matched by vendor; the Xeon of 2026-12-02 had
+      // the fingerprint 0xec281bdebf45ee62). The sh-l1 bakes changed on 2026-12-02 (the direct
+      // sky's receiver-weighted fit) and were recorded again on a Xeon the same day.
       {"Intel Xeon", 0x0ull, "GenuineIntel",
-       {0x797f2f8433a8ec21ull, 0x797f2f8433a8ec21ull, 0x906bc4b8292ce446ull, 0x0ull, 0x6cf058d923e27201ull,
-        0x0ull, 0x0ull, 0x0ull, 0x0ull}},
+       {0x797f2f8433a8ec21ull, 0x797f2f8433a8ec21ull, 0x906bc4b8292ce446ull, 0x725fcbb5a43280beull, 0x6cf058d923e27201ull,
+        0x75257267d87249e8ull, 0xdd36c7ae5d8cc7e2ull, 0xca6dafdfbcf78d79ull, 0xf28d04abe1b833b1ull}},
   };
   const uint64_t fingerprint = reciprocalFingerprint();
   const std::string vendor = cpuVendor();

@@ -185,6 +185,8 @@ std::string validateSettings(const BakeSettings& s) {
   if (!in(p.vegetation_spacing_m, 1.0 / 16, 64.0)) return "vegetation_spacing_m must be in [1/16, 64] m";
   if (!in(p.lift_m, 0.0, 64.0)) return "lift_m must be in [0, 64] m";
   if (!in(p.min_horizontal_m, 0.0, 64.0) || !in(p.min_vertical_m, 0.0, 1e4)) return "minimum probe distances must be finite and >= 0";
+  if (!in(p.covered_column_spacing_m, 1.0 / 16, 64.0)) return "covered_column_spacing_m must be in [1/16, 64] m";
+  if (!in(p.covered_min_horizontal_m, 0.0, 64.0)) return "covered_min_horizontal_m must be finite and in [0, 64] m";
   if (p.inside_test_rays < 0 || p.inside_test_rays > (1 << 16)) return "inside_test_rays must be in [0, 65536]";
   if (!in(p.inside_test_range_m, 0.0, 64.0)) return "inside_test_range_m must be in [0, 64] m";
   // A clearance above the lift would refuse flat ground itself.
@@ -287,6 +289,11 @@ std::vector<std::pair<std::string, std::string>> BakeSettings::describe() const 
   // itself (and hashes, and packs) as before.
   if (placement.clearance_m != 0.0) d.emplace_back("clearance_m", fmt(placement.clearance_m));
   if (grid.inside_from_neighbours) d.emplace_back("grid_inside_from_neighbours", "1");
+  // Only when denser under roofs than in the open (issue 16): other bakes describe themselves as before.
+  if (placement.covered_column_spacing_m < placement.column_spacing_m)
+    d.emplace_back("covered_column_spacing_m", fmt(placement.covered_column_spacing_m));
+  if (placement.covered_min_horizontal_m < placement.min_horizontal_m)
+    d.emplace_back("covered_min_horizontal_m", fmt(placement.covered_min_horizontal_m));
   if (transfer.representation != Representation::kFc3) d.emplace_back("representation", representationName(transfer.representation));
   if (transfer.representation == Representation::kShL1) d.emplace_back("sun_samples", std::to_string(transfer.sun_samples));
   return d;

@@ -115,16 +115,23 @@ std::vector<Point> staticPoints(const ReferenceScene& scene, const InMemoryBake&
 bool buried(const ReferenceScene& scene, const glm::dvec3& p, const glm::vec3& n, uint64_t seed) {
   const glm::vec3 local = scene.toLocal(p);
   const glm::vec3 origin = local + n * rayOffset(local);
-  int back = 0;
+  int back = 0, hits = 0, behind_two_sided = 0;
   for (int k = 0; k < kBuriedTestRays; ++k) {
     const uint64_t h = raytrace::hashKey(seed, uint64_t(k));
     glm::vec3 d = raytrace::uniformSphere({raytrace::unitFloat(raytrace::mix64(h)), raytrace::unitFloat(raytrace::mix64(h ^ 1))});
     if (glm::dot(d, n) < 0.f) d = -d;
     const raytrace::Ray ray{origin, 0.f, d, std::numeric_limits<float>::infinity()};
     const raytrace::Hit hit = scene.rays().intersect(ray);
-    back += hit.hit() && !scene.rays().frontFace(ray, hit.prim);
+    if (!hit.hit()) continue;
+    ++hits;
+    back += !scene.rays().frontFace(ray, hit.prim);
+    behind_two_sided += scene.rays().behindTwoSided(ray, hit.prim);
   }
-  return back > kInsideBackfaceFraction * kBuriedTestRays;
+  // Inside a closed double-sided solid (the Cornell box's blocks are double-sided) no hit is a
+  // back face: a point that every ray finds closed in, more than half of them behind the
+  // winding of double-sided triangles, is buried too.
+  return back > kInsideBackfaceFraction * kBuriedTestRays ||
+         (hits == kBuriedTestRays && 2 * behind_two_sided > kBuriedTestRays);
 }
 
 // Points on the world's dynamic instances inside `region`, area-weighted, not buried in static
@@ -196,6 +203,13 @@ std::vector<RowSpec> drtvRows(const BakeSettings& base, uint32_t effects, const 
     rows.push_back({"bounces", std::to_string(bounces), def, "drtv",
                     def ? TechniqueParams{} : TechniqueParams{{"bounces", std::to_string(bounces)}}, def ? "the default bake" : ""});
   }
+  // Probes under roofs (placement.h): the column lattice there / the least distance between them.
+  for (const auto& [spacing, min_h] : {std::pair{4.0, 8.0}, std::pair{4.0, 4.0}, std::pair{2.0, 4.0}, std::pair{2.0, 2.0}}) {
+    const bool def = spacing == base.placement.covered_column_spacing_m && min_h == base.placement.covered_min_horizontal_m;
+    rows.push_back({"placement_under_roofs", fmt(spacing) + " m / " + fmt(min_h) + " m", def, "drtv",
+                    def ? TechniqueParams{} : TechniqueParams{{"covered_spacing", fmt(spacing)}, {"covered_min_h", fmt(min_h)}},
+                    def ? "the default bake: columns / least distance under roofs" : "columns / least distance under roofs"});
+  }
   const uint32_t components = runtime::componentsFromEffects(effects);
   const std::array<std::pair<const char*, uint32_t>, 4> parts = {
       std::pair{"sun_bounce", uint32_t(runtime::kComponentSunBounce)}, std::pair{"sky_bounce", uint32_t(runtime::kComponentSkyBounce)},
@@ -222,6 +236,13 @@ std::vector<RowSpec> drtvRows(const BakeSettings& base, uint32_t effects, const 
   for (const char* basis : {"4-basis", "ambient-cube", "sh-l1"})
     rows.push_back({"basis", basis, std::string(basis) == "sh-l1", "probe-reference",
                     {{"basis", basis}, {"probe_samples", std::to_string(probe_samples)}}, "path-traced probe values, nearest probe, no volume"});
+  // Each term read from path-traced probe values: what the probes and the index grid alone allow
+  // that term, beside its `part` row (the bake, the relight and the volume on top).
+  for (size_t k = 0; k < parts.size(); ++k)
+    if (components & parts[k].second)
+      rows.push_back({"part probe-reference", parts[k].first, false, "probe-reference",
+                      {{"part", parts[k].first}, {"probe_samples", std::to_string(probe_samples)}},
+                      "this term from path-traced probe values (sh-l1), nearest probe, no volume: the probes' floor for it", int(k)});
   rows.push_back({"fill", "nearest", true, "drtv", {{"fill", "nearest"}}, "the default bake"});
   rows.push_back({"fill", "smooth", false, "drtv", {{"fill", "smooth"}}, "trilinear over index-grid cells"});
   rows.push_back({"lookup", "trilinear", true, "drtv", {{"lookup", "trilinear"}}, "the shaders' filter"});
@@ -247,6 +268,11 @@ std::vector<RowSpec> drtvRows(const BakeSettings& base, uint32_t effects, const 
                       mode == runtime::LightSources::kNearest ? "the talk's rule: the nearest source probes"
                                                               : "the probes the index grid names around the light",
                       kRefLocalLights});
+    // The local-light term with the probes under roofs denser (the placement rows above).
+    for (const auto& [spacing, min_h] : {std::pair{2.0, 4.0}, std::pair{2.0, 2.0}})
+      rows.push_back({"placement_under_roofs local_lights", fmt(spacing) + " m / " + fmt(min_h) + " m", false, "drtv",
+                      {{"part", "local_lights"}, {"covered_spacing", fmt(spacing)}, {"covered_min_h", fmt(min_h)}},
+                      "local_lights term alone vs the reference's, as a share of the total ambient", kRefLocalLights});
     for (size_t keep : {size_t(8), size_t(32), size_t(64), size_t(kMaxLprtSources)}) {
       const bool all = keep == size_t(kMaxLprtSources);
       TechniqueParams p{{"part", "local_lights"}};

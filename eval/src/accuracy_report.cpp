@@ -225,8 +225,8 @@ Result<void> writeAccuracyReport(const AccuracyReport& r, const fs::path& dir) {
        << fixed(100 * row.rel_error, 1) << "% | " << (row.bias >= 0 ? "+" : "") << fixed(100 * row.bias, 1) << "% | "
        << fixed(row.bake_s, 2) << " | " << fixed(row.relight_fill_ms, 2) << " | " << fixed(row.probe_bytes / 1024.0, 1) << " | "
        << fixed(row.volume_bytes / 1024.0, 0) << " | " << row.note << " |\n";
-  // By surface category (accuracy.h, SurfaceCategory): the default configuration and every
-  // technique, each category's error, bias and share of the points, and the worst.
+  // By surface category (accuracy.h, SurfaceCategory): the default configuration, the placement
+  // rows and every technique, each category's error, bias and share of the points, and the worst.
   md << "\nBy surface category (points:";
   for (int c = 0; c < kSurfaceCategoryCount; ++c)
     md << " " << surfaceCategoryName(SurfaceCategory(c)) << " " << r.category_points[size_t(c)] << " ("
@@ -237,8 +237,10 @@ Result<void> writeAccuracyReport(const AccuracyReport& r, const fs::path& dir) {
   for (int c = 0; c < kSurfaceCategoryCount; ++c) md << "---:|";
   md << "---|\n";
   for (const AccuracyRow& row : r.rows) {
-    if (!(row.knob == "technique" || (row.knob == "rays_per_basis" && row.is_default))) continue;
-    md << "| " << (row.knob == "technique" ? row.value : std::string("default")) << " |";
+    // The placement rows change where the probes stand, which the categories tell apart.
+    const bool placement = row.knob == "placement_under_roofs" && !row.is_default;
+    if (!(row.knob == "technique" || placement || (row.knob == "rays_per_basis" && row.is_default))) continue;
+    md << "| " << (row.knob == "technique" ? row.value : placement ? "under roofs " + row.value : std::string("default")) << " |";
     int worst = -1;
     for (int c = 0; c < kSurfaceCategoryCount; ++c) {
       const CategoryError& e = row.categories[size_t(c)];

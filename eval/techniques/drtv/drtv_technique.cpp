@@ -1,9 +1,12 @@
 // DRTV as a technique (technique.h): the baker's transfer bake in memory, then drtv::runtime set up
 // as an engine sets it up from an archive (runtime::runtimeForArchive) holding every sector of the
-// block. Its knobs are parameters; the first three need a bake, the others only a new runtime:
+// block. Its knobs are parameters; the first five need a bake, the others only a new runtime:
 //   quality            draft | default | high       the bake preset (BakeSettings::forQuality)
 //   rays_per_basis     integer >= 1                 overrides the preset's transfer rays
 //   bounces            integer >= 1                 overrides the preset's bounces
+//   covered_spacing    metres in (0, 64]            the column lattice under roofs
+//   covered_min_h      metres in (0, 64]            the minimum distance between probes under
+//                                                   roofs (placement.h, issue 16)
 //   representation     fc3 | sh-l1                  the directional representation baked
 //                                                   (representation.h; default sh-l1)
 //   fill               nearest | smooth             the volume fill (runtime FillMode)
@@ -52,6 +55,7 @@ using Clock = std::chrono::steady_clock;
 struct BakeParams {
   baker::Quality quality = baker::Quality::kDefault;
   std::optional<int> rays_per_basis, bounces;
+  std::optional<double> covered_spacing, covered_min_h;  // placement under roofs (placement.h)
   Representation representation = Representation::kShL1;  // the baker's default for new worlds
   bool operator==(const BakeParams&) const = default;
 };
@@ -89,6 +93,11 @@ Result<Params> parseParams(const TechniqueParams& p) {
       auto x = intIn(k, v, 1, 1 << 20);
       if (!x) return std::unexpected(x.error());
       (k == "bounces" ? out.bake.bounces : out.bake.rays_per_basis) = *x;
+    } else if (k == "covered_spacing" || k == "covered_min_h") {
+      double x = 0;
+      const auto [end, ec] = std::from_chars(v.data(), v.data() + v.size(), x);
+      if (ec != std::errc() || end != v.data() + v.size() || !(x > 0 && x <= 64)) return fail(k + "=" + v + ": expected metres in (0, 64]");
+      (k == "covered_spacing" ? out.bake.covered_spacing : out.bake.covered_min_h) = x;
     } else if (k == "fill") {
       if (v == "nearest") out.runtime.fill = runtime::FillMode::kNearest;
       else if (v == "smooth") out.runtime.fill = runtime::FillMode::kSmooth;
@@ -140,7 +149,7 @@ Result<Params> parseParams(const TechniqueParams& p) {
       else return fail("storage=" + v + ": expected runtime, 8-bit, snorm8, 16-bit or float");
     } else {
       return fail("no parameter '" + k +
-                  "' (drtv takes quality, rays_per_basis, bounces, representation, fill, lookup, texel_m, sun_window, part, "
+                  "' (drtv takes quality, rays_per_basis, bounces, covered_spacing, covered_min_h, representation, fill, lookup, texel_m, sun_window, part, "
                   "sources_per_light, light_sources, lprt_sources, storage)");
     }
   }
@@ -153,6 +162,8 @@ baker::BakeSettings bakeSettings(const BakeParams& p, uint64_t seed) {
   baker::BakeSettings s = baker::BakeSettings::forQuality(p.quality, seed);
   if (p.rays_per_basis) s.transfer.probe_rays_per_basis = *p.rays_per_basis;
   if (p.bounces) s.transfer.bounces = *p.bounces;
+  if (p.covered_spacing) s.placement.covered_column_spacing_m = *p.covered_spacing;
+  if (p.covered_min_h) s.placement.covered_min_horizontal_m = *p.covered_min_h;
   s.transfer.representation = p.representation;
   return s;
 }

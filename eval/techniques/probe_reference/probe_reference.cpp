@@ -7,6 +7,10 @@
 //                  the talk's four bases and shading weights; the six-axis ambient cube [2]; band-1
 //                  SH irradiance from the same six axes [3] (accuracy.h's references)
 //   probe_samples  integer >= 2                     reference paths per probe and direction
+//   part           sun_bounce | sky_bounce | direct_sky | local_lights
+//                  one term of the reference's ambient alone (reference.h), so that a term's
+//                  error in the `part` rows can be set against the representation's floor for it
+//                  (default: the whole ambient)
 // Only the probes the shaded points name are traced, at evaluate(); their values are kept per hour,
 // so that another basis reads them without tracing again. The world given to prepare() must
 // outlive the technique.
@@ -32,6 +36,7 @@ enum class Basis { kFour, kCube, kShL1 };
 struct Params {
   Basis basis = Basis::kShL1;  // the default representation's (drtv bakes sh-l1)
   int probe_samples = 256;
+  int part = -1;  // a ReferencePart up to kRefLocalLights, or -1: the whole ambient
   TechniqueParams given;
 };
 
@@ -50,8 +55,13 @@ Result<Params> parseParams(const TechniqueParams& p) {
       if (ec != std::errc() || end != v.data() + v.size() || x < 2 || x > (1 << 20))
         return fail("probe_samples=" + v + ": expected an integer in [2, 1048576]");
       out.probe_samples = x;
+    } else if (k == "part") {
+      out.part = -2;
+      for (int q = 0; q <= reference::kRefLocalLights; ++q)
+        if (v == reference::referencePartName(reference::ReferencePart(q))) out.part = q;
+      if (out.part == -2) return fail("part=" + v + ": expected sun_bounce, sky_bounce, direct_sky or local_lights");
     } else {
-      return fail("no parameter '" + k + "' (probe-reference takes basis, probe_samples)");
+      return fail("no parameter '" + k + "' (probe-reference takes basis, probe_samples, part)");
     }
   }
   return out;
@@ -133,7 +143,7 @@ class ProbeReference final : public Technique {
     // The probes the points name, in the order the points first name them.
     std::vector<int> point_probe(points.size(), -1);
     for (size_t i = 0; i < points.size(); ++i) point_probe[i] = probeIndex(points[i]);
-    std::vector<std::array<glm::vec3, 10>>& e = traced_[key()];
+    std::vector<Traced>& e = traced_[key()];
     if (e.size() < probes_.size()) {
       const auto t0 = std::chrono::steady_clock::now();
       reference::ReferenceSettings ps;
@@ -144,8 +154,11 @@ class ProbeReference final : public Technique {
         for (int d = 0; d < 10; ++d) q.push_back({probes_[k].position, probeNormals()[size_t(d)], uint64_t(1u << 30) + k * 10 + d});
       const auto r = reference::referenceIrradiance(*scene_, reference::ReferenceLighting{world_->sky, hour_, lights_}, q, ps, threads_);
       for (size_t k = 0; k * 10 < r.size(); ++k) {
-        std::array<glm::vec3, 10> v;
-        for (int d = 0; d < 10; ++d) v[size_t(d)] = r[k * 10 + d].ambient.mean;
+        Traced v;
+        for (int d = 0; d < 10; ++d) {
+          v[0][size_t(d)] = r[k * 10 + d].ambient.mean;
+          for (int q = 0; q <= reference::kRefLocalLights; ++q) v[size_t(q + 1)][size_t(d)] = r[k * 10 + d].parts[size_t(q)].mean;
+        }
         e.push_back(v);
       }
       costs_.prepare_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -153,7 +166,7 @@ class ProbeReference final : public Technique {
     std::vector<glm::vec3> out;
     out.reserve(points.size());
     for (size_t i = 0; i < points.size(); ++i)
-      out.push_back(point_probe[i] < 0 ? glm::vec3(0.f) : read(e[size_t(point_probe[i])], points[i].normal));
+      out.push_back(point_probe[i] < 0 ? glm::vec3(0.f) : read(e[size_t(point_probe[i])][size_t(params_.part + 1)], points[i].normal));
     return out;
   }
 
@@ -163,7 +176,7 @@ class ProbeReference final : public Technique {
     const auto it = traced_.find(key());
     if (!pr.valid() || it == traced_.end()) return glm::vec3(0.f);
     for (size_t k = 0; k < probes_.size() && k < it->second.size(); ++k)
-      if (probes_[k].slot == pr.slot && probes_[k].index == pr.index) return read(it->second[k], normal);
+      if (probes_[k].slot == pr.slot && probes_[k].index == pr.index) return read(it->second[k][size_t(params_.part + 1)], normal);
     return glm::vec3(0.f);  // a probe no evaluate() traced
   }
 
@@ -176,6 +189,9 @@ class ProbeReference final : public Technique {
     int slot, index;
     glm::dvec3 position;
   };
+  // A probe's traced irradiance on its 10 normals: the whole ambient, then each part up to the
+  // local lights, so that another part reads them without tracing again.
+  using Traced = std::array<std::array<glm::vec3, 10>, reference::kRefLocalLights + 2>;
 
   // The hour the traced values belong to (the lights are the same for all of traced_).
   double key() const { return hour_; }
@@ -221,7 +237,7 @@ class ProbeReference final : public Technique {
   double hour_ = 12.0;
   std::vector<PointLight> lights_;
   std::vector<Probe> probes_;
-  std::map<double, std::vector<std::array<glm::vec3, 10>>> traced_;
+  std::map<double, std::vector<Traced>> traced_;
   TechniqueCosts costs_;
 };
 

@@ -24,11 +24,14 @@
 //     kProbeRelocated; if none passes it is dropped. The same test's rays measure the nearest
 //     static surface, and a candidate nearer than clearance_m to one (a column landing beside a
 //     wall) is moved the same way, or dropped. Counted in PlacementStats.
+//     Under roofs (covered hits) the columns are also cast on the finer `covered_column_spacing_m`
+//     lattice; of those columns only the covered hits are candidates.
 //  5. Minimum distance: candidates are taken greedily in priority order — interior designated,
 //     covered static hits (under a roof or overhang: rarer, and the only probes indoors), first
 //     static hits, vegetation; ties in column order — and a candidate is rejected when an accepted
-//     probe lies within `min_horizontal_m` horizontally AND `min_vertical_m` vertically (a
-//     cylinder: floors stacked 3 m apart keep their own probes).
+//     probe lies within `min_horizontal_m` (a covered one: `covered_min_horizontal_m`)
+//     horizontally AND `min_vertical_m` vertically (a cylinder: floors stacked 3 m apart keep
+//     their own probes).
 //  6. Cap: a sector holds at most 255 probes (one-byte index [1, slide 17]). If step 5 accepts
 //     more, it is repeated with min_horizontal_m x 1.25 until at most 255 remain (thinning evenly
 //     rather than dropping a region); designated interior probes are always kept.
@@ -61,6 +64,13 @@ struct PlacementSettings {
   // ground (64 per sector); the rest come from slopes, stacked floors and vegetation.
   double min_horizontal_m = 8.0;
   double min_vertical_m = 3.0;
+  // Under a roof or an overhang (a covered static hit, step 1) the light changes within metres,
+  // and those probes are the only ones indoors (issue 16): columns there are cast every
+  // `covered_column_spacing_m` as well, and a covered candidate is kept unless an accepted probe
+  // lies within `covered_min_horizontal_m` of it (and min_vertical_m). Equal to the open values,
+  // the talk's rule.
+  double covered_column_spacing_m = 4.0;
+  double covered_min_horizontal_m = 8.0;
   // The least distance from a probe to static geometry, and half the least gap a probe may stand
   // in (issue 16). 0.5 m: a probe that close to a wall sees it over half its sphere. On the
   // default island it drops 163 of its 63,651 candidates (0.26 %), more than the inside test does.

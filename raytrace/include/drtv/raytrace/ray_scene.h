@@ -61,6 +61,10 @@ class RayScene {
   // True when `ray` hits triangle `prim` from its front side, or `prim` is two-sided: the hit is a
   // surface, not the inside of geometry.
   bool frontFace(const Ray& ray, uint32_t prim) const { return twoSided(prim) || glm::dot(ray.dir, normal(prim)) < 0.f; }
+  // True when `ray` hits two-sided triangle `prim` from behind its winding. frontFace() accepts
+  // such a hit as a surface; a point that every direction shows such hits is closed in by the
+  // inside of a double-sided solid (placement's inside test, the accuracy's buried points).
+  bool behindTwoSided(const Ray& ray, uint32_t prim) const { return twoSided(prim) && glm::dot(ray.dir, normal(prim)) > 0.f; }
   // The unit normal of the side `ray` hits, for a hit frontFace() accepts: normal(prim), flipped
   // towards the ray's origin for a two-sided triangle hit from behind.
   glm::vec3 facingNormal(const Ray& ray, uint32_t prim) const {

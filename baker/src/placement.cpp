@@ -69,7 +69,7 @@ Surroundings surroundings(const raytrace::RayScene& scene, const raytrace::Secto
   // double-sided mesh. Counting their hits from behind the winding where every ray closes the
   // probe in (as the accuracy's buried test does) was measured on the Cornell world, whose blocks
   // are double-sided: it drops the probe under the short block, and the points around the block
-  // then read a probe outside the box's open side (total error 15.7 -> 23.9 %, docs/accuracy.md).
+  // then read a probe outside the box's open side (total error 15.7 -> 23.9 % on the same points).
   out.inside = hit > 0 && double(back) > kInsideBackfaceFraction * double(hit);
   return out;
 }

@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 
 #include "drtv/eval/accuracy.h"
 #include "drtv/eval/technique.h"
@@ -303,6 +305,35 @@ TEST(AccuracyCategories, StratifiedPointsGiveEachCategoryAnEqualShare) {
   EXPECT_LE(enclosed, wall);
   EXPECT_LE(wall > open ? wall - open : open - wall, 1u) << open << " open, " << wall << " wall";
   EXPECT_GE(3 * wall, r->points) << "walls are 7 % of the unstratified points; a third or more here";
+}
+
+}  // namespace
+}  // namespace drtv::eval
+
+namespace drtv::eval {
+namespace {
+
+// The accuracy samples no point that no camera sees: a dynamic sphere wholly inside the Cornell
+// box's short block, whose material is double-sided (so no ray meets a back face there), gets no
+// sample point; the same sphere beside the block gets its share.
+TEST(AccuracyCategories, NoPointIsSampledOnADynamicObjectInsideADoubleSidedSolid) {
+  auto dynamicPointsWithSphereAt = [](const char* at) -> size_t {
+    const std::filesystem::path file = std::filesystem::temp_directory_path() / "drtv-buried-sphere.json";
+    std::ofstream(file) << R"({"name": "buried", "gltf": [{"path": ")" << DRTV_SHARED_ASSETS
+                        << R"(/cornell_bevy/CornellBox.glb", "class": "static", "scale": 0.02, "translation": [5.56, -5.59, 0]}],
+      "primitives": [{"name": "ground", "shape": "plane", "class": "terrain", "translation": [0, 0, -0.01], "scale": [60, 60, 1]},
+                     {"name": "sphere", "shape": "sphere", "class": "dynamic", "translation": [)"
+                        << at << R"(], "scale": 1.2}]})";
+    auto world = worlds::loadWorld(file.string());
+    EXPECT_TRUE(world.has_value()) << world.error().message;
+    if (!world) return 0;
+    auto r = measureAccuracy(*world, "buried", smallSweep(12.0, 40, {"drtv"}));
+    EXPECT_TRUE(r.has_value()) << r.error().message;
+    return r ? r->dynamic_points : 0;
+  };
+  // The short block: centre (1.86, -2.21), about 4.1 m wide and 3.3 m tall, turned ~17 degrees.
+  EXPECT_EQ(dynamicPointsWithSphereAt("1.86, -2.21, 1.65"), 0u);
+  EXPECT_GT(dynamicPointsWithSphereAt("-3, -4, 1.5"), 0u);
 }
 
 }  // namespace

@@ -273,8 +273,8 @@ template <int L>
 // sx = nullptr): e[c][i][k] = sum_j lc[c][j] M'[c][i][j][k] + d0[c] P0_i[k] + d2[c] P2_i[k]
 // (+ the sun's a x + b y) (+ local[c][i][k], the local lights' term, plane-major at `stride`,
 // unless null), then clamped (e0 to [0, kMaxColour], e1..3 to +-kMaxColour, NaN to 0). Returns the
-// bit pattern of the largest |clamped value|. `n` a multiple of 16. One version per target (GCC's function multiversioning, as DRTV_HOT_CLONES but
-// with the lanes each target wants).
+// bit pattern of the largest |clamped value|. `n` a multiple of 16. One version per target
+// (GCC's function multiversioning, as DRTV_HOT_CLONES but with the lanes each target wants).
 #ifdef DRTV_HOT_MULTIVERSION
 __attribute__((target("arch=x86-64-v4"))) int32_t relightBlocksShL1(const float* in, float* out, int n, int stride,
                                                                     const ShL1Weights& w, const float* sx, const float* sy,
@@ -361,8 +361,8 @@ struct ProbeCache::Impl {
 
   // Runs at every addSector and removeSector. A slot's sources lie in its own sector and its
   // neighbours: their slots are looked up once per slot (3 x 3), not once per source, which made
-  // this O(slots^2 x sources), ~0.3 ms a call with 51 LPRT sectors of 128 sources (perf of `drtv
-  // fly` over the lit island, where a load and an eviction in one frame ran it twice).
+  // this O(slots^2 x sources) and 10 % of the CPU of `drtv fly` over the lit island (51 LPRT
+  // sectors of 128 sources; perf, docs/runtime.md).
   void resolveSources() {
     std::fill(is_source.begin(), is_source.end(), 0);
     for (Slot& sl : slots) {

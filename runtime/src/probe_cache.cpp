@@ -88,7 +88,10 @@ struct Slot {
   // sky's terms and re-sums it only where the lit sources changed (relightSlot).
   AlignedFloats local;
   bool local_of_lit = false;
-  std::vector<int16_t> lprt;        // [source][channel * 4 + k][probe], planes of the slot stride
+  std::vector<int16_t> lprt_block;  // the sector's block: [probe][source][channel * 4 + k]
+  // Per source, once it has been lit: [channel * 4 + k][probe], planes of the slot stride (empty
+  // until then; sourcePlanes).
+  std::vector<std::vector<int16_t>> lprt;
   std::vector<float> lprt_scale;    // lprt_range / 32767 per probe, padded to the stride with 0
   bool on_bases = true;
   std::vector<int32_t> source_ids;  // global probe id (slot * kSlotProbes + index) or -1
@@ -416,6 +419,20 @@ struct ProbeCache::Impl {
   void relightSlot(int s, const RelightInput& in);
   // Sums the local lights' term of slot `s` (Slot::local) from its lit sources `lit`, in their order.
   void sumLocalLights(int s, std::span<const LitSource> lit);
+  // Source j's 12 planes in slot s, transposed from the block the first time they are asked for,
+  // so that a lit source is 12 streams over the probes (padding lanes 0).
+  const int16_t* sourcePlanes(int s, size_t j) {
+    Slot& sl = slots[s];
+    std::vector<int16_t>& planes = sl.lprt[j];
+    if (planes.empty()) {
+      const size_t stride = size_t(this->stride(s)), row = sl.sources.size() * 12;
+      planes.assign(12 * stride, 0);
+      const int16_t* src = sl.lprt_block.data() + j * 12;
+      for (int i = 0; i < sl.count; ++i)
+        for (size_t k = 0; k < 12; ++k) planes[k * stride + size_t(i)] = src[size_t(i) * row + k];
+    }
+    return planes.data();
+  }
 };
 
 ProbeCache::ProbeCache(ProbeCacheOptions options) : impl_(std::make_unique<Impl>()) {
@@ -561,20 +578,14 @@ Result<void> ProbeCache::addSector(const Sector& sector) {
         for (int a = 0; a < 3; ++a) b[a] = std::min(b[a], c[a]), b[3 + a] = std::max(b[3 + a], c[a]);
       }
   if (sources > 0) {
-    // Transposed once to planes per source, so that a lit source is 12 streams over the probes.
+    // Kept as the block came; a source is transposed to planes the first time it is lit
+    // (sourcePlanes). Few of a sector's sources ever are, and transposing all of them here was
+    // most of addSector's own time in a lit-island fly (perf, docs/runtime.md).
     const int stride = m.stride(s);
     sl.sources = sector.lprt.sources;
     sl.on_bases = sector.lprt_on_bases;
-    sl.lprt.assign(sources * 12 * size_t(stride), 0);
-    // Source by source: 12 sequential write streams, the reads 24 bytes a probe. Probe by probe
-    // (the block's order), each probe wrote 1,536 planes' lines, and the transpose was most of
-    // addSector's own time in a lit-island fly (perf).
-    for (size_t j = 0; j < sources; ++j) {
-      int16_t* dst = sl.lprt.data() + j * 12 * stride;
-      const int16_t* src = sector.lprt.coeffs.data() + j * 12;
-      for (int i = 0; i < n; ++i)
-        for (int k = 0; k < 12; ++k) dst[size_t(k) * stride + i] = src[size_t(i) * sources * 12 + k];
-    }
+    sl.lprt_block = sector.lprt.coeffs;
+    sl.lprt.assign(sources, {});
     sl.lprt_scale.assign(stride, 0.f);
     for (int i = 0; i < n; ++i) sl.lprt_scale[i] = sector.probes[i].lprt_range / kSnorm16Max;
     sl.local = AlignedFloats(size_t(12) * stride);
@@ -807,7 +818,7 @@ void ProbeCache::Impl::sumLocalLights(int s, std::span<const LitSource> lit) {
     float colour[12];
     for (int c = 0; c < 3; ++c)
       for (int k = 0; k < 4; ++k) colour[c * 4 + k] = a.colour[c];
-    accumulateSource(acc, sl.lprt.data() + a.j * 12 * stride, sl.lprt_scale.data(), n16, stride, colour);
+    accumulateSource(acc, sourcePlanes(s, a.j), sl.lprt_scale.data(), n16, stride, colour);
   }
   if (sl.on_bases) return;  // the sums are basis irradiance already
   // In SH: turned into the colour planes' units, in place (the padding lanes stay 0).

@@ -323,6 +323,9 @@ struct ProbeCache::Impl {
   std::vector<uint8_t> is_source;
   std::vector<glm::vec3> light_colour;  // [global probe id]
   std::vector<int> touched;             // ids with non-zero light_colour
+  // [global probe id]: light_colour[id] != 0. litSources tests every source of every slot at each
+  // relight; 12-byte colours there missed the cache at most of them (perf of the lit-island fly).
+  std::vector<uint8_t> is_lit;
   // The last sun-transfer weights (every sector of a world has the same samples: one
   // sunTransferWeights per relight, not per sector).
   std::vector<glm::vec3> sun_dirs_seen;
@@ -413,7 +416,7 @@ struct ProbeCache::Impl {
     const Slot& sl = slots[s];
     for (size_t j = 0; j < sl.sources.size(); ++j) {
       const int id = sl.source_ids[j];
-      if (id >= 0 && light_colour[id] != glm::vec3(0.f)) lit.push_back({j, light_colour[id]});
+      if (id >= 0 && is_lit[id]) lit.push_back({j, light_colour[id]});
     }
   }
   void relightSlot(int s, const RelightInput& in);
@@ -447,6 +450,7 @@ ProbeCache::ProbeCache(ProbeCacheOptions options) : impl_(std::make_unique<Impl>
   m.packed.assign(n * kSlotProbes * 3, 0);
   m.is_source.assign(n * kSlotProbes, 0);
   m.light_colour.assign(n * kSlotProbes, glm::vec3(0.f));
+  m.is_lit.assign(n * kSlotProbes, 0);
 }
 ProbeCache::~ProbeCache() = default;
 ProbeCache::ProbeCache(ProbeCache&&) noexcept = default;
@@ -613,7 +617,7 @@ bool ProbeCache::removeSector(SectorKey key) {
   if (s < 0) return false;
   m.slots[s] = Slot{};
   // Light shares on the removed probes are stale: clear them (the next relight recomputes).
-  for (int id : m.touched) m.light_colour[id] = glm::vec3(0.f);
+  for (int id : m.touched) m.light_colour[id] = glm::vec3(0.f), m.is_lit[id] = 0;
   m.touched.clear();
   m.resolveSources();
   return true;
@@ -730,13 +734,14 @@ std::vector<LightShare> ProbeCache::distributeLights(std::span<const PointLight>
 }
 
 void ProbeCache::Impl::setLights(std::span<const PointLight> lights) {
-  for (int id : touched) light_colour[id] = glm::vec3(0.f);
+  for (int id : touched) light_colour[id] = glm::vec3(0.f), is_lit[id] = 0;
   touched.clear();
   for (const LightShare& sh : distribute(lights)) {
     const int id = sh.probe.slot * kSlotProbes + sh.probe.index;
     if (light_colour[id] == glm::vec3(0.f)) touched.push_back(id);
     light_colour[id] += sh.colour;
   }
+  for (int id : touched) is_lit[id] = light_colour[id] != glm::vec3(0.f);
 }
 
 void ProbeCache::Impl::relightSlot(int s, const RelightInput& li) {

@@ -142,6 +142,33 @@ void BM_RelightChangedWith32MovingLights(benchmark::State& state) {
 }
 BENCHMARK(BM_RelightChangedWith32MovingLights)->Unit(benchmark::kMicrosecond);
 
+// What the fly over the lit island asks of the relight every frame at 0.2 h/s (60 Hz: 1/300 h a
+// frame, past the relight threshold every frame): every probe relit (relightAll) at a new hour,
+// with the LPRT lights of the frame. Args: the 32 movers still (0: an hour change alone) or moving
+// (1); fc3 with LPRT on bases (0) or the island's sh-l1 with a sun transfer and LPRT in SH (1).
+void BM_RelightHourChangeWithLprt(benchmark::State& state) {
+  const bool sh_l1 = state.range(1) != 0;
+  ProbeCache cache = makeCache(128, 4, LightSources::kVisibleFromLight, sh_l1 ? Representation::kShL1 : Representation::kFc3, sh_l1);
+  Movers m;
+  const Sky sky = Sky::tropicalDefault();
+  int frame = 0;
+  double hour = 8.0;
+  std::vector<PointLight> lights = m.at(frame);
+  for (auto _ : state) {
+    hour += 0.2 / 60.0;
+    if (state.range(0)) lights = m.at(++frame);
+    const SkyLighting s = sh_l1 ? evaluateSky(sky, hour, kLinearSunBand1, 0.f) : evaluateSky(sky, hour);
+    RelightInput in{s.sky_sh, s.sun_sh, s.sky_direct_sh, lights, kAllComponents};
+    in.sun_direction = s.sun_direction;
+    in.sun_irradiance = s.sun_irradiance;
+    in.sun_transfer = sh_l1;
+    cache.relightAll(in);
+    benchmark::ClobberMemory();
+  }
+  state.SetItemsProcessed(state.iterations() * cache.probeCount());
+}
+BENCHMARK(BM_RelightHourChangeWithLprt)->Args({0, 0})->Args({1, 0})->Args({0, 1})->Args({1, 1})->Unit(benchmark::kMicrosecond);
+
 // A whole frame of the engine with the 32 movers and the time of day standing still:
 // Runtime::setLights + update (relight, pack, refill the back buffer's changed texels, publish),
 // the camera still. Arg: blur (the lit island's volume is blurred).

@@ -81,7 +81,17 @@ struct Slot {
   std::vector<uint8_t> designated;  // probes flagged kProbeInterior (few: one per interior)
   // LPRT [2]
   std::vector<LprtSource> sources;
-  std::vector<int16_t> lprt;        // [source][channel * 4 + k][probe], planes of the slot stride
+  // The local lights' term of the colours (the last sum of probe_cache.h's formula, in the colour
+  // planes' units: lobes applied), of the sources and shares in `lit`, valid when `local_of_lit`.
+  // [channel * 4 + b][probe], planes of the slot stride (48 bytes a probe; only slots with LPRT).
+  // The sky and sun change with the hour, the lights do not: an hour's relight adds this to the
+  // sky's terms and re-sums it only where the lit sources changed (relightSlot).
+  AlignedFloats local;
+  bool local_of_lit = false;
+  std::vector<int16_t> lprt_block;  // the sector's block: [probe][source][channel * 4 + k]
+  // Per source, once it has been lit: [channel * 4 + k][probe], planes of the slot stride (empty
+  // until then; sourcePlanes).
+  std::vector<std::vector<int16_t>> lprt;
   std::vector<float> lprt_scale;    // lprt_range / 32767 per probe, padded to the stride with 0
   bool on_bases = true;
   std::vector<int32_t> source_ids;  // global probe id (slot * kSlotProbes + index) or -1
@@ -123,10 +133,11 @@ inline float clampColour(float x) {
   return m;
 }
 
-// colour[c][b][i] = dot(L[c], T[c][b][i]) + direct[c][b] v[b][i] for i < n, clamped if `clamp`.
-// Returns the bit pattern of the largest clamped value (0 if not clamping).
+// colour[c][b][i] = dot(L[c], T[c][b][i]) + direct[c][b] v[b][i] (+ local[c][b][i], the local
+// lights' term, unless `local` is null) for i < n, clamped. Returns the bit pattern of the largest
+// clamped value.
 DRTV_HOT_CLONES int32_t relightPlanes(const float* in, float* out, int n, int stride, const float (&lc)[3][4],
-                                      const float (&direct)[3][4], bool clamp) {
+                                      const float (&direct)[3][4], const float* local) {
   for (int c = 0; c < 3; ++c)
     for (int b = 0; b < 4; ++b) {
       const float* __restrict t0 = in + ((c * 4 + b) * 4 + 0) * stride;
@@ -137,13 +148,14 @@ DRTV_HOT_CLONES int32_t relightPlanes(const float* in, float* out, int n, int st
       float* __restrict o = out + (c * 4 + b) * stride;
       const float l0 = lc[c][0], l1 = lc[c][1], l2 = lc[c][2], l3 = lc[c][3], d = direct[c][b];
       // n is a multiple of 16 (the padding lanes hold zero inputs): no scalar epilogue.
-      if (clamp) {
-        for (int i = 0; i < n; ++i) o[i] = clampColour(l0 * t0[i] + l1 * t1[i] + l2 * t2[i] + l3 * t3[i] + d * v[i]);
+      if (local) {
+        const float* __restrict x = local + (c * 4 + b) * stride;
+        for (int i = 0; i < n; ++i) o[i] = clampColour(l0 * t0[i] + l1 * t1[i] + l2 * t2[i] + l3 * t3[i] + d * v[i] + x[i]);
       } else {
-        for (int i = 0; i < n; ++i) o[i] = l0 * t0[i] + l1 * t1[i] + l2 * t2[i] + l3 * t3[i] + d * v[i];
+        for (int i = 0; i < n; ++i) o[i] = clampColour(l0 * t0[i] + l1 * t1[i] + l2 * t2[i] + l3 * t3[i] + d * v[i]);
       }
     }
-  return clamp ? maxMagnitudeBits(out, n, stride) : 0;
+  return maxMagnitudeBits(out, n, stride);
 }
 
 // sh-l1's clamp of e1..3 (probe_cache.h): to +-kMaxColour, NaN to 0.
@@ -213,9 +225,10 @@ struct ShL1Weights {
   float a[12], b[12];
 };
 
-template <int L, bool kSun, bool kClamp>
+template <int L, bool kSun, bool kLocal>
 [[gnu::always_inline]] inline int32_t shL1Blocks(const float* __restrict in, float* __restrict out, int n, int stride,
-                                                 const ShL1Weights& w_, const float* __restrict sx, const float* __restrict sy) {
+                                                 const ShL1Weights& w_, const float* __restrict sx, const float* __restrict sy,
+                                                 const float* __restrict local) {
   using F = typename Lanes<L>::F;
   using I = typename Lanes<L>::I;
   const ShL1Weights w = w_;
@@ -223,6 +236,7 @@ template <int L, bool kSun, bool kClamp>
   for (int k = 0; k < n; k += 16, in += kShL1Block, sx += kSunBlock, sy += kSunBlock)
     for (int h = 0; h < 16; h += L) {
       float* o = out + k + h;
+      const float* x = local + k + h;  // plane-major, as `out`
 #pragma GCC unroll 12
       for (int q = 0; q < 12; ++q) {
         const int c = q / 4, i = q % 4;
@@ -233,16 +247,16 @@ template <int L, bool kSun, bool kClamp>
         F v = w.lc[c][0] * loadLanes<F>(t) + w.lc[c][1] * loadLanes<F>(t + 16) + w.lc[c][2] * loadLanes<F>(t + 32) +
               w.lc[c][3] * loadLanes<F>(t + 48) + w.d0[c] * p0 + w.d2[c] * p2;
         if constexpr (kSun) v = v + w.a[q] * loadLanes<F>(sx + q * 16 + h) + w.b[q] * loadLanes<F>(sy + q * 16 + h);
-        if constexpr (kClamp) {
-          v = i == 0 ? clampColourLanes(v) : clampSignedLanes(v);
-          // Clamped values order like their bit patterns once the sign bit is cleared.
-          I bits;
-          std::memcpy(&bits, &v, sizeof bits);
-          bits &= 0x7fffffff;
-          mx = bits > mx ? bits : mx;
-        }
+        if constexpr (kLocal) v = v + loadLanes<F>(x);
+        v = i == 0 ? clampColourLanes(v) : clampSignedLanes(v);
+        // Clamped values order like their bit patterns once the sign bit is cleared.
+        I bits;
+        std::memcpy(&bits, &v, sizeof bits);
+        bits &= 0x7fffffff;
+        mx = bits > mx ? bits : mx;
         storeLanes(o, v);
         o += stride;
+        x += stride;
       }
     }
   int32_t m = 0;
@@ -252,59 +266,38 @@ template <int L, bool kSun, bool kClamp>
 
 template <int L>
 [[gnu::always_inline]] inline int32_t shL1Relight(const float* in, float* out, int n, int stride, const ShL1Weights& w,
-                                                  const float* sx, const float* sy, bool clamp) {
+                                                  const float* sx, const float* sy, const float* local) {
   if (sx)
-    return clamp ? shL1Blocks<L, true, true>(in, out, n, stride, w, sx, sy) : shL1Blocks<L, true, false>(in, out, n, stride, w, sx, sy);
-  return clamp ? shL1Blocks<L, false, true>(in, out, n, stride, w, in, in) : shL1Blocks<L, false, false>(in, out, n, stride, w, in, in);
+    return local ? shL1Blocks<L, true, true>(in, out, n, stride, w, sx, sy, local) : shL1Blocks<L, true, false>(in, out, n, stride, w, sx, sy, in);
+  return local ? shL1Blocks<L, false, true>(in, out, n, stride, w, in, in, local) : shL1Blocks<L, false, false>(in, out, n, stride, w, in, in, in);
 }
 
 // sh-l1's relight of one slot's blocks, with its sun transfer's two samples sx, sy (or without,
 // sx = nullptr): e[c][i][k] = sum_j lc[c][j] M'[c][i][j][k] + d0[c] P0_i[k] + d2[c] P2_i[k]
-// (+ the sun's a x + b y), then clamped if `clamp` (e0 to [0, kMaxColour], e1..3 to +-kMaxColour,
-// NaN to 0). Returns the bit pattern of the largest |clamped value| (0 if not clamping). `n` a
-// multiple of 16. One version per target (GCC's function multiversioning, as DRTV_HOT_CLONES but
-// with the lanes each target wants).
+// (+ the sun's a x + b y) (+ local[c][i][k], the local lights' term, plane-major at `stride`,
+// unless null), then clamped (e0 to [0, kMaxColour], e1..3 to +-kMaxColour, NaN to 0). Returns the
+// bit pattern of the largest |clamped value|. `n` a multiple of 16. One version per target
+// (GCC's function multiversioning, as DRTV_HOT_CLONES but with the lanes each target wants).
 #ifdef DRTV_HOT_MULTIVERSION
 __attribute__((target("arch=x86-64-v4"))) int32_t relightBlocksShL1(const float* in, float* out, int n, int stride,
                                                                     const ShL1Weights& w, const float* sx, const float* sy,
-                                                                    bool clamp) {
-  return shL1Relight<16>(in, out, n, stride, w, sx, sy, clamp);
+                                                                    const float* local) {
+  return shL1Relight<16>(in, out, n, stride, w, sx, sy, local);
 }
 __attribute__((target("arch=x86-64-v3"))) int32_t relightBlocksShL1(const float* in, float* out, int n, int stride,
                                                                     const ShL1Weights& w, const float* sx, const float* sy,
-                                                                    bool clamp) {
-  return shL1Relight<8>(in, out, n, stride, w, sx, sy, clamp);
+                                                                    const float* local) {
+  return shL1Relight<8>(in, out, n, stride, w, sx, sy, local);
 }
 __attribute__((target("default")))
 #endif
 int32_t relightBlocksShL1(const float* in, float* out, int n, int stride, const ShL1Weights& w, const float* sx, const float* sy,
-                          bool clamp) {
-  return shL1Relight<8>(in, out, n, stride, w, sx, sy, clamp);
-}
-
-// `n` a multiple of 16 (the slot's padded count), as for the relight loops.
-DRTV_HOT_CLONES int32_t clampPlanesShL1(float* out, int n, int stride) {
-  for (int p = 0; p < kColourPlanes; ++p) {
-    float* __restrict o = out + p * stride;
-    if (p % 4 == 0) {
-      for (int k = 0; k < n; ++k) o[k] = clampColour(o[k]);
-    } else {
-      for (int k = 0; k < n; ++k) o[k] = clampSigned(o[k]);
-    }
-  }
-  return maxMagnitudeBits(out, n, stride);
+                          const float* local) {
+  return shL1Relight<8>(in, out, n, stride, w, sx, sy, local);
 }
 
 // The band factors of the clamped cosine (sh.h): irradiance SH e_i = kLobe[i] R_i.
 constexpr float kLobe[4] = {sh::kCosineLobe0, sh::kCosineLobe1, sh::kCosineLobe1, sh::kCosineLobe1};
-
-DRTV_HOT_CLONES int32_t clampPlanes(float* out, int n, int stride) {
-  for (int p = 0; p < kColourPlanes; ++p) {
-    float* __restrict o = out + p * stride;
-    for (int k = 0; k < n; ++k) o[k] = clampColour(o[k]);
-  }
-  return maxMagnitudeBits(out, n, stride);
-}
 
 // acc[k][i] += colour_k * scale[i] * q[k][i] for the 12 (channel, k) planes of one source.
 DRTV_HOT_CLONES void accumulateSource(float* acc, const int16_t* q, const float* scale, int n, int stride,
@@ -330,6 +323,9 @@ struct ProbeCache::Impl {
   std::vector<uint8_t> is_source;
   std::vector<glm::vec3> light_colour;  // [global probe id]
   std::vector<int> touched;             // ids with non-zero light_colour
+  // [global probe id]: light_colour[id] != 0. litSources tests every source of every slot at each
+  // relight; 12-byte colours there missed the cache at most of them (perf of the lit-island fly).
+  std::vector<uint8_t> is_lit;
   // The last sun-transfer weights (every sector of a world has the same samples: one
   // sunTransferWeights per relight, not per sector).
   std::vector<glm::vec3> sun_dirs_seen;
@@ -352,9 +348,16 @@ struct ProbeCache::Impl {
     return out.data + size_t(s) * kColourPlanes * kSlotProbes + size_t(p) * stride(s);
   }
 
+  // The used slots' keys side by side (a Slot is 4.5 KB: looking keys up in the slots touched a
+  // line per slot, and the look-ups of distribute, a few per light, were most of its time).
+  struct SlotKey {
+    SectorKey key{};
+    bool used = false;
+  };
+  std::vector<SlotKey> slot_keys;
   int slotOf(SectorKey key) const {
-    for (size_t s = 0; s < slots.size(); ++s)
-      if (slots[s].used && slots[s].key == key) return int(s);
+    for (size_t s = 0; s < slot_keys.size(); ++s)
+      if (slot_keys[s].used && slot_keys[s].key == key) return int(s);
     return -1;
   }
 
@@ -369,14 +372,23 @@ struct ProbeCache::Impl {
     return sl.nearest[IndexGrid::cellIndex(x, y, z)];
   }
 
+  // Runs at every addSector and removeSector. A slot's sources lie in its own sector and its
+  // neighbours: their slots are looked up once per slot (3 x 3), not once per source, which made
+  // this O(slots^2 x sources) and 10 % of the CPU of `drtv fly` over the lit island (51 LPRT
+  // sectors of 128 sources; perf, docs/runtime.md).
   void resolveSources() {
     std::fill(is_source.begin(), is_source.end(), 0);
     for (Slot& sl : slots) {
       if (!sl.used) continue;
       sl.source_ids.assign(sl.sources.size(), -1);
+      if (sl.sources.empty()) continue;
+      int near[3][3];
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) near[dy + 1][dx + 1] = slotOf({sl.key.ix + dx, sl.key.iy + dy});
       for (size_t j = 0; j < sl.sources.size(); ++j) {
         const LprtSource& src = sl.sources[j];
-        const int s2 = slotOf({sl.key.ix + src.dx, sl.key.iy + src.dy});
+        const bool close = src.dx >= -1 && src.dx <= 1 && src.dy >= -1 && src.dy <= 1;
+        const int s2 = close ? near[src.dy + 1][src.dx + 1] : slotOf({sl.key.ix + src.dx, sl.key.iy + src.dy});
         if (s2 < 0 || src.probe >= slots[s2].count) continue;
         const int id = s2 * kSlotProbes + src.probe;
         sl.source_ids[j] = id;
@@ -386,6 +398,7 @@ struct ProbeCache::Impl {
   }
 
   uint64_t slot_relights = 0;  // relightSlot calls (slotRelightCount)
+  uint64_t local_sums = 0;     // sumLocalLights calls (localSumCount)
 
   std::vector<LightShare> distribute(std::span<const PointLight> lights) const;
 
@@ -410,10 +423,26 @@ struct ProbeCache::Impl {
     const Slot& sl = slots[s];
     for (size_t j = 0; j < sl.sources.size(); ++j) {
       const int id = sl.source_ids[j];
-      if (id >= 0 && light_colour[id] != glm::vec3(0.f)) lit.push_back({j, light_colour[id]});
+      if (id >= 0 && is_lit[id]) lit.push_back({j, light_colour[id]});
     }
   }
   void relightSlot(int s, const RelightInput& in);
+  // Sums the local lights' term of slot `s` (Slot::local) from its lit sources `lit`, in their order.
+  void sumLocalLights(int s, std::span<const LitSource> lit);
+  // Source j's 12 planes in slot s, transposed from the block the first time they are asked for,
+  // so that a lit source is 12 streams over the probes (padding lanes 0).
+  const int16_t* sourcePlanes(int s, size_t j) {
+    Slot& sl = slots[s];
+    std::vector<int16_t>& planes = sl.lprt[j];
+    if (planes.empty()) {
+      const size_t stride = size_t(this->stride(s)), row = sl.sources.size() * 12;
+      planes.assign(12 * stride, 0);
+      const int16_t* src = sl.lprt_block.data() + j * 12;
+      for (int i = 0; i < sl.count; ++i)
+        for (size_t k = 0; k < 12; ++k) planes[k * stride + size_t(i)] = src[size_t(i) * row + k];
+    }
+    return planes.data();
+  }
 };
 
 ProbeCache::ProbeCache(ProbeCacheOptions options) : impl_(std::make_unique<Impl>()) {
@@ -423,11 +452,13 @@ ProbeCache::ProbeCache(ProbeCacheOptions options) : impl_(std::make_unique<Impl>
   m.opt = options;
   const size_t n = size_t(options.max_sectors);
   m.slots.resize(n);
+  m.slot_keys.resize(n);
   m.in = AlignedFloats(n * kInputPlanes * kSlotProbes);
   m.out = AlignedFloats(n * kColourPlanes * kSlotProbes);
   m.packed.assign(n * kSlotProbes * 3, 0);
   m.is_source.assign(n * kSlotProbes, 0);
   m.light_colour.assign(n * kSlotProbes, glm::vec3(0.f));
+  m.is_lit.assign(n * kSlotProbes, 0);
 }
 ProbeCache::~ProbeCache() = default;
 ProbeCache::ProbeCache(ProbeCache&&) noexcept = default;
@@ -477,6 +508,7 @@ Result<void> ProbeCache::addSector(const Sector& sector) {
   Slot& sl = m.slots[s];
   sl = Slot{};
   sl.used = true;
+  m.slot_keys[s] = {sector.key, true};
   const bool sh_l1 = m.opt.representation == Representation::kShL1;
   sl.key = sector.key;
   sl.count = n;
@@ -559,16 +591,17 @@ Result<void> ProbeCache::addSector(const Sector& sector) {
         for (int a = 0; a < 3; ++a) b[a] = std::min(b[a], c[a]), b[3 + a] = std::max(b[3 + a], c[a]);
       }
   if (sources > 0) {
-    // Transposed once to planes per source, so that a lit source is 12 streams over the probes.
+    // Kept as the block came; a source is transposed to planes the first time it is lit
+    // (sourcePlanes). Few of a sector's sources ever are, and transposing all of them here was
+    // most of addSector's own time in a lit-island fly (perf, docs/runtime.md).
     const int stride = m.stride(s);
     sl.sources = sector.lprt.sources;
     sl.on_bases = sector.lprt_on_bases;
-    sl.lprt.assign(sources * 12 * size_t(stride), 0);
-    for (int i = 0; i < n; ++i)
-      for (size_t j = 0; j < sources; ++j)
-        for (int k = 0; k < 12; ++k) sl.lprt[(j * 12 + k) * stride + i] = sector.lprt.coeffs[(size_t(i) * sources + j) * 12 + k];
+    sl.lprt_block = sector.lprt.coeffs;
+    sl.lprt.assign(sources, {});
     sl.lprt_scale.assign(stride, 0.f);
     for (int i = 0; i < n; ++i) sl.lprt_scale[i] = sector.probes[i].lprt_range / kSnorm16Max;
+    sl.local = AlignedFloats(size_t(12) * stride);
   }
   if (sector.sun && sh_l1) {
     const SunBlock& sun = *sector.sun;
@@ -592,8 +625,9 @@ bool ProbeCache::removeSector(SectorKey key) {
   const int s = m.slotOf(key);
   if (s < 0) return false;
   m.slots[s] = Slot{};
+  m.slot_keys[s] = {};
   // Light shares on the removed probes are stale: clear them (the next relight recomputes).
-  for (int id : m.touched) m.light_colour[id] = glm::vec3(0.f);
+  for (int id : m.touched) m.light_colour[id] = glm::vec3(0.f), m.is_lit[id] = 0;
   m.touched.clear();
   m.resolveSources();
   return true;
@@ -710,13 +744,14 @@ std::vector<LightShare> ProbeCache::distributeLights(std::span<const PointLight>
 }
 
 void ProbeCache::Impl::setLights(std::span<const PointLight> lights) {
-  for (int id : touched) light_colour[id] = glm::vec3(0.f);
+  for (int id : touched) light_colour[id] = glm::vec3(0.f), is_lit[id] = 0;
   touched.clear();
   for (const LightShare& sh : distribute(lights)) {
     const int id = sh.probe.slot * kSlotProbes + sh.probe.index;
     if (light_colour[id] == glm::vec3(0.f)) touched.push_back(id);
     light_colour[id] += sh.colour;
   }
+  for (int id : touched) is_lit[id] = light_colour[id] != glm::vec3(0.f);
 }
 
 void ProbeCache::Impl::relightSlot(int s, const RelightInput& li) {
@@ -733,12 +768,17 @@ void ProbeCache::Impl::relightSlot(int s, const RelightInput& li) {
     for (int b = 0; b < 4; ++b)
       direct[c][b] = li.components & kComponentDirectSky ? glm::dot(sh::cosineLobe(sh::kBasis[b]), li.sky_direct_sh[c]) : 0.f;
   }
-  // Local lights: only sources that received light cost anything.
-  litSources(s, li, sl.lit);
+  // Local lights: only sources that received light cost anything, and only when they (or their
+  // shares) changed since the slot's last relight; an hour's relight adds the kept sum.
+  thread_local std::vector<LitSource> now;
+  litSources(s, li, now);
+  const bool lprt = !now.empty();
+  if (lprt && !(sl.local_of_lit && now == sl.lit)) sumLocalLights(s, now);
+  std::swap(sl.lit, now);
+  sl.local_of_lit = lprt;
   sl.relit = true;
   ++slot_relights;
-  const std::vector<LitSource>& active = sl.lit;
-  const bool lprt = !active.empty();
+  const float* local = lprt ? sl.local.data : nullptr;
   const int stride = this->stride(s);
   const int n16 = (n + 15) & ~15;
   if (opt.representation == Representation::kShL1) {
@@ -772,60 +812,48 @@ void ProbeCache::Impl::relightSlot(int s, const RelightInput& li) {
         w.b[q] = k1 == k0 ? 0.f : sun_w_seen[k1] * e;
       }
       bits = relightBlocksShL1(blocks, outPlane(s, 0), n16, stride, w, sl.sun.data + k0 * 12 * size_t(stride),
-                               sl.sun.data + k1 * 12 * size_t(stride), !lprt);
+                               sl.sun.data + k1 * 12 * size_t(stride), local);
     } else {
-      bits = relightBlocksShL1(blocks, outPlane(s, 0), n16, stride, w, nullptr, nullptr, !lprt);
-    }
-    if (lprt) {
-      thread_local std::vector<float> scratch;
-      scratch.assign(size_t(12) * stride, 0.f);
-      for (const LitSource& a : active) {
-        float colour[12];
-        for (int c = 0; c < 3; ++c)
-          for (int k = 0; k < 4; ++k) colour[c * 4 + k] = a.colour[c];
-        accumulateSource(scratch.data(), sl.lprt.data() + a.j * 12 * stride, sl.lprt_scale.data(), n16, stride, colour);
-      }
-      for (int q = 0; q < 12; ++q) {
-        float* o = outPlane(s, q);
-        const float* x = scratch.data() + size_t(q) * stride;
-        for (int i = 0; i < n; ++i) o[i] += kLobe[q % 4] * x[i];
-      }
-      bits = clampPlanesShL1(outPlane(s, 0), n16, stride);
+      bits = relightBlocksShL1(blocks, outPlane(s, 0), n16, stride, w, nullptr, nullptr, local);
     }
     sl.max_colour = std::bit_cast<float>(bits);
     return;
   }
-  // Without local lights the clamp happens in the same pass; with them, after the LPRT sums.
-  int32_t max_bits = relightPlanes(inPlane(s, 0), outPlane(s, 0), n16, stride, lc, direct, !lprt);
-  if (lprt) {
-    // On bases the sums land in the colour planes directly; in SH they are summed apart and then
-    // turned into basis irradiance with the clamped-cosine lobes.
-    thread_local std::vector<float> scratch;
-    float* acc = outPlane(s, 0);
-    if (!sl.on_bases) {
-      scratch.assign(size_t(12) * stride, 0.f);
-      acc = scratch.data();
-    }
-    for (const LitSource& a : active) {
-      float colour[12];
-      for (int c = 0; c < 3; ++c)
-        for (int k = 0; k < 4; ++k) colour[c * 4 + k] = a.colour[c];
-      accumulateSource(acc, sl.lprt.data() + a.j * 12 * stride, sl.lprt_scale.data(), n16, stride, colour);
-    }
-    if (!sl.on_bases)
-      for (int c = 0; c < 3; ++c)
-        for (int b = 0; b < 4; ++b) {
-          const sh::Sh4 lobe = sh::cosineLobe(sh::kBasis[b]);
-          float* o = outPlane(s, c * 4 + b);
-          for (int i = 0; i < n; ++i) {
-            const float* q = acc + c * 4 * stride + i;
-            o[i] += lobe[0] * q[0] + lobe[1] * q[stride] + lobe[2] * q[2 * stride] + lobe[3] * q[3 * stride];
-          }
-        }
+  sl.max_colour = std::bit_cast<float>(relightPlanes(inPlane(s, 0), outPlane(s, 0), n16, stride, lc, direct, local));
+}
+
+void ProbeCache::Impl::sumLocalLights(int s, std::span<const LitSource> lit) {
+  Slot& sl = slots[s];
+  const int stride = this->stride(s);
+  const int n16 = (sl.count + 15) & ~15;
+  ++local_sums;
+  float* acc = sl.local.data;
+  std::fill_n(acc, size_t(12) * stride, 0.f);
+  for (const LitSource& a : lit) {
+    float colour[12];
+    for (int c = 0; c < 3; ++c)
+      for (int k = 0; k < 4; ++k) colour[c * 4 + k] = a.colour[c];
+    accumulateSource(acc, sourcePlanes(s, a.j), sl.lprt_scale.data(), n16, stride, colour);
   }
-  if (lprt) max_bits = clampPlanes(outPlane(s, 0), n16, stride);
-  const float mx = std::bit_cast<float>(max_bits);
-  sl.max_colour = mx;
+  if (sl.on_bases) return;  // the sums are basis irradiance already
+  // In SH: turned into the colour planes' units, in place (the padding lanes stay 0).
+  if (opt.representation == Representation::kShL1) {
+    for (int q = 0; q < 12; ++q) {
+      float* x = acc + size_t(q) * stride;
+      for (int i = 0; i < n16; ++i) x[i] = kLobe[q % 4] * x[i];
+    }
+    return;
+  }
+  // fc3 with an SH block: basis irradiance with the clamped-cosine lobes.
+  sh::Sh4 lobe[4];
+  for (int b = 0; b < 4; ++b) lobe[b] = sh::cosineLobe(sh::kBasis[b]);
+  for (int c = 0; c < 3; ++c) {
+    float* q = acc + size_t(c) * 4 * stride;
+    for (int i = 0; i < n16; ++i) {
+      const float r[4] = {q[i], q[stride + i], q[2 * stride + i], q[3 * stride + i]};
+      for (int b = 0; b < 4; ++b) q[b * stride + i] = lobe[b][0] * r[0] + lobe[b][1] * r[1] + lobe[b][2] * r[2] + lobe[b][3] * r[3];
+    }
+  }
 }
 
 void ProbeCache::relightAll(const RelightInput& in) {
@@ -854,6 +882,7 @@ std::vector<int> ProbeCache::relightChangedLights(const RelightInput& in) {
 }
 
 uint64_t ProbeCache::slotRelightCount() const { return impl_->slot_relights; }
+uint64_t ProbeCache::localSumCount() const { return impl_->local_sums; }
 
 void ProbeCache::relightSector(SectorKey key, const RelightInput& in) {
   Impl& m = *impl_;

@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <random>
+#include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -214,6 +216,138 @@ TEST(MovingLights, LightsAndTheTimeOfDayChangingTogetherRelightEverything) {
   rt.update(kCamera);
   EXPECT_EQ(rt.relightCount(), 2u);
   EXPECT_EQ(rt.lightRelightCount(), 0u);
+}
+
+
+// The relight keeps each slot's local lights' term and re-sums it only where the lit sources or
+// their shares changed (probe_cache.h). After any mix of hour changes, moves, dimming, sectors
+// streaming and a relight without local lights, through relightAll and relightChangedLights, the
+// colours are those of a fresh cache relit once at the final input, bit for bit: in fc3 with LPRT
+// on bases and in SH, and in sh-l1 with a sun transfer (the lit island's bake).
+TEST(MovingLights, KeptLocalSumsGiveTheColoursOfARelightFromScratchAfterAnyMix) {
+  struct Case {
+    const char* name;
+    ProbeCacheOptions options;
+    testing::SectorSpec spec;
+  };
+  for (const Case& k : {Case{"fc3, LPRT on bases", {}, {.probes = 70, .sources = 24}},
+                        Case{"fc3, LPRT in SH", {}, {.probes = 70, .sources = 24, .lprt_on_bases = false}},
+                        Case{"sh-l1, sun transfer",
+                             {.representation = Representation::kShL1},
+                             {.probes = 70, .sources = 24, .lprt_on_bases = false, .sky_fit = true, .sun_samples = 6}}}) {
+    SCOPED_TRACE(k.name);
+    const bool sh_l1 = k.options.representation == Representation::kShL1;
+    std::vector<Sector> sectors;
+    for (int y = -2; y <= 2; ++y)
+      for (int x = -2; x <= 2; ++x) sectors.push_back(testing::makeSector({x, y}, k.spec, 5));
+    sectors.push_back(testing::makeSector({3, 0}, k.spec, 5));  // streams in and out
+    auto sectorOf = [&](SectorKey key) -> const Sector& {
+      return *std::find_if(sectors.begin(), sectors.end(), [&](const Sector& s) { return s.key == key; });
+    };
+    ProbeCache cache(k.options);
+    for (size_t i = 0; i + 1 < sectors.size(); ++i) ASSERT_TRUE(cache.addSector(sectors[i]));
+
+    double hour = 7.0;
+    uint32_t components = kAllComponents;
+    std::vector<PointLight> lights = lightsAt(0);
+    auto input = [&] {
+      const SkyLighting s = sh_l1 ? evaluateSky(Sky::tropicalDefault(), hour, kLinearSunBand1, 0.f)
+                                  : evaluateSky(Sky::tropicalDefault(), hour);
+      RelightInput in{s.sky_sh, s.sun_sh, s.sky_direct_sh, lights, components};
+      in.sun_direction = s.sun_direction;
+      in.sun_irradiance = s.sun_irradiance;
+      in.sun_transfer = sh_l1;
+      return in;
+    };
+    cache.relightAll(input());
+    std::mt19937 rng(11);
+    bool must_relight_all = false;
+    for (int step = 1; step <= 24; ++step) {
+      SCOPED_TRACE("step " + std::to_string(step));
+      // The first six steps take each kind once; then at random.
+      const int op = step <= 6 ? step - 1 : int(rng() % 6);
+      bool lights_only = false;
+      if (must_relight_all) components = kAllComponents;  // back from the step without local lights
+      switch (op) {
+        case 0:  // the hour alone
+          hour += 0.25;
+          break;
+        case 1:  // the lights alone
+          lights = lightsAt(step);
+          lights_only = true;
+          break;
+        case 2:  // both
+          hour += 0.25;
+          lights = lightsAt(step);
+          break;
+        case 3:  // one light dimmed: the same sources, other shares
+          lights[3].intensity *= 0.5f;
+          lights_only = true;
+          break;
+        case 4: {  // a sector leaves and another takes its slot: shares move between sources
+          const bool in = cache.slotOf({3, 0}) >= 0;
+          ASSERT_TRUE(cache.removeSector(in ? SectorKey{3, 0} : SectorKey{2, 0}));
+          ASSERT_TRUE(cache.addSector(sectorOf(in ? SectorKey{2, 0} : SectorKey{3, 0})));
+          lights_only = true;
+          break;
+        }
+        case 5:  // a relight without local lights, the next step with them again
+          components = kAllComponents & ~kComponentLocalLights;
+          break;
+      }
+      const bool changed_only = lights_only && !must_relight_all && rng() % 2;
+      must_relight_all = op == 5;
+      if (changed_only) {
+        (void)cache.relightChangedLights(input());
+      } else {
+        cache.relightAll(input());
+      }
+
+      ProbeCache ref(k.options);
+      for (SectorKey key : cache.keys()) {
+        ASSERT_TRUE(ref.addSector(sectorOf(key)));
+        ASSERT_EQ(ref.slotOf(key), cache.slotOf(key));
+      }
+      ref.relightAll(input());
+      int mismatches = 0;
+      for (SectorKey key : ref.keys()) {
+        const int s = ref.slotOf(key);
+        for (int i = 0; i < ref.slot(s).probe_count; ++i) mismatches += !sameBits(ref.colours({s, i}), cache.colours({s, i}));
+      }
+      ASSERT_EQ(mismatches, 0) << "probes whose colours differ from a relight from scratch after op " << op;
+      EXPECT_EQ(ref.maxColour(), cache.maxColour());
+    }
+    // The kept sums were used: fewer sums than slot relights.
+    EXPECT_LT(cache.localSumCount(), cache.slotRelightCount());
+  }
+}
+
+// An hour's relight with the lights still re-sums no slot's local lights; one lamp moved re-sums
+// only the slots that hold its sources (those of its sector and the eight around it).
+TEST(MovingLights, AnHourChangeReSumsOnlyTheLocalLightsThatChanged) {
+  ProbeCache cache({.light_sources = LightSources::kNearest});  // the lamp's sources: the nearest, in (2, 2)
+  for (const Sector& s : lprtSectors()) ASSERT_TRUE(cache.addSector(s));
+  std::vector<PointLight> lights = lightsAt(0);
+  lights.push_back({"lamp", {160.0, 160.0, 14.0}, glm::vec3(5.f), 30.f});  // mid-sector (2, 2), 32 m from its edges
+  auto input = [&](double hour) {
+    const SkyLighting s = evaluateSky(Sky::tropicalDefault(), hour);
+    RelightInput in{s.sky_sh, s.sun_sh, s.sky_direct_sh, lights, kAllComponents};
+    in.sun_direction = s.sun_direction;
+    in.sun_irradiance = s.sun_irradiance;
+    return in;
+  };
+  cache.relightAll(input(9.0));
+  const uint64_t first = cache.localSumCount();
+  EXPECT_GT(first, 0u);
+  EXPECT_LE(first, 25u);
+  cache.relightAll(input(9.5));
+  EXPECT_EQ(cache.localSumCount(), first) << "the lights stood still";
+  EXPECT_EQ(cache.slotRelightCount(), 50u);
+  lights.back().position.x += 1.0;
+  cache.relightAll(input(10.0));
+  const uint64_t moved = cache.localSumCount() - first;
+  EXPECT_GT(moved, 0u);
+  EXPECT_LE(moved, 4u) << "its sources are in (2, 2): slots (1..2, 1..2) hold sources there";
 }
 
 }  // namespace

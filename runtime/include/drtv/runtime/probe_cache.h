@@ -23,6 +23,14 @@
 // Packing then converts each probe once to three RGBA8 texels (one per colour channel, RGBA =
 // the four basis intensities) for the volume fill to gather by index.
 //
+// The relight is linear in the lighting, and the local lights' sum does not depend on the hour:
+// each slot with LPRT keeps that term (12 planes, 48 bytes a probe at the slot stride, lobes
+// applied) with the lit sources and shares it was summed from. A relight re-sums it only when
+// they differ (a light moved, dimmed, or a sector came or went), else adds the kept planes in the
+// relight's own pass, so that a time-of-day relight costs the sky and sun terms plus the local
+// sum of the slots whose lights changed. Each term is always summed the same way, so the colours
+// are bit for bit those of a cache relit once from scratch with the same input.
+//
 // sh-l1 (representation.h): the same planes hold M'[c][i][j] = A_i M[c][i][j] (A = the clamped
 // cosine's band factors pi Y0, 2pi/3 Y1, so that the output is irradiance SH e) and, in planes
 // 48..55, the direct sky's per-probe factors P0_i = A_i Y0 s_i and P2_i = A_i (i = 0: Y0 s_2;
@@ -165,7 +173,9 @@ class ProbeCache {
   int probeCount() const;
   std::vector<SectorKey> keys() const;
 
-  // Relights every resident probe (and redistributes the lights over all source probes).
+  // Relights every resident probe (and redistributes the lights over all source probes). A slot's
+  // local lights' term is re-summed only if its lit sources or their shares changed since its last
+  // relight (see the header comment); the colours are the same either way, bit for bit.
   void relightAll(const RelightInput& in);
   // Relights only `key`'s probes (precondition: resident); lights are redistributed over all
   // resident source probes, but other sectors keep their colours until the next relightAll.
@@ -183,6 +193,9 @@ class ProbeCache {
   // Slot relights done so far by relightAll, relightSector and relightChangedLights (for tests
   // and benchmarks of "relight only what the lights reach").
   uint64_t slotRelightCount() const;
+  // Local lights' sums done so far (a slot relight whose lit sources and shares were those of its
+  // last relight adds the kept sum instead; for tests and benchmarks of that).
+  uint64_t localSumCount() const;
 
   // The shares of `lights` on resident LPRT source probes (see the header comment).
   std::vector<LightShare> distributeLights(std::span<const PointLight> lights) const;

@@ -9,6 +9,7 @@
 
 #include "../../eval/techniques/sweep/model_material.h"
 #include "../../eval/techniques/sweep/sweep_material.h"
+#include "drtv/eval/technique.h"
 #include "drtv/raytrace/world_geometry.h"
 
 namespace drtv::eval {
@@ -123,6 +124,58 @@ TEST(ModelMaterial, PlacedCrownsResampleCloseToTheirRayCastMaterial) {
   constexpr double kTotalTol = 0.25, kMeanAbsTol = 0.15;
   EXPECT_NEAR(sum_models / sum_rays, 1.0, kTotalTol) << "rays " << sum_rays << ", models " << sum_models;
   EXPECT_LT(diff / double(cells), kMeanAbsTol) << "over " << cells << " cells";
+}
+
+// The technique with material=models: flat ground over 2 x 1 sectors and rotated crowns and boxes
+// across their border, prepared on 1 and on 2 threads, reads the same light bit for bit (each
+// sector's grid is its own slot; the resampling keeps no shared state), and not the same light as
+// the ray-cast material everywhere (the option is in use).
+TEST(ModelMaterial, TheTechniquesModelsMaterialIsTheSameWhateverTheThreads) {
+  worlds::World w;
+  worlds::Mesh ground;
+  ground.positions = {{0, 0, 0}, {128, 0, 0}, {128, 64, 0}, {0, 64, 0}};
+  ground.indices = {0, 1, 2, 0, 2, 3};
+  ground.albedo = glm::vec3(0.3f);
+  ground.name = "ground";
+  w.meshes = {ground, crown(), unitBox(glm::vec3(0.6f))};
+  w.instances.push_back({0, glm::dmat4(1.0), worlds::InstanceClass::kTerrain, "ground"});
+  for (int i = 0; i < 8; ++i) {
+    w.instances.push_back({1, place({50.0 + 4.1 * i, 20.0 + 3.7 * i, 0}, 0.6 * i, glm::dvec3(1.5 + 0.1 * i)), worlds::InstanceClass::kVegetation, "tree"});
+    w.instances.push_back({2, place({55.0 + 2.3 * i, 45.0, 1.5}, 0.4 * i, {1, 6, 3}), worlds::InstanceClass::kStatic, "wall"});
+  }
+  w.effects = worlds::defaultEffects(w);
+  auto prepared = [&](const TechniqueParams& p, int threads) {
+    auto t = makeTechnique("sweep", p);
+    EXPECT_TRUE(t.has_value()) << t.error().message;
+    PrepareInput in{w, "trees", {0, 1, 0, 0}, 1, threads, nullptr};
+    auto ok = (*t)->prepare(in);
+    EXPECT_TRUE(ok.has_value()) << ok.error().message;
+    auto lit = (*t)->setLighting(9.0, {});
+    EXPECT_TRUE(lit.has_value()) << lit.error().message;
+    return std::move(*t);
+  };
+  const auto one = prepared({{"material", "models"}}, 1), two = prepared({{"material", "models"}}, 2);
+  const auto rays = prepared({}, 2);
+  int differ = 0, n = 0;
+  for (double x = 40.5; x < 90; x += 3.1)
+    for (double y = 10.5; y < 55; y += 2.9)
+      for (double z : {0.2, 2.5, 5.0}) {
+        const glm::dvec3 p(x, y, z);
+        const glm::vec3 nrm = glm::normalize(glm::vec3(std::sin(x), std::cos(y), 0.5f));
+        ASSERT_EQ(one->ambient(p, nrm), two->ambient(p, nrm)) << x << ", " << y << ", " << z;
+        differ += one->ambient(p, nrm) != rays->ambient(p, nrm);
+        ++n;
+      }
+  EXPECT_GT(differ, n / 10) << "material=models changed nothing";
+}
+
+TEST(ModelMaterial, TheTechniqueRefusesAnUnknownMaterialAndAVoxelOutOfRange) {
+  auto bad = makeTechnique("sweep", {{"material", "voxels"}});
+  ASSERT_FALSE(bad.has_value());
+  EXPECT_NE(bad.error().message.find("material=voxels"), std::string::npos) << bad.error().message;
+  EXPECT_FALSE(makeTechnique("sweep", {{"model_voxel_m", "0.001"}}).has_value());
+  EXPECT_FALSE(makeTechnique("sweep", {{"ground_blend", "9"}}).has_value());
+  EXPECT_TRUE(makeTechnique("sweep", {{"material", "models"}, {"model_voxel_m", "0.1"}, {"ground_blend", "0"}}).has_value());
 }
 
 }  // namespace

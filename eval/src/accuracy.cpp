@@ -303,7 +303,7 @@ std::vector<RowSpec> sweepRows() {
     for (const std::string& v : values)
       rows.push_back({std::string("sweep_") + knob, v, v == def, "sweep", v == def ? TechniqueParams{} : TechniqueParams{{knob, v}}, note});
   };
-  add("ground_blend", {"0", "1", "2"}, "2", "the seed's ground-proximity blend over this many cells above the terrain (0: off)");
+  add("ground_blend", {"0", "1", "2", "4"}, "2", "the seed's ground-proximity blend over this many cells above the terrain (0: off)");
   add("material", {"raycast", "models"}, "raycast", "the fine grids' material: ray cast, or per-model grids (OpenVDB) resampled");
   return rows;
 }

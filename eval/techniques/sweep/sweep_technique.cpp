@@ -72,8 +72,9 @@ struct Params {
   float smoothing = sweep::SweepOptions{}.smoothing;
   double sun_disc_deg = 3.0;
   double offset_cells = 0.5;
-  // 2 cells: of 0, 1 and 2, the lowest error on the test box (15.4 / 13.8 / 13.0 %) and on the
-  // island (9.3 / 9.2 / 9.2 %), `drtv accuracy --sweep-knobs` (docs/sweep.md).
+  // 2 cells: of 0, 1, 2 and 4, the lowest error on the test box (15.4 / 13.8 / 13.0 / 13.6 %) and
+  // the Cornell world (28.9 / 29.1 / 28.9 / 29.5 %); the island 9.3 / 9.2 / 9.2 / 9.1 %
+  // (`drtv accuracy --sweep-knobs`, docs/sweep.md).
   double ground_blend_cells = 2.0;
   double ray_spacing_m = VoxelOptions{}.ray_spacing_m;
   bool models = false;

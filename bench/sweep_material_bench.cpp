@@ -38,9 +38,9 @@ struct Scene {
   std::vector<sweep::GridShape> shapes;  // the block's fine grids
 };
 
-const Scene& sceneOf(const std::string& file, raytrace::SectorRange block) {
-  static std::map<std::string, std::unique_ptr<Scene>> cache;
-  auto& slot = cache[file];
+const Scene& sceneOf(const std::string& file, raytrace::SectorRange block, double voxel_m = ModelVoxelOptions{}.voxel_m) {
+  static std::map<std::pair<std::string, double>, std::unique_ptr<Scene>> cache;
+  auto& slot = cache[{file, voxel_m}];
   if (slot) return *slot;
   slot = std::make_unique<Scene>();
   Scene& s = *slot;
@@ -50,7 +50,7 @@ const Scene& sceneOf(const std::string& file, raytrace::SectorRange block) {
   auto g = raytrace::WorldGeometry::build(s.world, file);
   if (!g) die(g.error().message);
   s.geo = std::move(*g);
-  auto m = ModelMaterial::build(s.world, {});
+  auto m = ModelMaterial::build(s.world, {voxel_m});
   if (!m) die(m.error().message);
   s.models = std::move(*m);
   s.rest.meshes = s.world.meshes;
@@ -67,7 +67,7 @@ const Scene& sceneOf(const std::string& file, raytrace::SectorRange block) {
       const double lo = std::floor(double(sg.z_min)) - 1, hi = std::ceil(double(sg.z_max)) + 2;
       s.shapes.push_back({{64.0 * x, 64.0 * y, lo}, 1.0, {64, 64, int(std::lround(hi - lo))}});
     }
-  std::fprintf(stderr, "%s: %zu models, %zu placements, %zu voxels, voxelised in %.3f s\n", file.c_str(), s.models->stats().models,
+  std::fprintf(stderr, "%s, voxel %.3f m: %zu models, %zu placements, %zu voxels, voxelised in %.3f s\n", file.c_str(), voxel_m, s.models->stats().models,
                s.models->stats().placements, s.models->stats().voxels, s.models->stats().build_s);
   return s;
 }
@@ -99,8 +99,8 @@ void rayCastBlock(benchmark::State& state, const std::string& file, raytrace::Se
   perSector(state, s);
 }
 
-void modelsBlock(benchmark::State& state, const std::string& file, raytrace::SectorRange block) {
-  const Scene& s = sceneOf(file, block);
+void modelsBlock(benchmark::State& state, const std::string& file, raytrace::SectorRange block, double voxel_m = ModelVoxelOptions{}.voxel_m) {
+  const Scene& s = sceneOf(file, block, voxel_m);
   for (auto _ : state)
     for (const auto& shape : s.shapes) benchmark::DoNotOptimize(fromModels(s, shape));
   perSector(state, s);
@@ -133,8 +133,8 @@ void modelsBlock(benchmark::State& state, const std::string& file, raytrace::Sec
   state.counters["mean_abs_refl"] = both > 0 ? refl / both : 0.0;
 }
 
-void resampleBlock(benchmark::State& state, const std::string& file, raytrace::SectorRange block) {
-  const Scene& s = sceneOf(file, block);
+void resampleBlock(benchmark::State& state, const std::string& file, raytrace::SectorRange block, double voxel_m = ModelVoxelOptions{}.voxel_m) {
+  const Scene& s = sceneOf(file, block, voxel_m);
   for (auto _ : state)
     for (const auto& shape : s.shapes) benchmark::DoNotOptimize(s.models->resample(shape));
   perSector(state, s);
@@ -151,14 +151,17 @@ void restRayCastBlock(benchmark::State& state, const std::string& file, raytrace
 }
 
 void BM_IslandRayCast(benchmark::State& st) { rayCastBlock(st, "worlds/island.json", kIslandBlock); }
-void BM_IslandModels(benchmark::State& st) { modelsBlock(st, "worlds/island.json", kIslandBlock); }
-void BM_IslandModelsResampleOnly(benchmark::State& st) { resampleBlock(st, "worlds/island.json", kIslandBlock); }
+// The argument: the model voxels' edge, millimetres (ModelVoxelOptions::voxel_m).
+void BM_IslandModels(benchmark::State& st) { modelsBlock(st, "worlds/island.json", kIslandBlock, 1e-3 * double(st.range(0))); }
+void BM_IslandModelsResampleOnly(benchmark::State& st) {
+  resampleBlock(st, "worlds/island.json", kIslandBlock, 1e-3 * double(st.range(0)));
+}
 void BM_IslandTerrainAndLargeRayCastOnly(benchmark::State& st) { restRayCastBlock(st, "worlds/island.json", kIslandBlock); }
 void BM_TestboxRayCast(benchmark::State& st) { rayCastBlock(st, "worlds/fc3_testbox.json", kTestboxBlock); }
 void BM_TestboxModels(benchmark::State& st) { modelsBlock(st, "worlds/fc3_testbox.json", kTestboxBlock); }
 BENCHMARK(BM_IslandRayCast)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_IslandModels)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_IslandModelsResampleOnly)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_IslandModels)->Arg(125)->Arg(250)->Arg(500)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_IslandModelsResampleOnly)->Arg(125)->Arg(250)->Arg(500)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_IslandTerrainAndLargeRayCastOnly)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_TestboxRayCast)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_TestboxModels)->Unit(benchmark::kMillisecond);

@@ -128,6 +128,13 @@ Result<ModelMaterial> ModelMaterial::build(const worlds::World& world, const Mod
     } catch (const openvdb::Exception& e) {
       return fail("sweep: model '" + mesh.name + "': OpenVDB: " + e.what());
     }
+    // Where blocking voxels can be: a voxel blocks when its centre is inside the mesh (solid) or
+    // within the shell of it (surface), and reaches half a voxel further; one voxel more for the
+    // distances' rounding. The placements' boxes are this, not the dense grid with its margin:
+    // with 0.5 m voxels the margin had made the resampled regions twice as large.
+    const double reach = (solid ? 0.0 : double(shell())) + 1.5;
+    m.reach_min = lo - reach * m.voxel;
+    m.reach_max = hi + reach * m.voxel;
     use.model = uint32_t(out.models_.size());
     out.stats_.voxels += m.blocks.size();
     out.models_.push_back(std::move(m));
@@ -144,9 +151,9 @@ Result<ModelMaterial> ModelMaterial::build(const worlds::World& world, const Mod
     p.to_model = to_voxels * glm::inverse(inst.transform);
     p.min = glm::dvec3(1e300);
     p.max = glm::dvec3(-1e300);
-    const glm::dvec3 top = m.origin + glm::dvec3(m.size) * m.voxel;
     for (int c = 0; c < 8; ++c) {
-      const glm::dvec3 corner((c & 1) ? top.x : m.origin.x, (c & 2) ? top.y : m.origin.y, (c & 4) ? top.z : m.origin.z);
+      const glm::dvec3 corner((c & 1) ? m.reach_max.x : m.reach_min.x, (c & 2) ? m.reach_max.y : m.reach_min.y,
+                              (c & 4) ? m.reach_max.z : m.reach_min.z);
       const glm::dvec3 w(inst.transform * glm::dvec4(corner, 1.0));
       p.min = glm::min(p.min, w);
       p.max = glm::max(p.max, w);

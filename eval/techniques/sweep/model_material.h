@@ -50,7 +50,11 @@
 namespace drtv::eval {
 
 struct ModelVoxelOptions {
-  double voxel_m = 0.25;         // a model voxel's edge in the world at its largest placement scale, metres
+  // A model voxel's edge in the world at its largest placement scale, metres. 0.125: of 0.125,
+  // 0.25 and 0.5 the closest to the ray-cast grids and the fastest to resample (the shell and the
+  // placements' boxes shrink with the voxels), `drtv accuracy --sweep-knobs` and
+  // drtv_sweep_material_bench on the island (docs/sweep.md).
+  double voxel_m = 0.125;
   size_t max_voxels = 1u << 24;  // per model; a model needing more gets coarser voxels (bytes: 1 each)
 };
 
@@ -87,6 +91,7 @@ class ModelMaterial {
  private:
   struct Model {
     glm::dvec3 origin{0.0};  // model-frame position of voxel (0, 0, 0)'s min corner
+    glm::dvec3 reach_min{0.0}, reach_max{0.0};  // model-frame box holding every blocking voxel
     glm::dvec3 voxel{1.0};   // voxel edges, model units, per model axis
     glm::ivec3 size{0};
     std::vector<uint8_t> blocks;  // per voxel i + size.x (j + size.y k): 1 = blocks light

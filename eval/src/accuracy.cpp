@@ -326,6 +326,22 @@ std::vector<RowSpec> lpvRows() {
   return rows;
 }
 
+// The sweep's knobs (eval/techniques/sweep, docs/sweep.md), one at a time around its defaults
+// (AccuracyOptions::sweep_knobs).
+std::vector<RowSpec> sweepRows() {
+  std::vector<RowSpec> rows;
+  auto add = [&](const char* knob, std::vector<std::string> values, const std::string& def, const std::string& note) {
+    for (const std::string& v : values)
+      rows.push_back({std::string("sweep_") + knob, v, v == def, "sweep", v == def ? TechniqueParams{} : TechniqueParams{{knob, v}}, note});
+  };
+  add("ground_blend", {"0", "1", "2", "4"}, "2", "the seed's ground-proximity blend over this many cells above the terrain (0: off)");
+  add("material", {"raycast", "models"}, "raycast", "the fine grids' material: ray cast, or per-model grids (OpenVDB) resampled");
+  for (const char* v : {"0.25", "0.5"})
+    rows.push_back({"sweep_model_voxel_m", v, false, "sweep", TechniqueParams{{"material", "models"}, {"model_voxel_m", v}},
+                    "material=models with model voxels of this many metres (0.125: the sweep_material models row)"});
+  return rows;
+}
+
 // Rays of the category tests (SurfaceCategory): upper-hemisphere sky and the horizontal wall search.
 constexpr int kCategorySkyRays = 32, kCategoryWallRays = 8;
 constexpr double kEnclosedSkyFraction = 0.3, kWallDistanceM = 2.0, kWallNormalZ = 0.5;
@@ -682,6 +698,9 @@ Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::st
 
   if (options.lpv_knobs)
     for (const RowSpec& spec : lpvRows())
+      if (auto v = rows.evaluate(spec); !v) return std::unexpected(v.error());
+  if (options.sweep_knobs)
+    for (const RowSpec& spec : sweepRows())
       if (auto v = rows.evaluate(spec); !v) return std::unexpected(v.error());
   if (options.cube_knobs)
     for (const RowSpec& spec : cubeRows(base->manifest.effects))

@@ -21,6 +21,7 @@ struct AccuracyCliOptions {
   std::vector<std::string> techniques;
   bool lpv_knobs = false;
   bool cube_knobs = false;
+  bool sweep_knobs = false;
   bool stratify = false;
 };
 
@@ -59,6 +60,7 @@ Command registerAccuracy(CLI::App& app) {
       ->delimiter(',');
   sub->add_flag("--lpv-knobs", o->lpv_knobs, "Also LPV's knob rows (cells, cascades, iterations, RSM size, occlusion, ...): minutes each");
   sub->add_flag("--cube-knobs", o->cube_knobs, "Also the ambient cube's rows (each term alone, the sun transfer off): seconds each");
+  sub->add_flag("--sweep-knobs", o->sweep_knobs, "Also the sweep's knob rows (ground-proximity blend, material from models): seconds each");
   sub->add_flag("--stratify", o->stratify,
                 "Give each surface category found (open ground, walls, enclosed) an equal share of the static points; the totals then "
                 "weigh the categories equally");
@@ -66,6 +68,7 @@ Command registerAccuracy(CLI::App& app) {
             eval::AccuracyOptions opts;
             opts.lpv_knobs = o->lpv_knobs;
             opts.cube_knobs = o->cube_knobs;
+            opts.sweep_knobs = o->sweep_knobs;
             opts.stratify = o->stratify;
             auto hours = parseHours(o->times);
             if (!hours) return std::unexpected(hours.error());

@@ -18,6 +18,8 @@ struct Accum {
   std::vector<glm::vec3> ground_albedo, object_albedo;
   std::vector<uint32_t> ground_hits, object_hits;
   std::vector<float> ground_top;     // per column: the highest terrain hit
+  std::vector<double> ground_sum;    // per column: the sum of the downward rays' terrain hits
+  std::vector<uint32_t> ground_rays; // ... and how many there were
 };
 
 // One ray along `axis` through the grid: marks the cells it is blocked in.
@@ -74,6 +76,8 @@ struct Tracer {
         if (axis == 2) {
           const size_t col = size_t(fixed.x) + size_t(s.size.x) * size_t(fixed.y);
           acc.ground_top[col] = std::max(acc.ground_top[col], float(start.z - t));
+          acc.ground_sum[col] += start.z - t;
+          ++acc.ground_rays[col];
           const double zg = start.z - t - bias_m;
           glm::ivec3 idx = fixed;
           for (int k = 0; k < s.size.z; ++k) {
@@ -110,7 +114,13 @@ struct Tracer {
 
 }  // namespace
 
-Result<sweep::MaterialGrid> voxelise(const raytrace::WorldGeometry& geometry, const sweep::GridShape& s, const VoxelOptions& o) {
+Result<sweep::MaterialGrid> voxelise(const raytrace::WorldGeometry& geometry, const sweep::GridShape& s, const VoxelOptions& o,
+                                     std::vector<float>* ground_mean_z) {
+  return voxelise(&geometry, s, o, ground_mean_z, nullptr);
+}
+
+Result<sweep::MaterialGrid> voxelise(const raytrace::WorldGeometry* geometry, const sweep::GridShape& s, const VoxelOptions& o,
+                                     std::vector<float>* ground_mean_z, const ObjectLayer* objects) {
   const double per_sector = kSectorSizeM / s.cell_m;
   if (std::abs(per_sector - std::round(per_sector)) > 1e-9 || per_sector < 1)
     return fail("sweep: cell size " + std::to_string(s.cell_m) + " m does not divide a 64 m sector");
@@ -124,13 +134,15 @@ Result<sweep::MaterialGrid> voxelise(const raytrace::WorldGeometry& geometry, co
   acc.ground_hits.assign(cells, 0);
   acc.object_hits.assign(cells, 0);
   acc.ground_top.assign(size_t(s.size.x) * size_t(s.size.y), -std::numeric_limits<float>::infinity());
+  acc.ground_sum.assign(acc.ground_top.size(), 0.0);
+  acc.ground_rays.assign(acc.ground_top.size(), 0);
   const glm::dvec3 hi = s.max();
   const SectorKey k0 = sectorAt(s.origin.x, s.origin.y), k1 = sectorAt(hi.x - 1e-6, hi.y - 1e-6);
   const int cps = int(std::round(per_sector));
-  for (int32_t sy = k0.iy; sy <= k1.iy; ++sy)
+  for (int32_t sy = k0.iy; sy <= k1.iy && geometry; ++sy)
     for (int32_t sx = k0.ix; sx <= k1.ix; ++sx) {
       const SectorKey key{sx, sy};
-      const raytrace::SectorGeometry sg = geometry.gather(key, o.halo_m);
+      const raytrace::SectorGeometry sg = geometry->gather(key, o.halo_m);
       if (sg.triangleCount() == 0) continue;
       auto scene = raytrace::RayScene::build(sg.vertices, sg.twoSided());
       if (!scene) return std::unexpected(scene.error().context("sweep: sector " + toString(key)));
@@ -158,16 +170,33 @@ Result<sweep::MaterialGrid> voxelise(const raytrace::WorldGeometry& geometry, co
     }
   sweep::MaterialGrid m = sweep::MaterialGrid::clear(s);
   m.ground_z = acc.ground_top;
+  if (ground_mean_z) {
+    ground_mean_z->assign(acc.ground_top.size(), std::numeric_limits<float>::quiet_NaN());
+    for (size_t c = 0; c < acc.ground_top.size(); ++c)
+      if (acc.ground_rays[c]) (*ground_mean_z)[c] = float(acc.ground_sum[c] / double(acc.ground_rays[c]));
+  }
   const float rays = float(n * n);
   for (size_t c = 0; c < cells; ++c) {
-    const float obj = std::min(1.f, float(acc.blocked[0][c] + acc.blocked[1][c] + acc.blocked[2][c]) / (3.f * rays));
+    float obj = std::min(1.f, float(acc.blocked[0][c] + acc.blocked[1][c] + acc.blocked[2][c]) / (3.f * rays));
+    const bool modelled = objects && objects->share[c] > 0.f;
+    glm::vec3 object_albedo(0.f);
+    if (modelled) {
+      const float om = objects->share[c];
+      const glm::vec3 rays_albedo = acc.object_hits[c] ? acc.object_albedo[c] / float(acc.object_hits[c]) : glm::vec3(0.f);
+      object_albedo = (obj * rays_albedo + om * objects->reflectance[c]) / (obj + om);
+      obj = 1.f - (1.f - obj) * (1.f - om);
+    }
+    const bool has_objects = modelled || acc.object_hits[c] != 0;
     const float g = std::min(1.f, acc.ground[c] / rays);
     m.density[c] = 1.f - (1.f - g) * (1.f - obj);
     const float wg = g, wo = (1.f - g) * obj;
     glm::vec3 r(0.f);
     if (acc.ground_hits[c]) r += wg * acc.ground_albedo[c] / float(acc.ground_hits[c]);
-    if (acc.object_hits[c]) r += wo * acc.object_albedo[c] / float(acc.object_hits[c]);
-    const float w = (acc.ground_hits[c] ? wg : 0.f) + (acc.object_hits[c] ? wo : 0.f);
+    if (modelled)
+      r += wo * object_albedo;
+    else if (acc.object_hits[c])
+      r += wo * acc.object_albedo[c] / float(acc.object_hits[c]);
+    const float w = (acc.ground_hits[c] ? wg : 0.f) + (has_objects ? wo : 0.f);
     m.reflectance[c] = w > 0 ? glm::clamp(r / w, 0.f, 1.f) : glm::vec3(0.f);
   }
   return m;

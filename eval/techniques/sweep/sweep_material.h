@@ -26,6 +26,7 @@
 #include "drtv/formats/error.h"
 #include "drtv/raytrace/world_geometry.h"
 #include "drtv/sweep/grid.h"
+#include "model_material.h"
 
 namespace drtv::eval {
 
@@ -38,8 +39,18 @@ struct VoxelOptions {
 };
 
 // The material grid of `shape` from `geometry`'s terrain, static and vegetation triangles. Errors:
-// Embree's (out of memory), a shape whose cells straddle sectors.
+// Embree's (out of memory), a shape whose cells straddle sectors. With `ground_mean_z`, also the
+// mean height of each column's downward rays' terrain hits (world metres, per column
+// i + size.x j; NaN where none hit terrain): the ground under the column's centre, not its
+// highest point (ground_z).
 Result<sweep::MaterialGrid> voxelise(const raytrace::WorldGeometry& geometry, const sweep::GridShape& shape,
-                                     const VoxelOptions& options);
+                                     const VoxelOptions& options, std::vector<float>* ground_mean_z = nullptr);
+
+// As above, with `objects` (model_material.h: the placed models resampled over `shape`) combined
+// with the ray-cast objects as transmittances multiply, o = 1 - (1 - o_rays)(1 - o_models), their
+// reflectance the o-weighted mean; `geometry` may be null (nothing ray cast: no ground, no
+// ground_z). Without objects it is the function above, bit for bit.
+Result<sweep::MaterialGrid> voxelise(const raytrace::WorldGeometry* geometry, const sweep::GridShape& shape,
+                                     const VoxelOptions& options, std::vector<float>* ground_mean_z, const ObjectLayer* objects);
 
 }  // namespace drtv::eval

@@ -3,7 +3,8 @@
 // fine grid per sector of the block, its height following that sector's geometry (terrain and
 // vegetation, seed 001: "grid height depends on vegetation height"). setLighting() sweeps them
 // all: the coarse grid from the sky, each fine grid with its edges from the coarse grid. ambient()
-// reads the finest grid that holds the point, offset along the normal. Point lights are not
+// reads the finest grid that holds the point, offset along the normal, and within `ground_blend`
+// cells of the terrain blends toward the ground normal's irradiance (ground_blend.h). Point lights are not
 // part of the model (seed 001 has none): they are ignored. Parameters:
 //   cell_m        1 | 2 | 4 | 8 | 16 | 32 | 64   the fine grids' cell edge, metres (0: no fine grids)
 //   coarse_m      2 .. 64 (divides 64)          the coarse grid's cell edge, metres
@@ -11,7 +12,16 @@
 //   smoothing     [0, 1]                        SweepOptions::smoothing
 //   sun_disc_deg  (0, 45]                       the sun disc's angular radius (directions.h)
 //   offset        [0, 4]                        the lookup's offset along the normal, in cells
+//   ground_blend  [0, 8]                        the seed's ground-proximity blend (ground_blend.h)
+//                                               over this many fine cells above the terrain
+//                                               (0: off; default 2)
 //   ray_spacing_m (0, 64]                       VoxelOptions::ray_spacing_m
+//   material      raycast | models              the fine grids' material: every triangle ray cast
+//                                               per sector (sweep_material.h), or the placed
+//                                               models voxelised once and resampled, terrain and
+//                                               large meshes still ray cast (model_material.h);
+//                                               the coarse grid is ray cast either way
+//   model_voxel_m [0.02, 2]                     ModelVoxelOptions::voxel_m
 // Streaming (beginStreaming, `drtv fly --technique sweep`; grid_streamer.h):
 //   workers       1 .. 16                       worker threads sweeping fine grids (deterministic
 //                                               mode: virtual workers)
@@ -42,6 +52,8 @@
 #include "drtv/sweep/grid_streamer.h"
 #include "drtv/sweep/material_codec.h"
 #include "drtv/sweep/sweep.h"
+#include "ground_blend.h"
+#include "model_material.h"
 #include "sweep_material.h"
 
 #include <oneapi/tbb/parallel_for.h>
@@ -60,7 +72,13 @@ struct Params {
   float smoothing = sweep::SweepOptions{}.smoothing;
   double sun_disc_deg = 3.0;
   double offset_cells = 0.5;
+  // 2 cells: of 0, 1, 2 and 4, the lowest error on the test box (15.4 / 13.8 / 13.0 / 13.6 %) and
+  // the Cornell world (28.9 / 29.1 / 28.9 / 29.5 %); the island 9.3 / 9.2 / 9.2 / 9.1 %
+  // (`drtv accuracy --sweep-knobs`, docs/sweep.md).
+  double ground_blend_cells = 2.0;
   double ray_spacing_m = VoxelOptions{}.ray_spacing_m;
+  bool models = false;
+  double model_voxel_m = ModelVoxelOptions{}.voxel_m;
   int workers = 1;
   double lead_s = 1.0;
   double resweep_h = sweep::GridStreamerOptions{}.resweep_hours;
@@ -109,6 +127,16 @@ Result<Params> parseParams(const TechniqueParams& p) {
     } else if (k == "offset") {
       x = number(k, v, 0, 4, false);
       if (x) out.offset_cells = *x;
+    } else if (k == "ground_blend") {
+      x = number(k, v, 0, 8, false);
+      if (x) out.ground_blend_cells = *x;
+    } else if (k == "material") {
+      if (v != "raycast" && v != "models") return fail(k + "=" + v + ": expected raycast or models");
+      out.models = v == "models";
+      continue;
+    } else if (k == "model_voxel_m") {
+      x = number(k, v, 0.02, 2, false);
+      if (x) out.model_voxel_m = *x;
     } else if (k == "ray_spacing_m") {
       x = number(k, v, 0, 64, true);
       if (x) out.ray_spacing_m = *x;
@@ -133,8 +161,8 @@ Result<Params> parseParams(const TechniqueParams& p) {
       if (x && *x != std::round(*x)) return fail(k + "=" + v + ": expected a whole number");
       if (x) out.max_grids = int(*x);
     } else {
-      return fail("no parameter '" + k + "' (sweep takes cell_m, coarse_m, bottom_up, smoothing, sun_disc_deg, offset, ray_spacing_m, "
-                  "workers, lead_s, margin_m, resweep_h, job_s, max_grids)");
+      return fail("no parameter '" + k + "' (sweep takes cell_m, coarse_m, bottom_up, smoothing, sun_disc_deg, offset, ground_blend, "
+                  "ray_spacing_m, material, model_voxel_m, workers, lead_s, margin_m, resweep_h, job_s, max_grids)");
     }
     if (!x) return std::unexpected(x.error());
   }
@@ -144,9 +172,11 @@ Result<Params> parseParams(const TechniqueParams& p) {
 
 double sunDiscRad(const Params& p) { return p.sun_disc_deg * 3.14159265358979323846 / 180.0; }
 
-// A sector's fine grid: its material, compact, and (not streamed) its light.
+// A sector's fine grid: its material, compact, its ground heights (the blend's) and (not
+// streamed) its light.
 struct Fine {
   sweep::GridStreamer::MaterialBytes material;  // material_codec.h
+  GroundMap ground;                             // the fine grid's columns
   std::unique_ptr<sweep::SweptGrid> light;
 };
 
@@ -284,31 +314,73 @@ class SweepTechnique final : public Technique {
     auto cm = voxelise(*geo, cs, vo);
     if (!cm) return std::unexpected(cm.error().context(in.where));
     coarse_material_ = std::move(*cm);
+    // material=models: the placed models voxelised once; the rest of the world (terrain, large
+    // meshes) is what is ray cast.
+    std::optional<ModelMaterial> models;
+    std::optional<worlds::World> rest;
+    std::optional<raytrace::WorldGeometry> rest_geo;
+    if (params_.models && params_.cell_m > 0) {
+      auto mm = ModelMaterial::build(in.world, {params_.model_voxel_m});
+      if (!mm) return std::unexpected(mm.error().context(in.where));
+      models = std::move(*mm);
+      rest.emplace();
+      rest->name = in.world.name;
+      rest->meshes = in.world.meshes;
+      rest->sky = in.world.sky;
+      bool any = false;
+      for (const worlds::Instance& inst : in.world.instances)
+        if (!placedAsModel(in.world, inst)) {
+          rest->instances.push_back(inst);
+          any |= inst.cls != worlds::InstanceClass::kDynamic;
+        }
+      if (any) {
+        auto rg = raytrace::WorldGeometry::build(*rest, in.where);
+        if (!rg) return std::unexpected(rg.error());
+        rest_geo = std::move(*rg);
+      }
+    }
     if (params_.cell_m > 0) {
       // Each sector of the block voxelised on its own (in parallel: each result lands in its own
       // slot, so the grids do not depend on the threads), then kept compact.
       std::vector<SectorKey> keys;
       for (int32_t y = in.block.y0; y <= in.block.y1; ++y)
         for (int32_t x = in.block.x0; x <= in.block.x1; ++x) keys.push_back({x, y});
-      std::vector<std::optional<Result<sweep::GridStreamer::MaterialBytes>>> made(keys.size());
+      struct Made {
+        sweep::GridStreamer::MaterialBytes material;
+        GroundMap ground;
+      };
+      std::vector<std::optional<Result<Made>>> made(keys.size());
       const double f = params_.cell_m;
-      auto one = [&](size_t i) -> Result<sweep::GridStreamer::MaterialBytes> {
+      auto one = [&](size_t i) -> Result<Made> {
         const SectorKey key = keys[i];
         const raytrace::SectorGeometry sg = geo->gather(key, vo.halo_m);
-        if (sg.triangleCount() == 0) return nullptr;
+        if (sg.triangleCount() == 0) return Made{};
         // Two cells of air above the tallest geometry, one below the lowest.
         const double lo = std::floor(double(sg.z_min) / f) * f - f, hi = std::ceil(double(sg.z_max) / f) * f + 2 * f;
         sweep::GridShape fs{{kSectorSizeM * key.ix, kSectorSizeM * key.iy, lo}, f,
                             {int(std::lround(kSectorSizeM / f)), int(std::lround(kSectorSizeM / f)), int(std::lround((hi - lo) / f))}};
-        auto fm = voxelise(*geo, fs, vo);
+        Made out;
+        out.ground = {glm::dvec2(fs.origin), fs.cell_m, fs.size.x, fs.size.y, {}};
+        Result<sweep::MaterialGrid> fm = fail("");
+        if (models) {
+          const ObjectLayer objects = models->resample(fs);
+          fm = voxelise(rest_geo ? &*rest_geo : nullptr, fs, vo, &out.ground.z, &objects);
+        } else {
+          fm = voxelise(*geo, fs, vo, &out.ground.z);
+        }
         if (!fm) return std::unexpected(fm.error().context(in.where));
-        return std::make_shared<const std::vector<uint8_t>>(sweep::encodeMaterial(*fm));
+        out.material = std::make_shared<const std::vector<uint8_t>>(sweep::encodeMaterial(*fm));
+        return out;
       };
       tbb::task_arena arena(in.threads > 0 ? in.threads : tbb::task_arena::automatic);
       arena.execute([&] { tbb::parallel_for(size_t(0), keys.size(), [&](size_t i) { made[i] = one(i); }); });
       for (size_t i = 0; i < keys.size(); ++i) {
         if (!*made[i]) return std::unexpected(made[i]->error());
-        if (**made[i]) fine_[keys[i]].material = std::move(**made[i]);
+        if ((*made[i])->material) {
+          Fine& fine = fine_[keys[i]];
+          fine.material = std::move((*made[i])->material);
+          fine.ground = std::move((*made[i])->ground);
+        }
       }
     }
     costs_ = {};
@@ -322,8 +394,9 @@ class SweepTechnique final : public Technique {
   Result<void> setParams(const TechniqueParams& params) override {
     auto p = parseParams(params);
     if (!p) return std::unexpected(p.error());
-    if (prepared_ && (p->cell_m != params_.cell_m || p->coarse_m != params_.coarse_m || p->ray_spacing_m != params_.ray_spacing_m))
-      return fail("sweep: cell_m, coarse_m and ray_spacing_m need another prepare");
+    if (prepared_ && (p->cell_m != params_.cell_m || p->coarse_m != params_.coarse_m || p->ray_spacing_m != params_.ray_spacing_m ||
+                      p->models != params_.models || p->model_voxel_m != params_.model_voxel_m))
+      return fail("sweep: cell_m, coarse_m, ray_spacing_m, material and model_voxel_m need another prepare");
     if (stream_) return fail("sweep: parameters are fixed while streaming");
     params_ = std::move(*p);
     if (prepared_) return sweepAll(hour_);
@@ -353,10 +426,20 @@ class SweepTechnique final : public Technique {
 
   glm::vec3 ambient(const glm::dvec3& position, const glm::vec3& normal) const override {
     const SectorKey key = sectorAt(position.x, position.y);
-    if (stream_) return lookup(stream_->grids().fine(key), stream_->grids().coarse(), params_.offset_cells, position, normal);
-    if (!coarse_) return glm::vec3(0.f);
     const auto it = fine_.find(key);
-    return lookup(it != fine_.end() ? it->second.light.get() : nullptr, *coarse_, params_.offset_cells, position, normal);
+    const sweep::SweptGrid* fine = nullptr;
+    const sweep::SweptGrid* coarse = nullptr;
+    if (stream_) {
+      fine = stream_->grids().fine(key);
+      coarse = &stream_->grids().coarse();
+    } else {
+      if (!coarse_) return glm::vec3(0.f);
+      fine = it != fine_.end() ? it->second.light.get() : nullptr;
+      coarse = coarse_.get();
+    }
+    const GroundMap* ground = it != fine_.end() ? &it->second.ground : nullptr;
+    return blendTowardGround(ground, params_.ground_blend_cells * params_.cell_m, position, normal,
+                             [&](const glm::vec3& n) { return lookup(fine, *coarse, params_.offset_cells, position, n); });
   }
 
   TechniqueCosts costs() const override { return costs_; }

@@ -95,6 +95,9 @@ struct AccuracyOptions {
   // The ambient cube's rows (part ambient-cube: each term alone against the reference's; cube
   // sun_transfer off), its technique baked once per row: seconds each (docs/accuracy.md).
   bool cube_knobs = false;
+  // The sweep's knob rows (sweep_ground_blend, sweep_material), one at a time around its
+  // defaults: seconds each (docs/sweep.md).
+  bool sweep_knobs = false;
   // Progress lines ("bake rays_per_basis=32 ...") for a terminal; may be empty.
   std::function<void(const std::string&)> progress;
 };

@@ -85,7 +85,9 @@ TEST(ModelMaterial, ASolidBoxOnTheCellLatticeBlocksTheCellsInsideItAndNoOthers) 
           EXPECT_EQ(rays->density[c], 1.f) << i << " " << j << " " << k;
           EXPECT_EQ(layer.reflectance[c], glm::vec3(0.6f, 0.2f, 0.1f));
         }
-        if (far) EXPECT_EQ(layer.share[c], 0.f) << i << " " << j << " " << k;
+        if (far) {
+          EXPECT_EQ(layer.share[c], 0.f) << i << " " << j << " " << k;
+        }
       }
 }
 

@@ -209,7 +209,7 @@ std::vector<RowSpec> drtvRows(const BakeSettings& base, uint32_t effects, const 
                     def ? TechniqueParams{} : TechniqueParams{{"bounces", std::to_string(bounces)}}, def ? "the default bake" : ""});
   }
   // Probes under roofs (placement.h): the column lattice there / the least distance between them.
-  for (const auto& [spacing, min_h] : {std::pair{4.0, 8.0}, std::pair{4.0, 4.0}, std::pair{2.0, 4.0}, std::pair{2.0, 2.0}}) {
+  for (const auto& [spacing, min_h] : {std::pair{4.0, 8.0}, std::pair{4.0, 4.0}, std::pair{2.0, 2.0}, std::pair{2.0, 1.4}, std::pair{1.0, 1.0}}) {
     const bool def = spacing == base.placement.covered_column_spacing_m && min_h == base.placement.covered_min_horizontal_m;
     rows.push_back({"placement_under_roofs", fmt(spacing) + " m / " + fmt(min_h) + " m", def, "drtv",
                     def ? TechniqueParams{} : TechniqueParams{{"covered_spacing", fmt(spacing)}, {"covered_min_h", fmt(min_h)}},
@@ -274,7 +274,7 @@ std::vector<RowSpec> drtvRows(const BakeSettings& base, uint32_t effects, const 
                                                               : "the probes the index grid names around the light",
                       kRefLocalLights});
     // The local-light term with the probes under roofs denser (the placement rows above).
-    for (const auto& [spacing, min_h] : {std::pair{2.0, 4.0}, std::pair{2.0, 2.0}})
+    for (const auto& [spacing, min_h] : {std::pair{2.0, 2.0}, std::pair{1.0, 1.0}})
       rows.push_back({"placement_under_roofs local_lights", fmt(spacing) + " m / " + fmt(min_h) + " m", false, "drtv",
                       {{"part", "local_lights"}, {"covered_spacing", fmt(spacing)}, {"covered_min_h", fmt(min_h)}},
                       "local_lights term alone vs the reference's, as a share of the total ambient", kRefLocalLights});

@@ -334,6 +334,21 @@ TEST(Cli, ARenderTooLargeForTheMemoryLimitIsRefusedNamingItsSize) {
       << r.out;
 }
 
+// `-o` without an extension writes <name>.png beside <name>_reference.png (it wrote a PNG named
+// <name>, with no suffix); another extension is refused before the render.
+TEST(Cli, ARenderNamedWithoutAnExtensionIsWrittenAsPng) {
+  const std::string stem = scratch("noext");
+  std::filesystem::remove(stem + ".png");
+  const Outcome r = drtv("render " + kGolden + " --world " + src("worlds/fc3_testbox.json") + " --size 32x18 -o " + stem);
+  ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_TRUE(std::filesystem::exists(stem + ".png")) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(stem)) << "no PNG without its suffix";
+  const Outcome jpg = drtv("render " + kGolden + " --world " + src("worlds/fc3_testbox.json") + " --size 32x18 -o " + scratch("x.jpg"));
+  EXPECT_EQ(jpg.status, 1) << jpg.out;
+  EXPECT_NE(jpg.out.find("x.jpg': drtv render writes PNG images; name the file .png"), std::string::npos) << jpg.out;
+  EXPECT_FALSE(std::filesystem::exists(scratch("x.jpg")));
+}
+
 // A clearance the placement cannot honour (above the 1.5 m lift: flat ground itself would be too
 // near) is an error naming it, not an empty bake.
 TEST(Cli, AProbeClearanceAboveTheLiftIsAnErrorNamingIt) {

@@ -2,8 +2,10 @@
 //             -o img.png [--size WxH] [--reference] [--samples N] [--exposure X] [--smooth]
 // A CPU preview of the baked ambient plus direct light; with --reference also the path-traced
 // image and a false-colour error image (render.h). Statistics go to <stem>.json beside the PNG.
+#include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <memory>
 #include <sstream>
@@ -38,7 +40,24 @@ Result<std::pair<int, int>> parseSize(const std::string& text) {
 
 nlohmann::json rgb(const glm::dvec3& v) { return {v.r, v.g, v.b}; }
 
-Result<void> run(const RenderCliOptions& o) {
+// The image's path: a name without an extension gets ".png" (`-o /tmp/palm` writes /tmp/palm.png
+// beside /tmp/palm_reference.png, not a PNG named /tmp/palm); any other extension than .png is
+// refused before the render, not written as PNG bytes under a name that says otherwise.
+Result<std::string> imagePath(const std::string& output) {
+  std::filesystem::path p(output);
+  if (p.filename().empty() || p.filename() == "." || p.filename() == "..")
+    return fail("-o '" + output + "': expected an image file's name, e.g. render.png");
+  if (!p.has_extension()) return p.string() + ".png";
+  std::string ext = p.extension().string();
+  for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+  if (ext != ".png") return fail("-o '" + output + "': drtv render writes PNG images; name the file .png");
+  return output;
+}
+
+Result<void> run(RenderCliOptions o) {
+  auto image = imagePath(o.output);
+  if (!image) return std::unexpected(image.error());
+  o.output = *image;
   eval::RenderOptions opts;
   auto size = parseSize(o.size);
   if (!size) return std::unexpected(size.error());

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "../../eval/techniques/sweep/ground_blend.h"
+#include "../reference/test_scenes.h"
 #include "drtv/eval/technique.h"
 #include "drtv/worlds/world.h"
 
@@ -60,19 +61,8 @@ TEST(GroundBlend, AtTheGroundASidewaysNormalReadsTheGroundNormalAndFromTheBlendH
 }
 
 // Flat ground z = 0 over sector (0, 0), albedo 0.3, under the default sky.
-worlds::World flatWorld() {
-  worlds::World w;
-  w.name = "flat";
-  worlds::Mesh ground;
-  ground.positions = {{0, 0, 0}, {64, 0, 0}, {64, 64, 0}, {0, 64, 0}};
-  ground.indices = {0, 1, 2, 0, 2, 3};
-  ground.albedo = glm::vec3(0.3f);
-  ground.name = "ground";
-  w.meshes = {ground};
-  w.instances = {{0, glm::dmat4(1.0), worlds::InstanceClass::kTerrain, "ground"}};
-  w.effects = worlds::defaultEffects(w);
-  return w;
-}
+// A 64 m ground quad over sector (0, 0).
+worlds::World flatWorld() { return testing::planeWorld(64.0, glm::vec3(0.3f), {32.0, 32.0, 0.0}); }
 
 std::unique_ptr<Technique> preparedSweep(const worlds::World& w, const TechniqueParams& p) {
   auto t = makeTechnique("sweep", p);

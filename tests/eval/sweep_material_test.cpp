@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "../../eval/techniques/sweep/sweep_material.h"
+#include "../reference/test_scenes.h"
 #include "drtv/worlds/world.h"
 
 namespace drtv::eval {
@@ -14,22 +15,18 @@ namespace {
 // both wound to face -x (towards the rays that start at x = 0), as a single-sheet room's two
 // opposite walls would face each other's way round: a ray meets the first one's front face.
 worlds::World sheetWorld(bool double_sided) {
-  worlds::World w;
+  worlds::World w = testing::planeWorld(64.0, glm::vec3(0.3f), {32.0, 32.0, 0.0});  // the ground over sector (0, 0)
   w.name = "sheet";
-  worlds::Mesh ground;
-  ground.positions = {{0, 0, 0}, {64, 0, 0}, {64, 64, 0}, {0, 64, 0}};
-  ground.indices = {0, 1, 2, 0, 2, 3};
-  ground.albedo = glm::vec3(0.3f);
-  ground.name = "ground";
   worlds::Mesh sheet;
   sheet.positions = {{20, 16, 0}, {20, 48, 0}, {20, 48, 10}, {20, 16, 10}, {40, 16, 0}, {40, 48, 0}, {40, 48, 10}, {40, 16, 10}};
   sheet.indices = {0, 2, 1, 0, 3, 2, 4, 6, 5, 4, 7, 6};  // (b - a) x (c - a) points to -x
   sheet.albedo = glm::vec3(0.7f);
   sheet.double_sided = double_sided;
   sheet.name = "sheet";
-  w.meshes = {ground, sheet};
-  w.instances = {{0, glm::dmat4(1.0), worlds::InstanceClass::kTerrain, "ground"}, {1, glm::dmat4(1.0), worlds::InstanceClass::kStatic, "sheet"}};
+  w.meshes.push_back(sheet);
+  w.instances.push_back({1, glm::dmat4(1.0), worlds::InstanceClass::kStatic, "sheet"});
   w.effects = worlds::defaultEffects(w);
+  w.effects_explicit = false;
   return w;
 }
 

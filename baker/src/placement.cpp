@@ -150,19 +150,16 @@ std::vector<PlacedProbe> placeProbes(const raytrace::RayScene& scene, const rayt
   const float step = float(kSectorSizeM / columns);
   for (int cy = 0; cy < columns; ++cy)
     for (int cx = 0; cx < columns; ++cx) column(base.x + (cx + 0.5f) * step, base.y + (cy + 0.5f) * step, false);
-  // The finer lattice under roofs: its columns that fall on the coarse lattice's are skipped.
+  // The finer lattice under roofs: a column whose centre is a coarse column's (an odd whole ratio
+  // of the spacings) is not cast again.
   const int fine = std::max(1, int(std::lround(kSectorSizeM / s.covered_column_spacing_m)));
-  if (fine > columns && fine % columns == 0 && (fine / columns) % 2 == 1) {
-    const int ratio = fine / columns;
+  if (fine > columns) {
+    const int ratio = fine % columns == 0 && (fine / columns) % 2 == 1 ? fine / columns : 0;
     const float fine_step = float(kSectorSizeM / fine);
     for (int cy = 0; cy < fine; ++cy)
       for (int cx = 0; cx < fine; ++cx)
-        if (cx % ratio != ratio / 2 || cy % ratio != ratio / 2)
+        if (ratio == 0 || cx % ratio != ratio / 2 || cy % ratio != ratio / 2)
           column(base.x + (cx + 0.5f) * fine_step, base.y + (cy + 0.5f) * fine_step, true);
-  } else if (fine > columns) {
-    const float fine_step = float(kSectorSizeM / fine);
-    for (int cy = 0; cy < fine; ++cy)
-      for (int cx = 0; cx < fine; ++cx) column(base.x + (cx + 0.5f) * fine_step, base.y + (cy + 0.5f) * fine_step, true);
   }
   // 1b. Objects smaller than the column spacing (a 1 m glTF box between the 4 m columns) would
   // leave their sector without a probe and the whole bake empty. When no column found static

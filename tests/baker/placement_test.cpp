@@ -1,4 +1,6 @@
 // Probe placement (talk slides 15-17): every static hit, vegetation boxes, inside test, cap.
+#include <algorithm>
+
 #include <gtest/gtest.h>
 
 #include "drtv/baker/placement.h"
@@ -53,6 +55,32 @@ TEST(Placement, AnObjectBetweenTheColumnsStillGetsAProbeAboveIt) {
   EXPECT_NEAR(p.probes[0].position.z, 2.5f, kHeightTolerance) << "lifted 1.5 m above the box's top";
   // Sectors that a column hits are placed as before: flat ground still gets its 64.
   EXPECT_EQ(place(test::planeWorld(200.0, glm::vec3(0.5f)), {0, 0}).probes.size(), 64u);
+}
+
+// The finer lattice under roofs (covered_column_spacing_m) adds probes under a deck, whether its
+// spacing divides the coarse one by an odd ratio (4/3 m: every third column is a coarse one, not
+// cast twice) or an even one (2 m: none is), and never two probes within a metre of each other.
+// (The open ground's probes move too: covered probes are accepted first and the 8 m thinning is
+// greedy, so one probe taken near the deck shifts the open lattice's choice beyond it.)
+TEST(Placement, TheFinerLatticeUnderRoofsAddsProbesUnderTheDeck) {
+  worlds::World w = test::planeWorld(200.0, glm::vec3(0.5f));
+  test::add(w, test::box({10, 10, 5}, {40, 40, 5.5f}, glm::vec3(0.5f), "deck"), worlds::InstanceClass::kStatic);
+  const auto under = [](const PlacedProbe& q) {
+    return q.position.x >= 10.f && q.position.x <= 40.f && q.position.y >= 10.f && q.position.y <= 40.f && q.position.z < 5.f;
+  };
+  const Placed coarse = place(w, {0, 0});
+  const size_t coarse_under = size_t(std::count_if(coarse.probes.begin(), coarse.probes.end(), under));
+  ASSERT_GT(coarse_under, 0u);
+  for (const double spacing : {64.0 / 48.0, 2.0}) {
+    PlacementSettings s;
+    s.covered_column_spacing_m = spacing;
+    s.covered_min_horizontal_m = 1.4;
+    const Placed fine = place(w, {0, 0}, s);
+    EXPECT_GT(size_t(std::count_if(fine.probes.begin(), fine.probes.end(), under)), 2 * coarse_under) << "spacing " << spacing;
+    for (size_t i = 0; i < fine.probes.size(); ++i)
+      for (size_t j = 0; j < i; ++j)
+        EXPECT_GT(glm::distance(fine.probes[i].position, fine.probes[j].position), 1.f) << "spacing " << spacing;
+  }
 }
 
 TEST(Placement, EveryStaticHitAlongTheRayGetsAProbeNotOnlyTheFirst) {

@@ -430,7 +430,11 @@ struct ProbeCache::Impl {
   // Sums the local lights' term of slot `s` (Slot::local) from its lit sources `lit`, in their order.
   void sumLocalLights(int s, std::span<const LitSource> lit);
   // Source j's 12 planes in slot s, transposed from the block the first time they are asked for,
-  // so that a lit source is 12 streams over the probes (padding lanes 0).
+  // so that a lit source is 12 streams over the probes (padding lanes 0). A write inside the
+  // relight, safe because every relight (relightAll, relightChangedLights, relightSector) is a
+  // non-const member that walks the slots on the calling thread, and ProbeCache has one writer
+  // (probe_cache.h); no const member reads lprt. A relight split over threads by slot would stay
+  // safe (a slot's planes are its own); one split within a slot would not.
   const int16_t* sourcePlanes(int s, size_t j) {
     Slot& sl = slots[s];
     std::vector<int16_t>& planes = sl.lprt[j];

@@ -95,6 +95,7 @@ struct Slot {
   std::vector<float> lprt_scale;    // lprt_range / 32767 per probe, padded to the stride with 0
   bool on_bases = true;
   std::vector<int32_t> source_ids;  // global probe id (slot * kSlotProbes + index) or -1
+  glm::ivec2 source_lo{0}, source_hi{-1};  // the range of its sources' sector offsets (dx, dy)
   // Sun transfer (sector.h SunBlock)
   std::vector<glm::vec3> sun_dirs;  // its samples; empty = none
   AlignedFloats sun;                // [sample][channel * 4 + i][probe], dequantised, planes of the slot stride
@@ -320,7 +321,9 @@ struct ProbeCache::Impl {
   AlignedFloats in;              // [slot][kInputPlanes][kSlotProbes]
   AlignedFloats out;             // [slot][kColourPlanes][kSlotProbes]
   std::vector<uint32_t> packed;  // [slot][kSlotProbes][3]
-  std::vector<uint8_t> is_source;
+  // [global probe id]: how many resident sources name the probe (sourcesArrived): at most
+  // 51 slots x 128 sources, so 16 bits.
+  std::vector<uint16_t> is_source;
   std::vector<glm::vec3> light_colour;  // [global probe id]
   std::vector<int> touched;             // ids with non-zero light_colour
   // [global probe id]: light_colour[id] != 0. litSources tests every source of every slot at each
@@ -372,29 +375,68 @@ struct ProbeCache::Impl {
     return sl.nearest[IndexGrid::cellIndex(x, y, z)];
   }
 
-  // Runs at every addSector and removeSector. A slot's sources lie in its own sector and its
-  // neighbours: their slots are looked up once per slot (3 x 3), not once per source, which made
-  // this O(slots^2 x sources) and 10 % of the CPU of `drtv fly` over the lit island (51 LPRT
-  // sectors of 128 sources; perf, docs/runtime.md).
-  void resolveSources() {
-    std::fill(is_source.begin(), is_source.end(), 0);
-    for (Slot& sl : slots) {
-      if (!sl.used) continue;
-      sl.source_ids.assign(sl.sources.size(), -1);
-      if (sl.sources.empty()) continue;
+  // Source resolution, incremental: a slot's source_ids name the resident probes its sources are,
+  // and is_source counts, per global probe id, the resident sources that name it. Recomputing all
+  // of it at every addSector and removeSector (51 slots x 128 sources) was a third of a lit
+  // sector's addSector in `drtv fly` over the lit island (perf, docs/runtime.md); an arrival or a
+  // departure touches only its own sources and those of the slots whose sources reach it.
+
+  // Slot s arrived (its fields set): resolves its own sources, and the unresolved sources of
+  // resident slots that name probes in its sector.
+  void sourcesArrived(int s) {
+    Slot& in = slots[s];
+    in.source_ids.assign(in.sources.size(), -1);
+    in.source_lo = glm::ivec2(std::numeric_limits<int>::max());
+    in.source_hi = glm::ivec2(std::numeric_limits<int>::min());
+    for (const LprtSource& src : in.sources) {
+      in.source_lo = glm::min(in.source_lo, glm::ivec2(src.dx, src.dy));
+      in.source_hi = glm::max(in.source_hi, glm::ivec2(src.dx, src.dy));
+    }
+    if (!in.sources.empty()) {
+      // Its sources lie in its own sector and its neighbours: their slots are looked up once.
       int near[3][3];
       for (int dy = -1; dy <= 1; ++dy)
-        for (int dx = -1; dx <= 1; ++dx) near[dy + 1][dx + 1] = slotOf({sl.key.ix + dx, sl.key.iy + dy});
-      for (size_t j = 0; j < sl.sources.size(); ++j) {
-        const LprtSource& src = sl.sources[j];
+        for (int dx = -1; dx <= 1; ++dx) near[dy + 1][dx + 1] = slotOf({in.key.ix + dx, in.key.iy + dy});
+      for (size_t j = 0; j < in.sources.size(); ++j) {
+        const LprtSource& src = in.sources[j];
         const bool close = src.dx >= -1 && src.dx <= 1 && src.dy >= -1 && src.dy <= 1;
-        const int s2 = close ? near[src.dy + 1][src.dx + 1] : slotOf({sl.key.ix + src.dx, sl.key.iy + src.dy});
+        const int s2 = close ? near[src.dy + 1][src.dx + 1] : slotOf({in.key.ix + src.dx, in.key.iy + src.dy});
         if (s2 < 0 || src.probe >= slots[s2].count) continue;
-        const int id = s2 * kSlotProbes + src.probe;
-        sl.source_ids[j] = id;
-        is_source[id] = 1;
+        in.source_ids[j] = s2 * kSlotProbes + src.probe;
+        ++is_source[size_t(in.source_ids[j])];
       }
     }
+    for (size_t t = 0; t < slots.size(); ++t) {
+      Slot& other = slots[t];
+      if (!other.used || int(t) == s || other.sources.empty()) continue;
+      const glm::ivec2 d(in.key.ix - other.key.ix, in.key.iy - other.key.iy);
+      if (glm::any(glm::lessThan(d, other.source_lo)) || glm::any(glm::greaterThan(d, other.source_hi))) continue;
+      for (size_t j = 0; j < other.sources.size(); ++j) {
+        const LprtSource& src = other.sources[j];
+        if (src.dx != d.x || src.dy != d.y || src.probe >= in.count) continue;
+        DRTV_CHECK_EQ(other.source_ids[j], -1);  // its sector was not resident
+        other.source_ids[j] = s * kSlotProbes + src.probe;
+        ++is_source[size_t(other.source_ids[j])];
+      }
+    }
+  }
+
+  // Slot s is leaving (its fields still set): its sources, and the sources of other slots that
+  // named its probes, no longer count.
+  void sourcesLeaving(int s) {
+    Slot& out = slots[s];
+    for (int32_t& id : out.source_ids)
+      if (id >= 0) --is_source[size_t(id)], id = -1;
+    const int lo = s * kSlotProbes, hi = lo + kSlotProbes;
+    for (size_t t = 0; t < slots.size(); ++t) {
+      Slot& other = slots[t];
+      if (!other.used || int(t) == s || other.sources.empty()) continue;
+      const glm::ivec2 d(out.key.ix - other.key.ix, out.key.iy - other.key.iy);
+      if (glm::any(glm::lessThan(d, other.source_lo)) || glm::any(glm::greaterThan(d, other.source_hi))) continue;
+      for (int32_t& id : other.source_ids)
+        if (id >= lo && id < hi) --is_source[size_t(id)], id = -1;
+    }
+    for (int id = lo; id < hi; ++id) DRTV_CHECK_EQ(is_source[size_t(id)], 0);
   }
 
   uint64_t slot_relights = 0;  // relightSlot calls (slotRelightCount)
@@ -510,7 +552,9 @@ Result<void> ProbeCache::addSector(const Sector& sector) {
   if (s < 0) return fail(where + ": all " + std::to_string(m.slots.size()) + " resident sector slots are used");
 
   Slot& sl = m.slots[s];
+  std::vector<int16_t> block = std::move(sl.lprt_block);  // its capacity, kept across sectors (below)
   sl = Slot{};
+  sl.lprt_block = std::move(block);
   sl.used = true;
   m.slot_keys[s] = {sector.key, true};
   const bool sh_l1 = m.opt.representation == Representation::kShL1;
@@ -601,7 +645,9 @@ Result<void> ProbeCache::addSector(const Sector& sector) {
     const int stride = m.stride(s);
     sl.sources = sector.lprt.sources;
     sl.on_bases = sector.lprt_on_bases;
-    sl.lprt_block = sector.lprt.coeffs;
+    // Into the capacity the slot kept from the sectors before: a fresh 200 KB block was mapped
+    // and faulted in at every lit sector's arrival (perf of the lit-island fly).
+    sl.lprt_block.assign(sector.lprt.coeffs.begin(), sector.lprt.coeffs.end());
     sl.lprt.assign(sources, {});
     sl.lprt_scale.assign(stride, 0.f);
     for (int i = 0; i < n; ++i) sl.lprt_scale[i] = sector.probes[i].lprt_range / kSnorm16Max;
@@ -620,7 +666,7 @@ Result<void> ProbeCache::addSector(const Sector& sector) {
         for (int q = 0; q < 12; ++q)
           sl.sun.data[k * 12 * stride + blockOffset(i, q, 12)] = dequantizeSnorm8(sun.coeffs[sun.index(size_t(i), k, q / 4, q % 4)], sun.ranges[size_t(i)]);
   }
-  m.resolveSources();
+  m.sourcesArrived(s);
   return {};
 }
 
@@ -628,12 +674,15 @@ bool ProbeCache::removeSector(SectorKey key) {
   Impl& m = *impl_;
   const int s = m.slotOf(key);
   if (s < 0) return false;
+  m.sourcesLeaving(s);
+  std::vector<int16_t> block = std::move(m.slots[s].lprt_block);
+  block.clear();
   m.slots[s] = Slot{};
+  m.slots[s].lprt_block = std::move(block);  // its capacity, for the next sector (addSector)
   m.slot_keys[s] = {};
   // Light shares on the removed probes are stale: clear them (the next relight recomputes).
   for (int id : m.touched) m.light_colour[id] = glm::vec3(0.f), m.is_lit[id] = 0;
   m.touched.clear();
-  m.resolveSources();
   return true;
 }
 
@@ -741,6 +790,11 @@ std::vector<LightShare> ProbeCache::Impl::distribute(std::span<const PointLight>
       shares.push_back({best[i].p, light.intensity * float(w[i] / sum * footprintFactor(light.position.z, best[i].p))});
   }
   return shares;
+}
+
+int ProbeCache::sourcesNaming(ProbeRef p) const {
+  DRTV_CHECK(slotUsed(p.slot) && p.index >= 0 && p.index < impl_->slots[size_t(p.slot)].count);
+  return impl_->is_source[size_t(p.slot) * kSlotProbes + size_t(p.index)];
 }
 
 std::vector<LightShare> ProbeCache::distributeLights(std::span<const PointLight> lights) const {

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <random>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -152,6 +153,83 @@ TEST(MovingLights, AfterManyFramesTheColoursAndTexelsEqualARelightFromScratch) {
       for (size_t t = 0; t < got.size(); ++t) diff += got[t] != exp[t];
       EXPECT_EQ(diff, 0u) << "channel " << c << ": published texels that differ from a rebuild";
     }
+  }
+}
+
+// The sources' bookkeeping is kept incrementally as sectors arrive and leave (probe_cache.cpp,
+// sourcesArrived / sourcesLeaving): after any churn of sectors through fewer slots than the
+// world has, the lights' shares and the relit colours are those of a cache that received the
+// resident sectors once, probe for probe and bit for bit, with either way of choosing sources.
+TEST(MovingLights, SectorsStreamingInAndOutKeepTheSharesOfACacheFilledOnce) {
+  const std::vector<Sector> pool = lprtSectors();
+  std::vector<PointLight> lights;
+  for (int y = -2; y <= 2; ++y)
+    for (int x = -2; x <= 2; ++x)
+      lights.push_back({"lamp", {x * 64.0 + 20.0 + 3.0 * y, y * 64.0 + 40.0 - 2.0 * x, 12.0 + x}, glm::vec3(4.f, 3.f, 2.f), 40.f});
+  // A share as (sector, probe) -> colour bits: slots differ between the two caches.
+  using Shares = std::vector<std::tuple<int, int, int, uint32_t, uint32_t, uint32_t>>;
+  auto shares = [&](const ProbeCache& c) {
+    Shares out;
+    for (const LightShare& sh : c.distributeLights(lights)) {
+      const SectorKey k = c.slot(sh.probe.slot).key;
+      out.emplace_back(k.ix, k.iy, sh.probe.index, std::bit_cast<uint32_t>(sh.colour.r), std::bit_cast<uint32_t>(sh.colour.g),
+                       std::bit_cast<uint32_t>(sh.colour.b));
+    }
+    std::sort(out.begin(), out.end());
+    return out;
+  };
+  for (LightSources mode : {LightSources::kVisibleFromLight, LightSources::kNearest}) {
+    SCOPED_TRACE(mode == LightSources::kNearest ? "nearest sources" : "sources visible from the light");
+    const ProbeCacheOptions o{.max_sectors = 11, .light_sources = mode};
+    ProbeCache churned(o);
+    std::mt19937 rng(7);
+    std::vector<int> resident;  // indices into pool
+    size_t shares_seen = 0;
+    for (int step = 0; step < 60; ++step) {
+      const bool add = resident.empty() || (int(resident.size()) < o.max_sectors && rng() % 3 != 0);
+      if (add) {
+        std::vector<int> out;
+        for (int i = 0; i < int(pool.size()); ++i)
+          if (std::find(resident.begin(), resident.end(), i) == resident.end()) out.push_back(i);
+        const int i = out[rng() % out.size()];
+        ASSERT_TRUE(churned.addSector(pool[size_t(i)]));
+        resident.push_back(i);
+      } else {
+        const size_t at = rng() % resident.size();
+        ASSERT_TRUE(churned.removeSector(pool[size_t(resident[at])].key));
+        resident.erase(resident.begin() + long(at));
+      }
+      // Every resident probe is named by as many sources as the resident sectors' blocks say.
+      int wrong = 0, named = 0;
+      for (int i : resident) {
+        const Sector& sec = pool[size_t(i)];
+        for (int p = 0; p < int(sec.probes.size()); ++p) {
+          int want = 0;
+          for (int r : resident)
+            for (const LprtSource& src : pool[size_t(r)].lprt.sources)
+              want += pool[size_t(r)].key.ix + src.dx == sec.key.ix && pool[size_t(r)].key.iy + src.dy == sec.key.iy && src.probe == p;
+          wrong += churned.sourcesNaming({churned.slotOf(sec.key), p}) != want;
+          named += want > 0;
+        }
+      }
+      ASSERT_EQ(wrong, 0) << "step " << step << ": probes whose count of naming sources is wrong";
+      ASSERT_TRUE(resident.size() < 2 || named > 0);
+      ProbeCache once(o);
+      for (int i : resident) ASSERT_TRUE(once.addSector(pool[size_t(i)]));
+      const Shares got = shares(churned), want = shares(once);
+      ASSERT_EQ(got, want) << "step " << step;
+      shares_seen += got.size();
+      churned.relightAll(inputAt(lights));
+      once.relightAll(inputAt(lights));
+      int mismatches = 0;
+      for (int i : resident) {
+        const SectorKey k = pool[size_t(i)].key;
+        const int a = churned.slotOf(k), b = once.slotOf(k);
+        for (int p = 0; p < once.slot(b).probe_count; ++p) mismatches += !sameBits(churned.colours({a, p}), once.colours({b, p}));
+      }
+      ASSERT_EQ(mismatches, 0) << "step " << step;
+    }
+    EXPECT_GT(shares_seen, 60u);  // the lights did reach sources all along (117 and 3,000-odd here)
   }
 }
 

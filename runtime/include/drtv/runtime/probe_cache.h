@@ -199,6 +199,9 @@ class ProbeCache {
 
   // The shares of `lights` on resident LPRT source probes (see the header comment).
   std::vector<LightShare> distributeLights(std::span<const PointLight> lights) const;
+  // How many LPRT sources of resident sectors name resident probe `p` (0: it takes no light).
+  // Kept incrementally as sectors arrive and leave; for tests of that.
+  int sourcesNaming(ProbeRef p) const;
 
   // Largest relit colour component of one slot / of all slots (0 when nothing is resident).
   float maxColour(int slot) const;

@@ -193,6 +193,32 @@ void BM_RuntimeFrameWith32MovingLights(benchmark::State& state) {
 }
 BENCHMARK(BM_RuntimeFrameWith32MovingLights)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
 
+// One sector streaming in, as the fly does at each load: Runtime::removeSector of the sector the
+// camera left, then Runtime::addSector of the decoded sector arriving (the slot's planes, its
+// index grid's nearest probes, its LPRT sources resolved against the resident ones and relit
+// under the 32 lights). The sector is {3, 0}, where the movers' circles reach. Arg: its
+// sources (0: an unlit world's sector, 128: a lit one's; the resident sectors have as many).
+// Every index-grid cell names a probe, as in the island's sectors (none of 249 loaded in its fly
+// has an empty cell; an empty one costs a scan of the sector's probes). Second arg: the LPRT
+// block borrowed (1, as the fly's sink does) or copied (0).
+void BM_StreamSectorIn(benchmark::State& state) {
+  const int sources = int(state.range(0));
+  const SectorBlock keep = state.range(1) ? SectorBlock::kBorrow : SectorBlock::kCopy;
+  Runtime rt;
+  for (SectorKey k : residentKeys())
+    if (!rt.addSector(testing::makeSector(k, {.probes = 70, .sources = sources, .no_probe_fraction = 0.f}, 1))) std::abort();
+  (void)rt.setTime(12.0);
+  Movers m;
+  (void)rt.setLights(m.at(0));
+  rt.update({0.0, 0.0, 12.0});
+  const Sector arriving = testing::makeSector({3, 0}, {.probes = 70, .sources = sources, .no_probe_fraction = 0.f}, 1);
+  for (auto _ : state) {
+    if (!rt.removeSector({3, 0})) std::abort();
+    if (!rt.addSector(arriving, nullptr, keep)) std::abort();
+  }
+}
+BENCHMARK(BM_StreamSectorIn)->Args({0, 0})->Args({128, 0})->Args({128, 1})->Unit(benchmark::kMicrosecond);
+
 // The worst case: one huge light spread on 64 source probes (the most sources_per_light allows,
 // by the nearest rule), so that most sources of every probe carry energy and the LPRT block streams.
 void BM_RelightWithLprtAllSourcesLit(benchmark::State& state) {

@@ -17,7 +17,8 @@ class RuntimeSink final : public drtv::streamer::SectorSink {
  public:
   explicit RuntimeSink(drtv::runtime::Runtime& rt) : rt_(rt) {}
   void onSectorLoaded(const drtv::Sector& sector, const drtv::runtime::OcclusionTile& tile) override {
-    if (auto ok = rt_.addSector(sector, &tile); !ok) std::fprintf(stderr, "drtv_consumer: %s\n", ok.error().message.c_str());
+    // `sector` stays resident until onSectorEvicted returns, so its LPRT block is borrowed, not copied.
+    if (auto ok = rt_.addSector(sector, &tile, drtv::runtime::SectorBlock::kBorrow); !ok) std::fprintf(stderr, "drtv_consumer: %s\n", ok.error().message.c_str());
   }
   void onSectorEvicted(drtv::SectorKey key) override { rt_.removeSector(key); }
 

@@ -88,7 +88,8 @@ struct Slot {
   // sky's terms and re-sums it only where the lit sources changed (relightSlot).
   AlignedFloats local;
   bool local_of_lit = false;
-  std::vector<int16_t> lprt_block;  // the sector's block: [probe][source][channel * 4 + k]
+  std::vector<int16_t> lprt_block;  // the sector's block, when copied (SectorBlock::kCopy)
+  const int16_t* lprt_coeffs = nullptr;  // the block: [probe][source][channel * 4 + k], lprt_block's or the sector's
   // Per source, once it has been lit: [channel * 4 + k][probe], planes of the slot stride (empty
   // until then; sourcePlanes).
   std::vector<std::vector<int16_t>> lprt;
@@ -483,7 +484,7 @@ struct ProbeCache::Impl {
     if (planes.empty()) {
       const size_t stride = size_t(this->stride(s)), row = sl.sources.size() * 12;
       planes.assign(12 * stride, 0);
-      const int16_t* src = sl.lprt_block.data() + j * 12;
+      const int16_t* src = sl.lprt_coeffs + j * 12;
       for (int i = 0; i < sl.count; ++i)
         for (size_t k = 0; k < 12; ++k) planes[k * stride + size_t(i)] = src[size_t(i) * row + k];
     }
@@ -510,7 +511,7 @@ ProbeCache::~ProbeCache() = default;
 ProbeCache::ProbeCache(ProbeCache&&) noexcept = default;
 ProbeCache& ProbeCache::operator=(ProbeCache&&) noexcept = default;
 
-Result<void> ProbeCache::addSector(const Sector& sector) {
+Result<void> ProbeCache::addSector(const Sector& sector, SectorBlock keep) {
   Impl& m = *impl_;
   const std::string where = "sector " + toString(sector.key);
   if (m.slotOf(sector.key) >= 0) return fail(where + ": already resident");
@@ -645,9 +646,14 @@ Result<void> ProbeCache::addSector(const Sector& sector) {
     const int stride = m.stride(s);
     sl.sources = sector.lprt.sources;
     sl.on_bases = sector.lprt_on_bases;
-    // Into the capacity the slot kept from the sectors before: a fresh 200 KB block was mapped
-    // and faulted in at every lit sector's arrival (perf of the lit-island fly).
-    sl.lprt_block.assign(sector.lprt.coeffs.begin(), sector.lprt.coeffs.end());
+    if (keep == SectorBlock::kBorrow) {
+      sl.lprt_coeffs = sector.lprt.coeffs.data();
+    } else {
+      // Into the capacity the slot kept from the sectors before: a fresh 200 KB block was mapped
+      // and faulted in at every lit sector's arrival (perf of the lit-island fly).
+      sl.lprt_block.assign(sector.lprt.coeffs.begin(), sector.lprt.coeffs.end());
+      sl.lprt_coeffs = sl.lprt_block.data();
+    }
     sl.lprt.assign(sources, {});
     sl.lprt_scale.assign(stride, 0.f);
     for (int i = 0; i < n; ++i) sl.lprt_scale[i] = sector.probes[i].lprt_range / kSnorm16Max;

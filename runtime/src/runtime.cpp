@@ -143,9 +143,9 @@ void Runtime::relightMovedLights() {
   }
 }
 
-Result<void> Runtime::addSector(const Sector& sector, const OcclusionTile* tile) {
+Result<void> Runtime::addSector(const Sector& sector, const OcclusionTile* tile, SectorBlock block) {
   if (tile) DRTV_CHECK(tile->key == sector.key);
-  if (auto r = cache_.addSector(sector); !r) return r;
+  if (auto r = cache_.addSector(sector, block); !r) return r;
   if (options_.effects & kEffectDistantOcclusion) occlusion_.add(tile ? *tile : makeOcclusionTile(sector));
   resolveInteriors();
   if (!relit_once_) return {};  // the first update() relights everything

@@ -192,7 +192,8 @@ TEST(MovingLights, SectorsStreamingInAndOutKeepTheSharesOfACacheFilledOnce) {
         for (int i = 0; i < int(pool.size()); ++i)
           if (std::find(resident.begin(), resident.end(), i) == resident.end()) out.push_back(i);
         const int i = out[rng() % out.size()];
-        ASSERT_TRUE(churned.addSector(pool[size_t(i)]));
+        // Borrowed, as the fly's sink does (the pool outlives the cache); `once` copies.
+        ASSERT_TRUE(churned.addSector(pool[size_t(i)], SectorBlock::kBorrow));
         resident.push_back(i);
       } else {
         const size_t at = rng() % resident.size();

@@ -34,7 +34,8 @@ class FlySink final : public SectorSink {
     }
     if (!rt_) return;
     const auto t0 = Clock::now();
-    if (auto ok = rt_->addSector(sector, &tile); !ok) {
+    // The streamer keeps `sector` until onSectorEvicted returns: the runtime borrows its LPRT block.
+    if (auto ok = rt_->addSector(sector, &tile, runtime::SectorBlock::kBorrow); !ok) {
       ++runtime_errors;
       if (first_error.empty()) first_error = ok.error().message;
     }

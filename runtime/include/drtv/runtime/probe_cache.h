@@ -152,6 +152,13 @@ struct LightShare {
   glm::vec3 colour{0.f};  // intensity (per sr, linear RGB) assigned to this source
 };
 
+// How addSector holds a sector's LPRT block, the largest part of a lit sector (sources x probes
+// x 12 int16: ~200 KB for 66 probes and 128 sources): kCopy copies it into the slot; kBorrow
+// keeps a pointer into `sector.lprt.coeffs`, which must then stay alive and unchanged until
+// removeSector(sector.key) returns, as the streamer guarantees its SectorSink (streamer.h). The
+// copy was a fifth of a lit sector's arrival in the lit-island fly (perf, docs/runtime.md).
+enum class SectorBlock { kCopy, kBorrow };
+
 class ProbeCache {
  public:
   explicit ProbeCache(ProbeCacheOptions options = {});
@@ -163,7 +170,8 @@ class ProbeCache {
   // it is relit. Errors: the key is already resident; all slots are used; a grid cell names a
   // probe that does not exist; an LPRT block whose size does not match; a sector baked in another
   // representation than the cache's (kProbeSkyMoments marks sh-l1 probes; sh-l1 LPRT is in SH).
-  Result<void> addSector(const Sector& sector);
+  // `block`: whether its LPRT block is copied too or borrowed (SectorBlock).
+  Result<void> addSector(const Sector& sector, SectorBlock block = SectorBlock::kCopy);
   // Frees the sector's slot; false if it was not resident.
   bool removeSector(SectorKey key);
   // The slot holding `key`, or -1. O(slots).

@@ -129,8 +129,9 @@ class Runtime {
   // Makes `sector` resident: relit with the lighting last applied, its occlusion tile built, its
   // footprint refilled at the next update(). Errors as ProbeCache::addSector.
   // `tile`: the sector's occlusion tile when the caller built it already (the streamer does, on
-  // its I/O thread); otherwise, with distant occlusion asked for, it is built here.
-  Result<void> addSector(const Sector& sector, const OcclusionTile* tile = nullptr);
+  // its I/O thread); otherwise, with distant occlusion asked for, it is built here. `block`: as
+  // ProbeCache::addSector (a SectorSink of the streamer may pass kBorrow).
+  Result<void> addSector(const Sector& sector, const OcclusionTile* tile = nullptr, SectorBlock block = SectorBlock::kCopy);
   bool removeSector(SectorKey key);
 
   // Relights if needed, moves the volumes to `camera` (world metres) and publishes.

@@ -149,9 +149,15 @@ Result<void> Runtime::addSector(const Sector& sector, const OcclusionTile* tile,
   if (options_.effects & kEffectDistantOcclusion) occlusion_.add(tile ? *tile : makeOcclusionTile(sector));
   resolveInteriors();
   if (!relit_once_) return {};  // the first update() relights everything
-  // New sources may take shares of the lights from probes of resident neighbours: those are
-  // relit at the next update() (relightMovedLights).
-  if (!lights_.empty()) lights_changed_ = true;
+  if (!lights_.empty() && (options_.components & kComponentLocalLights)) {
+    // New sources may take shares of the lights from probes of resident neighbours, so the next
+    // update() redistributes the lights (relightMovedLights), and that relights this slot, never
+    // relit, with the slots whose shares changed. Relighting it here as well distributed every
+    // light twice per lit arrival (perf of the lit-island fly, docs/runtime.md).
+    lights_changed_ = true;
+    volume_.invalidateSector(sector.key);
+    return {};
+  }
   cache_.relightSector(sector.key, relightInput());
   const int slot = cache_.slotOf(sector.key);
   if (cache_.maxColour(slot) > cache_.packedScale()) {

@@ -19,6 +19,8 @@
 //    streaming in or leaving with lights set also runs this at the next update() (it moves shares).
 //  - addSector relights that sector alone with the lighting last applied and refills its
 //    footprint; only if its colours exceed the HDR scale is everything repacked and refilled.
+//    With local lights set it is relit at the next update() instead, with the lights' shares
+//    redistributed once for it and its neighbours (above); its colours are black until then.
 //  - update(camera) scrolls the volumes: only slabs that entered are computed. A blurred full
 //    refill is spread over `volume_rebuild_updates` updates (publish.h).
 //

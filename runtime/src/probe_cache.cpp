@@ -325,6 +325,10 @@ struct ProbeCache::Impl {
   // [global probe id]: how many resident sources name the probe (sourcesArrived): at most
   // 51 slots x 128 sources, so 16 bits.
   std::vector<uint16_t> is_source;
+  // [global probe id]: the resident sources naming it, as slot << 16 | source index (is_source of
+  // them; sourcesArrived, sourcesLeaving), so that the lit sources of every slot come from the
+  // few lit probes (litSourcesOfAll) instead of a test of every source of every slot.
+  std::vector<std::vector<uint32_t>> namers;
   std::vector<glm::vec3> light_colour;  // [global probe id]
   std::vector<int> touched;             // ids with non-zero light_colour
   // [global probe id]: light_colour[id] != 0. litSources tests every source of every slot at each
@@ -405,6 +409,7 @@ struct ProbeCache::Impl {
         if (s2 < 0 || src.probe >= slots[s2].count) continue;
         in.source_ids[j] = s2 * kSlotProbes + src.probe;
         ++is_source[size_t(in.source_ids[j])];
+        namers[size_t(in.source_ids[j])].push_back(namer(s, j));
       }
     }
     for (size_t t = 0; t < slots.size(); ++t) {
@@ -418,6 +423,7 @@ struct ProbeCache::Impl {
         DRTV_CHECK_EQ(other.source_ids[j], -1);  // its sector was not resident
         other.source_ids[j] = s * kSlotProbes + src.probe;
         ++is_source[size_t(other.source_ids[j])];
+        namers[size_t(other.source_ids[j])].push_back(namer(int(t), j));
       }
     }
   }
@@ -426,18 +432,40 @@ struct ProbeCache::Impl {
   // named its probes, no longer count.
   void sourcesLeaving(int s) {
     Slot& out = slots[s];
-    for (int32_t& id : out.source_ids)
-      if (id >= 0) --is_source[size_t(id)], id = -1;
+    for (size_t j = 0; j < out.source_ids.size(); ++j)
+      if (int32_t& id = out.source_ids[j]; id >= 0) --is_source[size_t(id)], unname(id, namer(s, j)), id = -1;
     const int lo = s * kSlotProbes, hi = lo + kSlotProbes;
     for (size_t t = 0; t < slots.size(); ++t) {
       Slot& other = slots[t];
       if (!other.used || int(t) == s || other.sources.empty()) continue;
       const glm::ivec2 d(out.key.ix - other.key.ix, out.key.iy - other.key.iy);
       if (glm::any(glm::lessThan(d, other.source_lo)) || glm::any(glm::greaterThan(d, other.source_hi))) continue;
-      for (int32_t& id : other.source_ids)
-        if (id >= lo && id < hi) --is_source[size_t(id)], id = -1;
+      for (size_t j = 0; j < other.source_ids.size(); ++j)
+        if (int32_t& id = other.source_ids[j]; id >= lo && id < hi) --is_source[size_t(id)], unname(id, namer(int(t), j)), id = -1;
     }
-    for (int id = lo; id < hi; ++id) DRTV_CHECK_EQ(is_source[size_t(id)], 0);
+    for (int id = lo; id < hi; ++id) DRTV_CHECK(is_source[size_t(id)] == 0 && namers[size_t(id)].empty());
+  }
+  static uint32_t namer(int slot, size_t j) { return uint32_t(slot) << 16 | uint32_t(j); }
+  void unname(int32_t id, uint32_t who) {
+    std::vector<uint32_t>& v = namers[size_t(id)];
+    const auto at = std::find(v.begin(), v.end(), who);
+    DRTV_CHECK(at != v.end());
+    *at = v.back();
+    v.pop_back();
+  }
+
+  // litSources of every slot at once: lit[s] for each slot s (cleared first), from the lit probes
+  // and the sources naming them, in source order. The same lists as litSources slot by slot.
+  void litSourcesOfAll(const RelightInput& li, std::vector<std::vector<LitSource>>& lit) const {
+    lit.resize(slots.size());
+    for (std::vector<LitSource>& l : lit) l.clear();
+    if (!(li.components & kComponentLocalLights)) return;
+    for (int id : touched) {
+      if (!is_lit[size_t(id)]) continue;
+      for (uint32_t who : namers[size_t(id)]) lit[who >> 16].push_back({size_t(who & 0xffffu), light_colour[size_t(id)]});
+    }
+    for (std::vector<LitSource>& l : lit)
+      if (l.size() > 1) std::sort(l.begin(), l.end(), [](const LitSource& a, const LitSource& b) { return a.j < b.j; });
   }
 
   uint64_t slot_relights = 0;  // relightSlot calls (slotRelightCount)
@@ -469,7 +497,8 @@ struct ProbeCache::Impl {
       if (id >= 0 && is_lit[id]) lit.push_back({j, light_colour[id]});
     }
   }
-  void relightSlot(int s, const RelightInput& in);
+  // `lit`: the slot's lit sources when the caller has them (litSourcesOfAll), else found here.
+  void relightSlot(int s, const RelightInput& in, const std::vector<LitSource>* lit = nullptr);
   // Sums the local lights' term of slot `s` (Slot::local) from its lit sources `lit`, in their order.
   void sumLocalLights(int s, std::span<const LitSource> lit);
   // Source j's 12 planes in slot s, transposed from the block the first time they are asked for,
@@ -504,6 +533,7 @@ ProbeCache::ProbeCache(ProbeCacheOptions options) : impl_(std::make_unique<Impl>
   m.out = AlignedFloats(n * kColourPlanes * kSlotProbes);
   m.packed.assign(n * kSlotProbes * 3, 0);
   m.is_source.assign(n * kSlotProbes, 0);
+  m.namers.assign(n * kSlotProbes, {});
   m.light_colour.assign(n * kSlotProbes, glm::vec3(0.f));
   m.is_lit.assign(n * kSlotProbes, 0);
 }
@@ -818,7 +848,7 @@ void ProbeCache::Impl::setLights(std::span<const PointLight> lights) {
   for (int id : touched) is_lit[id] = light_colour[id] != glm::vec3(0.f);
 }
 
-void ProbeCache::Impl::relightSlot(int s, const RelightInput& li) {
+void ProbeCache::Impl::relightSlot(int s, const RelightInput& li, const std::vector<LitSource>* lit) {
   Slot& sl = slots[s];
   const int n = sl.count;
   // Per-relight constants: the bounce lighting L = sky + sun, and the direct-sky colour of each
@@ -835,7 +865,10 @@ void ProbeCache::Impl::relightSlot(int s, const RelightInput& li) {
   // Local lights: only sources that received light cost anything, and only when they (or their
   // shares) changed since the slot's last relight; an hour's relight adds the kept sum.
   thread_local std::vector<LitSource> now;
-  litSources(s, li, now);
+  if (lit)
+    now.assign(lit->begin(), lit->end());
+  else
+    litSources(s, li, now);
   const bool lprt = !now.empty();
   if (lprt && !(sl.local_of_lit && now == sl.lit)) sumLocalLights(s, now);
   std::swap(sl.lit, now);
@@ -923,23 +956,25 @@ void ProbeCache::Impl::sumLocalLights(int s, std::span<const LitSource> lit) {
 void ProbeCache::relightAll(const RelightInput& in) {
   Impl& m = *impl_;
   m.setLights(in.components & kComponentLocalLights ? in.lights : std::span<const PointLight>{});
+  thread_local std::vector<std::vector<LitSource>> lit;
+  m.litSourcesOfAll(in, lit);
   for (size_t s = 0; s < m.slots.size(); ++s)
-    if (m.slots[s].used) m.relightSlot(int(s), in);
+    if (m.slots[s].used) m.relightSlot(int(s), in, &lit[s]);
 }
 
 std::vector<int> ProbeCache::relightChangedLights(const RelightInput& in) {
   Impl& m = *impl_;
   m.setLights(in.components & kComponentLocalLights ? in.lights : std::span<const PointLight>{});
   std::vector<int> relit;
-  thread_local std::vector<LitSource> now;
+  // Every slot's lit sources from the lit probes (a test of all 51 x 128 sources per frame was a
+  // sixth of BM_RelightChangedWith32MovingLights, perf).
+  thread_local std::vector<std::vector<LitSource>> now;
+  m.litSourcesOfAll(in, now);
   for (size_t s = 0; s < m.slots.size(); ++s) {
     Slot& sl = m.slots[s];
     if (!sl.used) continue;
-    if (sl.relit) {
-      m.litSources(int(s), in, now);
-      if (now == sl.lit) continue;  // the same shares on the same sources: the same colours
-    }
-    m.relightSlot(int(s), in);
+    if (sl.relit && now[s] == sl.lit) continue;  // the same shares on the same sources: the same colours
+    m.relightSlot(int(s), in, &now[s]);
     relit.push_back(int(s));
   }
   return relit;

@@ -840,9 +840,12 @@ std::vector<LightShare> ProbeCache::distributeLights(std::span<const PointLight>
 void ProbeCache::Impl::setLights(std::span<const PointLight> lights) {
   for (int id : touched) light_colour[id] = glm::vec3(0.f), is_lit[id] = 0;
   touched.clear();
+  // is_lit marks the ids in `touched` while the shares are summed: once each, also where a share
+  // is 0 (a light of intensity 0) and another light's share follows (a zero colour as the test
+  // pushed such an id twice, and litSourcesOfAll would have counted its sources twice).
   for (const LightShare& sh : distribute(lights)) {
     const int id = sh.probe.slot * kSlotProbes + sh.probe.index;
-    if (light_colour[id] == glm::vec3(0.f)) touched.push_back(id);
+    if (!is_lit[id]) is_lit[id] = 1, touched.push_back(id);
     light_colour[id] += sh.colour;
   }
   for (int id : touched) is_lit[id] = light_colour[id] != glm::vec3(0.f);

@@ -234,6 +234,47 @@ TEST(MovingLights, SectorsStreamingInAndOutKeepTheSharesOfACacheFilledOnce) {
   }
 }
 
+// A light switched off (intensity 0, which setLights allows: a flicker's low point) adds
+// nothing: its shares are 0 on the probes a lit light shares too, and the colours are those of the
+// lit lights alone, bit for bit, whichever comes first and whether relit whole or incrementally.
+TEST(MovingLights, ALightSwitchedOffBesideALitOneAddsNothing) {
+  for (LightSources mode : {LightSources::kVisibleFromLight, LightSources::kNearest}) {
+    SCOPED_TRACE(mode == LightSources::kNearest ? "nearest sources" : "sources visible from the light");
+    std::vector<PointLight> lit;  // lamps of 40 m over every sector (lightsAt's 14 m miss most named probes)
+    for (int y = -2; y <= 2; ++y)
+      for (int x = -2; x <= 2; ++x)
+        lit.push_back({"lamp", {x * 64.0 + 20.0 + 3.0 * y, y * 64.0 + 40.0 - 2.0 * x, 12.0 + x}, glm::vec3(4.f, 3.f, 2.f), 40.f});
+    std::vector<PointLight> with_off;
+    for (const PointLight& l : lit) {
+      PointLight off = l;
+      off.intensity = glm::vec3(0.f);
+      with_off.push_back(off);  // first, so that its zero shares reach the probes before the lit ones
+      with_off.push_back(l);
+    }
+    ProbeCache alone({.light_sources = mode}), both({.light_sources = mode}), moved({.light_sources = mode});
+    for (const Sector& sec : lprtSectors()) {
+      ASSERT_TRUE(alone.addSector(sec));
+      ASSERT_TRUE(both.addSector(sec));
+      ASSERT_TRUE(moved.addSector(sec));
+    }
+    alone.relightAll(inputAt(lit));
+    both.relightAll(inputAt(with_off));
+    moved.relightAll(inputAt(lightsAt(5)));
+    moved.relightChangedLights(inputAt(with_off));
+    int lit_probes = 0, mismatches = 0;
+    for (int s = 0; s < alone.maxSectors(); ++s) {
+      if (!alone.slotUsed(s)) continue;
+      for (int p = 0; p < alone.slot(s).probe_count; ++p) {
+        mismatches += !sameBits(alone.colours({s, p}), both.colours({s, p}));
+        mismatches += !sameBits(alone.colours({s, p}), moved.colours({s, p}));
+      }
+    }
+    for (const LightShare& sh : alone.distributeLights(lit)) lit_probes += sh.colour != glm::vec3(0.f);
+    ASSERT_GT(lit_probes, 0);
+    EXPECT_EQ(mismatches, 0);
+  }
+}
+
 TEST(MovingLights, ALightFarFromASectorDoesNotRelightIt) {
   ProbeCache cache({.light_sources = LightSources::kNearest});
   for (const Sector& s : lprtSectors()) ASSERT_TRUE(cache.addSector(s));

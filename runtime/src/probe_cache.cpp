@@ -322,12 +322,10 @@ struct ProbeCache::Impl {
   AlignedFloats in;              // [slot][kInputPlanes][kSlotProbes]
   AlignedFloats out;             // [slot][kColourPlanes][kSlotProbes]
   std::vector<uint32_t> packed;  // [slot][kSlotProbes][3]
-  // [global probe id]: how many resident sources name the probe (sourcesArrived): at most
-  // 51 slots x 128 sources, so 16 bits.
-  std::vector<uint16_t> is_source;
-  // [global probe id]: the resident sources naming it, as slot << 16 | source index (is_source of
-  // them; sourcesArrived, sourcesLeaving), so that the lit sources of every slot come from the
-  // few lit probes (litSourcesOfAll) instead of a test of every source of every slot.
+  // [global probe id]: the resident sources naming it, as slot << 16 | source index
+  // (sourcesArrived, sourcesLeaving): a probe is a source when its list is not empty, and the lit
+  // sources of every slot come from the few lit probes (litSourcesOfAll) instead of a test of
+  // every source of every slot.
   std::vector<std::vector<uint32_t>> namers;
   std::vector<glm::vec3> light_colour;  // [global probe id]
   std::vector<int> touched;             // ids with non-zero light_colour
@@ -381,7 +379,7 @@ struct ProbeCache::Impl {
   }
 
   // Source resolution, incremental: a slot's source_ids name the resident probes its sources are,
-  // and is_source counts, per global probe id, the resident sources that name it. Recomputing all
+  // and namers lists, per global probe id, the resident sources that name it. Recomputing all
   // of it at every addSector and removeSector (51 slots x 128 sources) was a third of a lit
   // sector's addSector in `drtv fly` over the lit island (perf, docs/runtime.md); an arrival or a
   // departure touches only its own sources and those of the slots whose sources reach it.
@@ -408,7 +406,6 @@ struct ProbeCache::Impl {
         const int s2 = close ? near[src.dy + 1][src.dx + 1] : slotOf({in.key.ix + src.dx, in.key.iy + src.dy});
         if (s2 < 0 || src.probe >= slots[s2].count) continue;
         in.source_ids[j] = s2 * kSlotProbes + src.probe;
-        ++is_source[size_t(in.source_ids[j])];
         namers[size_t(in.source_ids[j])].push_back(namer(s, j));
       }
     }
@@ -422,7 +419,6 @@ struct ProbeCache::Impl {
         if (src.dx != d.x || src.dy != d.y || src.probe >= in.count) continue;
         DRTV_CHECK_EQ(other.source_ids[j], -1);  // its sector was not resident
         other.source_ids[j] = s * kSlotProbes + src.probe;
-        ++is_source[size_t(other.source_ids[j])];
         namers[size_t(other.source_ids[j])].push_back(namer(int(t), j));
       }
     }
@@ -433,7 +429,7 @@ struct ProbeCache::Impl {
   void sourcesLeaving(int s) {
     Slot& out = slots[s];
     for (size_t j = 0; j < out.source_ids.size(); ++j)
-      if (int32_t& id = out.source_ids[j]; id >= 0) --is_source[size_t(id)], unname(id, namer(s, j)), id = -1;
+      if (int32_t& id = out.source_ids[j]; id >= 0) unname(id, namer(s, j)), id = -1;
     const int lo = s * kSlotProbes, hi = lo + kSlotProbes;
     for (size_t t = 0; t < slots.size(); ++t) {
       Slot& other = slots[t];
@@ -441,9 +437,9 @@ struct ProbeCache::Impl {
       const glm::ivec2 d(out.key.ix - other.key.ix, out.key.iy - other.key.iy);
       if (glm::any(glm::lessThan(d, other.source_lo)) || glm::any(glm::greaterThan(d, other.source_hi))) continue;
       for (size_t j = 0; j < other.source_ids.size(); ++j)
-        if (int32_t& id = other.source_ids[j]; id >= lo && id < hi) --is_source[size_t(id)], unname(id, namer(int(t), j)), id = -1;
+        if (int32_t& id = other.source_ids[j]; id >= lo && id < hi) unname(id, namer(int(t), j)), id = -1;
     }
-    for (int id = lo; id < hi; ++id) DRTV_CHECK(is_source[size_t(id)] == 0 && namers[size_t(id)].empty());
+    for (int id = lo; id < hi; ++id) DRTV_CHECK(namers[size_t(id)].empty());
   }
   static uint32_t namer(int slot, size_t j) { return uint32_t(slot) << 16 | uint32_t(j); }
   void unname(int32_t id, uint32_t who) {
@@ -532,7 +528,6 @@ ProbeCache::ProbeCache(ProbeCacheOptions options) : impl_(std::make_unique<Impl>
   m.in = AlignedFloats(n * kInputPlanes * kSlotProbes);
   m.out = AlignedFloats(n * kColourPlanes * kSlotProbes);
   m.packed.assign(n * kSlotProbes * 3, 0);
-  m.is_source.assign(n * kSlotProbes, 0);
   m.namers.assign(n * kSlotProbes, {});
   m.light_colour.assign(n * kSlotProbes, glm::vec3(0.f));
   m.is_lit.assign(n * kSlotProbes, 0);
@@ -791,7 +786,7 @@ std::vector<LightShare> ProbeCache::Impl::distribute(std::span<const PointLight>
             if (at.z < double(sl.z_min)) break;  // clamped into the bottom cell: nothing lower
             continue;
           }
-          if (!is_source[s * kSlotProbes + i]) break;
+          if (namers[size_t(s * kSlotProbes + i)].empty()) break;
           const glm::dvec3 d = world(s, i) - light.position;
           if (glm::dot(d, d) < r2) consider({s, i}, glm::dot(d, d));
           break;
@@ -807,7 +802,7 @@ std::vector<LightShare> ProbeCache::Impl::distribute(std::span<const PointLight>
         const glm::dvec3 gap = glm::max(glm::dvec3(0.0), glm::max(lo - light.position, light.position - hi));
         if (glm::dot(gap, gap) >= r2) continue;
         for (int i = 0; i < sl.count; ++i) {
-          if (!is_source[s * kSlotProbes + i]) continue;
+          if (namers[s * kSlotProbes + size_t(i)].empty()) continue;
           const glm::dvec3 d = world(int(s), i) - light.position;
           const double d2 = glm::dot(d, d);
           if (d2 < r2) consider({int(s), i}, d2);
@@ -830,7 +825,7 @@ std::vector<LightShare> ProbeCache::Impl::distribute(std::span<const PointLight>
 
 int ProbeCache::sourcesNaming(ProbeRef p) const {
   DRTV_CHECK(slotUsed(p.slot) && p.index >= 0 && p.index < impl_->slots[size_t(p.slot)].count);
-  return impl_->is_source[size_t(p.slot) * kSlotProbes + size_t(p.index)];
+  return int(impl_->namers[size_t(p.slot) * kSlotProbes + size_t(p.index)].size());
 }
 
 std::vector<LightShare> ProbeCache::distributeLights(std::span<const PointLight> lights) const {

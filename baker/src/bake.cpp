@@ -199,6 +199,9 @@ std::string validateSettings(const BakeSettings& s) {
   if (t.sun_samples != 0 && (t.sun_samples < 2 || t.sun_samples > kMaxSunSamples)) return "sun_samples must be 0 or in [2, 8]";
   if (s.grid.visibility_candidates < 1 || s.grid.visibility_candidates > 255) return "visibility_candidates must be in [1, 255]";
   if (!in(s.halo_m, 0.0, 1024.0) || !in(s.lprt_halo_m, 0.0, 1024.0)) return "halos must be in [0, 1024] m";
+  if (std::string why = validateRoomSettings(s.rooms); !why.empty()) return why;
+  if (s.rooms.enabled && s.rooms.max_extent_m > std::min(s.halo_m, s.lprt_halo_m))
+    return "rooms: max_extent_m must not exceed the halos (the room search gathers that far)";
   return {};
 }
 
@@ -294,6 +297,8 @@ std::vector<std::pair<std::string, std::string>> BakeSettings::describe() const 
     d.emplace_back("covered_column_spacing_m", fmt(placement.covered_column_spacing_m));
   if (placement.covered_min_horizontal_m < placement.min_horizontal_m)
     d.emplace_back("covered_min_horizontal_m", fmt(placement.covered_min_horizontal_m));
+  // Only when off: a bake that finds no room describes itself (and hashes, and packs) as before.
+  if (!rooms.enabled) d.emplace_back("rooms", "off");
   if (transfer.representation != Representation::kFc3) d.emplace_back("representation", representationName(transfer.representation));
   if (transfer.representation == Representation::kShL1) d.emplace_back("sun_samples", std::to_string(transfer.sun_samples));
   return d;
@@ -312,6 +317,25 @@ uint32_t effectsToBake(const worlds::World& world, std::vector<std::string>* ski
     for (uint32_t bit = 1; bit <= kEffectVolumeBlur; bit <<= 1)
       if (!(world.effects & bit)) skipped->push_back(std::string(effectName(Effect(bit))) + ": not asked for by the world");
   return e;
+}
+
+Result<const worlds::World*> worldWithRooms(const worlds::World& world, const raytrace::WorldGeometry& geometry,
+                                           const raytrace::SectorRange& range, const BakeSettings& settings,
+                                           std::optional<worlds::World>& storage, RoomStats* stats) {
+  if (stats) *stats = RoomStats{};
+  const bool asked = world.effects_explicit ? (world.effects & kEffectInteriors) != 0 : true;
+  if (!settings.rooms.enabled || !asked || range.empty()) return &world;
+  auto rooms = findRooms(geometry, range, world.interiors, settings.rooms, stats);
+  if (!rooms) return std::unexpected(rooms.error());
+  if (rooms->empty()) return &world;
+  storage.emplace(world);
+  // The manifest stores at most 65,535 interiors (probe.h's 16-bit index); the artist's come first.
+  for (InteriorVolume& r : *rooms) {
+    if (storage->interiors.size() >= 65535) break;
+    storage->interiors.push_back(std::move(r));
+  }
+  if (!storage->effects_explicit) storage->effects |= kEffectInteriors;
+  return &*storage;
 }
 
 double haloFor(const BakeSettings& settings, uint32_t effects) {
@@ -635,7 +659,7 @@ Result<void> packArchive(const raytrace::WorldGeometry& geometry, const worlds::
 
 }  // namespace
 
-Result<BakeReport> bake(const worlds::World& world, const std::string& world_name, const fs::path& archive,
+Result<BakeReport> bake(const worlds::World& given, const std::string& world_name, const fs::path& archive,
                         const BakeOptions& options) {
   const auto t_start = Clock::now();
   if (options.shard_count < 1 || options.shard_index < 0 || options.shard_index >= options.shard_count)
@@ -651,27 +675,28 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
   report.settings = options.settings ? *options.settings : BakeSettings::forQuality(options.quality, options.seed);
   if (options.representation) report.settings.transfer.representation = *options.representation;
   if (options.clearance_m) report.settings.placement.clearance_m = *options.clearance_m;
+  if (options.find_rooms) report.settings.rooms.enabled = *options.find_rooms;
   if (options.inside_from_neighbours) report.settings.grid.inside_from_neighbours = *options.inside_from_neighbours;
-  else if (world.representation && !options.settings) report.settings.transfer.representation = *world.representation;
+  else if (given.representation && !options.settings) report.settings.transfer.representation = *given.representation;
   if (std::string why = validateSettings(report.settings); !why.empty()) return fail("bake settings: " + why);
   report.threads = options.threads > 0 ? options.threads : int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
   if (options.shard_count > 1) report.shard = std::to_string(options.shard_index) + "/" + std::to_string(options.shard_count);
-  report.effects_asked = world.effects;
-  const uint32_t effects = effectsToBake(world, &report.effects_skipped);
-  report.effects_baked = effects;
-  if (std::string why = validateLighting(world.sky, world.lights, world.interiors); !why.empty())
+  report.effects_asked = given.effects;
+  // The halo depends on the lights alone: the rooms found below do not change it.
+  const uint32_t given_effects = effectsToBake(given, nullptr);
+  if (std::string why = validateLighting(given.sky, given.lights, given.interiors); !why.empty())
     return fail(world_name + ": " + why);
 
   auto t0 = Clock::now();
   // With --sectors, only the geometry those sectors gather is binned (not a whole 8192-cell terrain);
   // with LPRT that includes the ring of neighbours the placement pass places (placementKeys).
   std::optional<raytrace::SectorRange> binned = options.sectors;
-  if (binned && (effects & kEffectLocalLights)) *binned = grownByOne(*binned);
-  auto geometry = raytrace::WorldGeometry::build(world, world_name, binned, haloFor(report.settings, effects));
+  if (binned && (given_effects & kEffectLocalLights)) *binned = grownByOne(*binned);
+  auto geometry = raytrace::WorldGeometry::build(given, world_name, binned, haloFor(report.settings, given_effects));
   if (!geometry) return std::unexpected(geometry.error());
   report.notes = geometry->notes();
-  report.world_notes = world.notes;
-  report.materials = world.materials;
+  report.world_notes = given.notes;
+  report.materials = given.materials;
   report.triangles = geometry->triangleCount();
   report.geometry_s = since(t0);
 
@@ -684,6 +709,27 @@ Result<BakeReport> bake(const worlds::World& world, const std::string& world_nam
     range.y1 = std::min(range.y1, options.sectors->y1);
     if (range.empty()) return fail(world_name + ": --sectors selects no sector of the world");
   }
+
+  // Closed rooms get the artist's interior treatment (rooms.h). They are searched for over the
+  // whole world, so that every shard and every --sectors bake finds the same ones (the same
+  // interior indices in its probes, the same fingerprint: their sectors resume into one archive);
+  // a bake binned for some sectors only bins the whole world once more for the search.
+  t0 = Clock::now();
+  std::optional<raytrace::WorldGeometry> whole;
+  if (binned && report.settings.rooms.enabled) {
+    auto w = raytrace::WorldGeometry::build(given, world_name);
+    if (!w) return std::unexpected(w.error());
+    whole.emplace(std::move(*w));
+  }
+  const raytrace::WorldGeometry& searched = whole ? *whole : *geometry;
+  std::optional<worlds::World> with_rooms;
+  auto found = worldWithRooms(given, searched, searched.sectors(), report.settings, with_rooms, &report.rooms);
+  if (!found) return std::unexpected(found.error().context(world_name));
+  const worlds::World& world = **found;
+  report.rooms_found = world.interiors.size() - given.interiors.size();
+  report.rooms_s = since(t0);
+  const uint32_t effects = effectsToBake(world, &report.effects_skipped);
+  report.effects_baked = effects;
   if (!options.merge_only)
     if (auto ok = geometry->checkBakeMemory(range, haloFor(report.settings, effects), report.threads, world_name); !ok)
       return std::unexpected(ok.error());

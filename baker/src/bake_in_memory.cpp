@@ -10,15 +10,15 @@
 
 namespace drtv::baker {
 
-Result<InMemoryBake> bakeInMemory(const worlds::World& world, const std::string& where, const BakeSettings& settings,
+Result<InMemoryBake> bakeInMemory(const worlds::World& given, const std::string& where, const BakeSettings& settings,
                                   std::optional<raytrace::SectorRange> sectors, int threads) {
-  if (std::string why = validateLighting(world.sky, world.lights, world.interiors); !why.empty())
+  if (std::string why = validateLighting(given.sky, given.lights, given.interiors); !why.empty())
     return fail(where + ": " + why);
   if (threads < 0) return fail("threads " + std::to_string(threads) + ": must be >= 0");
   if (std::string why = validateSettings(settings); !why.empty()) return fail(where + ": bake settings: " + why);
   std::optional<tbb::global_control> limit;
   if (threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(threads));
-  auto geometry = raytrace::WorldGeometry::build(world, where);
+  auto geometry = raytrace::WorldGeometry::build(given, where);
   if (!geometry) return std::unexpected(geometry.error());
   raytrace::SectorRange range = geometry->sectors();
   if (sectors) {
@@ -28,6 +28,11 @@ Result<InMemoryBake> bakeInMemory(const worlds::World& world, const std::string&
     range.y1 = std::min(range.y1, sectors->y1);
   }
   if (range.empty()) return fail(where + ": the sector selection holds no sector of the world");
+  // bake()'s rooms (rooms.h), searched for over the whole world as bake() does.
+  std::optional<worlds::World> with_rooms;
+  auto found = worldWithRooms(given, *geometry, geometry->sectors(), settings, with_rooms);
+  if (!found) return std::unexpected(found.error().context(where));
+  const worlds::World& world = **found;
   std::vector<SectorKey> keys;
   for (int32_t x = range.x0; x <= range.x1; ++x)
     for (int32_t y = range.y0; y <= range.y1; ++y) keys.push_back({x, y});

@@ -84,6 +84,7 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
   // The placement pass's rays for sectors this bake does not bake (its sectors' own count above).
   rays += r.placement_pass.outside_rays;
   r_place += r.placement_pass.outside_rays;
+  rays += r.rooms.rays;  // the room search (rooms.h), before any sector
   const double cast_s = r.bake_s + r.placement_pass.seconds;
   const double rays_per_s = cast_s > 0 ? double(rays) / cast_s : 0.0;
 
@@ -117,12 +118,15 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
                      {"cells_inside_geometry", cells_inside}, {"cells_beyond_candidates", cells_searched},
                      {"cells_none_visible_take_a_neighbours", cells_unseen}};
   j["surface_cache"] = {{"surfels", surfels}, {"probe_hits_reusing_a_cell", cached}};
-  j["rays"] = {{"total", rays}, {"placement", r_place}, {"probe", r_probe}, {"surfel", r_surfel}, {"lprt", r_lprt},
+  j["rays"] = {{"total", rays}, {"rooms", r.rooms.rays}, {"placement", r_place}, {"probe", r_probe}, {"surfel", r_surfel}, {"lprt", r_lprt},
                {"sun", r_sun}, {"grid", r_grid}, {"other", r_other}, {"per_second_wall", rays_per_s}};
   j["placement_pass"] = {{"sectors", r.placement_pass.sectors}, {"resumed", r.placement_pass.resumed},
                          {"outside", r.placement_pass.outside}, {"outside_rays", r.placement_pass.outside_rays},
                          {"seconds", r.placement_pass.seconds}};
-  j["seconds"] = {{"wall", r.wall_s}, {"geometry", r.geometry_s}, {"placement_pass", r.placement_pass.seconds},
+  j["rooms"] = {{"found", r.rooms_found}, {"seeds", r.rooms.seeds}, {"enclosed_seeds", r.rooms.enclosed},
+                {"dropped_for_an_artists_interior", r.rooms.dropped_artist}, {"dropped_as_the_same_room", r.rooms.dropped_overlap},
+                {"rays", r.rooms.rays}, {"seconds", r.rooms_s}};
+  j["seconds"] = {{"wall", r.wall_s}, {"geometry", r.geometry_s}, {"rooms", r.rooms_s}, {"placement_pass", r.placement_pass.seconds},
                   {"bake", r.bake_s}, {"pack", r.pack_s},
                   {"sum_over_sectors",
                    {{"gather", t_gather}, {"scene_build", t_build}, {"placement", t_place}, {"probe_rays", t_probe},
@@ -171,6 +175,7 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
      << cells_searched << " saw none of the nearest candidates but a farther probe, " << cells_unseen
      << " saw no probe at all (a neighbour cell's choice).\n";
   md << "\n## Rays\n\n| stage | rays |\n|---|---|\n";
+  md << "| room search | " << r.rooms.rays << " |\n";
   md << "| placement | " << r_place << " |\n| probe basis rays | " << r_probe << " |\n| surface cache | " << r_surfel
      << " (" << surfels << " cells) |\n| LPRT shadow rays | " << r_lprt << " |\n| index grid visibility | " << r_grid
      << " |\n| ground map | " << r_other << " |\n| **total** | **" << rays << "** |\n";
@@ -180,8 +185,13 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
        << r.placement_pass.resumed << " read back from placement journals, " << r.placement_pass.outside
        << " only as neighbours), " << r.placement_pass.outside_rays << " rays for those, " << fixed(r.placement_pass.seconds, 2)
        << " s.\n";
+  if (r.settings.rooms.enabled)
+    md << "\nRooms (closed rooms given an interior volume and a designated probe, rooms.h): " << r.rooms_found << " found from "
+       << r.rooms.seeds << " covered-air seeds (" << r.rooms.enclosed << " enclosed; " << r.rooms.dropped_artist
+       << " rooms inside an artist's interior and " << r.rooms.dropped_overlap << " seen twice dropped), " << r.rooms.rays
+       << " rays, " << fixed(r.rooms_s, 2) << " s.\n";
   md << "\n## Time (seconds)\n\n| stage | seconds |\n|---|---|\n";
-  md << "| wall | " << fixed(r.wall_s, 2) << " |\n| world geometry | " << fixed(r.geometry_s, 2) << " |\n| sectors (wall) | "
+  md << "| wall | " << fixed(r.wall_s, 2) << " |\n| world geometry | " << fixed(r.geometry_s, 2) << " |\n| room search | " << fixed(r.rooms_s, 2) << " |\n| sectors (wall) | "
      << fixed(r.bake_s, 2) << " |\n| placement pass (LPRT) | " << fixed(r.placement_pass.seconds, 2) << " |\n| pack | "
      << fixed(r.pack_s, 2) << " |\n";
   md << "\nSummed over sectors (each a wall time within its sector's task):\n\n| stage | seconds |\n|---|---|\n";

@@ -215,6 +215,11 @@ std::vector<RowSpec> drtvRows(const BakeSettings& base, uint32_t effects, const 
                     def ? TechniqueParams{} : TechniqueParams{{"covered_spacing", fmt(spacing)}, {"covered_min_h", fmt(min_h)}},
                     def ? "the default bake: columns / least distance under roofs" : "columns / least distance under roofs"});
   }
+  // Closed rooms found at bake time and given interiors (rooms.h), against the artist's alone.
+  rows.push_back({"rooms", "auto", base.rooms.enabled, "drtv", base.rooms.enabled ? TechniqueParams{} : TechniqueParams{{"rooms", "auto"}},
+                  base.rooms.enabled ? "the default bake: closed rooms get interiors" : "closed rooms get interiors"});
+  rows.push_back({"rooms", "off", !base.rooms.enabled, "drtv", !base.rooms.enabled ? TechniqueParams{} : TechniqueParams{{"rooms", "off"}},
+                  "the artist's interiors only"});
   const uint32_t components = runtime::componentsFromEffects(effects);
   const std::array<std::pair<const char*, uint32_t>, 4> parts = {
       std::pair{"sun_bounce", uint32_t(runtime::kComponentSunBounce)}, std::pair{"sky_bounce", uint32_t(runtime::kComponentSkyBounce)},

@@ -238,9 +238,16 @@ Result<void> writeAccuracyReport(const AccuracyReport& r, const fs::path& dir) {
   md << "---|\n";
   for (const AccuracyRow& row : r.rows) {
     // The placement rows change where the probes stand, which the categories tell apart.
+    // So do the rooms' interiors (rooms.h), indoors.
     const bool placement = row.knob == "placement_under_roofs" && !row.is_default;
-    if (!(row.knob == "technique" || placement || (row.knob == "rays_per_basis" && row.is_default))) continue;
-    md << "| " << (row.knob == "technique" ? row.value : placement ? "under roofs " + row.value : std::string("default")) << " |";
+    const bool rooms = row.knob == "rooms" && !row.is_default;
+    if (!(row.knob == "technique" || placement || rooms || (row.knob == "rays_per_basis" && row.is_default))) continue;
+    md << "| "
+       << (row.knob == "technique" ? row.value
+           : placement             ? "under roofs " + row.value
+           : rooms                 ? "rooms " + row.value
+                                   : std::string("default"))
+       << " |";
     int worst = -1;
     for (int c = 0; c < kSurfaceCategoryCount; ++c) {
       const CategoryError& e = row.categories[size_t(c)];

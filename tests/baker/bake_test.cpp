@@ -180,11 +180,17 @@ TEST(Bake, LprtSourcesNameTheNeighboursOwnProbes) {
   ASSERT_TRUE(geometry);
   const BakeSettings settings = BakeSettings::forQuality(Quality::kDraft);
   const uint32_t effects = reader->manifest().effects;
+  // The world as the bake saw it: its house is a closed room (rooms.h), whose designated probe
+  // the placement keeps.
+  std::optional<worlds::World> with_rooms;
+  auto seen = worldWithRooms(world, *geometry, geometry->sectors(), settings, with_rooms);
+  ASSERT_TRUE(seen);
+  ASSERT_EQ((*seen)->interiors.size(), reader->manifest().interiors.size());
   int compared = 0;
   for (const SectorEntry& e : reader->manifest().sectors) {
     auto sector = reader->readSector(e.key);
     ASSERT_TRUE(sector);
-    auto alone = placeSector(*geometry, world, e.key, settings, effects);
+    auto alone = placeSector(*geometry, **seen, e.key, settings, effects);
     ASSERT_TRUE(alone);
     ASSERT_EQ(alone->probes.size(), sector->probes.size()) << toString(e.key);
     for (size_t i = 0; i < alone->probes.size(); ++i)
@@ -516,7 +522,7 @@ TEST(Bake, ReportCountsEveryRayTheBakeCasts) {
     auto r = bake(lit ? litWorld() : test::smallWorld(), "small", dir.path / (lit ? "lit.drtv" : "a.drtv"), draft());
     raytrace::setRayLog(nullptr);
     ASSERT_TRUE(r) << r.error().message;
-    uint64_t counted = r->placement_pass.outside_rays;
+    uint64_t counted = r->placement_pass.outside_rays + r->rooms.rays;
     for (const auto& s : r->sectors) counted += s.rays();
     EXPECT_GT(counted, 0u);
     EXPECT_EQ(counted, log.rays.size());

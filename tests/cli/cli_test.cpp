@@ -416,6 +416,40 @@ TEST(Cli, TheRoomsLampDoesNotLightTheGroundOutsideItsClosedWalls) {
   for (const char* outside : {"0,6,0.05", "7,0,0.05", "-7,0,0.05"}) EXPECT_LT(lamp(outside), 0.01 * inside) << outside;
 }
 
+// Issue 16's interiors without an artist (rooms.h): tests/reference/data/room.json's closed room
+// (0.1 m walls, a window) is found at bake time and its surfaces read its designated probe, the
+// wall's outer face and the roof's top the volume; the Cornell box, open on one side, is no room;
+// --rooms off bakes no interior, and a value that is not auto or off is a usage error.
+TEST(Cli, AClosedRoomIsFoundAndShadedFromItsOwnProbe) {
+  const std::string archive = scratch("room-found.drtv");
+  ASSERT_EQ(drtv("bake " + src("tests/reference/data/room.json") + " -o " + archive + " --quality draft").status, 0);
+  const std::string dir = std::filesystem::path(archive).parent_path().string();
+  auto report = [&] { return nlohmann::json::parse(slurp(dir + "/bake-report.json")); };
+  EXPECT_EQ(report().at("rooms").at("found").get<int>(), 1);
+  const Outcome info = drtv("info " + archive);
+  EXPECT_NE(info.out.find("interior 'room 1': [-5.05, -4.05,"), std::string::npos) << info.out;
+  auto path = [&](const char* at, const char* normal) {
+    const Outcome q = drtv("query " + archive + " --at " + at + " --normal=" + normal + " --time 10:00 --json");
+    EXPECT_EQ(q.status, 0) << q.out;
+    const auto j = nlohmann::json::parse(q.out.substr(q.out.find('{')));
+    return j.at("interior").is_null() ? std::string("volume") : j.at("interior").get<std::string>();
+  };
+  EXPECT_EQ(path("2,2,0.02", "0,0,1"), "room 1") << "the floor";
+  EXPECT_EQ(path("-4.98,1,1.5", "1,0,0"), "room 1") << "the red wall's inside";
+  EXPECT_EQ(path("0,3.98,2.98", "0,-1,0"), "room 1") << "the north wall under the roof";
+  EXPECT_EQ(path("-5.12,1,1.5", "-1,0,0"), "volume") << "the red wall's outside";
+  EXPECT_EQ(path("0,0,3.12", "0,0,1"), "volume") << "the roof's top";
+
+  ASSERT_EQ(drtv("bake " + src("tests/reference/data/room.json") + " -o " + archive + " --quality draft --rooms off").status, 0);
+  EXPECT_EQ(report().at("rooms").at("found").get<int>(), 0);
+  EXPECT_NE(drtv("info " + archive).out.find("interiors: 0"), std::string::npos);
+  EXPECT_EQ(drtv("bake " + src("tests/reference/data/room.json") + " -o " + archive + " --rooms maybe").status, 2);
+
+  const std::string cornell = scratch("cornell-rooms.drtv");
+  ASSERT_EQ(drtv("bake " + src("tests/reference/data/cornell_world.json") + " -o " + cornell + " --quality draft").status, 0);
+  EXPECT_EQ(report().at("rooms").at("found").get<int>(), 0) << "the Cornell box is open on its -y side";
+}
+
 TEST(Cli, AMemoryLimitThatIsNotASizeIsAUsageError) {
   const Outcome r = drtv("info " + kGolden + " --max-memory lots");
   EXPECT_EQ(r.status, 2) << r.out;

@@ -28,6 +28,7 @@ struct BakeCliOptions {
   std::string representation;  // "" = the world's (else sh-l1)
   std::optional<double> clearance_m;
   std::string inside_cells;
+  std::string rooms;
 };
 
 void drawProgress(size_t done, size_t total) {
@@ -53,6 +54,7 @@ Result<void> runBake(const BakeCliOptions& o) {
   }
   options.clearance_m = o.clearance_m;
   if (!o.inside_cells.empty()) options.inside_from_neighbours = o.inside_cells == "neighbour";
+  if (!o.rooms.empty()) options.find_rooms = o.rooms == "auto";
   options.fresh = o.fresh;
   options.keep_sector_files = o.keep_sectors;
   options.merge_only = o.merge;
@@ -140,6 +142,10 @@ Command registerBake(CLI::App& app) {
                   "What an index cell whose centre is inside geometry names: neighbour (a resolved neighbour cell's probe, "
                   "default) | nearest (the talk's nearest probe, which may be behind a wall)")
       ->check(CLI::IsMember({"neighbour", "nearest"}));
+  sub->add_option("--rooms", o->rooms,
+                  "Closed rooms found in the geometry get an interior volume and a designated probe, as an artist's "
+                  "interiors do: auto (default) | off (the artist's interiors only)")
+      ->check(CLI::IsMember({"auto", "off"}));
   return {sub, [o]() { return runBake(*o); }, &o->world};
 }
 

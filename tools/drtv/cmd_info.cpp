@@ -54,6 +54,11 @@ Result<void> archiveInfo(const InfoOptions& o) {
                   {"raw_per_sector", n ? double(raw) / n : 0.0}, {"compressed_per_sector", n ? double(compressed) / n : 0.0}};
     j["lights"] = m.lights.size();
     j["interiors"] = m.interiors.size();
+    nlohmann::json volumes = nlohmann::json::array();
+    for (const InteriorVolume& v : m.interiors)
+      volumes.push_back({{"name", v.name}, {"min", vec3Json(v.min)}, {"max", vec3Json(v.max)}, {"probe", vec3Json(v.probe_position)},
+                         {"blend_m", v.blend_distance_m}});
+    j["interior_volumes"] = volumes;
     nlohmann::json settings = nlohmann::json::object();
     for (const auto& [k, v] : m.settings) settings[k] = v;
     j["settings"] = settings;
@@ -74,6 +79,10 @@ Result<void> archiveInfo(const InfoOptions& o) {
   std::printf("bytes: %zu raw, %zu compressed (per sector %.0f raw, %.0f compressed)\n", raw, compressed,
               n ? double(raw) / n : 0.0, n ? double(compressed) / n : 0.0);
   std::printf("lights: %zu, interiors: %zu\n", m.lights.size(), m.interiors.size());
+  for (const InteriorVolume& v : m.interiors)
+    std::printf("interior '%s': [%.2f, %.2f, %.2f] .. [%.2f, %.2f, %.2f] m, probe (%.2f, %.2f, %.2f), blend %.2f m\n", v.name.c_str(),
+                v.min.x, v.min.y, v.min.z, v.max.x, v.max.y, v.max.z, v.probe_position.x, v.probe_position.y, v.probe_position.z,
+                double(v.blend_distance_m));
   for (const auto& [k, v] : m.settings) std::printf("setting %s: %s\n", k.c_str(), v.c_str());
   std::printf("%-12s %7s %6s %10s %12s\n", "sector", "probes", "lprt", "raw B", "compressed B");
   for (const SectorEntry& e : m.sectors)

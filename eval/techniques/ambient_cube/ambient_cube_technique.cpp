@@ -149,7 +149,7 @@ class AmbientCube final : public Technique {
       own = std::move(*b);
       bake = &*own;
     }
-    auto cube = baker::bakeCube(in.world, in.where, s, bake->sectors, in.threads);
+    auto cube = baker::bakeCube(in.world, in.where, s, bake->sectors, in.threads, &bake->manifest.interiors);
     if (!cube) return std::unexpected(cube.error());
     cube_ = std::move(*cube);
     manifest_ = bake->manifest;

@@ -7,6 +7,8 @@
 //   covered_spacing    metres in (0, 64]            the column lattice under roofs
 //   covered_min_h      metres in (0, 64]            the minimum distance between probes under
 //                                                   roofs (placement.h, issue 16)
+//   rooms              auto | off                   closed rooms found at bake time get
+//                                                   interiors (rooms.h, issue 16; default auto)
 //   representation     fc3 | sh-l1                  the directional representation baked
 //                                                   (representation.h; default sh-l1)
 //   fill               nearest | smooth             the volume fill (runtime FillMode)
@@ -57,6 +59,7 @@ struct BakeParams {
   std::optional<int> rays_per_basis, bounces;
   std::optional<double> covered_spacing, covered_min_h;  // placement under roofs (placement.h)
   Representation representation = Representation::kShL1;  // the baker's default for new worlds
+  bool rooms = true;  // the room search (rooms.h)
   bool operator==(const BakeParams&) const = default;
 };
 
@@ -98,6 +101,10 @@ Result<Params> parseParams(const TechniqueParams& p) {
       const auto [end, ec] = std::from_chars(v.data(), v.data() + v.size(), x);
       if (ec != std::errc() || end != v.data() + v.size() || !(x > 0 && x <= 64)) return fail(k + "=" + v + ": expected metres in (0, 64]");
       (k == "covered_spacing" ? out.bake.covered_spacing : out.bake.covered_min_h) = x;
+    } else if (k == "rooms") {
+      if (v == "auto") out.bake.rooms = true;
+      else if (v == "off") out.bake.rooms = false;
+      else return fail("rooms=" + v + ": expected auto or off");
     } else if (k == "fill") {
       if (v == "nearest") out.runtime.fill = runtime::FillMode::kNearest;
       else if (v == "smooth") out.runtime.fill = runtime::FillMode::kSmooth;
@@ -149,7 +156,7 @@ Result<Params> parseParams(const TechniqueParams& p) {
       else return fail("storage=" + v + ": expected runtime, 8-bit, snorm8, 16-bit or float");
     } else {
       return fail("no parameter '" + k +
-                  "' (drtv takes quality, rays_per_basis, bounces, covered_spacing, covered_min_h, representation, fill, lookup, texel_m, sun_window, part, "
+                  "' (drtv takes quality, rays_per_basis, bounces, covered_spacing, covered_min_h, rooms, representation, fill, lookup, texel_m, sun_window, part, "
                   "sources_per_light, light_sources, lprt_sources, storage)");
     }
   }
@@ -165,6 +172,7 @@ baker::BakeSettings bakeSettings(const BakeParams& p, uint64_t seed) {
   if (p.covered_spacing) s.placement.covered_column_spacing_m = *p.covered_spacing;
   if (p.covered_min_h) s.placement.covered_min_horizontal_m = *p.covered_min_h;
   s.transfer.representation = p.representation;
+  s.rooms.enabled = p.rooms;
   return s;
 }
 

@@ -40,6 +40,7 @@
 
 #include "drtv/baker/index_grid.h"
 #include "drtv/baker/placement.h"
+#include "drtv/baker/rooms.h"
 #include "drtv/baker/transfer.h"
 #include "drtv/raytrace/world_geometry.h"
 #include "drtv/formats/archive.h"
@@ -63,6 +64,7 @@ struct BakeSettings {
   PlacementSettings placement;
   TransferSettings transfer;
   IndexGridSettings grid;
+  RoomSettings rooms;          // closed rooms found and given interiors (rooms.h)
   double halo_m = 64.0;        // geometry gathered around a sector without LPRT (metres)
   double lprt_halo_m = 80.0;   // with LPRT (see above)
   int zstd_level = 3;          // archive compression (zstd's default; ratio ~2 at every level)
@@ -116,6 +118,9 @@ struct BakeOptions {
   // Index cells inside geometry (index_grid.h IndexGridSettings::inside_from_neighbours); unset =
   // the preset's (true). false, with clearance 0, bakes the archives of every earlier build.
   std::optional<bool> inside_from_neighbours;
+  // The room search (rooms.h RoomSettings::enabled); unset = the preset's (true). false bakes the
+  // archives of the builds before it, byte for byte.
+  std::optional<bool> find_rooms;
   // Called after each sector with (done, total), from one thread at a time. May be empty.
   std::function<void(size_t, size_t)> progress;
 };
@@ -153,7 +158,9 @@ struct BakeReport {
   size_t sectors_empty = 0;              // sectors with no probe (not written to the archive)
   size_t triangles = 0;                  // contributing triangles in the world
   PlacementPass placement_pass;          // empty without LPRT
-  double geometry_s = 0, bake_s = 0, pack_s = 0, wall_s = 0;
+  RoomStats rooms;                       // the room search (rooms.h); its rooms are the manifest's
+  size_t rooms_found = 0;                // interiors added by it (named "room N", after the artist's)
+  double geometry_s = 0, rooms_s = 0, bake_s = 0, pack_s = 0, wall_s = 0;
   bool packed = false;                   // the archive was written (false for a shard)
 };
 
@@ -165,6 +172,18 @@ std::string validateSettings(const BakeSettings& settings);
 // name, sky, lights and interiors): what bake() packs and bakeInMemory() returns.
 Manifest manifestFor(const raytrace::WorldGeometry& geometry, const worlds::World& world, const std::string& world_name,
                      const BakeSettings& settings, uint32_t effects);
+
+// The world a bake of the sectors in `range` sees: `world` itself, or, when settings.rooms is
+// enabled, the world asks for interiors (or derives its effects) and findRooms() finds closed
+// rooms there, a copy in `storage` with those rooms appended to its interiors (after the
+// artist's, whose indices stay) and, for derived effects, the interiors effect added.
+// `geometry` is built from `world` for `range` with a halo of at least settings.rooms.max_extent_m;
+// bake() and bakeInMemory() pass the whole world, whatever sectors they bake, so that partial
+// bakes and shards find the same rooms.
+// Errors: findRooms' (a sector's scene cannot be built).
+Result<const worlds::World*> worldWithRooms(const worlds::World& world, const raytrace::WorldGeometry& geometry,
+                                           const raytrace::SectorRange& range, const BakeSettings& settings,
+                                           std::optional<worlds::World>& storage, RoomStats* stats = nullptr);
 
 // The halo of geometry a sector is baked with: lprt_halo_m when local lights are baked (LPRT
 // sources sit in the neighbours), else halo_m.

@@ -37,9 +37,12 @@ struct CubeBake {
 
 // The ambient cube's transfer for `sectors` (a bake of `world` with `settings`: their records'
 // probe positions and LPRT sources). With local lights baked, the neighbours' placements are
-// recomputed (placeSectors: the same bits the bake used) to locate the sources. Deterministic;
+// recomputed (placeSectors: the same bits the bake used) to locate the sources; `interiors` are
+// those the sectors were baked with (InMemoryBake::manifest.interiors: the world's and the rooms
+// bakeInMemory found, rooms.h), or null for the world's own. Deterministic;
 // uses `threads` TBB threads (0 = all). Errors: those of bakeInMemory (geometry, lighting).
 Result<CubeBake> bakeCube(const worlds::World& world, const std::string& where, const BakeSettings& settings,
-                          std::span<const Sector> sectors, int threads = 0);
+                          std::span<const Sector> sectors, int threads = 0,
+                          const std::vector<InteriorVolume>* interiors = nullptr);
 
 }  // namespace drtv::baker

@@ -1,0 +1,198 @@
+// Closed rooms found at bake time (rooms.h, issue 16): which spaces are rooms, where their boxes
+// lie, artists' interiors first, one room seen from four sectors, the same rooms on any number of
+// threads, and the bake carrying them into its manifest and probes.
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include "drtv/baker/bake.h"
+#include "drtv/baker/rooms.h"
+#include "test_worlds.h"
+
+namespace drtv::baker {
+namespace {
+
+using worlds::InstanceClass;
+
+// A box room's inside, to 1 mm: the rays land on planes at float precision.
+constexpr double kPlaneTolM = 1e-3;
+
+// A closed room of `wall_m` thick walls and roof, inside [lo, hi] (floor = the ground at lo.z),
+// with a window of 2 x 1.2 m in its south wall unless `window` is false, on a ground of 128 m.
+struct RoomSpec {
+  glm::vec3 lo{-5, -4, 0}, hi{5, 4, 3};
+  float wall_m = 0.1f;
+  bool window = true;
+  bool north_wall = true;
+};
+
+worlds::World roomWorld(const RoomSpec& r, const glm::vec3& offset = glm::vec3(0.f)) {
+  worlds::World w = test::planeWorld(128.0, {0.3f, 0.3f, 0.3f});
+  const glm::vec3 lo = r.lo + offset, hi = r.hi + offset, a(0.7f);
+  const float t = r.wall_m;
+  test::add(w, test::box({lo.x - t, lo.y - t, lo.z}, {lo.x, hi.y + t, hi.z}, a, "west wall"), InstanceClass::kStatic);
+  test::add(w, test::box({hi.x, lo.y - t, lo.z}, {hi.x + t, hi.y + t, hi.z}, a, "east wall"), InstanceClass::kStatic);
+  if (r.north_wall) test::add(w, test::box({lo.x, hi.y, lo.z}, {hi.x, hi.y + t, hi.z}, a, "north wall"), InstanceClass::kStatic);
+  const float cx = 0.5f * (lo.x + hi.x);
+  if (r.window) {
+    test::add(w, test::box({lo.x, lo.y - t, lo.z}, {cx - 1, lo.y, hi.z}, a, "south wall left"), InstanceClass::kStatic);
+    test::add(w, test::box({cx + 1, lo.y - t, lo.z}, {hi.x, lo.y, hi.z}, a, "south wall right"), InstanceClass::kStatic);
+    test::add(w, test::box({cx - 1, lo.y - t, lo.z}, {cx + 1, lo.y, lo.z + 1}, a, "under the window"), InstanceClass::kStatic);
+    test::add(w, test::box({cx - 1, lo.y - t, lo.z + 2.2f}, {cx + 1, lo.y, hi.z}, a, "over the window"), InstanceClass::kStatic);
+  } else {
+    test::add(w, test::box({lo.x, lo.y - t, lo.z}, {hi.x, lo.y, hi.z}, a, "south wall"), InstanceClass::kStatic);
+  }
+  test::add(w, test::box({lo.x - t, lo.y - t, hi.z}, {hi.x + t, hi.y + t, hi.z + t}, a, "roof"), InstanceClass::kStatic);
+  return w;
+}
+
+Result<std::vector<InteriorVolume>> rooms(const worlds::World& w, RoomStats* stats = nullptr, RoomSettings s = {}) {
+  auto g = raytrace::WorldGeometry::build(w, w.name);
+  if (!g) return std::unexpected(g.error());
+  return findRooms(*g, g->sectors(), w.interiors, s, stats);
+}
+
+TEST(Rooms, AClosedRoomWithAWindowIsFoundWithItsInsideAndHalfItsWalls) {
+  const RoomSpec spec;
+  RoomStats stats;
+  auto found = rooms(roomWorld(spec), &stats);
+  ASSERT_TRUE(found.has_value()) << found.error().message;
+  ASSERT_EQ(found->size(), 1u);
+  const InteriorVolume& r = (*found)[0];
+  EXPECT_EQ(r.name, "room 1");
+  // The inside, grown through each wall by half its 0.1 m; the floor is a plane (no thickness
+  // found within 2 wall margins: the whole margin).
+  const double half = 0.5 * spec.wall_m;
+  EXPECT_NEAR(r.min.x, spec.lo.x - half, kPlaneTolM);
+  EXPECT_NEAR(r.max.x, spec.hi.x + half, kPlaneTolM);
+  EXPECT_NEAR(r.min.y, spec.lo.y - half, kPlaneTolM);
+  EXPECT_NEAR(r.max.y, spec.hi.y + half, kPlaneTolM);
+  EXPECT_NEAR(r.max.z, spec.hi.z + half, kPlaneTolM);
+  EXPECT_NEAR(r.min.z, spec.lo.z - RoomSettings{}.wall_margin_m, kPlaneTolM);
+  // The designated probe in the middle of the inside; the blend no wider than the thinnest wall's
+  // half, so that every inside surface reads the probe whole and no outside one reads it at all.
+  EXPECT_NEAR(r.probe_position.x, 0.5 * (spec.lo.x + spec.hi.x), kPlaneTolM);
+  EXPECT_NEAR(r.probe_position.y, 0.5 * (spec.lo.y + spec.hi.y), kPlaneTolM);
+  EXPECT_NEAR(r.probe_position.z, 0.5 * (spec.lo.z + spec.hi.z), kPlaneTolM);
+  EXPECT_LE(r.blend_distance_m, half + kPlaneTolM);
+  EXPECT_GT(r.blend_distance_m, 0.f);
+  // Seen from the four sectors it straddles (the room is centred on the world's origin).
+  EXPECT_GE(stats.dropped_overlap, 1u);
+  EXPECT_GT(stats.rays, 0u);
+}
+
+TEST(Rooms, AShedOpenOnOneSideIsNoRoom) {
+  RoomSpec spec;
+  spec.north_wall = false;
+  RoomStats stats;
+  auto found = rooms(roomWorld(spec), &stats);
+  ASSERT_TRUE(found.has_value());
+  EXPECT_TRUE(found->empty());
+  EXPECT_GT(stats.seeds, 0u) << "the shed's roof covers air: its seeds were tested and refused";
+}
+
+TEST(Rooms, ARoofOnPillarsAndASolidBlockAreNoRooms) {
+  worlds::World w = test::planeWorld(128.0, {0.3f, 0.3f, 0.3f});
+  for (const glm::vec2 c : {glm::vec2(-4, -4), glm::vec2(4, -4), glm::vec2(-4, 4), glm::vec2(4, 4)})
+    test::add(w, test::box({c.x - 0.2f, c.y - 0.2f, 0}, {c.x + 0.2f, c.y + 0.2f, 3}, glm::vec3(0.6f)), InstanceClass::kStatic);
+  test::add(w, test::box({-5, -5, 3}, {5, 5, 3.3f}, glm::vec3(0.6f), "roof"), InstanceClass::kStatic);
+  test::add(w, test::box({20, 20, -1}, {30, 28, 6}, glm::vec3(0.6f), "block"), InstanceClass::kStatic);
+  auto found = rooms(w);
+  ASSERT_TRUE(found.has_value());
+  EXPECT_TRUE(found->empty());
+}
+
+TEST(Rooms, AnArtistsInteriorWins) {
+  worlds::World w = roomWorld(RoomSpec{});
+  w.interiors.push_back({"the artist's", {-4, -3, 0.5}, {4, 3, 2.5}, {0, 0, 1.5}, 1.f});
+  RoomStats stats;
+  auto found = rooms(w, &stats);
+  ASSERT_TRUE(found.has_value());
+  EXPECT_TRUE(found->empty());
+  EXPECT_GE(stats.dropped_artist, 1u);
+}
+
+TEST(Rooms, TwoRoomsSideBySideAreTwoRoomsThatMeetAtTheirWallsMiddle) {
+  RoomSpec west;
+  west.lo = {20, 10, 0};
+  west.hi = {26, 16, 3};
+  west.window = false;
+  worlds::World w = roomWorld(west);
+  // The east room shares the west room's east wall ([26, 26.1]).
+  const worlds::World east = roomWorld(RoomSpec{{26.1f, 10, 0}, {32, 16, 3}, 0.1f, false, true});
+  for (size_t i = 1; i < east.instances.size(); ++i)  // its walls and roof, not its ground
+    test::add(w, east.meshes[east.instances[i].mesh], InstanceClass::kStatic);
+  auto found = rooms(w);
+  ASSERT_TRUE(found.has_value());
+  ASSERT_EQ(found->size(), 2u);
+  const InteriorVolume& a = (*found)[0].min.x < (*found)[1].min.x ? (*found)[0] : (*found)[1];
+  const InteriorVolume& b = (*found)[0].min.x < (*found)[1].min.x ? (*found)[1] : (*found)[0];
+  EXPECT_NEAR(a.max.x, 26.05, kPlaneTolM);
+  EXPECT_NEAR(b.min.x, 26.05, kPlaneTolM);
+}
+
+TEST(Rooms, AreTheSameOnOneThreadAndOnTwo) {
+  worlds::World w = roomWorld(RoomSpec{});
+  const worlds::World other = roomWorld(RoomSpec{{30, 30, 0}, {38, 36, 2.5f}, 0.3f, true, true});
+  for (size_t i = 1; i < other.instances.size(); ++i) test::add(w, other.meshes[other.instances[i].mesh], InstanceClass::kStatic);
+  std::vector<std::vector<InteriorVolume>> runs;
+  for (int threads : {1, 2}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(threads));
+    auto found = rooms(w);
+    ASSERT_TRUE(found.has_value());
+    runs.push_back(*found);
+  }
+  ASSERT_EQ(runs[0].size(), 2u);
+  ASSERT_EQ(runs[1].size(), runs[0].size());
+  for (size_t i = 0; i < runs[0].size(); ++i) {
+    EXPECT_EQ(runs[0][i].name, runs[1][i].name);
+    EXPECT_EQ(runs[0][i].min, runs[1][i].min);
+    EXPECT_EQ(runs[0][i].max, runs[1][i].max);
+    EXPECT_EQ(runs[0][i].probe_position, runs[1][i].probe_position);
+    EXPECT_EQ(runs[0][i].blend_distance_m, runs[1][i].blend_distance_m);
+  }
+}
+
+TEST(Rooms, BadSettingsAreRefusedByTheBake) {
+  BakeSettings s = BakeSettings::forQuality(Quality::kDraft, 1);
+  s.rooms.test_rays = 0;
+  EXPECT_NE(validateSettings(s).find("rooms"), std::string::npos);
+  s = BakeSettings::forQuality(Quality::kDraft, 1);
+  s.rooms.max_extent_m = 200.0;  // beyond the halo the search gathers
+  EXPECT_NE(validateSettings(s).find("rooms"), std::string::npos);
+  s.rooms.enabled = false;
+  EXPECT_EQ(validateSettings(s), "");
+}
+
+// The bake carries the rooms into its manifest (after the artist's interiors), places their
+// designated probes and bakes the interiors effect for a world whose effects are derived; off, or
+// for a world that names its effects without interiors, it bakes what it baked before.
+TEST(Rooms, TheBakeGivesAFoundRoomItsDesignatedProbe) {
+  const worlds::World w = roomWorld(RoomSpec{});
+  BakeSettings s = BakeSettings::forQuality(Quality::kDraft, 1);
+  auto with = bakeInMemory(w, w.name, s, std::nullopt, 2);
+  ASSERT_TRUE(with.has_value()) << with.error().message;
+  ASSERT_EQ(with->manifest.interiors.size(), 1u);
+  EXPECT_TRUE(with->manifest.effects & kEffectInteriors);
+  size_t designated = 0;
+  for (const Sector& sec : with->sectors)
+    for (const ProbeRecord& r : sec.probes) {
+      const ProbeData p = unpackProbe(r);
+      if ((p.flags & kProbeInterior) && p.interior == 1) ++designated;
+    }
+  EXPECT_EQ(designated, 1u);
+
+  s.rooms.enabled = false;
+  auto without = bakeInMemory(w, w.name, s, std::nullopt, 2);
+  ASSERT_TRUE(without.has_value());
+  EXPECT_TRUE(without->manifest.interiors.empty());
+  EXPECT_FALSE(without->manifest.effects & kEffectInteriors);
+
+  worlds::World named = w;
+  named.effects_explicit = true;  // sun, sky, direct sky, distant occlusion: no interiors asked for
+  auto explicit_effects = bakeInMemory(named, w.name, BakeSettings::forQuality(Quality::kDraft, 1), std::nullopt, 2);
+  ASSERT_TRUE(explicit_effects.has_value());
+  EXPECT_TRUE(explicit_effects->manifest.interiors.empty());
+}
+
+}  // namespace
+}  // namespace drtv::baker

@@ -196,6 +196,7 @@ std::string validateSettings(const BakeSettings& s) {
   if (t.surfel_rays < 1 || t.surfel_rays > (1 << 16)) return "surfel_rays must be in [1, 65536]";
   if (!in(t.surfel_cell_m, 0.25, 64.0)) return "surfel_cell_m must be in [0.25, 64] m (cell keys assume >= 0.25 m)";
   if (t.bounces < 1 || t.bounces > 64) return "bounces must be in [1, 64]";
+  if (t.sweeps < 0 || t.sweeps > 256) return "sweeps must be in [0, 256] (0: bounces - 1)";
   if (t.sun_samples != 0 && (t.sun_samples < 2 || t.sun_samples > kMaxSunSamples)) return "sun_samples must be 0 or in [2, 8]";
   if (s.grid.visibility_candidates < 1 || s.grid.visibility_candidates > 255) return "visibility_candidates must be in [1, 255]";
   if (!in(s.halo_m, 0.0, 1024.0) || !in(s.lprt_halo_m, 0.0, 1024.0)) return "halos must be in [0, 1024] m";
@@ -297,6 +298,7 @@ std::vector<std::pair<std::string, std::string>> BakeSettings::describe() const 
     d.emplace_back("covered_column_spacing_m", fmt(placement.covered_column_spacing_m));
   if (placement.covered_min_horizontal_m < placement.min_horizontal_m)
     d.emplace_back("covered_min_horizontal_m", fmt(placement.covered_min_horizontal_m));
+  if (transfer.sweeps != 0) d.emplace_back("sweeps", std::to_string(transfer.sweeps));
   // Only when off: a bake that finds no room describes itself (and hashes, and packs) as before.
   if (!rooms.enabled) d.emplace_back("rooms", "off");
   if (transfer.representation != Representation::kFc3) d.emplace_back("representation", representationName(transfer.representation));

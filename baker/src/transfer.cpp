@@ -402,7 +402,7 @@ std::vector<Sh4Rgb> surfaceCache(const TransferContext& ctx, CellMap& cells, std
   transfer.resize(count);
   for (size_t si = 0; si < count; ++si) transfer[si] = {direct[si], direct[si], direct[si]};
   std::vector<Sh4Rgb> next(count);
-  for (int sweep = 1; sweep < s.bounces; ++sweep) {
+  for (int sweep = 0; sweep < sweepCount(s); ++sweep) {
     tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 256), [&](const tbb::blocked_range<size_t>& range) {
       for (size_t si = range.begin(); si < range.end(); ++si) {
         Sh4Rgb acc{sh::Sh4(0.f), sh::Sh4(0.f), sh::Sh4(0.f)};
@@ -636,7 +636,7 @@ void bakeLprt(const TransferContext& ctx, std::span<const glm::vec3> probes, con
               std::vector<float>* cube_lprt, TransferStats& stats) {
   const raytrace::RayScene& scene = ctx.scene;
   const size_t P = ctx.P, N = ctx.N, M = ctx.M, S = lprt_sources.size();
-  const bool sweeps = links != nullptr && ctx.s.bounces > 1;
+  const bool sweeps = links != nullptr && sweepCount(ctx.s) > 0;
   // Without later bounces only level 1 (what the probes see) needs the light.
   const size_t lit = sweeps ? links->traced : level1;
   DRTV_CHECK_LE(level1, lit);
@@ -697,7 +697,7 @@ void bakeLprt(const TransferContext& ctx, std::span<const glm::vec3> probes, con
     for (size_t si = 0; si < lit; ++si)
       for (size_t j = 0; j < S; ++j)
         for (size_t c = 0; c < 3; ++c) cur[(si * S + j) * 3 + c] = irradiance[si * S + j];
-    for (int sweep = 1; sweep < ctx.s.bounces; ++sweep) {
+    for (int sweep = 0; sweep < sweepCount(ctx.s); ++sweep) {
       tbb::parallel_for(tbb::blocked_range<size_t>(0, lit, 64), [&](const tbb::blocked_range<size_t>& range) {
         std::vector<float> acc(S * 3);
         for (size_t si = range.begin(); si < range.end(); ++si) {
@@ -795,7 +795,7 @@ std::vector<ProbeData> bakeTransfer(const raytrace::RayScene& scene, const raytr
   // (DESIGN.md: fc3 reproducible bit for bit); sh-l1 (and a cube baked beside it) carries all
   // `bounces`.
   SurfelLinks links;
-  const bool lprt_links = want_lprt && s.bounces > 1 && s.representation == Representation::kShL1;
+  const bool lprt_links = want_lprt && sweepCount(s) > 0 && s.representation == Representation::kShL1;
   std::vector<Sh4Rgb> transfer;
   if (s.prt || lprt_links)
     transfer = surfaceCache(ctx, cells, surfels, stats, want_sun || want_cube_sun ? &direct : nullptr, lprt_links ? &links : nullptr);

@@ -208,6 +208,13 @@ std::vector<RowSpec> drtvRows(const BakeSettings& base, uint32_t effects, const 
     rows.push_back({"bounces", std::to_string(bounces), def, "drtv",
                     def ? TechniqueParams{} : TechniqueParams{{"bounces", std::to_string(bounces)}}, def ? "the default bake" : ""});
   }
+  // Jacobi sweeps over the surface cache (transfer.h): further bounces around its closed links.
+  for (int sweeps : {base.transfer.sweeps > 0 ? base.transfer.sweeps : base.transfer.bounces - 1, 4, 16, 64}) {
+    const bool def = sweeps == baker::sweepCount(base.transfer);
+    if (!def && sweeps == baker::sweepCount(base.transfer)) continue;
+    rows.push_back({"sweeps", std::to_string(sweeps), def, "drtv",
+                    def ? TechniqueParams{} : TechniqueParams{{"sweeps", std::to_string(sweeps)}}, def ? "the default bake" : ""});
+  }
   // Probes under roofs (placement.h): the column lattice there / the least distance between them.
   for (const auto& [spacing, min_h] : {std::pair{4.0, 8.0}, std::pair{4.0, 4.0}, std::pair{2.0, 2.0}, std::pair{2.0, 1.4}, std::pair{1.0, 1.0}}) {
     const bool def = spacing == base.placement.covered_column_spacing_m && min_h == base.placement.covered_min_horizontal_m;

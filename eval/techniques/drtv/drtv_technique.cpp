@@ -4,6 +4,8 @@
 //   quality            draft | default | high       the bake preset (BakeSettings::forQuality)
 //   rays_per_basis     integer >= 1                 overrides the preset's transfer rays
 //   bounces            integer >= 1                 overrides the preset's bounces
+//   sweeps             1..256                       Jacobi sweeps over the surface cache
+//                                                   (transfer.h; default bounces - 1)
 //   covered_spacing    metres in (0, 64]            the column lattice under roofs
 //   covered_min_h      metres in (0, 64]            the minimum distance between probes under
 //                                                   roofs (placement.h, issue 16)
@@ -56,7 +58,7 @@ using Clock = std::chrono::steady_clock;
 
 struct BakeParams {
   baker::Quality quality = baker::Quality::kDefault;
-  std::optional<int> rays_per_basis, bounces;
+  std::optional<int> rays_per_basis, bounces, sweeps;
   std::optional<double> covered_spacing, covered_min_h;  // placement under roofs (placement.h)
   Representation representation = Representation::kShL1;  // the baker's default for new worlds
   bool rooms = true;  // the room search (rooms.h)
@@ -96,6 +98,10 @@ Result<Params> parseParams(const TechniqueParams& p) {
       auto x = intIn(k, v, 1, 1 << 20);
       if (!x) return std::unexpected(x.error());
       (k == "bounces" ? out.bake.bounces : out.bake.rays_per_basis) = *x;
+    } else if (k == "sweeps") {
+      auto x = intIn(k, v, 1, 256);
+      if (!x) return std::unexpected(x.error());
+      out.bake.sweeps = *x;
     } else if (k == "covered_spacing" || k == "covered_min_h") {
       double x = 0;
       const auto [end, ec] = std::from_chars(v.data(), v.data() + v.size(), x);
@@ -156,7 +162,7 @@ Result<Params> parseParams(const TechniqueParams& p) {
       else return fail("storage=" + v + ": expected runtime, 8-bit, snorm8, 16-bit or float");
     } else {
       return fail("no parameter '" + k +
-                  "' (drtv takes quality, rays_per_basis, bounces, covered_spacing, covered_min_h, rooms, representation, fill, lookup, texel_m, sun_window, part, "
+                  "' (drtv takes quality, rays_per_basis, bounces, sweeps, covered_spacing, covered_min_h, rooms, representation, fill, lookup, texel_m, sun_window, part, "
                   "sources_per_light, light_sources, lprt_sources, storage)");
     }
   }
@@ -169,6 +175,7 @@ baker::BakeSettings bakeSettings(const BakeParams& p, uint64_t seed) {
   baker::BakeSettings s = baker::BakeSettings::forQuality(p.quality, seed);
   if (p.rays_per_basis) s.transfer.probe_rays_per_basis = *p.rays_per_basis;
   if (p.bounces) s.transfer.bounces = *p.bounces;
+  if (p.sweeps) s.transfer.sweeps = *p.sweeps;
   if (p.covered_spacing) s.placement.covered_column_spacing_m = *p.covered_spacing;
   if (p.covered_min_h) s.placement.covered_min_horizontal_m = *p.covered_min_h;
   s.transfer.representation = p.representation;

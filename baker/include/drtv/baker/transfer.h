@@ -107,13 +107,22 @@ struct TransferSettings {
   int probe_rays_per_basis = 256;  // N: cosine-weighted rays per basis direction and probe
   int surfel_rays = 32;            // M: rays per cached surface cell
   float surfel_cell_m = 2.f;       // edge of a surface cache cell, metres
-  int bounces = 2;                 // diffuse bounces in T (>= 1)
+  int bounces = 2;                 // diffuse bounces in T (>= 1): levels of the cache traced
+  // Jacobi sweeps over the cache's links (0: bounces - 1, each level's bounce once). More sweeps
+  // than levels carry further bounces around the links that close on cells already cached (a
+  // room's walls light each other), with no more rays; bounded by it, since the energy of a
+  // closed room of albedo 1 never converges.
+  int sweeps = 0;
   bool prt = true;                 // bake T (sun or sky bounce asked for); else T = 0
   bool sky_visibility = true;      // bake v and sky_vis_sh (direct sky asked for); else 0
   uint64_t seed = 1;
   Representation representation = Representation::kShL1;  // what prt and LPRT hold (see above); new worlds: sh-l1 (docs/accuracy.md)
   int sun_samples = 6;  // sun-transfer samples along the sun path (sh-l1; 0 = none), <= kMaxSunSamples
 };
+
+// The Jacobi sweeps a bake with `s` runs (TransferSettings::sweeps).
+inline int sweepCount(const TransferSettings& s) { return s.sweeps > 0 ? s.sweeps : s.bounces - 1; }
+
 
 // The linear sun lobe per unit irradiance from unit direction `d`: 2 [0, Y1(d)] (lighting_sh.h's
 // projectSun with band1_window 2, band0_scale 0).

@@ -720,7 +720,7 @@ Result<BakeReport> bake(const worlds::World& given, const std::string& world_nam
   std::optional<raytrace::WorldGeometry> whole;
   if (binned && report.settings.rooms.enabled) {
     auto w = raytrace::WorldGeometry::build(given, world_name);
-    if (!w) return std::unexpected(w.error());
+    if (!w) return std::unexpected(w.error().context("the room search bins the whole world (--rooms off skips it)"));
     whole.emplace(std::move(*w));
   }
   const raytrace::WorldGeometry& searched = whole ? *whole : *geometry;

@@ -11,6 +11,7 @@
 #include <array>
 #include <cmath>
 #include <optional>
+#include <tuple>
 
 #include "drtv/raytrace/ray_scene.h"
 #include "drtv/worlds/world.h"
@@ -157,7 +158,10 @@ class RoomFinder {
       ++rays_;
       hits[size_t(k)] = {h.hit() && scene_.frontFace(ray, h.prim) ? h.t : INFINITY, o};
     }
-    std::sort(hits.begin(), hits.end(), [](const auto& x, const auto& y) { return x.first < y.first || (x.first == y.first && glm::all(glm::lessThan(x.second, y.second))); });
+    // Ordered by distance, ties (misses) by origin: a strict weak order, the same on every run.
+    std::sort(hits.begin(), hits.end(), [](const auto& x, const auto& y) {
+      return std::tie(x.first, x.second.x, x.second.y, x.second.z) < std::tie(y.first, y.second.x, y.second.y, y.second.z);
+    });
     const auto [t, o] = hits[4];
     if (!std::isfinite(t)) return std::nullopt;
     const float cap = 2.f * float(s_.wall_margin_m);

@@ -101,6 +101,30 @@ TEST(Rooms, ARoofOnPillarsAndASolidBlockAreNoRooms) {
   EXPECT_TRUE(found->empty());
 }
 
+// A room turned off the axes: its axis-aligned box (InteriorVolume's) would cross its walls and
+// lend its probe to the ground outside. Turned by 3 or 30 degrees, the walls cross the faces the
+// axis rays found and it is left to the volume. The same room on the axes with a tall cupboard in
+// one corner is still a room.
+TEST(Rooms, ARoomTurnedOffTheAxesIsLeftToTheVolumeAndACupboardDoesNotHideARoom) {
+  const worlds::World straight = roomWorld(RoomSpec{});
+  for (const double deg : {3.0, 30.0}) {
+    worlds::World turned = test::planeWorld(128.0, {0.3f, 0.3f, 0.3f});
+    const glm::dmat4 turn = glm::rotate(glm::dmat4(1.0), glm::radians(deg), glm::dvec3(0, 0, 1));
+    for (size_t i = 1; i < straight.instances.size(); ++i)
+      test::add(turned, straight.meshes[straight.instances[i].mesh], InstanceClass::kStatic, turn);
+    RoomStats stats;
+    auto found = rooms(turned, &stats);
+    ASSERT_TRUE(found.has_value());
+    EXPECT_TRUE(found->empty()) << deg;
+    EXPECT_GT(stats.enclosed, 0u) << deg << ": its seeds are enclosed; the box is what is refused";
+  }
+  worlds::World cupboard = straight;
+  test::add(cupboard, test::box({-5, 3.4f, 0}, {-4.4f, 4, 2.9f}, glm::vec3(0.5f), "cupboard"), InstanceClass::kStatic);
+  auto with_cupboard = rooms(cupboard);
+  ASSERT_TRUE(with_cupboard.has_value());
+  EXPECT_EQ(with_cupboard->size(), 1u);
+}
+
 TEST(Rooms, AnArtistsInteriorWins) {
   worlds::World w = roomWorld(RoomSpec{});
   w.interiors.push_back({"the artist's", {-4, -3, 0.5}, {4, 3, 2.5}, {0, 0, 1.5}, 1.f});

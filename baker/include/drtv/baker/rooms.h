@@ -26,7 +26,8 @@
 //     must hit within `max_extent_m`; the box is at least `min_width_m` wide, `min_height_m` tall,
 //     its centre passes the enclosure test too, and each face is a wall: rays from the centre to a
 //     5 x 5 grid over the face end at it, all but a fifth (a window, a door; not a block standing
-//     in a larger open space, whose face the axis rays found). The designated probe is the centre.
+//     in a larger open space, whose face the axis rays found; nor a room turned off the axes, even by
+//     3 degrees, whose walls cross the faces). The designated probe is the centre.
 //  4. The box is grown through each wall by half the wall's thickness (at most `wall_margin_m`;
 //     the thickness is where the axis ray leaves the wall), and the interior blend is that margin:
 //     the room's own surfaces read the designated probe whole, the wall's outer face none of it
@@ -35,8 +36,8 @@
 //     in sector order (x, then y) and seed order; a box that overlaps an artist's interior volume
 //     (artists win) or a box taken before is dropped, so a room seen from two sectors is one room.
 //
-// Limits, by design: an axis-aligned box per room (a rotated or L-shaped room gets the box its
-// centre's axis rays see, and is dropped when that centre is not enclosed); rooms wider than
+// Limits, by design: an axis-aligned box per room (a room turned off the axes is left to the volume,
+// since InteriorVolume is a world-axis box); rooms wider than
 // `max_extent_m` (halls) and rooms open by more than `max_open_fraction` are left to the volume.
 #pragma once
 

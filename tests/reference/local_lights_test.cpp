@@ -165,10 +165,14 @@ TEST(LocalLights, ALampHungHighLightsTheGroundBelowItAsThePathTracerDoes) {
 }
 
 // TheLampsLightInAClosedRoomCarriesTheBakesBounces: measured 3.68 / 5.32 / 6.20 with 1 / 2 / 3
-// bounces against the reference's 5.02 (4096 paths): 2 bounces (the default) within 6 %; 3 are
-// 23 % high, so the rest of the model (source position, footprint factor, lookup) is some 5-20 %
-// bright here and the bound leaves room for it, not for the single bounce's -27 %.
-constexpr double kClosedRoomBounceTolerance = 0.12;
+// bounces against the reference's 5.02 (4096 paths) while the point read the volume; since the
+// room is found at bake time (baker/rooms.h) and the point reads its designated probe, 3.81 / 4.87
+// / 5.48 (2 bounces, the default, −3 %). Sweeping the cache further (transfer.h `sweeps`, not the
+// default) reads 5.95 with 4 sweeps and 6.18 with 16 (+23 %): the rest of the model (the lamp's
+// energy put on a probe 1.4 m from it, the footprint factor) is that bright here, and the second
+// bounce's truncation hides it. The bound leaves room for the noise, not for the single bounce's
+// −24 % nor for the volume's +6 %.
+constexpr double kClosedRoomBounceTolerance = 0.05;
 
 // In the closed white room most of the lamp's light on an object's top reaches it after two
 // bounces or more (walls and roof of albedo 0.7 all round). The local-light term at a point 1 m
@@ -200,6 +204,7 @@ TEST(LocalLights, TheLampsLightInAClosedRoomCarriesTheBakesBounces) {
     for (const Sector& sec : b->sectors) ASSERT_TRUE(rt.addSector(sec).has_value());
     rt.update({32, 32, 2});
     rt.update({32, 32, 2});
+    ASSERT_EQ(b->manifest.interiors.size(), 1u) << "the closed room is found (rooms.h)";
     const double got = rt.ambient(at, up).irradiance.g;
     std::printf("bounces %d: runtime %.4f, reference %.4f\n", bounces, got, ref);
     if (bounces == 1) {

@@ -101,6 +101,15 @@ struct Slot {
   std::vector<glm::vec3> sun_dirs;  // its samples; empty = none
   AlignedFloats sun;                // [sample][channel * 4 + i][probe], dequantised, planes of the slot stride
   float max_colour = 0.f;
+
+  // Empty again for the next sector, keeping the LPRT block's capacity: a fresh ~200 KB block
+  // was mapped (page faults) at every lit arrival (addSector).
+  void reset() {
+    std::vector<int16_t> block = std::move(lprt_block);
+    block.clear();
+    *this = Slot{};
+    lprt_block = std::move(block);
+  }
 };
 
 // The hot loops are compiled for AVX-512 and AVX2 as well as the baseline, and picked at load
@@ -484,14 +493,16 @@ struct ProbeCache::Impl {
   void setLights(std::span<const PointLight> lights);
   // The sources of slot `s` that the current light shares light, in source order (all of a
   // slot's dependence on the lights: relightSlot reads nothing else of them).
+  // From the lit probes and the sources naming them, as litSourcesOfAll (one way to find them).
   void litSources(int s, const RelightInput& li, std::vector<LitSource>& lit) const {
     lit.clear();
-    if (!(li.components & kComponentLocalLights) || touched.empty()) return;
-    const Slot& sl = slots[s];
-    for (size_t j = 0; j < sl.sources.size(); ++j) {
-      const int id = sl.source_ids[j];
-      if (id >= 0 && is_lit[id]) lit.push_back({j, light_colour[id]});
+    if (!(li.components & kComponentLocalLights)) return;
+    for (int id : touched) {
+      if (!is_lit[size_t(id)]) continue;
+      for (uint32_t who : namers[size_t(id)])
+        if (int(who >> 16) == s) lit.push_back({size_t(who & 0xffffu), light_colour[size_t(id)]});
     }
+    if (lit.size() > 1) std::sort(lit.begin(), lit.end(), [](const LitSource& a, const LitSource& b) { return a.j < b.j; });
   }
   // `lit`: the slot's lit sources when the caller has them (litSourcesOfAll), else found here.
   void relightSlot(int s, const RelightInput& in, const std::vector<LitSource>* lit = nullptr);
@@ -578,9 +589,7 @@ Result<void> ProbeCache::addSector(const Sector& sector, SectorBlock keep) {
   if (s < 0) return fail(where + ": all " + std::to_string(m.slots.size()) + " resident sector slots are used");
 
   Slot& sl = m.slots[s];
-  std::vector<int16_t> block = std::move(sl.lprt_block);  // its capacity, kept across sectors (below)
-  sl = Slot{};
-  sl.lprt_block = std::move(block);
+  sl.reset();
   sl.used = true;
   m.slot_keys[s] = {sector.key, true};
   const bool sh_l1 = m.opt.representation == Representation::kShL1;
@@ -706,10 +715,7 @@ bool ProbeCache::removeSector(SectorKey key) {
   const int s = m.slotOf(key);
   if (s < 0) return false;
   m.sourcesLeaving(s);
-  std::vector<int16_t> block = std::move(m.slots[s].lprt_block);
-  block.clear();
-  m.slots[s] = Slot{};
-  m.slots[s].lprt_block = std::move(block);  // its capacity, for the next sector (addSector)
+  m.slots[s].reset();
   m.slot_keys[s] = {};
   // Light shares on the removed probes are stale: clear them (the next relight recomputes).
   for (int id : m.touched) m.light_colour[id] = glm::vec3(0.f), m.is_lit[id] = 0;

@@ -472,3 +472,40 @@ TEST(MovingLights, AnHourChangeReSumsOnlyTheLocalLightsThatChanged) {
 
 }  // namespace
 }  // namespace drtv::runtime
+
+namespace drtv::runtime {
+namespace {
+
+// relightSector finds one slot's lit sources itself (litSources, from the lit probes and the
+// sources naming them); relightAll finds every slot's at once (litSourcesOfAll). With lights
+// shining, a sector relit alone gets the colours, bit for bit, of its part of a full relight,
+// whichever of its sources the lights reach.
+TEST(MovingLights, ASectorRelitAloneUnderLightsEqualsItsPartOfAFullRelight) {
+  const std::vector<Sector> sectors = lprtSectors();
+  for (const int f : {3, 7, 12}) {  // frames whose lights reach sources (at frame 0 none does)
+    const std::vector<PointLight> lights = lightsAt(f);
+    ProbeCache all, one;
+    for (const Sector& s : sectors) {
+      ASSERT_TRUE(all.addSector(s));
+      ASSERT_TRUE(one.addSector(s));
+    }
+    const RelightInput in = inputAt(lights);
+    all.relightAll(in);
+    ProbeCache dark;  // the same sectors without the lights: what the lights add shows
+    for (const Sector& s : sectors) ASSERT_TRUE(dark.addSector(s));
+    dark.relightAll(inputAt({}));
+    size_t lit_probes = 0;
+    for (const Sector& s : sectors) {
+      one.relightSector(s.key, in);
+      const int a = all.slotOf(s.key), b = one.slotOf(s.key);
+      for (int i = 0; i < int(s.probes.size()); ++i) {
+        EXPECT_TRUE(sameBits(all.colours({a, i}), one.colours({b, i}))) << toString(s.key) << " probe " << i << " frame " << f;
+        lit_probes += !sameBits(all.colours({a, i}), dark.colours({dark.slotOf(s.key), i}));
+      }
+    }
+    EXPECT_GT(lit_probes, 100u) << "the lights light many probes at frame " << f;
+  }
+}
+
+}  // namespace
+}  // namespace drtv::runtime

@@ -70,6 +70,11 @@ struct Slot {
   glm::dvec2 origin{0.0};
   float z_min = 0.f, cell_h = 1.f;
   std::array<uint8_t, kGridCells> nearest{};
+  // What the volume fills each cell's texels from: `nearest`, except that a cell whose centre lies
+  // in an interior volume takes the first cell above it outside every one (fillCells): the room's
+  // own points read its designated probe, so its texels only lend light to the points outside its
+  // walls and roof, which the trilinear filter reaches across them (issue 16's roof leak).
+  std::array<uint8_t, kGridCells> fill{};
   // Per probe, the bounds of the cells `nearest` names it in: x0, y0, z0, x1, y1, z1 (inclusive;
   // x0 > x1 when none), so that cellsNaming is a union over the changed probes.
   std::vector<std::array<uint8_t, 6>> cell_bounds;
@@ -473,6 +478,43 @@ struct ProbeCache::Impl {
       if (l.size() > 1) std::sort(l.begin(), l.end(), [](const LitSource& a, const LitSource& b) { return a.j < b.j; });
   }
 
+  // Interior volumes' boxes (world metres): the cells whose centres they hold fill from above.
+  std::vector<std::pair<glm::dvec3, glm::dvec3>> interior_boxes;
+
+  // Slot s's fill cells and the bounds of the cells each probe fills (see Slot::fill).
+  void fillCells(int s) {
+    Slot& sl = slots[s];
+    sl.fill = sl.nearest;
+    if (!interior_boxes.empty())
+      for (int y = 0; y < kGridDim; ++y)
+        for (int x = 0; x < kGridDim; ++x) {
+          const double cx = sl.origin.x + (x + 0.5) * kGridCellSizeM, cy = sl.origin.y + (y + 0.5) * kGridCellSizeM;
+          int above = -1;
+          for (int z = kGridDim - 1; z >= 0; --z) {
+            const glm::dvec3 c(cx, cy, double(sl.z_min) + (z + 0.5) * double(sl.cell_h));
+            const bool inside = std::any_of(interior_boxes.begin(), interior_boxes.end(), [&](const auto& b) {
+              return glm::all(glm::greaterThanEqual(c, b.first)) && glm::all(glm::lessThan(c, b.second));
+            });
+            const int cell = IndexGrid::cellIndex(x, y, z);
+            if (!inside)
+              above = sl.nearest[cell];
+            else if (above >= 0)
+              sl.fill[cell] = uint8_t(above);
+          }
+        }
+    const int n = sl.count;
+    sl.cell_bounds.assign(size_t(n), {uint8_t(kGridDim), uint8_t(kGridDim), uint8_t(kGridDim), 0, 0, 0});
+    for (int z = 0; z < kGridDim; ++z)
+      for (int y = 0; y < kGridDim; ++y)
+        for (int x = 0; x < kGridDim; ++x) {
+          const uint8_t p = sl.fill[IndexGrid::cellIndex(x, y, z)];
+          if (p >= n) continue;
+          std::array<uint8_t, 6>& b = sl.cell_bounds[p];
+          const uint8_t c[3] = {uint8_t(x), uint8_t(y), uint8_t(z)};
+          for (int a = 0; a < 3; ++a) b[a] = std::min(b[a], c[a]), b[3 + a] = std::max(b[3 + a], c[a]);
+        }
+  }
+
   uint64_t slot_relights = 0;  // relightSlot calls (slotRelightCount)
   uint64_t local_sums = 0;     // sumLocalLights calls (localSumCount)
 
@@ -663,16 +705,7 @@ Result<void> ProbeCache::addSector(const Sector& sector, SectorBlock keep) {
         }
         sl.nearest[cell] = p;
       }
-  sl.cell_bounds.assign(size_t(n), {uint8_t(kGridDim), uint8_t(kGridDim), uint8_t(kGridDim), 0, 0, 0});
-  for (int z = 0; z < kGridDim; ++z)
-    for (int y = 0; y < kGridDim; ++y)
-      for (int x = 0; x < kGridDim; ++x) {
-        const uint8_t p = sl.nearest[IndexGrid::cellIndex(x, y, z)];
-        if (p >= n) continue;
-        std::array<uint8_t, 6>& b = sl.cell_bounds[p];
-        const uint8_t c[3] = {uint8_t(x), uint8_t(y), uint8_t(z)};
-        for (int a = 0; a < 3; ++a) b[a] = std::min(b[a], c[a]), b[3 + a] = std::max(b[3 + a], c[a]);
-      }
+  m.fillCells(s);
   if (sources > 0) {
     // Kept as the block came; a source is transposed to planes the first time it is lit
     // (sourcePlanes). Few of a sector's sources ever are, and transposing all of them here was
@@ -984,6 +1017,14 @@ std::vector<int> ProbeCache::relightChangedLights(const RelightInput& in) {
   return relit;
 }
 
+void ProbeCache::setInteriorBoxes(std::vector<std::pair<glm::dvec3, glm::dvec3>> boxes) {
+  Impl& m = *impl_;
+  if (boxes == m.interior_boxes) return;
+  m.interior_boxes = std::move(boxes);
+  for (size_t s = 0; s < m.slots.size(); ++s)
+    if (m.slots[s].used) m.fillCells(int(s));
+}
+
 uint64_t ProbeCache::slotRelightCount() const { return impl_->slot_relights; }
 uint64_t ProbeCache::localSumCount() const { return impl_->local_sums; }
 
@@ -1104,7 +1145,7 @@ ProbeCache::SlotView ProbeCache::slot(int s) const {
   v.origin_m = sl.origin;
   v.grid_z_min_m = sl.z_min;
   v.grid_cell_height_m = sl.cell_h;
-  v.nearest = sl.nearest.data();
+  v.nearest = sl.fill.data();
   v.colour = impl_->outPlane(s, 0);
   v.colour_stride = impl_->stride(s);
   v.packed = impl_->packed.data() + size_t(s) * kSlotProbes * 3;

@@ -68,6 +68,12 @@ Result<void> Runtime::setLighting(const Sky& sky, std::vector<PointLight> lights
   sky_ = sky;
   lights_ = std::move(lights);
   interiors_ = std::move(interiors);
+  {
+    std::vector<std::pair<glm::dvec3, glm::dvec3>> boxes;
+    if (options_.effects & kEffectInteriors)
+      for (const InteriorVolume& v : interiors_) boxes.push_back({v.min, v.max});
+    cache_.setInteriorBoxes(std::move(boxes));
+  }
   sky_changed_ = true;  // a changed sun path or ground scale: a full relight
   current_ = evaluateSky(sky_, hour_, options_.sun_band1_window, options_.sun_band0_scale);
   resolveInteriors();
@@ -204,6 +210,13 @@ void Runtime::update(const glm::dvec3& camera) {
   volume_.update(volumeOriginFor(options_.volume, camera), cache_);
 }
 
+namespace {
+// A point this far outside an interior's box still counts as on its face: the room's surfaces lie
+// on an artist's box (island.cpp makes it the room's inside), within float noise; thinner than
+// any wall (0.1 m in tests/reference/data/room.json).
+constexpr double kInteriorSurfaceSlackM = 0.05;
+}  // namespace
+
 AmbientSample Runtime::ambient(const glm::dvec3& position, const glm::vec3& normal) const {
   const glm::vec3 n = ambientNormal(normal);
   AmbientSample s;
@@ -224,10 +237,18 @@ AmbientSample Runtime::ambient(const glm::dvec3& position, const glm::vec3& norm
     for (size_t k = 0; k < interiors_.size(); ++k) {
       if (!interior_probes_[k].valid()) continue;
       const InteriorVolume& v = interiors_[k];
-      const glm::dvec3 lo = position - v.min, hi = v.max - position;
-      const double depth = std::min({lo.x, lo.y, lo.z, hi.x, hi.y, hi.z});
-      if (!(depth >= 0.0)) continue;
-      const float t = v.blend_distance_m > 0.f ? float(std::min(1.0, depth / v.blend_distance_m)) : 1.f;
+      auto depthIn = [&](const glm::dvec3& q) {
+        const glm::dvec3 lo = q - v.min, hi = v.max - q;
+        return std::min({lo.x, lo.y, lo.z, hi.x, hi.y, hi.z});
+      };
+      const double depth = depthIn(position);
+      float t = 0.f;
+      if (depth >= -kInteriorSurfaceSlackM && depthIn(position + glm::dvec3(n) * double(options_.normal_offset_m)) > 0.0)
+        t = 1.f;  // a surface of the room, facing into it (an artist's box is the room's inside: its surfaces lie on its faces)
+      else if (depth >= 0.0)
+        t = v.blend_distance_m > 0.f ? float(std::min(1.0, depth / v.blend_distance_m)) : 1.f;
+      else
+        continue;
       if (t <= s.interior_weight && s.interior >= 0) continue;
       s.interior = int(k);
       s.interior_weight = t;

@@ -485,14 +485,19 @@ struct ProbeCache::Impl {
   void fillCells(int s) {
     Slot& sl = slots[s];
     sl.fill = sl.nearest;
-    if (!interior_boxes.empty())
+    // Only the boxes over the sector's square (a city's rooms are thousands; a sector holds few).
+    const glm::dvec2 lo = sl.origin, hi = sl.origin + glm::dvec2(kSectorSizeM);
+    std::vector<std::pair<glm::dvec3, glm::dvec3>> here;
+    for (const auto& b : interior_boxes)
+      if (b.first.x < hi.x && b.second.x > lo.x && b.first.y < hi.y && b.second.y > lo.y) here.push_back(b);
+    if (!here.empty())
       for (int y = 0; y < kGridDim; ++y)
         for (int x = 0; x < kGridDim; ++x) {
           const double cx = sl.origin.x + (x + 0.5) * kGridCellSizeM, cy = sl.origin.y + (y + 0.5) * kGridCellSizeM;
           int above = -1;
           for (int z = kGridDim - 1; z >= 0; --z) {
             const glm::dvec3 c(cx, cy, double(sl.z_min) + (z + 0.5) * double(sl.cell_h));
-            const bool inside = std::any_of(interior_boxes.begin(), interior_boxes.end(), [&](const auto& b) {
+            const bool inside = std::any_of(here.begin(), here.end(), [&](const auto& b) {
               return glm::all(glm::greaterThanEqual(c, b.first)) && glm::all(glm::lessThan(c, b.second));
             });
             const int cell = IndexGrid::cellIndex(x, y, z);

@@ -330,14 +330,23 @@ Result<const worlds::World*> worldWithRooms(const worlds::World& world, const ra
   auto rooms = findRooms(geometry, range, world.interiors, settings.rooms, stats);
   if (!rooms) return std::unexpected(rooms.error());
   if (rooms->empty()) return &world;
-  storage.emplace(world);
   // The manifest stores at most 65,535 interiors (probe.h's 16-bit index); the artist's come first.
+  std::vector<InteriorVolume> all = world.interiors;
   for (InteriorVolume& r : *rooms) {
-    if (storage->interiors.size() >= 65535) break;
-    storage->interiors.push_back(std::move(r));
+    if (all.size() >= 65535) break;
+    all.push_back(std::move(r));
   }
+  if (stats) stats->rooms = all.size() - world.interiors.size();
+  return &worldWithInteriors(world, all, storage);
+}
+
+const worlds::World& worldWithInteriors(const worlds::World& world, const std::vector<InteriorVolume>& interiors,
+                                        std::optional<worlds::World>& storage) {
+  if (interiors.size() == world.interiors.size()) return world;  // rooms only ever add to the artist's
+  storage.emplace(world);
+  storage->interiors = interiors;
   if (!storage->effects_explicit) storage->effects |= kEffectInteriors;
-  return &*storage;
+  return *storage;
 }
 
 double haloFor(const BakeSettings& settings, uint32_t effects) {
@@ -728,7 +737,6 @@ Result<BakeReport> bake(const worlds::World& given, const std::string& world_nam
   auto found = worldWithRooms(given, searched, searched.sectors(), report.settings, with_rooms, &report.rooms);
   if (!found) return std::unexpected(found.error().context(world_name));
   const worlds::World& world = **found;
-  report.rooms_found = world.interiors.size() - given.interiors.size();
   report.rooms_s = since(t0);
   const uint32_t effects = effectsToBake(world, &report.effects_skipped);
   report.effects_baked = effects;

@@ -13,12 +13,7 @@ Result<CubeBake> bakeCube(const worlds::World& given, const std::string& where, 
                           std::span<const Sector> sectors, int threads, const std::vector<InteriorVolume>* interiors) {
   // The interiors the sectors were baked with (the rooms found, rooms.h), for the placements.
   std::optional<worlds::World> with_rooms;
-  if (interiors && interiors->size() != given.interiors.size()) {
-    with_rooms.emplace(given);
-    with_rooms->interiors = *interiors;
-    if (!with_rooms->effects_explicit) with_rooms->effects |= kEffectInteriors;
-  }
-  const worlds::World& world = with_rooms ? *with_rooms : given;
+  const worlds::World& world = interiors ? worldWithInteriors(given, *interiors, with_rooms) : given;
   if (std::string why = validateLighting(world.sky, world.lights, world.interiors); !why.empty())
     return fail(where + ": " + why);
   if (std::string why = validateSettings(settings); !why.empty()) return fail(where + ": bake settings: " + why);

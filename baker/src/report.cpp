@@ -123,7 +123,7 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
   j["placement_pass"] = {{"sectors", r.placement_pass.sectors}, {"resumed", r.placement_pass.resumed},
                          {"outside", r.placement_pass.outside}, {"outside_rays", r.placement_pass.outside_rays},
                          {"seconds", r.placement_pass.seconds}};
-  j["rooms"] = {{"found", r.rooms_found}, {"seeds", r.rooms.seeds}, {"enclosed_seeds", r.rooms.enclosed},
+  j["rooms"] = {{"found", r.rooms.rooms}, {"seeds", r.rooms.seeds}, {"enclosed_seeds", r.rooms.enclosed},
                 {"dropped_for_an_artists_interior", r.rooms.dropped_artist}, {"dropped_as_the_same_room", r.rooms.dropped_overlap},
                 {"rays", r.rooms.rays}, {"seconds", r.rooms_s}};
   j["seconds"] = {{"wall", r.wall_s}, {"geometry", r.geometry_s}, {"rooms", r.rooms_s}, {"placement_pass", r.placement_pass.seconds},
@@ -186,7 +186,7 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
        << " only as neighbours), " << r.placement_pass.outside_rays << " rays for those, " << fixed(r.placement_pass.seconds, 2)
        << " s.\n";
   if (r.settings.rooms.enabled)
-    md << "\nRooms (closed rooms given an interior volume and a designated probe, rooms.h): " << r.rooms_found << " found from "
+    md << "\nRooms (closed rooms given an interior volume and a designated probe, rooms.h): " << r.rooms.rooms << " found from "
        << r.rooms.seeds << " covered-air seeds (" << r.rooms.enclosed << " enclosed; " << r.rooms.dropped_artist
        << " rooms inside an artist's interior and " << r.rooms.dropped_overlap << " seen twice dropped), " << r.rooms.rays
        << " rays, " << fixed(r.rooms_s, 2) << " s.\n";

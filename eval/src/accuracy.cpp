@@ -209,9 +209,10 @@ std::vector<RowSpec> drtvRows(const BakeSettings& base, uint32_t effects, const 
                     def ? TechniqueParams{} : TechniqueParams{{"bounces", std::to_string(bounces)}}, def ? "the default bake" : ""});
   }
   // Jacobi sweeps over the surface cache (transfer.h): further bounces around its closed links.
-  for (int sweeps : {base.transfer.sweeps > 0 ? base.transfer.sweeps : base.transfer.bounces - 1, 4, 16, 64}) {
-    const bool def = sweeps == baker::sweepCount(base.transfer);
-    if (!def && sweeps == baker::sweepCount(base.transfer)) continue;
+  const int default_sweeps = baker::sweepCount(base.transfer);
+  for (int sweeps : {default_sweeps, 4, 16, 64}) {
+    const bool def = sweeps == default_sweeps;
+    if (def && rows.back().knob == "sweeps") continue;  // the default is also one of the others: once
     rows.push_back({"sweeps", std::to_string(sweeps), def, "drtv",
                     def ? TechniqueParams{} : TechniqueParams{{"sweeps", std::to_string(sweeps)}}, def ? "the default bake" : ""});
   }

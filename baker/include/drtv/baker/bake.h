@@ -158,8 +158,8 @@ struct BakeReport {
   size_t sectors_empty = 0;              // sectors with no probe (not written to the archive)
   size_t triangles = 0;                  // contributing triangles in the world
   PlacementPass placement_pass;          // empty without LPRT
-  RoomStats rooms;                       // the room search (rooms.h); its rooms are the manifest's
-  size_t rooms_found = 0;                // interiors added by it (named "room N", after the artist's)
+  RoomStats rooms;                       // the room search (rooms.h); its rooms.rooms are the
+                                         // manifest's interiors after the artist's ("room N")
   double geometry_s = 0, rooms_s = 0, bake_s = 0, pack_s = 0, wall_s = 0;
   bool packed = false;                   // the archive was written (false for a shard)
 };
@@ -181,6 +181,12 @@ Manifest manifestFor(const raytrace::WorldGeometry& geometry, const worlds::Worl
 // bake() and bakeInMemory() pass the whole world, whatever sectors they bake, so that partial
 // bakes and shards find the same rooms.
 // Errors: findRooms' (a sector's scene cannot be built).
+// `world` with `interiors` in place of its own, in `storage` (the interiors effect added when
+// its effects are derived), or `world` itself when they are its own: what worldWithRooms makes
+// and what a later pass over the same bake (bakeCube) needs again from the bake's manifest.
+const worlds::World& worldWithInteriors(const worlds::World& world, const std::vector<InteriorVolume>& interiors,
+                                        std::optional<worlds::World>& storage);
+
 Result<const worlds::World*> worldWithRooms(const worlds::World& world, const raytrace::WorldGeometry& geometry,
                                            const raytrace::SectorRange& range, const BakeSettings& settings,
                                            std::optional<worlds::World>& storage, RoomStats* stats = nullptr);

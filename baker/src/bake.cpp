@@ -293,6 +293,7 @@ std::vector<std::pair<std::string, std::string>> BakeSettings::describe() const 
   // itself (and hashes, and packs) as before.
   if (placement.clearance_m != 0.0) d.emplace_back("clearance_m", fmt(placement.clearance_m));
   if (grid.inside_from_neighbours) d.emplace_back("grid_inside_from_neighbours", "1");
+  if (transfer.cell_sides && transfer.representation == Representation::kShL1) d.emplace_back("cache_cell_sides", "1");
   // Only when denser under roofs than in the open (issue 16): other bakes describe themselves as before.
   if (placement.covered_column_spacing_m < placement.column_spacing_m)
     d.emplace_back("covered_column_spacing_m", fmt(placement.covered_column_spacing_m));
@@ -688,6 +689,7 @@ Result<BakeReport> bake(const worlds::World& given, const std::string& world_nam
   if (options.clearance_m) report.settings.placement.clearance_m = *options.clearance_m;
   if (options.find_rooms) report.settings.rooms.enabled = *options.find_rooms;
   if (options.inside_from_neighbours) report.settings.grid.inside_from_neighbours = *options.inside_from_neighbours;
+  if (options.cell_sides) report.settings.transfer.cell_sides = *options.cell_sides;
   else if (given.representation && !options.settings) report.settings.transfer.representation = *given.representation;
   if (std::string why = validateSettings(report.settings); !why.empty()) return fail("bake settings: " + why);
   report.threads = options.threads > 0 ? options.threads : int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));

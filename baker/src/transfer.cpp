@@ -92,6 +92,134 @@ class CellMap {
   size_t mask_ = 0, size_ = 0;
 };
 
+struct Surfel {
+  glm::vec3 position;
+  glm::vec3 normal;
+};
+
+// The surface cache's cells (transfer.h): a cell key names its first surfel, and each surfel the
+// next of its key, one per side of the walls that cross the cell (TransferSettings::cell_sides).
+class SurfaceCells {
+ public:
+  SurfaceCells(const raytrace::RayScene& scene, bool sides) : scene_(scene), sides_(sides) {}
+  bool sides() const { return sides_; }
+
+  // Whether a hit at (p, n) and one at (q, m) lie on one side of whatever crosses their cell:
+  // their points kCellSideOffsetM off their surfaces see each other. Always, without sides.
+  // `rays` counts the occlusion rays cast.
+  bool sameSide(const glm::vec3& p, const glm::vec3& n, const glm::vec3& q, const glm::vec3& m, uint64_t& rays) const {
+    raytrace::Ray ray;
+    if (!sides_ || !sideRay(p, n, q, m, ray)) return true;
+    ++rays;
+    return !scene_.occluded(ray);
+  }
+  // The segment sameSide tests, in `ray`; false when the two points coincide (a hit is its own
+  // surfel's: one side).
+  static bool sideRay(const glm::vec3& p, const glm::vec3& n, const glm::vec3& q, const glm::vec3& m, raytrace::Ray& ray) {
+    const glm::vec3 a = p + kCellSideOffsetM * n;
+    const glm::vec3 d = q + kCellSideOffsetM * m - a;
+    const float len = glm::length(d);
+    if (len < 1e-4f) return false;
+    ray = raytrace::Ray{a, 0.f, d / len, len};
+    return true;
+  }
+  // The first surfel of cell `key` (kNoSurfel: none yet), and the next side of surfel `id`'s.
+  uint32_t first(uint64_t key) const { return map_.find(key); }
+  void occluded(std::span<const raytrace::Ray> rays, std::span<uint8_t> blocked) const { scene_.occluded(rays, blocked); }
+  uint32_t next(uint32_t id) const { return next_[id]; }
+  // The surfel on the side of a hit at (p, n) among the sides of its cell from `id` on: the first,
+  // in the order they were made, on its side; kNoSurfel if none, and then `sides` has been
+  // counted up by those it passed. Const: any number of threads.
+  uint32_t find(uint32_t id, const glm::vec3& p, const glm::vec3& n, const std::vector<Surfel>& surfels, uint64_t& rays,
+                uint32_t& sides) const {
+    for (; id != kNoSurfel; id = next_[id], ++sides)
+      if (sameSide(p, n, surfels[id].position, surfels[id].normal, rays)) return id;
+    return kNoSurfel;
+  }
+  // The surfel of side `side` of cell `key` (sides counted in the order they were made);
+  // `make()` makes a new surfel, which must be the next id, when `side` is the key's next side.
+  template <typename Make>
+  uint32_t side(uint64_t key, uint32_t side, Make make) {
+    uint32_t id = map_.find(key), last = kNoSurfel;
+    for (uint32_t k = 0; id != kNoSurfel; id = next_[id], ++k) {
+      if (k == side) return id;
+      last = id;
+    }
+    const uint32_t made = make();
+    DRTV_CHECK_EQ(size_t(made), next_.size());  // ids are made in order, one per (key, side)
+    next_.push_back(kNoSurfel);
+    if (last == kNoSurfel) {
+      DRTV_CHECK_EQ(side, 0u);  // a key's sides are first seen in order
+      map_.insert(key, made);
+    } else {
+      DRTV_CHECK(side != 0);
+      next_[last] = made;
+    }
+    return made;
+  }
+
+ private:
+  const raytrace::RayScene& scene_;
+  bool sides_;
+  CellMap map_;
+  std::vector<uint32_t> next_;
+};
+
+// For hits `at(i)` in cells `key(i)` (kEscaped or kBackface: none), in their order: which of the
+// new sides of its cell each lies on, counted per key from 0 in the order the hits first show
+// them (the sides the cell already has are the caller's). Keys are resolved in parallel, each
+// key's hits in order, so the answer does not depend on threads.
+template <typename Key, typename At>
+std::vector<uint32_t> sidesOfHits(const SurfaceCells& cells, size_t count, Key key, At at, std::atomic<uint64_t>& rays) {
+  std::vector<uint32_t> side(count, 0);
+  if (!cells.sides()) return side;
+  std::vector<std::pair<uint64_t, uint32_t>> order;
+  for (size_t i = 0; i < count; ++i)
+    if (key(i) < kBackface) order.emplace_back(key(i), uint32_t(i));
+  std::sort(order.begin(), order.end());
+  std::vector<size_t> starts;
+  for (size_t i = 0; i < order.size(); ++i)
+    if (i == 0 || order[i].first != order[i - 1].first) starts.push_back(i);
+  starts.push_back(order.size());
+  // Each key's hits against its first side's anchor in one batch of occlusion rays, those on
+  // none against the next side's (the first of them), and so on: the sides a serial pass over the
+  // hits in order would give.
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, starts.size() - 1, 64), [&](const tbb::blocked_range<size_t>& range) {
+    uint64_t local = 0;
+    std::vector<uint32_t> open, rest, tested;
+    std::vector<raytrace::Ray> batch;
+    std::vector<uint8_t> blocked;
+    for (size_t g = range.begin(); g < range.end(); ++g) {
+      open.clear();
+      for (size_t j = starts[g]; j < starts[g + 1]; ++j) open.push_back(order[j].second);
+      for (uint32_t k = 0; !open.empty(); ++k) {
+        const Surfel anchor = at(open[0]);
+        side[open[0]] = k;
+        batch.clear();
+        tested.clear();
+        rest.clear();
+        for (size_t j = 1; j < open.size(); ++j) {
+          const Surfel h = at(open[j]);
+          raytrace::Ray ray;
+          if (!SurfaceCells::sideRay(h.position, h.normal, anchor.position, anchor.normal, ray)) {
+            side[open[j]] = k;
+            continue;
+          }
+          batch.push_back(ray);
+          tested.push_back(open[j]);
+        }
+        blocked.assign(batch.size(), 0);
+        if (!batch.empty()) cells.occluded(batch, blocked);
+        local += batch.size();
+        for (size_t j = 0; j < tested.size(); ++j) (blocked[j] ? rest.push_back(tested[j]) : void(side[tested[j]] = k));
+        std::swap(open, rest);
+      }
+    }
+    rays += local;
+  });
+  return side;
+}
+
 // One traced ray: where it went (a cell key, kEscaped or kBackface), how far, what it hit.
 struct RayResult {
   uint64_t key = kEscaped;
@@ -99,11 +227,6 @@ struct RayResult {
   uint32_t prim = raytrace::kNoPrim;
   glm::vec3 position{0.f};  // of the hit: kept so that linking needs no second sin/cos
   glm::vec3 normal{0.f};    // of the side hit (RayScene::facingNormal: double-sided surfaces)
-};
-
-struct Surfel {
-  glm::vec3 position;
-  glm::vec3 normal;
 };
 
 struct Edge {
@@ -276,24 +399,25 @@ void traceProbes(const TransferContext& ctx, std::span<const glm::vec3> probes, 
 
 // Level-1 surfels: the probes' hits, one per cell in probe, basis, sample order; `probe_surfel`
 // names each probe ray's surfel. Returns how many there are (level 1's size).
-size_t levelOneSurfels(const TransferContext& ctx, const std::vector<RayResult>& probe_res, CellMap& cells,
+size_t levelOneSurfels(const TransferContext& ctx, const std::vector<RayResult>& probe_res, SurfaceCells& cells,
                        std::vector<Surfel>& surfels, std::vector<uint32_t>& probe_surfel, TransferStats& stats) {
-  const size_t P = ctx.P, N = ctx.N;
-  probe_surfel.assign(P * 4 * N, kNoSurfel);
-  for (size_t p = 0; p < P; ++p)
-    for (int b = 0; b < 4; ++b) {
-      for (size_t i = 0; i < N; ++i) {
-        const RayResult& r = probe_res[(p * 4 + b) * N + i];
-        if (r.key >= kBackface) continue;
-        const uint32_t id = cells.insert(r.key, uint32_t(surfels.size()));
-        if (id == surfels.size()) {
-          surfels.push_back({r.position, r.normal});
-        } else {
-          ++stats.probe_hits_cached;
-        }
-        probe_surfel[(p * 4 + b) * N + i] = id;
-      }
-    }
+  probe_surfel.assign(probe_res.size(), kNoSurfel);
+  std::atomic<uint64_t> side_rays{0};
+  const std::vector<uint32_t> side = sidesOfHits(
+      cells, probe_res.size(), [&](size_t i) { return probe_res[i].key; },
+      [&](size_t i) { return Surfel{probe_res[i].position, probe_res[i].normal}; }, side_rays);
+  stats.surfel_rays += side_rays;
+  for (size_t idx = 0; idx < probe_res.size(); ++idx) {  // probe, basis, sample order
+    const RayResult& r = probe_res[idx];
+    if (r.key >= kBackface) continue;
+    bool made = false;
+    probe_surfel[idx] = cells.side(r.key, side[idx], [&] {
+      made = true;
+      surfels.push_back({r.position, r.normal});
+      return uint32_t(surfels.size() - 1);
+    });
+    stats.probe_hits_cached += !made;
+  }
   const size_t level1 = surfels.size();
   // Level 1 sits where the probes look: its representative is the probe hit nearest the mean of
   // the cell's probe hits (a real surface point, chosen in a fixed order), not the first one, so
@@ -327,7 +451,7 @@ size_t levelOneSurfels(const TransferContext& ctx, const std::vector<RayResult>&
 // surfel's transfer.
 // `direct_out` (optional) receives each traced surfel's direct part D_x (the sky it sees), `links_out`
 // (optional) the surfel-to-surfel edges the sweeps used, for LPRT's own sweeps.
-std::vector<Sh4Rgb> surfaceCache(const TransferContext& ctx, CellMap& cells, std::vector<Surfel>& surfels, TransferStats& stats,
+std::vector<Sh4Rgb> surfaceCache(const TransferContext& ctx, SurfaceCells& cells, std::vector<Surfel>& surfels, TransferStats& stats,
                                  std::vector<sh::Sh4>* direct_out = nullptr, SurfelLinks* links_out = nullptr) {
   const raytrace::RayScene& scene = ctx.scene;
   const raytrace::SectorGeometry& geometry = ctx.geometry;
@@ -344,7 +468,9 @@ std::vector<Sh4Rgb> surfaceCache(const TransferContext& ctx, CellMap& cells, std
     uint64_t key;
     glm::vec3 position;
     glm::vec3 normal;
+    uint32_t sides;  // the cell's sides when traced (none on this hit's side)
   };
+  std::atomic<uint64_t> side_rays{0};
   std::vector<Miss> misses;
   size_t lo = 0;
   for (int level = 1; level <= s.bounces && lo < surfels.size(); ++level) {
@@ -358,9 +484,13 @@ std::vector<Sh4Rgb> surfaceCache(const TransferContext& ctx, CellMap& cells, std
     // stay unlinked) are left for the serial pass below, which creates them in (surfel, ray)
     // order: the ids are those a serial insert of every hit would give.
     tbb::parallel_for(tbb::blocked_range<size_t>(lo, hi, 16), [&](const tbb::blocked_range<size_t>& range) {
-      std::vector<raytrace::Ray> rays(M);
+      uint64_t local_side_rays = 0;
+      std::vector<raytrace::Ray> rays(M), side_batch;
       std::vector<raytrace::Hit> hits(M);
       std::vector<glm::vec3> dirs(M);
+      std::vector<RayResult> results(M);
+      std::vector<uint32_t> tested;
+      std::vector<uint8_t> blocked;
       for (size_t si = range.begin(); si < range.end(); ++si) {
         const Surfel& sf = surfels[si];
         const raytrace::Frame frame(sf.normal);
@@ -370,34 +500,68 @@ std::vector<Sh4Rgb> surfaceCache(const TransferContext& ctx, CellMap& cells, std
         for (size_t i = 0; i < M; ++i) rays[i] = raytrace::Ray{origin, 0.f, dirs[i], INFINITY};
         scene.intersect(rays, hits);
         sh::Sh4 d(0.f);
+        // Each hit's cell's first side: the hits that must see its surfel, in one batch.
+        side_batch.clear();
+        tested.clear();
         for (size_t i = 0; i < M; ++i) {
-          const RayResult r = classify(scene, rays[i], hits[i], inv_cell);
+          const RayResult& r = results[i] = classify(scene, rays[i], hits[i], inv_cell);
           Edge& e = edges[si * M + i];
           e = Edge{};
           if (r.key == kEscaped) d += sh::evaluate(rays[i].dir);
           if (r.key >= kBackface) continue;
           e.material = geometry.material[r.prim];
-          e.child = cells.find(r.key);
-          if (e.child == kNoSurfel && !last) {
-            e.child = kPending;
-            misses[(si - lo) * M + i] = Miss{r.key, r.position, r.normal};
+          e.child = cells.first(r.key);
+          raytrace::Ray ray;
+          if (e.child != kNoSurfel && cells.sides() &&
+              SurfaceCells::sideRay(r.position, r.normal, surfels[e.child].position, surfels[e.child].normal, ray)) {
+            side_batch.push_back(ray);
+            tested.push_back(uint32_t(i));
           }
         }
+        blocked.assign(side_batch.size(), 0);
+        if (!side_batch.empty()) cells.occluded(side_batch, blocked);
+        local_side_rays += side_batch.size();
+        for (size_t j = 0; j < tested.size(); ++j)
+          if (blocked[j]) {  // not the first side's: the others, one by one
+            Edge& e = edges[si * M + tested[j]];
+            const RayResult& r = results[tested[j]];
+            uint32_t sides = 1;
+            e.child = cells.find(cells.next(e.child), r.position, r.normal, surfels, local_side_rays, sides);
+            if (e.child == kNoSurfel && !last) {
+              e.child = kPending;
+              misses[(si - lo) * M + tested[j]] = Miss{r.key, r.position, r.normal, sides};
+            }
+          }
+        if (!last)
+          for (size_t i = 0; i < M; ++i) {
+            Edge& e = edges[si * M + i];
+            if (e.child == kNoSurfel && results[i].key < kBackface) {  // a cell not made yet
+              e.child = kPending;
+              misses[(si - lo) * M + i] = Miss{results[i].key, results[i].position, results[i].normal, 0};
+            }
+          }
         direct[si] = d * (kPi / float(M));
       }
+      side_rays += local_side_rays;
     });
     stats.surfel_rays += uint64_t(hi - lo) * M;
-    if (!last)
-      for (size_t si = lo; si < hi; ++si)
-        for (size_t i = 0; i < M; ++i) {
-          Edge& e = edges[si * M + i];
-          if (e.child != kPending) continue;
-          const Miss& m = misses[(si - lo) * M + i];
-          e.child = cells.insert(m.key, uint32_t(surfels.size()));
-          if (e.child == surfels.size()) surfels.push_back({m.position, m.normal});
-        }
+    if (!last) {
+      const std::vector<uint32_t> side = sidesOfHits(
+          cells, (hi - lo) * M, [&](size_t j) { return edges[lo * M + j].child == kPending ? misses[j].key : kEscaped; },
+          [&](size_t j) { return Surfel{misses[j].position, misses[j].normal}; }, side_rays);
+      for (size_t j = 0; j < (hi - lo) * M; ++j) {  // surfel, ray order
+        Edge& e = edges[lo * M + j];
+        if (e.child != kPending) continue;
+        const Miss& m = misses[j];
+        e.child = cells.side(m.key, m.sides + side[j], [&] {
+          surfels.push_back({m.position, m.normal});
+          return uint32_t(surfels.size() - 1);
+        });
+      }
+    }
     lo = hi;
   }
+  stats.surfel_rays += side_rays;
   const size_t count = lo;  // surfels traced (the last level creates none)
   transfer.resize(count);
   for (size_t si = 0; si < count; ++si) transfer[si] = {direct[si], direct[si], direct[si]};
@@ -784,7 +948,7 @@ std::vector<ProbeData> bakeTransfer(const raytrace::RayScene& scene, const raytr
   if (!s.prt && !want_lprt) return out;
 
   t0 = Clock::now();
-  CellMap cells;
+  SurfaceCells cells(scene, s.cell_sides && s.representation == Representation::kShL1);
   std::vector<Surfel> surfels;
   std::vector<uint32_t> probe_surfel;
   const size_t level1 = levelOneSurfels(ctx, probe_res, cells, surfels, probe_surfel, stats);

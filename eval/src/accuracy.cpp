@@ -228,6 +228,12 @@ std::vector<RowSpec> drtvRows(const BakeSettings& base, uint32_t effects, const 
                   base.rooms.enabled ? "the default bake: closed rooms get interiors" : "closed rooms get interiors"});
   rows.push_back({"rooms", "off", !base.rooms.enabled, "drtv", !base.rooms.enabled ? TechniqueParams{} : TechniqueParams{{"rooms", "off"}},
                   "the artist's interiors only"});
+  // Surface cache cells split by the walls that cross them (transfer.h), against shared ones.
+  rows.push_back({"cache_cells", "sides", base.transfer.cell_sides, "drtv",
+                  base.transfer.cell_sides ? TechniqueParams{} : TechniqueParams{{"cache_cells", "sides"}},
+                  base.transfer.cell_sides ? "the default bake: a cell splits where a wall crosses it" : "a cell splits where a wall crosses it"});
+  rows.push_back({"cache_cells", "shared", !base.transfer.cell_sides, "drtv",
+                  !base.transfer.cell_sides ? TechniqueParams{} : TechniqueParams{{"cache_cells", "shared"}}, "one cell per cube and facing"});
   const uint32_t components = runtime::componentsFromEffects(effects);
   const std::array<std::pair<const char*, uint32_t>, 4> parts = {
       std::pair{"sun_bounce", uint32_t(runtime::kComponentSunBounce)}, std::pair{"sky_bounce", uint32_t(runtime::kComponentSkyBounce)},

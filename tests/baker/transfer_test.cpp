@@ -3,6 +3,8 @@
 
 #include <cmath>
 
+#include <tbb/global_control.h>
+
 #include "drtv/raytrace/sampling.h"
 #include "drtv/baker/transfer.h"
 #include "drtv/formats/sh.h"
@@ -191,6 +193,56 @@ TEST(Transfer, LprtIsTheBounceOfAUnitPointLight) {
   EXPECT_GT(lprt[(1 * 3 + 0) * 4 + 3], 0.f);
   EXPECT_LT(lprt[(1 * 3 + 0) * 4 + 3], lprt[(0 * 3 + 0) * 4 + 3]) << "a farther light bounces less";
   EXPECT_LT(lprt[(0 * 3 + 0) * 4 + 0], 0.1f * lprt[(0 * 3 + 0) * 4 + 3]) << "up bases see the plane only at grazing angles";
+}
+
+// A closed room of 0.1 m walls on sunlit ground: no path from the probe in its middle reaches the
+// sky, so its transfer is exactly 0 (physics). The 2 m cache cells straddle the walls, so the
+// room's floor and the ground outside, both facing up, fall in the same cells, and the wall's
+// inner and outer faces of one cell face opposite ways; with `cell_sides` (sh-l1's default) a
+// cell splits by the wall's sides, and the answer is 0 at 1 and 2 threads alike. Shared cells
+// (fc3's, and sh-l1's before 2026-12-03) carry the ground's light in.
+TEST(Transfer, ACellThatAThinWallCrossesKeepsEachSidesLight) {
+  worlds::World w = test::planeWorld(512.0, glm::vec3(0.5f));
+  const glm::vec3 lo(27.3f, 28.7f, 0.f), hi(36.7f, 35.3f, 2.9f);  // walls off the 2 m cell grid
+  const glm::vec3 a(0.7f);
+  const float t = 0.1f;
+  const auto wall = worlds::InstanceClass::kStatic;
+  test::add(w, test::box({lo.x, lo.y, 0}, {lo.x + t, hi.y, hi.z}, a, "west"), wall);
+  test::add(w, test::box({hi.x - t, lo.y, 0}, {hi.x, hi.y, hi.z}, a, "east"), wall);
+  test::add(w, test::box({lo.x + t, lo.y, 0}, {hi.x - t, lo.y + t, hi.z}, a, "south"), wall);
+  test::add(w, test::box({lo.x + t, hi.y - t, 0}, {hi.x - t, hi.y, hi.z}, a, "north"), wall);
+  test::add(w, test::box({lo.x - 0.2f, lo.y - 0.2f, hi.z}, {hi.x + 0.2f, hi.y + 0.2f, hi.z + t}, a, "roof"), wall);
+  const Baked b = prepare(w);
+  TransferSettings s;
+  s.probe_rays_per_basis = 64;
+  s.surfel_rays = 16;
+  s.surfel_cell_m = 2.f;
+  const std::vector<glm::vec3> probes = {{30.f, 31.f, 1.5f}, {34.f, 33.f, 1.5f}, {24.f, 32.f, 1.5f}};  // two in, one out
+  auto largest = [](const ProbeData& d) {
+    float m = 0.f;
+    for (const auto& channel : d.prt)
+      for (const sh::Sh4& v : channel) for (int i = 0; i < 4; ++i) m = std::max(m, std::abs(v[i]));
+    return m;
+  };
+  std::vector<ProbeData> one, two;
+  TransferStats stats;
+  {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+    one = bakeTransfer(*b.scene, b.geometry, probes, s, stats);
+  }
+  {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 2);
+    two = bakeTransfer(*b.scene, b.geometry, probes, s, stats);
+  }
+  for (size_t p = 0; p < probes.size(); ++p)
+    for (int c = 0; c < 3; ++c)
+      for (int k = 0; k < 4; ++k) EXPECT_EQ(one[p].prt[c][k], two[p].prt[c][k]) << "probe " << p << ": 1 and 2 threads";
+  EXPECT_EQ(largest(one[0]), 0.f) << "no light into the room";
+  EXPECT_EQ(largest(one[1]), 0.f) << "no light into the room";
+  EXPECT_GT(largest(one[2]), 0.01f) << "the probe outside sees the sky-lit ground";
+  s.cell_sides = false;
+  const auto shared = bakeTransfer(*b.scene, b.geometry, probes, s, stats);
+  EXPECT_GT(std::max(largest(shared[0]), largest(shared[1])), 0.f) << "shared cells leak (what the sides are for)";
 }
 
 }  // namespace

@@ -520,17 +520,21 @@ TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
                                  // of every build before the clearance (issue 16)
     const char* inside;          // "": the default (index cells inside geometry take a neighbour's
                                  // choice); "nearest": the bytes of every build before 2026-12-02
+    const char* cells;           // "": the default (sh-l1's cache cells split by walls);
+                                 // "shared": the bytes of every build before 2026-12-03
   };
   const Bake bakes[] = {
-      {"worlds/island.json", "2", "fc3", "0", "nearest"},
-      {"worlds/island.json", "1", "fc3", "0", "nearest"},
-      {"worlds/island_lit.json", "2", "fc3", "0", "nearest"},
-      {"worlds/island.json", "2", "sh-l1", "0", "nearest"},   // archive version 3: fitted direct sky, sun transfer
-      {"worlds/island.json", "2", "fc3", "", "nearest"},      // placement with its 0.25 m clearance
-      {"worlds/island.json", "2", "sh-l1", "", "nearest"},    // the default bake until 2026-12-02
-      {"worlds/island_lit.json", "2", "sh-l1", "", "nearest"},  // sh-l1's LPRT with the bake's 2 bounces
-      {"worlds/island.json", "2", "sh-l1", "", ""},           // the default bake
-      {"worlds/island_lit.json", "2", "sh-l1", "", ""},       // the default bake with LPRT of 2 bounces
+      {"worlds/island.json", "2", "fc3", "0", "nearest", ""},
+      {"worlds/island.json", "1", "fc3", "0", "nearest", ""},
+      {"worlds/island_lit.json", "2", "fc3", "0", "nearest", ""},
+      {"worlds/island.json", "2", "sh-l1", "0", "nearest", "shared"},   // archive version 3: fitted direct sky, sun transfer
+      {"worlds/island.json", "2", "fc3", "", "nearest", ""},            // placement with its 0.25 m clearance
+      {"worlds/island.json", "2", "sh-l1", "", "nearest", "shared"},    // the default bake until 2026-12-02
+      {"worlds/island_lit.json", "2", "sh-l1", "", "nearest", "shared"},  // sh-l1's LPRT with the bake's 2 bounces
+      {"worlds/island.json", "2", "sh-l1", "", "", "shared"},           // the default bake until 2026-12-03
+      {"worlds/island_lit.json", "2", "sh-l1", "", "", "shared"},       // the same with LPRT of 2 bounces
+      {"worlds/island.json", "2", "sh-l1", "", "", ""},                 // the default bake
+      {"worlds/island_lit.json", "2", "sh-l1", "", "", ""},             // the default bake with LPRT
   };
   constexpr size_t kBakes = sizeof bakes / sizeof bakes[0];
   struct Family {
@@ -543,13 +547,15 @@ TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
       // AMD EPYC (Zen 4), the CI host from 2026-12-02.
       {"AMD EPYC", 0xb719567d9ef9735full, "AuthenticAMD",
        {0xb5dc41527c49bc30ull, 0xb5dc41527c49bc30ull, 0x83e674d1c0876195ull, 0xce768512b03790c7ull, 0x602302430699b4b5ull,
-        0x403bda8d7b11fe7dull, 0xeace7813206ac06aull, 0x223f3054c17af0b1ull, 0x030e6917899684ebull}},
+        0x403bda8d7b11fe7dull, 0xeace7813206ac06aull, 0x223f3054c17af0b1ull, 0x030e6917899684ebull, 0x0ull, 0x0ull}},
       // Intel Xeon, every CI host until 2026-12-01 (matched by vendor; the Xeon of 2026-12-02 had
       // the fingerprint 0xec281bdebf45ee62). The sh-l1 bakes changed on 2026-12-02 (the direct
-      // sky's receiver-weighted fit) and were recorded again on a Xeon the same day.
+      // sky's receiver-weighted fit) and were recorded again on a Xeon the same day. The last two
+      // (cache cells split by walls) were recorded on the Xeon of fingerprint 0xec281bdebf45ee62 on
+      // 2026-12-03; the EPYC's print themselves to be recorded.
       {"Intel Xeon", 0x0ull, "GenuineIntel",
        {0x797f2f8433a8ec21ull, 0x797f2f8433a8ec21ull, 0x906bc4b8292ce446ull, 0x725fcbb5a43280beull, 0x6cf058d923e27201ull,
-        0x75257267d87249e8ull, 0xdd36c7ae5d8cc7e2ull, 0xca6dafdfbcf78d79ull, 0xf28d04abe1b833b1ull}},
+        0x75257267d87249e8ull, 0xdd36c7ae5d8cc7e2ull, 0xca6dafdfbcf78d79ull, 0xf28d04abe1b833b1ull, 0x3974b4d4ead37c29ull, 0x3a2f4b2c4b74b678ull}},
   };
   const uint64_t fingerprint = reciprocalFingerprint();
   const std::string vendor = cpuVendor();
@@ -563,7 +569,8 @@ TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
     const std::string out = scratch("golden.drtv");
     const Outcome r = drtv("bake " + src(g.world) + " -o " + out + " --quality draft --threads " + g.threads +
                                " --representation " + g.representation + (*g.clearance ? std::string(" --clearance ") + g.clearance : "") +
-                               (*g.inside ? std::string(" --inside-cells ") + g.inside : ""),
+                               (*g.inside ? std::string(" --inside-cells ") + g.inside : "") +
+                               (*g.cells ? std::string(" --cache-cells ") + g.cells : ""),
                            "DRTV_EMBREE_CONFIG=isa=sse2");
     EXPECT_EQ(r.status, 0) << r.out;
     const std::string bytes = slurp(out);
@@ -581,7 +588,7 @@ TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
     std::snprintf(hex, sizeof hex, "0x%016llxull", (unsigned long long)hash);
     record += std::string(i ? ", " : "") + hex;
     const std::string what = std::string(g.world) + " --threads " + g.threads + " --representation " + g.representation +
-                             " --clearance '" + g.clearance + "' --inside-cells '" + g.inside + "' baked " +
+                             " --clearance '" + g.clearance + "' --inside-cells '" + g.inside + "' --cache-cells '" + g.cells + "' baked " +
                              std::to_string(size) + " bytes hashing " + hex + " on " + vendor + " (fingerprint " + fp + ")";
     if (family && family->xxh3[i]) {
       EXPECT_EQ(hash, family->xxh3[i]) << what << ", the " << family->name << "'s golden";

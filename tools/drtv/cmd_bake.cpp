@@ -29,6 +29,7 @@ struct BakeCliOptions {
   std::optional<double> clearance_m;
   std::string inside_cells;
   std::string rooms;
+  std::string cache_cells;
 };
 
 void drawProgress(size_t done, size_t total) {
@@ -55,6 +56,7 @@ Result<void> runBake(const BakeCliOptions& o) {
   options.clearance_m = o.clearance_m;
   if (!o.inside_cells.empty()) options.inside_from_neighbours = o.inside_cells == "neighbour";
   if (!o.rooms.empty()) options.find_rooms = o.rooms == "auto";
+  if (!o.cache_cells.empty()) options.cell_sides = o.cache_cells == "sides";
   options.fresh = o.fresh;
   options.keep_sector_files = o.keep_sectors;
   options.merge_only = o.merge;
@@ -146,6 +148,11 @@ Command registerBake(CLI::App& app) {
                   "Closed rooms found in the geometry get an interior volume and a designated probe, as an artist's "
                   "interiors do: auto (default) | off (the artist's interiors only)")
       ->check(CLI::IsMember({"auto", "off"}));
+  sub->add_option("--cache-cells", o->cache_cells,
+                  "Surface cache cells (sh-l1): sides (a cell splits where a wall separates the surfaces in it, so a "
+                  "room's floor does not share the ground's light outside its wall; default) | shared (one per cube "
+                  "and facing, the bytes of the builds before 2026-12-03)")
+      ->check(CLI::IsMember({"sides", "shared"}));
   return {sub, [o]() { return runBake(*o); }, &o->world};
 }
 

@@ -62,6 +62,7 @@ struct BakeParams {
   std::optional<double> covered_spacing, covered_min_h;  // placement under roofs (placement.h)
   Representation representation = Representation::kShL1;  // the baker's default for new worlds
   bool rooms = true;  // the room search (rooms.h)
+  bool cell_sides = true;  // cache cells split by walls (transfer.h TransferSettings::cell_sides)
   bool operator==(const BakeParams&) const = default;
 };
 
@@ -111,6 +112,10 @@ Result<Params> parseParams(const TechniqueParams& p) {
       if (v == "auto") out.bake.rooms = true;
       else if (v == "off") out.bake.rooms = false;
       else return fail("rooms=" + v + ": expected auto or off");
+    } else if (k == "cache_cells") {
+      if (v == "sides") out.bake.cell_sides = true;
+      else if (v == "shared") out.bake.cell_sides = false;
+      else return fail("cache_cells=" + v + ": expected sides or shared");
     } else if (k == "fill") {
       if (v == "nearest") out.runtime.fill = runtime::FillMode::kNearest;
       else if (v == "smooth") out.runtime.fill = runtime::FillMode::kSmooth;
@@ -162,7 +167,7 @@ Result<Params> parseParams(const TechniqueParams& p) {
       else return fail("storage=" + v + ": expected runtime, 8-bit, snorm8, 16-bit or float");
     } else {
       return fail("no parameter '" + k +
-                  "' (drtv takes quality, rays_per_basis, bounces, sweeps, covered_spacing, covered_min_h, rooms, representation, fill, lookup, texel_m, sun_window, part, "
+                  "' (drtv takes quality, rays_per_basis, bounces, sweeps, covered_spacing, covered_min_h, rooms, cache_cells, representation, fill, lookup, texel_m, sun_window, part, "
                   "sources_per_light, light_sources, lprt_sources, storage)");
     }
   }
@@ -180,6 +185,7 @@ baker::BakeSettings bakeSettings(const BakeParams& p, uint64_t seed) {
   if (p.covered_min_h) s.placement.covered_min_horizontal_m = *p.covered_min_h;
   s.transfer.representation = p.representation;
   s.rooms.enabled = p.rooms;
+  s.transfer.cell_sides = p.cell_sides;
   return s;
 }
 

@@ -121,6 +121,9 @@ struct BakeOptions {
   // The room search (rooms.h RoomSettings::enabled); unset = the preset's (true). false bakes the
   // archives of the builds before it, byte for byte.
   std::optional<bool> find_rooms;
+  // Surface cache cells split by the walls that cross them (transfer.h TransferSettings::
+  // cell_sides); unset = the preset's (true). false bakes the archives of the builds before it.
+  std::optional<bool> cell_sides;
   // Called after each sector with (done, total), from one thread at a time. May be empty.
   std::function<void(size_t, size_t)> progress;
 };

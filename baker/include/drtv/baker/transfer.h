@@ -29,7 +29,12 @@
 // and one of six normal directions (the dominant axis of the front normal) — at one hit that
 // landed in it (for level 1 the probe hit nearest the mean of the cell's probe hits, deeper the
 // first hit; both in probe, basis, sample order, so the choice does not depend on threads), and
-// reused by every probe ray and surfel ray that lands in the same cell. Level 1
+// reused by every probe ray and surfel ray that lands in the same cell. With `cell_sides` (sh-l1)
+// a cell holds one surfel per side of the walls that cross it: a hit joins the first of its cell's
+// surfels whose point, kCellSideOffsetM off its surface, sees the hit's point as far off its own
+// (one short occlusion ray each), and starts a new one where none does; otherwise the floor of a
+// room and the sunlit ground outside its wall, both facing up within one cube, share one transfer
+// and the room reads the ground's light. Level 1
 // surfels are the probes' hits, level k+1 the hits of level k's rays, up to `bounces` levels;
 // each casts `surfel_rays` cosine-weighted rays. Then `bounces - 1` Jacobi sweeps of
 // T_s = D_s + (1/M) sum rho T_child give every level-1 surfel `bounces` bounces [2]; rays from the
@@ -103,6 +108,12 @@ namespace drtv::baker {
 // single cache cell up into a firefly that the 2 m cells cannot resolve anyway.
 inline constexpr float kLprtMinDistance2 = 1.f;
 
+// How far off their surfaces two hits of one cache cell are tested for seeing each other
+// (TransferSettings::cell_sides): above a kerb or a skirting board, below any wall, and the sagitta
+// of a 2.8 m chord (a 2 m cell's diagonal) over a hill of 3.9 m radius, so that open terrain,
+// gently curved, stays one surfel a cell.
+inline constexpr float kCellSideOffsetM = 0.25f;
+
 struct TransferSettings {
   int probe_rays_per_basis = 256;  // N: cosine-weighted rays per basis direction and probe
   int surfel_rays = 32;            // M: rays per cached surface cell
@@ -113,6 +124,10 @@ struct TransferSettings {
   // room's walls light each other), with no more rays; bounded by it, since the energy of a
   // closed room of albedo 1 never converges.
   int sweeps = 0;
+  // A cache cell splits where a wall separates the hits that land in it (above; sh-l1 only: fc3
+  // keeps the talk's bytes). false: one surfel per cube and normal direction, the archives of
+  // every build before 2026-12-03 byte for byte (`drtv bake --cache-cells shared`).
+  bool cell_sides = true;
   bool prt = true;                 // bake T (sun or sky bounce asked for); else T = 0
   bool sky_visibility = true;      // bake v and sky_vis_sh (direct sky asked for); else 0
   uint64_t seed = 1;

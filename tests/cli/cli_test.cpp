@@ -444,6 +444,7 @@ TEST(Cli, AClosedRoomIsFoundAndShadedFromItsOwnProbe) {
   EXPECT_EQ(report().at("rooms").at("found").get<int>(), 0);
   EXPECT_NE(drtv("info " + archive).out.find("interiors: 0"), std::string::npos);
   EXPECT_EQ(drtv("bake " + src("tests/reference/data/room.json") + " -o " + archive + " --rooms maybe").status, 2);
+  EXPECT_EQ(drtv("bake " + src("tests/reference/data/room.json") + " -o " + archive + " --cache-cells both").status, 2);
 
   const std::string cornell = scratch("cornell-rooms.drtv");
   ASSERT_EQ(drtv("bake " + src("tests/reference/data/cornell_world.json") + " -o " + cornell + " --quality draft").status, 0);

@@ -556,7 +556,7 @@ TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
       // 2026-12-03; the EPYC's print themselves to be recorded.
       {"Intel Xeon", 0x0ull, "GenuineIntel",
        {0x797f2f8433a8ec21ull, 0x797f2f8433a8ec21ull, 0x906bc4b8292ce446ull, 0x725fcbb5a43280beull, 0x6cf058d923e27201ull,
-        0x75257267d87249e8ull, 0xdd36c7ae5d8cc7e2ull, 0xca6dafdfbcf78d79ull, 0xf28d04abe1b833b1ull, 0x3974b4d4ead37c29ull, 0x3a2f4b2c4b74b678ull}},
+        0x75257267d87249e8ull, 0xdd36c7ae5d8cc7e2ull, 0xca6dafdfbcf78d79ull, 0xf28d04abe1b833b1ull, 0x555b92ed9354f97aull, 0x0cccae2414c4ee7cull}},
   };
   const uint64_t fingerprint = reciprocalFingerprint();
   const std::string vendor = cpuVendor();

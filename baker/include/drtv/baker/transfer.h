@@ -34,7 +34,8 @@
 // surfels whose point, kCellSideOffsetM off its surface, sees the hit's point as far off its own
 // (one short occlusion ray each), and starts a new one where none does; otherwise the floor of a
 // room and the sunlit ground outside its wall, both facing up within one cube, share one transfer
-// and the room reads the ground's light. Level 1
+// and the room reads the ground's light. Only cubes that static geometry reaches are split:
+// terrain and vegetation alone are one side. Level 1
 // surfels are the probes' hits, level k+1 the hits of level k's rays, up to `bounces` levels;
 // each casts `surfel_rays` cosine-weighted rays. Then `bounces - 1` Jacobi sweeps of
 // T_s = D_s + (1/M) sum rho T_child give every level-1 surfel `bounces` bounces [2]; rays from the

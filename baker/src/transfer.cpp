@@ -197,8 +197,9 @@ class SurfaceCells {
   }
 
  private:
-  // The most cubes markObjects keeps a byte for (64 MiB); beyond, every cube may have sides.
-  static constexpr int64_t kMaxMarkedCubes = int64_t(1) << 26;
+  // The most cubes markObjects keeps a byte for (16 MiB a sector task: 3.6 km of height at 2 m
+  // cells); beyond, every cube may have sides.
+  static constexpr int64_t kMaxMarkedCubes = int64_t(1) << 24;
   int64_t index(int64_t x, int64_t y, int64_t z) const {
     return ((z - origin_[2]) * dims_[1] + (y - origin_[1])) * dims_[0] + (x - origin_[0]);
   }

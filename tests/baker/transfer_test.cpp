@@ -243,6 +243,17 @@ TEST(Transfer, ACellThatAThinWallCrossesKeepsEachSidesLight) {
   s.cell_sides = false;
   const auto shared = bakeTransfer(*b.scene, b.geometry, probes, s, stats);
   EXPECT_GT(std::max(largest(shared[0]), largest(shared[1])), 0.f) << "shared cells leak (what the sides are for)";
+
+  // A 4 km tower far off makes the sector too tall for the map of the cubes static geometry
+  // reaches (16 Mi cubes, 3.6 km at 2 m cells): every cube may then have sides, and the answer is
+  // the same.
+  test::add(w, test::box({2, 2, 0}, {3, 3, 4000}, a, "tower"), wall);
+  const Baked tall = prepare(w);
+  s.cell_sides = true;
+  const auto fine = bakeTransfer(*tall.scene, tall.geometry, probes, s, stats);
+  EXPECT_EQ(largest(fine[0]), 0.f) << "no light into the room";
+  EXPECT_EQ(largest(fine[1]), 0.f) << "no light into the room";
+  EXPECT_GT(largest(fine[2]), 0.01f);
 }
 
 }  // namespace

@@ -71,7 +71,7 @@ struct Slot {
   float z_min = 0.f, cell_h = 1.f;
   std::array<uint8_t, kGridCells> nearest{};
   // What the volume fills each cell's texels from: `nearest`, except that a cell whose centre lies
-  // in an interior volume takes the first cell above it outside every one (fillCells): the room's
+  // in an interior volume takes the nearest cell outside every one at its height (fillCells): the room's
   // own points read its designated probe, so its texels only lend light to the points outside its
   // walls and roof, which the trilinear filter reaches across them (issue 16's roof leak).
   std::array<uint8_t, kGridCells> fill{};
@@ -478,7 +478,7 @@ struct ProbeCache::Impl {
       if (l.size() > 1) std::sort(l.begin(), l.end(), [](const LitSource& a, const LitSource& b) { return a.j < b.j; });
   }
 
-  // Interior volumes' boxes (world metres): the cells whose centres they hold fill from above.
+  // Interior volumes' boxes (world metres): the cells whose centres they hold fill from outside.
   std::vector<std::pair<glm::dvec3, glm::dvec3>> interior_boxes;
 
   // Slot s's fill cells and the bounds of the cells each probe fills (see Slot::fill).
@@ -490,23 +490,60 @@ struct ProbeCache::Impl {
     std::vector<std::pair<glm::dvec3, glm::dvec3>> here;
     for (const auto& b : interior_boxes)
       if (b.first.x < hi.x && b.second.x > lo.x && b.first.y < hi.y && b.second.y > lo.y) here.push_back(b);
-    if (!here.empty())
-      for (int y = 0; y < kGridDim; ++y)
-        for (int x = 0; x < kGridDim; ++x) {
-          const double cx = sl.origin.x + (x + 0.5) * kGridCellSizeM, cy = sl.origin.y + (y + 0.5) * kGridCellSizeM;
-          int above = -1;
-          for (int z = kGridDim - 1; z >= 0; --z) {
-            const glm::dvec3 c(cx, cy, double(sl.z_min) + (z + 0.5) * double(sl.cell_h));
-            const bool inside = std::any_of(here.begin(), here.end(), [&](const auto& b) {
+    if (!here.empty()) {
+      std::array<uint8_t, kGridCells> inside{};
+      for (int z = 0; z < kGridDim; ++z)
+        for (int y = 0; y < kGridDim; ++y)
+          for (int x = 0; x < kGridDim; ++x) {
+            const glm::dvec3 c(sl.origin.x + (x + 0.5) * kGridCellSizeM, sl.origin.y + (y + 0.5) * kGridCellSizeM,
+                               double(sl.z_min) + (z + 0.5) * double(sl.cell_h));
+            inside[size_t(IndexGrid::cellIndex(x, y, z))] = std::any_of(here.begin(), here.end(), [&](const auto& b) {
               return glm::all(glm::greaterThanEqual(c, b.first)) && glm::all(glm::lessThan(c, b.second));
             });
-            const int cell = IndexGrid::cellIndex(x, y, z);
-            if (!inside)
-              above = sl.nearest[cell];
-            else if (above >= 0)
-              sl.fill[cell] = uint8_t(above);
+          }
+      // Each layer: a breadth-first search over face neighbours from the cells outside every
+      // interior, so that a cell inside takes the nearest outside cell's choice at its height.
+      std::array<int16_t, kGridDim * kGridDim> from{};
+      std::vector<int> queue;
+      for (int z = 0; z < kGridDim; ++z) {
+        queue.clear();
+        for (int i = 0; i < kGridDim * kGridDim; ++i) {
+          const int cell = IndexGrid::cellIndex(i % kGridDim, i / kGridDim, z);
+          from[size_t(i)] = inside[size_t(cell)] ? int16_t(-1) : int16_t(i);
+          if (!inside[size_t(cell)]) queue.push_back(i);
+        }
+        for (size_t q = 0; q < queue.size(); ++q) {
+          const int i = queue[q], x = i % kGridDim, y = i / kGridDim;
+          const int nx[4] = {x - 1, x + 1, x, x}, ny[4] = {y, y, y - 1, y + 1};
+          for (int k = 0; k < 4; ++k) {
+            if (nx[k] < 0 || ny[k] < 0 || nx[k] >= kGridDim || ny[k] >= kGridDim) continue;
+            const int j = ny[k] * kGridDim + nx[k];
+            if (from[size_t(j)] >= 0) continue;
+            from[size_t(j)] = from[size_t(i)];
+            queue.push_back(j);
           }
         }
+        for (int i = 0; i < kGridDim * kGridDim; ++i) {
+          const int cell = IndexGrid::cellIndex(i % kGridDim, i / kGridDim, z);
+          if (inside[size_t(cell)] && from[size_t(i)] >= 0) {
+            sl.fill[size_t(cell)] = sl.nearest[size_t(IndexGrid::cellIndex(from[size_t(i)] % kGridDim, from[size_t(i)] / kGridDim, z))];
+            inside[size_t(cell)] = 2;  // filled
+          }
+        }
+      }
+      // A layer wholly inside (a hall wider than the sector): the first cell above outside.
+      for (int y = 0; y < kGridDim; ++y)
+        for (int x = 0; x < kGridDim; ++x) {
+          int above = -1;
+          for (int z = kGridDim - 1; z >= 0; --z) {
+            const int cell = IndexGrid::cellIndex(x, y, z);
+            if (!inside[size_t(cell)])
+              above = sl.nearest[size_t(cell)];
+            else if (inside[size_t(cell)] == 1 && above >= 0)
+              sl.fill[size_t(cell)] = uint8_t(above);
+          }
+        }
+    }
     const int n = sl.count;
     sl.cell_bounds.assign(size_t(n), {uint8_t(kGridDim), uint8_t(kGridDim), uint8_t(kGridDim), 0, 0, 0});
     for (int z = 0; z < kGridDim; ++z)

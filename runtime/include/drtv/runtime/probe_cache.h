@@ -245,7 +245,8 @@ class ProbeCache {
     float grid_z_min_m = 0.f, grid_cell_height_m = 1.f;
     const uint8_t* nearest = nullptr;     // 16^3 [z][y][x]: the grid with 255 resolved to the
                                           // nearest probe of the sector (all 255 if no probes),
-                                          // cells in interiors filled from above (setInteriorBoxes)
+                                          // cells in interiors filled from the nearest outside
+                                          // cell at their height (setInteriorBoxes)
     const float* colour = nullptr;        // 12 planes: colour[(c * 4 + b) * colour_stride + probe]
     int colour_stride = 0;                // floats between planes (probe count rounded up to 16)
     const uint32_t* packed = nullptr;     // [probe][channel]: RGBA8 = bases 0..3
@@ -255,7 +256,8 @@ class ProbeCache {
   bool slotUsed(int slot) const;
 
   // The interior volumes' boxes (world min, max): an index cell whose centre lies in one fills
-  // the volume's texels from the first cell above it outside every one (SlotView::nearest), since
+  // the volume's texels from the nearest cell outside every one in its layer (face neighbours,
+  // breadth first; a layer wholly inside: the first cell above it outside; SlotView::nearest), since
   // the points inside read the designated probe and the texels there only reach the points
   // outside (a roof's top, a wall's outer face) through the trilinear filter. probeAt and the
   // lights' sources keep the index grid's own cells. Resident sectors are remapped at once; the

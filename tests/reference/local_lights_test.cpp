@@ -249,6 +249,22 @@ TEST(LocalLights, TheRuntimeKeepsAClosedRoomsLampInsideItsWalls) {
 namespace drtv::testing {
 namespace {
 
+// A runtime over every sector of an in-memory bake, lit by its sky at `hour` (no lights), with
+// the parts in `components`, the volume filled around `camera`.
+std::unique_ptr<runtime::Runtime> skyLit(const baker::InMemoryBake& b, uint32_t components, double hour, const glm::dvec3& camera) {
+  runtime::RuntimeOptions o = runtime::optionsForEffects(b.manifest.effects);
+  o.representation = b.manifest.representation;
+  o.components = components;
+  o.cache.max_sectors = std::max<int>(o.cache.max_sectors, int(b.sectors.size()));
+  auto rt = std::make_unique<runtime::Runtime>(o);
+  EXPECT_TRUE(rt->setLighting(b.manifest.sky, {}, b.manifest.interiors).has_value());
+  EXPECT_TRUE(rt->setTime(hour).has_value());
+  for (const Sector& sec : b.sectors) EXPECT_TRUE(rt->addSector(sec).has_value());
+  rt->update(camera);
+  rt->update(camera);  // a blurred refill publishes one update late (publish.h)
+  return rt;
+}
+
 // Physics' exact answer: a closed room without a window sees no sky and no sun, so at noon the
 // sky's and the sun's parts of its floor's ambient are 0 (the path tracer's too, asserted), while
 // the ground outside reads the noon sky. The direct sky is 0 in the bake too, and so are the
@@ -277,17 +293,7 @@ TEST(ClosedRoom, ItsFloorReadsNoSkyAndNoSunAtNoon) {
     ASSERT_TRUE(b.has_value());
     ASSERT_EQ(b->manifest.interiors.size(), 1u) << "the room is found (baker/rooms.h)";
     auto at = [&](uint32_t components, const glm::dvec3& p) {
-      runtime::RuntimeOptions o = runtime::optionsForEffects(b->manifest.effects);
-      o.representation = b->manifest.representation;
-      o.components = components;
-      o.cache.max_sectors = std::max<int>(o.cache.max_sectors, int(b->sectors.size()));
-      runtime::Runtime rt(o);
-      EXPECT_TRUE(rt.setLighting(b->manifest.sky, {}, b->manifest.interiors).has_value());
-      EXPECT_TRUE(rt.setTime(12.0).has_value());
-      for (const Sector& sec : b->sectors) EXPECT_TRUE(rt.addSector(sec).has_value());
-      rt.update({32, 32, 2});
-      rt.update({32, 32, 2});
-      const glm::vec3 e = rt.ambient(p, up).irradiance;
+      const glm::vec3 e = skyLit(*b, components, 12.0, {32, 32, 2})->ambient(p, up).irradiance;
       return e.r + e.g + e.b;
     };
     const uint32_t all = runtime::kComponentDirectSky | runtime::kComponentSkyBounce | runtime::kComponentSunBounce;
@@ -342,19 +348,10 @@ TEST(ClosedRoom, TheWallsOuterFacesReadTheAirBesideThem) {
   auto b = baker::bakeInMemory(*w, w->name, baker::BakeSettings::forQuality(baker::Quality::kDraft, 1), std::nullopt, 2);
   ASSERT_TRUE(b.has_value());
   ASSERT_EQ(b->manifest.interiors.size(), 3u) << "the three rooms are found (baker/rooms.h)";
-  runtime::RuntimeOptions o = runtime::optionsForEffects(b->manifest.effects);
-  o.representation = b->manifest.representation;
-  o.components = runtime::kComponentDirectSky | runtime::kComponentSkyBounce | runtime::kComponentSunBounce;
-  o.cache.max_sectors = std::max<int>(o.cache.max_sectors, int(b->sectors.size()));
-  runtime::Runtime rt(o);
-  ASSERT_TRUE(rt.setLighting(b->manifest.sky, {}, b->manifest.interiors).has_value());
-  ASSERT_TRUE(rt.setTime(10.0).has_value());
-  for (const Sector& sec : b->sectors) ASSERT_TRUE(rt.addSector(sec).has_value());
-  rt.update({0, 0, 2});
-  rt.update({0, 0, 2});
+  const auto rt = skyLit(*b, runtime::kComponentDirectSky | runtime::kComponentSkyBounce | runtime::kComponentSunBounce, 10.0, {0, 0, 2});
   double got = 0.0, ref = 0.0;
   for (size_t i = 0; i < faces.size(); ++i) {
-    const glm::vec3 e = rt.ambient(faces[i].at, faces[i].normal).irradiance;
+    const glm::vec3 e = rt->ambient(faces[i].at, faces[i].normal).irradiance;
     const auto r = reference::referenceIrradiance(*scene, ten, {faces[i].at, faces[i].normal, i}, rs);
     got += e.r + e.g + e.b;
     ref += r.ambient.mean.r + r.ambient.mean.g + r.ambient.mean.b;

@@ -355,6 +355,8 @@ std::vector<RowSpec> sweepRows() {
   };
   add("ground_blend", {"0", "1", "2", "4"}, "2", "the seed's ground-proximity blend over this many cells above the terrain (0: off)");
   add("material", {"raycast", "models"}, "raycast", "the fine grids' material: ray cast, or per-model grids (OpenVDB) resampled");
+  add("storage", {"r11g11b10", "float"}, "r11g11b10",
+      "the light grids' values as stored (R11G11B10), or as swept before packing (float: what the stored form costs)");
   for (const char* v : {"0.25", "0.5"})
     rows.push_back({"sweep_model_voxel_m", v, false, "sweep", TechniqueParams{{"material", "models"}, {"model_voxel_m", v}},
                     "material=models with model voxels of this many metres (0.125: the sweep_material models row)"});

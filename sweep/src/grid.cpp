@@ -56,6 +56,10 @@ glm::vec3 unpackR11G11B10(uint32_t bits) {
 
 LightVector LightGrid::cell(size_t index) const {
   LightVector out;
+  if (!unpacked.empty()) {
+    std::copy_n(unpacked.begin() + std::ptrdiff_t(index * kDirections), kDirections, out.begin());
+    return out;
+  }
   const uint32_t* c = light.data() + index * kDirections;
   for (int k = 0; k < kDirections; ++k) out[size_t(k)] = unpackR11G11B10(c[k]);
   return out;

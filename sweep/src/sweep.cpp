@@ -874,12 +874,20 @@ class Sweeper {
     for (auto [v, n] : {std::pair{&out.light.light, g_.cellCount() * kDirections}, std::pair{&out.light.average, g_.cellCount()},
                         std::pair{&out.light.dominant, g_.cellCount()}})
       v->resize(n);
+    if (o_.keep_unpacked)
+      out.light.unpacked.resize(g_.cellCount() * kDirections);  // every value written (storeRow, bottomUp)
+    else
+      out.light.unpacked.clear();
     if (o_.keep_direct) {
       if (!out.direct) out.direct.emplace();
       out.direct->shape = g_;
       out.direct->light.assign(g_.cellCount() * kDirections, 0);
       out.direct->average.assign(g_.cellCount(), 0);
       out.direct->dominant.assign(g_.cellCount(), 0);
+      if (o_.keep_unpacked)
+        out.direct->unpacked.assign(g_.cellCount() * kDirections, glm::vec3(0.f));
+      else
+        out.direct->unpacked.clear();
     } else {
       out.direct.reset();
     }
@@ -1177,6 +1185,10 @@ class Sweeper {
         const float* r = direct_.dstRow(d * 3, j + kPad) + kPad;
         uint32_t* dst = out.direct->light.data() + cell0 * kDirections + size_t(direct_.bins[d]);
         for (int x = 0; x < nx; ++x) dst[size_t(x) * kDirections] = detail::packR11G11B10(r[x], r[w_ + x], r[2 * w_ + x]);
+        if (o_.keep_unpacked) {
+          glm::vec3* u = out.direct->unpacked.data() + cell0 * kDirections + size_t(direct_.bins[d]);
+          for (int x = 0; x < nx; ++x) u[size_t(x) * kDirections] = {r[x], r[w_ + x], r[2 * w_ + x]};
+        }
       }
     uint32_t* grid = out.light.light.data() + cell0 * kDirections;
     rows.first = 0;
@@ -1188,6 +1200,7 @@ class Sweeper {
       else
         storeCells<true, false>(nx, rows, codes_.data(), stride_, sums, stride_, nullptr, nullptr);
       transposeCodes(codes_.data(), stride_, nx, grid);
+      if (o_.keep_unpacked) keepUnpacked(rows, cell0, out);
       return;
     }
     // The up-going directions without the bottom-up pass: the cells' own reflected light, halved;
@@ -1209,6 +1222,27 @@ class Sweeper {
     transposeCodes(codes_.data(), stride_, nx, grid);
     std::memcpy(out.light.average.data() + cell0, average_.data(), size_t(nx) * sizeof(uint32_t));
     std::memcpy(out.light.dominant.data() + cell0, dominant_.data(), size_t(nx) * sizeof(uint32_t));
+    if (o_.keep_unpacked) keepUnpacked(rows, cell0, out);
+  }
+
+  // keep_unpacked: the values storeCells packed for directions [rows.first, rows.end) of the row
+  // whose first cell is cell0, as it had them (the sun's unscattered part taken off and clamped
+  // at 0 in the down-going directions, unless direct_sun), into out.light.unpacked.
+  void keepUnpacked(const StoreRows& rows, size_t cell0, SweptGrid& out) const {
+    glm::vec3* u = out.light.unpacked.data() + cell0 * kDirections;
+    const size_t s = rows.stride;
+    for (int d = rows.first; d < rows.end; ++d) {
+      const float* l = rows.light[size_t(d)];
+      const float* direct = d < kSwept && !o_.direct_sun ? rows.direct[size_t(d)] : nullptr;
+      for (int x = 0; x < nx_; ++x) {
+        glm::vec3 v(l[x], l[s + x], l[2 * s + x]);
+        if (d < kSwept && !o_.direct_sun) {
+          if (direct) v -= glm::vec3(direct[x], direct[s + x], direct[2 * s + x]);
+          v = glm::max(v, glm::vec3(0.f));
+        }
+        u[size_t(x) * kDirections + size_t(d)] = v;
+      }
+    }
   }
 
   // The up-going directions carried up from the bottom level (bottom_up), then the cells'
@@ -1256,6 +1290,7 @@ class Sweeper {
         uint32_t* grid = out.light.light.data() + cell0 * kDirections;
         for (int x = 0; x < nx; ++x)
           for (int o = kSwept; o < kDirections; ++o) grid[size_t(x) * kDirections + size_t(o)] = codes_[size_t(o) * stride_ + size_t(x)];
+        if (o_.keep_unpacked) keepUnpacked(rows, cell0, out);
         std::memcpy(out.light.average.data() + cell0, average_.data(), size_t(nx) * sizeof(uint32_t));
         std::memcpy(out.light.dominant.data() + cell0, dominant_.data(), size_t(nx) * sizeof(uint32_t));
       }

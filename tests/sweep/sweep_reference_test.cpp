@@ -200,6 +200,83 @@ TEST(SweepOptimised, StoredWordsArePinnedUnderEveryOption) {
   EXPECT_EQ(hashGrid(sweep(mixedMaterial(fine_s, 7), sky, &coarse, {})), 0x39782b5e8aac8afaull) << "under a coarse grid";
 }
 
+// keep_unpacked (the technique's storage=float, a measurement of the stored form): the words do not
+// change, each word is its unpacked values packed (so the unpacked values are the ones the sweep
+// stored, the sun's unscattered part taken off and clamped as the words have it), and what the
+// lookups read from them is within the stored form's bound of what they read from the words:
+// each of the 26 values within 2^-6 relative (2^-7 red and green, 2^-6 blue: half an ulp), or
+// under the 2^-14 the form flushes to 0, and so the irradiance, a sum of them with weights in
+// [0, 1]. Under every option, and in a fine grid whose edges read a coarse grid's unpacked values.
+TEST(SweepOptimised, UnpackedValuesAreTheStoredWordsBeforePacking) {
+  const GridShape s{{3.0, -7.0, 1.0}, 1.0, {23, 19, 12}};
+  const MaterialGrid m = mixedMaterial(s, 11);
+  const SkyInput sky = morningSky();
+  auto check = [](const LightGrid& words, const LightGrid& kept, const std::string& what) {
+    ASSERT_EQ(kept.unpacked.size(), kept.light.size()) << what;
+    EXPECT_TRUE(words.unpacked.empty()) << what;
+    EXPECT_TRUE(kept.light == words.light && kept.average == words.average && kept.dominant == words.dominant) << what;
+    size_t failures = 0, lit = 0;
+    for (size_t w = 0; w < kept.light.size(); ++w) {
+      lit += kept.light[w] != 0;
+      if (packR11G11B10(kept.unpacked[w]) != kept.light[w] && ++failures <= 5)
+        ADD_FAILURE() << what << ": value " << w << " packs to " << std::hex << packR11G11B10(kept.unpacked[w]) << ", stored "
+                      << kept.light[w];
+    }
+    EXPECT_EQ(failures, 0u) << what;
+    EXPECT_GT(lit, kept.light.size() / 50) << what;
+    // Lookups: irradiance on 6 normals at points between the cells' centres. Irradiance is
+    // sum_k phi_k max(0, n . m_k), weights at most 1: a value flushed to 0 costs it at most 2^-14.
+    constexpr float kFlushed = kDirections * 6.103515625e-05f;
+    double worst = 0;
+    for (int i = 0; i < 200; ++i) {
+      const glm::dvec3 p = kept.shape.origin + glm::dvec3(hash01(91, uint32_t(i)), hash01(92, uint32_t(i)), hash01(93, uint32_t(i))) *
+                                                   glm::dvec3(kept.shape.size) * kept.shape.cell_m;
+      for (const glm::vec3 n : {glm::vec3(0, 0, 1), glm::vec3(0, 0, -1), glm::vec3(1, 0, 0), glm::vec3(0, -1, 0),
+                                glm::normalize(glm::vec3(1, 1, 1)), glm::normalize(glm::vec3(-1, 0.3f, -0.5f))}) {
+        const glm::vec3 a = kept.ambient(p, n), b = words.ambient(p, n);
+        for (int c = 0; c < 3; ++c) {
+          EXPECT_NEAR(b[c], a[c], a[c] / 64.f + kFlushed) << what << " point " << i << " channel " << c;
+          if (a[c] > 1e-3f) worst = std::max(worst, std::abs(double(b[c]) / a[c] - 1.0));
+        }
+      }
+    }
+    EXPECT_GT(worst, 0.0) << what << ": the words and the unpacked values read the same everywhere";
+  };
+  for (int i = 0; i < 8; ++i) {
+    SweepOptions o = options(i & 1, i & 2, i & 4);
+    const SweptGrid words = sweep(m, sky, nullptr, o);
+    o.keep_unpacked = true;
+    const SweptGrid kept = sweep(m, sky, nullptr, o);
+    const std::string what = "options " + std::to_string(i);
+    check(words.light, kept.light, what);
+    ASSERT_EQ(kept.direct.has_value(), words.direct.has_value()) << what;
+    if (kept.direct) check(*words.direct, *kept.direct, what + " (direct)");
+  }
+  // Edges from a coarse grid's unpacked values (Edges reads LightGrid::cell): the words differ
+  // from those read off the coarse words, within the bound.
+  const GridShape coarse_s{{-64.0, -64.0, -8.0}, 8.0, {16, 16, 5}};
+  SweepOptions co = options(false, false, true);
+  const SweptGrid coarse = sweep(mixedMaterial(coarse_s, 5), sky, nullptr, co);
+  co.keep_unpacked = true;
+  const SweptGrid coarse_kept = sweep(mixedMaterial(coarse_s, 5), sky, nullptr, co);
+  const GridShape fine_s{{-13.5, 40.25, -3.0}, 1.0, {30, 27, 14}};
+  const MaterialGrid fine_m = mixedMaterial(fine_s, 7);
+  SweepOptions fo;
+  fo.keep_unpacked = true;
+  const SweptGrid fine_kept = sweep(fine_m, sky, &coarse_kept, fo);
+  const SweptGrid fine = sweep(fine_m, sky, &coarse, {});
+  EXPECT_FALSE(fine_kept.light.light == fine.light.light) << "the edges read the coarse grid's words, not its unpacked values";
+  // The edges' light differs by the coarse words' rounding (2^-6), the fine grid's own by its
+  // words' (2^-6 again).
+  for (int i = 0; i < 200; ++i) {
+    const glm::dvec3 p = fine_s.origin + glm::dvec3(hash01(94, uint32_t(i)), hash01(95, uint32_t(i)), hash01(96, uint32_t(i))) *
+                                             glm::dvec3(fine_s.size) * fine_s.cell_m;
+    const glm::vec3 a = fine_kept.light.ambient(p, {0, 0, 1}), b = fine.light.ambient(p, {0, 0, 1});
+    for (int c = 0; c < 3; ++c)
+      EXPECT_NEAR(b[c], a[c], a[c] / 32.f + 2 * kDirections * 6.103515625e-05f) << "under a coarse grid, point " << i << " channel " << c;
+  }
+}
+
 // sweepInto refills a grid that holds another sweep (other options, another sky, another shape,
 // a direct grid or none): afterwards it holds what sweep() returns, to the byte.
 TEST(SweepOptimised, SweepIntoAGridInUseGivesTheSameBytesAsAFreshSweep) {

@@ -69,6 +69,7 @@ struct Params {
   double cell_m = 1.0;
   double coarse_m = 16.0;
   bool bottom_up = false;
+  bool unpacked = false;  // storage=float: the grids' lookups read the light before packing (a measurement)
   float smoothing = sweep::SweepOptions{}.smoothing;
   double sun_disc_deg = 3.0;
   double offset_cells = 0.5;
@@ -118,6 +119,10 @@ Result<Params> parseParams(const TechniqueParams& p) {
       if (v != "0" && v != "1") return fail(k + "=" + v + ": expected 0 or 1");
       out.bottom_up = v == "1";
       continue;
+    } else if (k == "storage") {
+      if (v != "r11g11b10" && v != "float") return fail(k + "=" + v + ": expected r11g11b10 or float");
+      out.unpacked = v == "float";
+      continue;
     } else if (k == "smoothing") {
       x = number(k, v, 0, 1, false);
       if (x) out.smoothing = float(*x);
@@ -161,7 +166,7 @@ Result<Params> parseParams(const TechniqueParams& p) {
       if (x && *x != std::round(*x)) return fail(k + "=" + v + ": expected a whole number");
       if (x) out.max_grids = int(*x);
     } else {
-      return fail("no parameter '" + k + "' (sweep takes cell_m, coarse_m, bottom_up, smoothing, sun_disc_deg, offset, ground_blend, "
+      return fail("no parameter '" + k + "' (sweep takes cell_m, coarse_m, bottom_up, storage, smoothing, sun_disc_deg, offset, ground_blend, "
                   "ray_spacing_m, material, model_voxel_m, workers, lead_s, margin_m, resweep_h, job_s, max_grids)");
     }
     if (!x) return std::unexpected(x.error());
@@ -272,6 +277,7 @@ class SweepStream final : public TechniqueStream {
     sweep::GridStreamerOptions o;
     o.sweep.bottom_up = p.bottom_up;
     o.sweep.smoothing = p.smoothing;
+    o.sweep.keep_unpacked = p.unpacked;
     o.sun_disc_rad = sunDiscRad(p);
     o.resweep_hours = p.resweep_h;
     o.workers = deterministic ? 0 : p.workers;
@@ -460,6 +466,7 @@ class SweepTechnique final : public Technique {
     sweep::SweepOptions o;
     o.bottom_up = params_.bottom_up;
     o.smoothing = params_.smoothing;
+    o.keep_unpacked = params_.unpacked;
     o.keep_direct = true;
     coarse_ = std::make_unique<sweep::SweptGrid>(sweep::sweep(coarse_material_, sky, nullptr, o));
     size_t bytes = coarse_->bytes();

@@ -104,11 +104,17 @@ struct LightGrid {
   Words light;      // 26 per cell, cell-major: light[26 * cell + k]
   Words average;    // per cell
   Words dominant;   // per cell, glm::packSnorm4x8(x, y, z, 0)
+  // Empty, or (SweepOptions::keep_unpacked) the 26 light values per cell as the sweep had them
+  // before packing, cell-major as `light`: then cell(), sample() and ambient() read these, not
+  // the words. A measurement of what the stored form costs, not a stored form (12 bytes a value).
+  std::vector<glm::vec3> unpacked;
 
   static constexpr size_t kBytesPerCell = (kDirections + 2) * sizeof(uint32_t);
-  size_t bytes() const { return (light.size() + average.size() + dominant.size()) * sizeof(uint32_t); }
+  size_t bytes() const {
+    return (light.size() + average.size() + dominant.size()) * sizeof(uint32_t) + unpacked.size() * sizeof(glm::vec3);
+  }
 
-  // The 26 light values of cell `index`, decoded.
+  // The 26 light values of cell `index`, decoded (or unpacked's).
   LightVector cell(size_t index) const;
   // The light values at world `p`, trilinear between the 8 cell centres around it (clamped to the
   // outermost centres outside them).

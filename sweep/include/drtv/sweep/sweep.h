@@ -70,6 +70,10 @@ struct SweepOptions {
   // 0.6: the shadow of a 1-cell object 3 levels down keeps a core (tests), and the 17 directions'
   // streaks on the island's renders fade.
   float smoothing = 0.6f;
+  // Also keep the light values unpacked (LightGrid::unpacked, in the direct grid too), which the
+  // grids' lookups then read: what the R11G11B10 form costs, measured (the technique's
+  // storage=float). The words are the same either way.
+  bool keep_unpacked = false;
 };
 
 // A swept grid: its ambient light (LightGrid) and, with keep_direct, the sun's unscattered part.

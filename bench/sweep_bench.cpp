@@ -2,8 +2,10 @@
 // 64 m sector at 1 m cells swept <= 10 ms; the 16 m grid of a 1 km^2 island <= 50 ms; the bytes
 // of each grid as counters. The material is synthetic and deterministic, shaped like the island
 // (docs/sweep.md): rolling ground, and tree crowns of density 0.3 per cell with trunks, on 30 %
-// of the ground; 32 levels for a sector (its terrain relief plus the trees, as the technique
-// sizes a sector's grid), 6 for the island (-32..64 m at 16 m).
+// of the ground; 32 levels for a sector (0-32 m: its ground lies 5.4-10 m up and its crowns reach
+// 22.5 m; the technique would size this sector's grid 4-25 m, one cell under the lowest ground and
+// two over the tallest crown, docs/sweep.md), 6 for the island (-32..64 m at 16 m). Its lowest
+// levels are sealed ground (sweep.h), which the sweep skips.
 // Run a Release build: drtv_sweep_bench --benchmark_min_time=0.5
 #include <benchmark/benchmark.h>
 
@@ -77,6 +79,14 @@ const GridShape kIsland{{-512.0, -512.0, -32.0}, 16.0, {64, 64, 6}};
 
 void BM_SweepSector1m(benchmark::State& state) { run(state, kSector, nullptr, {}); }
 BENCHMARK(BM_SweepSector1m)->Unit(benchmark::kMillisecond);
+
+// The same sector's ground and trees in the grid the technique would give it (4-25 m: one cell
+// under its lowest ground, two over its tallest crown), re-swept: fewer levels, fewer of them
+// sealed.
+void BM_ResweepSector1mAsTheTechniqueSizesIt(benchmark::State& state) {
+  run(state, GridShape{{0.0, 0.0, 4.0}, 1.0, {64, 64, 21}}, nullptr, {}, true);
+}
+BENCHMARK(BM_ResweepSector1mAsTheTechniqueSizesIt)->Unit(benchmark::kMillisecond);
 
 // The same sector re-swept into the grid of the sweep before (sweepInto).
 void BM_ResweepSector1m(benchmark::State& state) { run(state, kSector, nullptr, {}, true); }

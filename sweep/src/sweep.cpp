@@ -809,6 +809,7 @@ class Sweeper {
           for (int i = lo; i <= hi; ++i)
             if (s[i] > 0 && s[i] < kInf) fractional_[size_t(k)].push_back(uint32_t(row - size_t(k) * plane_ + size_t(i)));
       }
+    findSealed();
     for (int j = -kPad; j < g_.size.y + kPad; ++j)
       for (int i = -kPad; i < g_.size.x + kPad; ++i) {
         const Edges::Cell cell{i, j, size_t(j + kPad), size_t(i + kPad)};
@@ -861,6 +862,54 @@ class Sweeper {
     batch_.assign(size_t(kBatchRows) * size_t(nx_), 0.f);
     leave_.assign(size_t(3 * kSwept) * size_t(nx_), 0.f);
     direct_leave_.assign(direct_.bins.size() * 3 * size_t(nx_), 0.f);
+  }
+
+  // sealed_: the full cells, eroded by one cell along x, then y, then z (above the grid's top is
+  // open; past its sides and below its bottom, what the grid holds there is taken as full).
+  void findSealed() {
+    const int nx = g_.size.x, ny = g_.size.y, nz = g_.size.z;
+    const size_t n = g_.cellCount();
+    std::vector<uint8_t> a(n), b(n);
+    for (size_t c = 0; c < n; ++c) a[c] = m_.density[c] >= 1.f;
+    for (size_t row = 0; row < n / size_t(nx); ++row) {  // x
+      const uint8_t* f = a.data() + row * size_t(nx);
+      uint8_t* e = b.data() + row * size_t(nx);
+      for (int i = 1; i < nx - 1; ++i) e[i] = f[i - 1] & f[i] & f[i + 1];
+      e[0] = f[0] & f[std::min(1, nx - 1)];
+      e[nx - 1] = f[std::max(nx - 2, 0)] & f[nx - 1];
+    }
+    for (int k = 0; k < nz; ++k)  // y
+      for (int j = 0; j < ny; ++j) {
+        uint8_t* e = a.data() + g_.index(0, j, k);
+        const uint8_t *lo = b.data() + g_.index(0, std::max(j - 1, 0), k), *mid = b.data() + g_.index(0, j, k),
+                      *hi = b.data() + g_.index(0, std::min(j + 1, ny - 1), k);
+        for (int i = 0; i < nx; ++i) e[i] = lo[i] & mid[i] & hi[i];
+      }
+    sealed_.runs.clear();
+    sealed_.first.assign(size_t(ny) * size_t(nz) + 1, 0);
+    const size_t plane = size_t(nx) * size_t(ny);
+    for (int k = 0; k < nz; ++k)  // z, and the runs
+      for (int j = 0; j < ny; ++j) {
+        sealed_.first[size_t(k) * size_t(ny) + size_t(j)] = sealed_.runs.size();
+        if (k == nz - 1) continue;
+        const uint8_t* mid = a.data() + g_.index(0, j, k);
+        const uint8_t* hi = mid + plane;
+        const uint8_t* lo = k > 0 ? mid - plane : mid;
+        uint8_t* e = b.data() + g_.index(0, j, k);
+        uint8_t any = 0;
+        for (int i = 0; i < nx; ++i) any |= e[i] = lo[i] & mid[i] & hi[i];
+        if (!any) continue;
+        for (int i = 0; i < nx;) {
+          if (!e[i]) {
+            ++i;
+            continue;
+          }
+          const int x0 = i;
+          while (i < nx && e[i]) ++i;
+          sealed_.runs.push_back({x0, i - x0});
+        }
+      }
+    sealed_.first.back() = sealed_.runs.size();
   }
 
   // Sweeps into `out` (sweepInto). The light grid's words are all written below (each row's 26
@@ -1000,7 +1049,7 @@ class Sweeper {
 
   // Gathers row j of level k (source level k_src) into p.dst's row, and into q->dst's for the
   // bins q shares with p (the direct pass: a subset of the same bins, the same paths).
-  void gather(Pass& p, Pass* q, int k, int k_src, int j) {
+  void gather(Pass& p, Pass* q, int k, int k_src, int j, int x0, int n) {
     const bool src_in = k_src >= 0 && k_src < g_.size.z;
     const bool target_material = level_has_material_[size_t(k)] != 0;
     const bool src_material = src_in && level_has_material_[size_t(k_src)] != 0;
@@ -1029,7 +1078,7 @@ class Sweeper {
         if (tap.mask & lit) {
           // Branch-free, in the crossed cells' order (the order the factors multiply in).
           for (size_t c = 0; c < tap.crossed.size(); ++c) {
-            g.f[size_t(t)][size_t(nf)] = rows[tap.src_level[c]][tap.row[c]] + tap.column[c];
+            g.f[size_t(t)][size_t(nf)] = rows[tap.src_level[c]][tap.row[c]] + tap.column[c] + x0;
             nf += int((lit >> tap.bit[c]) & 1u);
           }
         }
@@ -1041,40 +1090,80 @@ class Sweeper {
         // a few at a time during the gathers. Fetched all at once, the prefetches stalled on the
         // line fill buffers; not at all, the transposition's stores waited on them (18 % of a
         // re-sweep's samples).
-        const size_t bytes = size_t(nx_) * kDirections * sizeof(uint32_t), lines = (bytes + 63) / 64;
+        const size_t bytes = size_t(n) * kDirections * sizeof(uint32_t), lines = (bytes + 63) / 64;
         const size_t per_bin = (lines + p.bins.size() - 1) / p.bins.size();
         for (size_t l = b * per_bin; l < std::min(lines, (b + 1) * per_bin); ++l) __builtin_prefetch(prefetch_ + 64 * l, 1, 3);
       }
-      gatherDirection(p, b, path, any, j, g);
-      if (q && direct_of_bin_[size_t(path.bin)] >= 0) gatherDirection(*q, size_t(direct_of_bin_[size_t(path.bin)]), path, any, j, g);
+      gatherDirection(p, b, path, any, j, x0, n, g);
+      if (q && direct_of_bin_[size_t(path.bin)] >= 0) gatherDirection(*q, size_t(direct_of_bin_[size_t(path.bin)]), path, any, j, x0, n, g);
     }
   }
 
   // Direction b of pass p along row j, with the taps' weights in g.
-  void gatherDirection(Pass& p, size_t b, const BinPath& path, bool varying, int j, TapRows& g) {
+  void gatherDirection(Pass& p, size_t b, const BinPath& path, bool varying, int j, int x0, int n, TapRows& g) {
     for (int t = 0; t < kTaps; ++t) {
       const Tap& tap = path.taps[size_t(t)];
-      g.s[size_t(t)] = p.srcRow(b * 3, j + kPad + tap.oy) + kPad + tap.ox;
+      g.s[size_t(t)] = p.srcRow(b * 3, j + kPad + tap.oy) + kPad + tap.ox + x0;
     }
-    g.a = p.dstRow(b * 3, j + kPad) + kPad;
+    g.a = p.dstRow(b * 3, j + kPad) + kPad + x0;
     g.stride = p.w;  // a row's planes follow each other (Pass)
     if (varying)
-      gatherRow<true>(nx_, g);
+      gatherRow<true>(n, g);
     else
-      gatherRow<false>(nx_, g);
+      gatherRow<false>(n, g);
   }
 
+  // Sets the light of pass p in cells [x0, x0 + n) of row j to 0 (every bin and channel).
+  void zeroCells(Pass& p, int j, int x0, int n) {
+    for (size_t plane = 0; plane < p.planes(); ++plane) std::fill_n(p.dstRow(plane, j + kPad) + kPad + x0, n, 0.f);
+  }
+
+  // Row j of level k, window by window: the row's cells less its long runs of sealed cells
+  // (Sealed), which gather nothing, so store and send on 0 without being swept.
   void level(int k, SweptGrid& out) {
+    Pass* q = direct_.bins.empty() ? nullptr : &direct_;
     for (int j = 0; j < g_.size.y; ++j) {
-      prefetch_ = reinterpret_cast<const char*>(out.light.light.data() + g_.index(0, j, k) * kDirections);
-      gather(full_, direct_.bins.empty() ? nullptr : &direct_, k, k + 1, j);
-      prefetch_ = nullptr;
-      interactRow(k, j);
-      storeRow(k, j, out);
-      // What the cells with material send on replaces what they stored.
-      for (const auto& [p, leave] : {std::pair{&full_, &leave_}, std::pair{&direct_, &direct_leave_}})
-        if (span_n_ > 0 && p->planes() > 0)
-          copyRows(int(p->planes()), span_n_, leave->data(), size_t(nx_), p->dstRow(0, j + kPad) + kPad + span_lo_, p->w);
+      const size_t r = size_t(k) * size_t(g_.size.y) + size_t(j);
+      const Run* runs = sealed_.runs.data() + sealed_.first[r];
+      const size_t nruns = sealed_.first[r + 1] - sealed_.first[r];
+      int x0 = 0;
+      for (size_t i = 0; i <= nruns; ++i) {
+        const bool last = i == nruns;
+        if (!last && runs[i].n < kSkippedRun) continue;
+        const int x1 = last ? nx_ : runs[i].x0;
+        if (x1 > x0) {
+          prefetch_ = reinterpret_cast<const char*>(out.light.light.data() + (g_.index(0, j, k) + size_t(x0)) * kDirections);
+          gather(full_, q, k, k + 1, j, x0, x1 - x0);
+          prefetch_ = nullptr;
+          for (size_t s = 0; s < nruns; ++s)  // the short runs in the window: gathered, then 0
+            if (runs[s].n < kSkippedRun && runs[s].x0 >= x0 && runs[s].x0 < x1)
+              for (Pass* p : {&full_, &direct_}) zeroCells(*p, j, runs[s].x0, runs[s].n);
+          interactRow(k, j, x0, x1);
+          storeRow(k, j, x0, x1 - x0, out);
+          // What the cells with material send on replaces what they stored.
+          for (const auto& [p, leave] : {std::pair{&full_, &leave_}, std::pair{&direct_, &direct_leave_}})
+            if (span_n_ > 0 && p->planes() > 0)
+              copyRows(int(p->planes()), span_n_, leave->data(), size_t(nx_), p->dstRow(0, j + kPad) + kPad + span_lo_, p->w);
+        }
+        if (last) break;
+        for (Pass* p : {&full_, &direct_}) zeroCells(*p, j, runs[i].x0, runs[i].n);
+        storeSealed(k, j, runs[i].x0, runs[i].n, out);
+        x0 = runs[i].x0 + runs[i].n;
+      }
+    }
+  }
+
+  // The words of sealed cells [x0, x0 + n) of row j, level k: 0, as the sweep would store them
+  // with no light (the direct grid's words are 0 already).
+  void storeSealed(int k, int j, int x0, int n, SweptGrid& out) {
+    const size_t cell0 = g_.index(x0, j, k);
+    std::fill_n(out.light.light.data() + cell0 * kDirections, size_t(n) * kDirections, 0u);
+    std::fill_n(out.light.average.data() + cell0, n, 0u);
+    std::fill_n(out.light.dominant.data() + cell0, n, 0u);
+    if (o_.keep_unpacked) std::fill_n(out.light.unpacked.data() + cell0 * kDirections, size_t(n) * kDirections, glm::vec3(0.f));
+    if (o_.bottom_up) {
+      float* sums = down_sums_.data() + (size_t(k) * size_t(g_.size.y) + size_t(j)) * size_t(kSums) * stride_ + size_t(x0);
+      for (int row = 0; row < kSums; ++row) std::fill_n(sums + size_t(row) * stride_, n, 0.f);
     }
   }
 
@@ -1087,13 +1176,14 @@ class Sweeper {
   // is reflected: exactly, in floats too). The stored light goes into dst's row in place (both
   // passes), the light sent on into leave_ / direct_leave_, the up-going reflected light into the
   // batch's emission rows.
-  void interactRow(int k, int j) {
+  void interactRow(int k, int j, int x0, int x1) {
     const int nx = nx_;
     const size_t r = size_t(k) * size_t(h_) + size_t(j + kPad);
     span_lo_ = 0;
     span_n_ = 0;
-    if (row_lo_[r] > row_hi_[r]) return;
-    const int lo = row_lo_[r] - kPad, n = row_hi_[r] - row_lo_[r] + 1;
+    const int lo = std::max(row_lo_[r] - kPad, x0), hi = std::min(row_hi_[r] - kPad, x1 - 1);
+    if (lo > hi) return;
+    const int n = hi - lo + 1;
     span_lo_ = lo;
     span_n_ = n;
     const size_t row = size_t(j + kPad) * size_t(w_) + size_t(kPad + lo);  // the span's first cell
@@ -1170,19 +1260,19 @@ class Sweeper {
 
   // Packs row j of level k's stored light (dst's rows) into the grids, with the cells' average and
   // dominant direction.
-  void storeRow(int k, int j, SweptGrid& out) {
-    const int nx = nx_;
-    const size_t cell0 = g_.index(0, j, k);
-    StoreRows& rows = store_rows_;
+  void storeRow(int k, int j, int x0, int nx, SweptGrid& out) {
+    const size_t cell0 = g_.index(x0, j, k);
+    StoreRows rows = store_rows_;
     for (int b = 0; b < kSwept; ++b) {
-      const float* r = full_.dstRow(size_t(3 * b), j + kPad) + kPad;
+      const float* r = full_.dstRow(size_t(3 * b), j + kPad) + kPad + x0;
       rows.light[size_t(b)] = r;
       const int d = direct_of_bin_[size_t(b)];
-      rows.direct[size_t(b)] = d >= 0 ? direct_.dstRow(size_t(3 * d), j + kPad) + kPad : nullptr;
+      rows.direct[size_t(b)] = d >= 0 ? direct_.dstRow(size_t(3 * d), j + kPad) + kPad + x0 : nullptr;
     }
+    for (int o = kSwept; o < kDirections; ++o) rows.light[size_t(o)] += x0;
     if (out.direct)
       for (size_t d = 0; d < direct_.bins.size(); ++d) {
-        const float* r = direct_.dstRow(d * 3, j + kPad) + kPad;
+        const float* r = direct_.dstRow(d * 3, j + kPad) + kPad + x0;
         uint32_t* dst = out.direct->light.data() + cell0 * kDirections + size_t(direct_.bins[d]);
         for (int x = 0; x < nx; ++x) dst[size_t(x) * kDirections] = detail::packR11G11B10(r[x], r[w_ + x], r[2 * w_ + x]);
         if (o_.keep_unpacked) {
@@ -1194,13 +1284,16 @@ class Sweeper {
     rows.first = 0;
     if (o_.bottom_up) {  // the up-going light comes later (bottomUp); its words are 0 in codes_
       rows.end = kSwept;
-      float* sums = down_sums_.data() + (size_t(k) * size_t(g_.size.y) + size_t(j)) * size_t(kSums) * stride_;
+      // storeCells writes whole groups of kLanes: into a row of its own, then the window's cells.
+      float* sums = down_sums_.data() + (size_t(k) * size_t(g_.size.y) + size_t(j)) * size_t(kSums) * stride_ + size_t(x0);
+      sums_row_.resize(size_t(kSums) * stride_);
       if (o_.direct_sun)
-        storeCells<false, false>(nx, rows, codes_.data(), stride_, sums, stride_, nullptr, nullptr);
+        storeCells<false, false>(nx, rows, codes_.data(), stride_, sums_row_.data(), stride_, nullptr, nullptr);
       else
-        storeCells<true, false>(nx, rows, codes_.data(), stride_, sums, stride_, nullptr, nullptr);
+        storeCells<true, false>(nx, rows, codes_.data(), stride_, sums_row_.data(), stride_, nullptr, nullptr);
+      for (int row = 0; row < kSums; ++row) std::copy_n(sums_row_.data() + size_t(row) * stride_, nx, sums + size_t(row) * stride_);
       transposeCodes(codes_.data(), stride_, nx, grid);
-      if (o_.keep_unpacked) keepUnpacked(rows, cell0, out);
+      if (o_.keep_unpacked) keepUnpacked(rows, nx, cell0, out);
       return;
     }
     // The up-going directions without the bottom-up pass: the cells' own reflected light, halved;
@@ -1222,19 +1315,19 @@ class Sweeper {
     transposeCodes(codes_.data(), stride_, nx, grid);
     std::memcpy(out.light.average.data() + cell0, average_.data(), size_t(nx) * sizeof(uint32_t));
     std::memcpy(out.light.dominant.data() + cell0, dominant_.data(), size_t(nx) * sizeof(uint32_t));
-    if (o_.keep_unpacked) keepUnpacked(rows, cell0, out);
+    if (o_.keep_unpacked) keepUnpacked(rows, nx, cell0, out);
   }
 
   // keep_unpacked: the values storeCells packed for directions [rows.first, rows.end) of the row
   // whose first cell is cell0, as it had them (the sun's unscattered part taken off and clamped
   // at 0 in the down-going directions, unless direct_sun), into out.light.unpacked.
-  void keepUnpacked(const StoreRows& rows, size_t cell0, SweptGrid& out) const {
+  void keepUnpacked(const StoreRows& rows, int nx, size_t cell0, SweptGrid& out) const {
     glm::vec3* u = out.light.unpacked.data() + cell0 * kDirections;
     const size_t s = rows.stride;
     for (int d = rows.first; d < rows.end; ++d) {
       const float* l = rows.light[size_t(d)];
       const float* direct = d < kSwept && !o_.direct_sun ? rows.direct[size_t(d)] : nullptr;
-      for (int x = 0; x < nx_; ++x) {
+      for (int x = 0; x < nx; ++x) {
         glm::vec3 v(l[x], l[s + x], l[2 * s + x]);
         if (d < kSwept && !o_.direct_sun) {
           if (direct) v -= glm::vec3(direct[x], direct[s + x], direct[2 * s + x]);
@@ -1262,7 +1355,11 @@ class Sweeper {
     for (int k = 0; k < nz; ++k) {
       edges_.fill(k, false, up_.bins, ring_cells_, up_.dst.base, up_.w, up_.rowStride());
       for (int j = 0; j < ny; ++j) {
-        gather(up_, nullptr, k, k - 1, j);
+        gather(up_, nullptr, k, k - 1, j, 0, nx);
+        {
+          const size_t r = size_t(k) * size_t(ny) + size_t(j);
+          for (size_t s = sealed_.first[r]; s < sealed_.first[r + 1]; ++s) zeroCells(up_, j, sealed_.runs[s].x0, sealed_.runs[s].n);
+        }
         const float* sig = sigma_.data() + size_t(k) * plane_ + size_t(j + kPad) * size_t(w_) + size_t(kPad);
         for (size_t l = 0; l < lengths.size(); ++l) {
           float* tl = t.data() + 2 * l * stride_;
@@ -1290,7 +1387,7 @@ class Sweeper {
         uint32_t* grid = out.light.light.data() + cell0 * kDirections;
         for (int x = 0; x < nx; ++x)
           for (int o = kSwept; o < kDirections; ++o) grid[size_t(x) * kDirections + size_t(o)] = codes_[size_t(o) * stride_ + size_t(x)];
-        if (o_.keep_unpacked) keepUnpacked(rows, cell0, out);
+        if (o_.keep_unpacked) keepUnpacked(rows, nx, cell0, out);
         std::memcpy(out.light.average.data() + cell0, average_.data(), size_t(nx) * sizeof(uint32_t));
         std::memcpy(out.light.dominant.data() + cell0, dominant_.data(), size_t(nx) * sizeof(uint32_t));
       }
@@ -1322,10 +1419,24 @@ class Sweeper {
     std::vector<const float*> rows;  // per length l and padded row r, [l h_ + r]: its factors' row
   };
 
+  // Runs of sealed cells, a full cell whose neighbours in the grid are full too (within a hill):
+  // no light reaches it through them, so it gathers none (sweep.h). Per row r = k ny + j, runs
+  // [first[r], first[r + 1]) in x order.
+  struct Run {
+    int x0, n;
+  };
+  struct Sealed {
+    std::vector<Run> runs;
+    std::vector<size_t> first;
+  };
+  // Runs at least this long are not swept (Sweeper::level); shorter ones are swept and zeroed.
+  static constexpr int kSkippedRun = 16;
+
   const MaterialGrid& m_;
   GridShape g_;
   SweepOptions o_;
   Edges edges_;
+  Sealed sealed_;
   int nx_ = 0, w_ = 0, h_ = 0;
   size_t plane_ = 0;
   std::vector<float> sigma_;
@@ -1356,6 +1467,7 @@ class Sweeper {
   std::vector<float> batch_;     // kBatchRows rows of nx
   std::vector<float> leave_, direct_leave_;  // per pass, bins * 3 rows of nx: what the batch sends on
   std::vector<float> down_sums_;  // bottom_up: per row of the grid, the kSums rows of its cells' sums
+  std::vector<float> sums_row_;   // bottom_up: one window's sums (storeRow)
   std::vector<int> emission_index_;
   std::vector<std::array<glm::vec3, kUp>> emission_;
 };

@@ -197,6 +197,23 @@ class Sweeper {
           sigma_[size_t(k) * plane_ + size_t(j + kPad) * size_t(w_) + size_t(i + kPad)] = s;
           if (s > 0) level_has_material_[size_t(k)] = 1;
         }
+    // Sealed cells: full, and so are their neighbours in the grid (above its top: open; past its
+    // sides and below its bottom: full).
+    sealed_.assign(g_.cellCount(), 0);
+    auto full = [&](int i, int j, int k) {
+      if (k >= g_.size.z) return false;
+      if (i < 0 || j < 0 || i >= g_.size.x || j >= g_.size.y || k < 0) return true;
+      return m.density[g_.index(i, j, k)] >= 1.f;
+    };
+    for (int k = 0; k < g_.size.z; ++k)
+      for (int j = 0; j < g_.size.y; ++j)
+        for (int i = 0; i < g_.size.x; ++i) {
+          bool all = true;
+          for (int dk = -1; dk <= 1; ++dk)
+            for (int dj = -1; dj <= 1; ++dj)
+              for (int di = -1; di <= 1; ++di) all = all && full(i + di, j + dj, k + dk);
+          sealed_[g_.index(i, j, k)] = all;
+        }
     for (int j = -kPad; j < g_.size.y + kPad; ++j)
       for (int i = -kPad; i < g_.size.x + kPad; ++i) {
         const size_t pi = size_t(j + kPad) * size_t(w_) + size_t(i + kPad);
@@ -303,6 +320,10 @@ class Sweeper {
         }
       }
     }
+    // A sealed cell gathers nothing (sweep.h).
+    for (int x = 0; x < nx; ++x)
+      if (sealed_[g_.index(x, j, k)])
+        for (size_t plane = 0; plane < p.bins.size() * 3; ++plane) p.acc[plane * size_t(nx) + size_t(x)] = 0.f;
   }
 
   void level(int k, SweptGrid& out) {
@@ -452,6 +473,7 @@ class Sweeper {
   size_t plane_ = 0;
   std::vector<float> sigma_;
   std::vector<uint8_t> level_has_material_;
+  std::vector<uint8_t> sealed_;
   std::vector<Edges::Cell> all_cells_, ring_cells_;
   std::array<float, kDirections> cos_sum_{};
   Pass full_, direct_, up_;

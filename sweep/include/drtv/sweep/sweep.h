@@ -28,6 +28,13 @@
 //    [1]'s "forward reflected light is also multiplied by the pass-through factor, interpolated
 //    between forward and backward". The proportions are normalised, so all of it leaves: light is
 //    conserved except what is absorbed.
+//  - A sealed cell, a full cell whose neighbours in the grid are all full (inside a hill; above the
+//    grid's top is open, past its sides and below its bottom counts as full), gathers no light:
+//    it stores none and sends none on. Its light could only be what the full cells around it
+//    reflect into it, rock lit through rock: the seed's reflection sends part of what a ground
+//    cell stops down and sideways into the ground, and level after level that crept into the
+//    hill. The edges' light does not enter the ground through the grid's sides either. The
+//    sweep skips long runs of sealed cells, which makes sectors with much ground faster.
 //  - What leaves the cell downwards (I T + reflected) feeds the next level (ping-pong buffers of
 //    float RGB, one level each); what is stored is the light halfway through the cell:
 //    I sqrt(T) + reflected / 2 ([1]: "closer to the average incident light within the cell").

@@ -504,6 +504,7 @@ struct ProbeCache::Impl {
       // Each layer: a breadth-first search over face neighbours from the cells outside every
       // interior, so that a cell inside takes the nearest outside cell's choice at its height.
       std::array<int16_t, kGridDim * kGridDim> from{};
+      std::array<bool, kGridDim> wholly_inside{};  // a layer without a cell outside
       std::vector<int> queue;
       for (int z = 0; z < kGridDim; ++z) {
         queue.clear();
@@ -512,6 +513,7 @@ struct ProbeCache::Impl {
           from[size_t(i)] = inside[size_t(cell)] ? int16_t(-1) : int16_t(i);
           if (!inside[size_t(cell)]) queue.push_back(i);
         }
+        wholly_inside[size_t(z)] = queue.empty();
         for (size_t q = 0; q < queue.size(); ++q) {
           const int i = queue[q], x = i % kGridDim, y = i / kGridDim;
           const int nx[4] = {x - 1, x + 1, x, x}, ny[4] = {y, y, y - 1, y + 1};
@@ -525,10 +527,8 @@ struct ProbeCache::Impl {
         }
         for (int i = 0; i < kGridDim * kGridDim; ++i) {
           const int cell = IndexGrid::cellIndex(i % kGridDim, i / kGridDim, z);
-          if (inside[size_t(cell)] && from[size_t(i)] >= 0) {
+          if (inside[size_t(cell)] && from[size_t(i)] >= 0)
             sl.fill[size_t(cell)] = sl.nearest[size_t(IndexGrid::cellIndex(from[size_t(i)] % kGridDim, from[size_t(i)] / kGridDim, z))];
-            inside[size_t(cell)] = 2;  // filled
-          }
         }
       }
       // A layer wholly inside (a hall wider than the sector): the first cell above outside.
@@ -539,7 +539,7 @@ struct ProbeCache::Impl {
             const int cell = IndexGrid::cellIndex(x, y, z);
             if (!inside[size_t(cell)])
               above = sl.nearest[size_t(cell)];
-            else if (inside[size_t(cell)] == 1 && above >= 0)
+            else if (wholly_inside[size_t(z)] && above >= 0)
               sl.fill[size_t(cell)] = uint8_t(above);
           }
         }

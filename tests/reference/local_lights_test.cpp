@@ -309,12 +309,6 @@ TEST(ClosedRoom, ItsFloorReadsNoSkyAndNoSunAtNoon) {
   }
 }
 
-}  // namespace
-}  // namespace drtv::testing
-
-namespace drtv::testing {
-namespace {
-
 // The outer faces of a house's walls read the volume, whose texels inside its rooms hold no light
 // of their own (the rooms' points read their designated probes): an index cell inside fills them
 // from the nearest cell outside at its height, the air beside the walls. Until 2026-12-03 such a

@@ -1127,6 +1127,7 @@ class Sweeper {
       const Run* runs = sealed_.runs.data() + sealed_.first[r];
       const size_t nruns = sealed_.first[r + 1] - sealed_.first[r];
       int x0 = 0;
+      size_t window_first_run = 0;  // the runs since the last skipped one: the window's short runs
       for (size_t i = 0; i <= nruns; ++i) {
         const bool last = i == nruns;
         if (!last && runs[i].n < kSkippedRun) continue;
@@ -1135,9 +1136,8 @@ class Sweeper {
           prefetch_ = reinterpret_cast<const char*>(out.light.light.data() + (g_.index(0, j, k) + size_t(x0)) * kDirections);
           gather(full_, q, k, k + 1, j, x0, x1 - x0);
           prefetch_ = nullptr;
-          for (size_t s = 0; s < nruns; ++s)  // the short runs in the window: gathered, then 0
-            if (runs[s].n < kSkippedRun && runs[s].x0 >= x0 && runs[s].x0 < x1)
-              for (Pass* p : {&full_, &direct_}) zeroCells(*p, j, runs[s].x0, runs[s].n);
+          for (size_t s = window_first_run; s < i; ++s)  // gathered, then 0
+            for (Pass* p : {&full_, &direct_}) zeroCells(*p, j, runs[s].x0, runs[s].n);
           interactRow(k, j, x0, x1);
           storeRow(k, j, x0, x1 - x0, out);
           // What the cells with material send on replaces what they stored.
@@ -1149,6 +1149,7 @@ class Sweeper {
         for (Pass* p : {&full_, &direct_}) zeroCells(*p, j, runs[i].x0, runs[i].n);
         storeSealed(k, j, runs[i].x0, runs[i].n, out);
         x0 = runs[i].x0 + runs[i].n;
+        window_first_run = i + 1;
       }
     }
   }

@@ -167,6 +167,10 @@ TEST(SweepOptimised, AgreesWithTheReferenceUnderAHill) {
     // ground there); the ground's top cells, open to the air above, do.
     for (const int x : {0, 20, 40}) {
       EXPECT_EQ(got.light.dominant[s.index(x, 9, 1)], 0u) << "options " << i << " x " << x;
+      // Physics' answer inside solid ground: no light at all, in any direction.
+      EXPECT_EQ(got.light.average[s.index(x, 9, 1)], 0u) << "options " << i << " x " << x;
+      for (int d = 0; d < kDirections; ++d)
+        EXPECT_EQ(got.light.light[s.index(x, 9, 1) * kDirections + size_t(d)], 0u) << "options " << i << " x " << x << " direction " << d;
       EXPECT_NE(got.light.dominant[s.index(x, 9, 4)], 0u) << "options " << i << " x " << x;
     }
   }

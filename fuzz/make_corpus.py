@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Writes the JSON-world and glTF seeds of fuzz/corpus/ and the files of fuzz/data/ from what is
 already on a drtv machine: the tree's world files and test snippets, Debian's assimp-testmodels
-(glTF 2.0 test set) and ../shared/assets. glTF files with external .bin buffers are rewritten
+(glTF 2.0 test set) and tests/assets. glTF files with external .bin buffers are rewritten
 with the buffers embedded as data: URIs (the fuzz target resolves no files). Only files up to
 kMaxBytes are taken: the corpus stays small. Sector and archive seeds come from
 drtv_fuzz_make_seeds (fuzz/make_seeds.cpp). Usage: fuzz/make_corpus.py (from anywhere)."""
@@ -10,7 +10,7 @@ import base64, json, os, pathlib, re, shutil, struct, zlib
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 FUZZ = ROOT / "fuzz"
 ASSIMP = pathlib.Path("/usr/share/assimp/models/glTF2")
-SHARED = ROOT.parent / "shared" / "assets"
+TEST_ASSETS = ROOT / "tests" / "assets"
 kMaxBytes = 24 * 1024
 
 
@@ -48,7 +48,7 @@ def main():
 
     # glTF seeds: every small assimp glTF 2.0 test file (valid and deliberately broken), the
     # shared assets' small files (Draco among them).
-    sources = sorted(ASSIMP.rglob("*.gl*")) + sorted(SHARED.rglob("*.gl*"))
+    sources = sorted(ASSIMP.rglob("*.gl*")) + sorted(TEST_ASSETS.rglob("*.gl*"))
     for src in sources:
         if src.suffix not in (".gltf", ".glb"):
             continue
@@ -66,7 +66,7 @@ def main():
             (gltf_dir / name).write_bytes(data)
 
     # Files the world seeds refer to, relative to fuzz/data/.
-    shutil.copy(SHARED / "draco_box" / "Box_Draco.glb", data_dir / "box.glb")
+    shutil.copy(TEST_ASSETS / "draco_box" / "Box_Draco.glb", data_dir / "box.glb")
     (data_dir / "plane.gltf").write_bytes(embed(ASSIMP / "glTF-Asset-Generator" / "Mesh_PrimitiveMode" / "Mesh_PrimitiveMode_00.gltf"))
     (data_dir / "heightmap.png").write_bytes(png16(17, 17, lambda x, y: (x * 3000 + y * 800) % 65536))
 

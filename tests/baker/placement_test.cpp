@@ -143,11 +143,11 @@ TEST(Placement, NoProbeInAGapThinnerThanItsClearanceNorCloserThanThatToAWall) {
 
 // A closed mesh with a double-sided material has no detectable inside: seen from within, its
 // underside is a surface too. The talk's rule then made the slab's inside a covered candidate,
-// which outranks the floor's top, and every probe of ../shared/assets/probe_room_bevy (a 0.9 m
+// which outranks the floor's top, and every probe of tests/assets/probe_room_bevy (a 0.9 m
 // floor slab, double-sided) stood inside the floor: its render read 0 everywhere. A double-sided
 // underside with a surface above it is no candidate.
 TEST(Placement, NoProbeInsideTheDoubleSidedFloorOfTheSharedProbeRoom) {
-  auto w = worlds::loadWorld(std::string(DRTV_SHARED_ASSETS) + "/probe_room_bevy/IrradianceVolumeExample.glb");
+  auto w = worlds::loadWorld(std::string(DRTV_TEST_ASSETS) + "/probe_room_bevy/IrradianceVolumeExample.glb");
   ASSERT_TRUE(w.has_value()) << w.error().message;
   size_t above = 0;
   for (const SectorKey key : {SectorKey{0, 0}, SectorKey{-1, -1}}) {

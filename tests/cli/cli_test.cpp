@@ -200,7 +200,7 @@ TEST(Cli, OutputsCreateTheirParentFolders) {
 
 TEST(Cli, ASmallGltfObjectBakesProbes) {
   const std::string archive = scratch("box/box.drtv");
-  const Outcome r = drtv("bake " DRTV_SHARED_ASSETS "/draco_box/Box_Draco.glb --quality draft -o " + archive);
+  const Outcome r = drtv("bake " DRTV_TEST_ASSETS "/draco_box/Box_Draco.glb --quality draft -o " + archive);
   ASSERT_EQ(r.status, 0) << r.out;
   EXPECT_EQ(r.out.find("E:drtv: warning"), std::string::npos) << r.out;
   EXPECT_EQ(r.out.find(" 0 probes"), std::string::npos) << r.out;
@@ -357,12 +357,12 @@ TEST(Cli, AProbeClearanceAboveTheLiftIsAnErrorNamingIt) {
   EXPECT_NE(r.out.find("clearance_m must be in [0, min(lift_m, inside_test_range_m)]"), std::string::npos) << r.out;
 }
 
-// ../shared/assets/probe_room_bevy: a floor slab with double-sided materials. Its underside, seen
+// tests/assets/probe_room_bevy: a floor slab with double-sided materials. Its underside, seen
 // from inside the slab, made covered candidates that outranked the floor's top, and every point
 // of the floor read 0 (render error 100 %). An open floor at noon sees the sky.
 TEST(Cli, TheSharedProbeRoomsFloorSeesTheSkyAtNoon) {
   const std::string archive = scratch("room.drtv");
-  ASSERT_EQ(drtv("bake " + std::string(DRTV_SHARED_ASSETS) + "/probe_room_bevy/IrradianceVolumeExample.glb -o " + archive).status, 0);
+  ASSERT_EQ(drtv("bake " + std::string(DRTV_TEST_ASSETS) + "/probe_room_bevy/IrradianceVolumeExample.glb -o " + archive).status, 0);
   const Outcome q = drtv("query " + archive + " --at 1,1,0.1 --normal 0,0,1 --time 12:00 --json");
   ASSERT_EQ(q.status, 0) << q.out;
   const auto j = nlohmann::json::parse(q.out.substr(q.out.find('{')));
@@ -370,7 +370,7 @@ TEST(Cli, TheSharedProbeRoomsFloorSeesTheSkyAtNoon) {
 }
 
 // Issue 16: colour from a lit coloured wall reaches the surfaces facing it. In the Cornell world
-// (../shared/assets/cornell_bevy: a red wall at x = -5.5 m, a green one at x = +5.6 m, lit by
+// (tests/assets/cornell_bevy: a red wall at x = -5.5 m, a green one at x = +5.6 m, lit by
 // its own emissive quad at night and by the sky through its open side by day), a point of the
 // room and the white sphere's flanks get more red facing the red wall and more green facing the
 // green one, as the path tracer and physics have it.
@@ -659,7 +659,7 @@ TEST(Cli, FlyAndRenderTakeATechniqueByName) {
 // What the loader did with each class of glTF material is said by drtv info and the bake report
 // (docs/world-format.md, "Materials"): the Cornell box's emissive quad and its double-sided walls.
 TEST(Cli, InfoAndTheBakeReportSayWhatWasDoneWithTheMaterials) {
-  const Outcome info = drtv("info " + std::string(DRTV_SHARED_ASSETS) + "/cornell_bevy/CornellBox.glb --json");
+  const Outcome info = drtv("info " + std::string(DRTV_TEST_ASSETS) + "/cornell_bevy/CornellBox.glb --json");
   ASSERT_EQ(info.status, 0) << info.out;
   EXPECT_NE(info.out.find("\"emissive\": 1,"), std::string::npos) << info.out;
   EXPECT_NE(info.out.find("\"double_sided\": 5,"), std::string::npos) << info.out;

@@ -170,7 +170,7 @@ TEST(WorldGeometry, SingularOrNonFiniteTransformsAreSkippedWithANote) {
 namespace drtv::raytrace {
 namespace {
 
-// A mirroring instance (negative determinant: glTF's scale -1, as in ../shared/assets/
+// A mirroring instance (negative determinant: glTF's scale -1, as in tests/assets/
 // probe_room_bevy) keeps its triangles' front side where it was: without the flip the plane faced
 // down, every index-grid cell above it read "inside geometry" and the baked ambient was 0.
 TEST(WorldGeometry, AMirroredInstanceKeepsItsFrontFaceUp) {

@@ -109,7 +109,7 @@ TEST(EmissiveLights, CarryTheEmittersFluxAndMatchItSixtyDegreesOffItsNormal) {
 
 // Bevy's Cornell box has no light but its emissive quad (130 x 105 under the ceiling, Le 100).
 TEST(EmissiveLights, TheCornellBoxIsLitByItsQuadAtNight) {
-  auto w = worlds::loadWorld(DRTV_SHARED_ASSETS "/cornell_bevy/CornellBox.glb");
+  auto w = worlds::loadWorld(DRTV_TEST_ASSETS "/cornell_bevy/CornellBox.glb");
   ASSERT_TRUE(w.has_value()) << w.error().message;
   ASSERT_FALSE(w->lights.empty()) << "the quad made no light";
   auto scene = reference::ReferenceScene::build(*w, "CornellBox.glb");

@@ -319,7 +319,7 @@ namespace {
 TEST(AccuracyCategories, NoPointIsSampledOnADynamicObjectInsideADoubleSidedSolid) {
   auto dynamicPointsWithSphereAt = [](const char* at) -> size_t {
     const std::filesystem::path file = std::filesystem::temp_directory_path() / "drtv-buried-sphere.json";
-    std::ofstream(file) << R"({"name": "buried", "gltf": [{"path": ")" << DRTV_SHARED_ASSETS
+    std::ofstream(file) << R"({"name": "buried", "gltf": [{"path": ")" << DRTV_TEST_ASSETS
                         << R"(/cornell_bevy/CornellBox.glb", "class": "static", "scale": 0.02, "translation": [5.56, -5.59, 0]}],
       "primitives": [{"name": "ground", "shape": "plane", "class": "terrain", "translation": [0, 0, -0.01], "scale": [60, 60, 1]},
                      {"name": "sphere", "shape": "sphere", "class": "dynamic", "translation": [)"

@@ -173,7 +173,7 @@ TEST(GltfMaterials, DoubleSidedMaterialsAreCountedAndSaid) {
 }
 
 TEST(GltfMaterials, TheCornellBoxQuadIsItsOnlyLight) {
-  const auto w = loadGltf(DRTV_SHARED_ASSETS "/cornell_bevy/CornellBox.glb");
+  const auto w = loadGltf(DRTV_TEST_ASSETS "/cornell_bevy/CornellBox.glb");
   ASSERT_TRUE(w.has_value()) << w.error().message;
   // Emitter_Light_temp: emissiveFactor 1 x emissiveStrength 100 on a 130 x 105 quad facing down.
   const double le = 100.0, area = 130.0 * 105.0;

@@ -1,4 +1,4 @@
-// Tests of glTF loading: axis conversion, topologies, Draco, the shared assets and every file
+// Tests of glTF loading: axis conversion, topologies, Draco, the test assets (tests/assets) and every file
 // of assimp's glTF 2.0 test set (valid and deliberately broken).
 #include <chrono>
 #include <cstring>
@@ -154,7 +154,7 @@ TEST(Gltf, SkipsPrimitivesWithIndicesOutOfRange) {
 
 TEST(Gltf, DracoBoxHasTwelveTriangles) {
   GltfStats stats;
-  const auto w = loadGltf(DRTV_SHARED_ASSETS "/draco_box/Box_Draco.glb", InstanceClass::kStatic, &stats);
+  const auto w = loadGltf(DRTV_TEST_ASSETS "/draco_box/Box_Draco.glb", InstanceClass::kStatic, &stats);
   ASSERT_TRUE(w.has_value()) << w.error().message;
   EXPECT_EQ(w->triangleCount(), 12u);
   EXPECT_EQ(stats.dropped_degenerate + stats.dropped_nonfinite, 0u);
@@ -204,7 +204,7 @@ TEST(Gltf, DracoAndPlainEngineAgreeOnRealTriangles) {
 TEST(Gltf, LoadsTheSharedAssets) {
   for (const char* rel : {"/cornell_bevy/CornellBox.glb", "/outdoor_bevy_palmtree/PalmTree.gltf",
                           "/probe_room_bevy/IrradianceVolumeExample.glb", "/terrain_vulkan_samples/terrain.gltf"}) {
-    const std::string path = std::string(DRTV_SHARED_ASSETS) + rel;
+    const std::string path = std::string(DRTV_TEST_ASSETS) + rel;
     const auto w = loadGltf(path);
     ASSERT_TRUE(w.has_value()) << w.error().message;
     EXPECT_GT(w->triangleCount(), 0u) << path;

@@ -1,6 +1,6 @@
 // Tests of glTF loading from untrusted bytes: loadGltfFromMemory, and KHR_draco_mesh_compression
 // objects that point outside the file (tinygltf 2.7's own Draco path indexed them unchecked;
-// worlds/src/draco_mesh.h), each built by editing the JSON chunk of the shared Draco box.
+// worlds/src/draco_mesh.h), each built by editing the JSON chunk of the Draco box (tests/assets).
 // Inputs the fuzzer (fuzz/fuzz_gltf.cpp, docs/fuzzing.md) found are kept here as regressions.
 #include <cstring>
 #include <initializer_list>
@@ -30,7 +30,7 @@ std::vector<uint8_t> readBytes(const std::string& path) {
   return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
-std::vector<uint8_t> dracoBox() { return readBytes(DRTV_SHARED_ASSETS "/draco_box/Box_Draco.glb"); }
+std::vector<uint8_t> dracoBox() { return readBytes(DRTV_TEST_ASSETS "/draco_box/Box_Draco.glb"); }
 
 // The GLB `glb` with its JSON chunk replaced by edit(JSON).
 std::vector<uint8_t> editGlbJson(const std::vector<uint8_t>& glb, const std::function<void(json&)>& edit) {
@@ -67,7 +67,7 @@ void expectDracoPrimitiveSkipped(const std::vector<uint8_t>& glb, const std::str
 }
 
 TEST(GltfFromMemory, LoadsTheDracoBoxLikeTheFile) {
-  const auto from_file = loadGltf(DRTV_SHARED_ASSETS "/draco_box/Box_Draco.glb");
+  const auto from_file = loadGltf(DRTV_TEST_ASSETS "/draco_box/Box_Draco.glb");
   const auto from_memory = loadGltfFromMemory(dracoBox(), "box.glb", "");
   ASSERT_TRUE(from_file.has_value() && from_memory.has_value());
   EXPECT_EQ(from_memory->triangleCount(), 12u);
@@ -201,7 +201,7 @@ TEST(GltfDraco, TheDeclaredCountsOfTheSharedDracoFilesAreTheirDecodedOnes) {
   EXPECT_FALSE(declared.edgebreaker);
   EXPECT_EQ(declared.faces, 12u);
   EXPECT_EQ(declared.points, 24u);
-  const std::vector<uint8_t> meta = readBytes(DRTV_SHARED_ASSETS "/draco_boxmeta/buffer0.bin");
+  const std::vector<uint8_t> meta = readBytes(DRTV_TEST_ASSETS "/draco_boxmeta/buffer0.bin");
   ASSERT_TRUE(dracoDeclaredCounts(meta.data(), meta.size(), &declared, error, sizeof error)) << error;
   EXPECT_TRUE(declared.edgebreaker);
   EXPECT_EQ(declared.faces, 12u);
@@ -213,7 +213,7 @@ TEST(GltfDraco, TheDeclaredCountsOfTheSharedDracoFilesAreTheirDecodedOnes) {
   uint64_t pages = 0, resident_pages = 0;
   statm >> pages >> resident_pages;
   ASSERT_GT(resident_pages, 0u);
-  for (const char* path : {DRTV_SHARED_ASSETS "/draco_box/Box_Draco.glb", DRTV_SHARED_ASSETS "/draco_boxmeta/BoxMetaDraco.gltf"}) {
+  for (const char* path : {DRTV_TEST_ASSETS "/draco_box/Box_Draco.glb", DRTV_TEST_ASSETS "/draco_boxmeta/BoxMetaDraco.gltf"}) {
     setMemoryLimit(resident_pages * uint64_t(sysconf(_SC_PAGESIZE)) + (uint64_t(64) << 20));
     const auto w = loadGltf(path);
     setMemoryLimit(0);

@@ -258,7 +258,7 @@ TEST(WorldJson, BuildsNoiseTerrainOfTheRequestedSize) {
 }
 
 TEST(WorldJson, BuildsHeightmapTerrainFromSixteenBitPng) {
-  const std::string png = DRTV_SHARED_ASSETS "/terrain_vulkan_samples/terrain_heightmap_r16.DERIVED.png";
+  const std::string png = DRTV_TEST_ASSETS "/terrain_vulkan_samples/terrain_heightmap_r16.DERIVED.png";
   const auto coarse = parse(R"({"terrain": {"kind": "heightmap", "path": ")" + png +
                             R"(", "size_m": 1000, "height_m": 100, "resolution_m": 8}})");
   ASSERT_TRUE(coarse.has_value()) << coarse.error().message;
@@ -280,10 +280,10 @@ TEST(WorldJson, BuildsHeightmapTerrainFromSixteenBitPng) {
 }
 
 TEST(WorldJson, ResolvesGltfPathsRelativeToTheFile) {
-  // The base dir is the shared assets folder; the path inside is relative to it.
+  // The base dir is the test assets folder; the path inside is relative to it.
   const auto w = parseWorldJson(R"({"gltf": [{"path": "draco_box/Box_Draco.glb", "class": "vegetation",
                                              "translation": [0, 0, 10], "rotation_z_deg": 0, "scale": 2}]})",
-                                DRTV_SHARED_ASSETS, "assets/x.json");
+                                DRTV_TEST_ASSETS, "assets/x.json");
   ASSERT_TRUE(w.has_value()) << w.error().message;
   EXPECT_EQ(w->triangleCount(), 12u);
   EXPECT_EQ(w->instances[0].cls, InstanceClass::kVegetation);
@@ -316,7 +316,7 @@ TEST(WorldJson, ScattersVegetationOnTheTerrainDeterministically) {
   // A glTF mesh scattered over a region without terrain stands on z = 0.
   const auto g = parseWorldJson(R"({"vegetation": [{"count": 3, "region": {"min": [0, 0], "max": [10, 10]},
                                                     "mesh": {"gltf": "outdoor_bevy_palmtree/PalmTree.gltf"}}]})",
-                                DRTV_SHARED_ASSETS, "assets/x.json");
+                                DRTV_TEST_ASSETS, "assets/x.json");
   ASSERT_TRUE(g.has_value()) << g.error().message;
   EXPECT_GT(g->triangleCount(), 0u);
   EXPECT_EQ(g->instancesByClass()[size_t(InstanceClass::kVegetation)], g->instances.size());
@@ -419,7 +419,7 @@ TEST(LoadWorld, LoadsTheDemoIsland) {
 }
 
 TEST(LoadWorld, LoadsGltfAsOneStaticWorld) {
-  const auto w = loadWorld(DRTV_SHARED_ASSETS "/cornell_bevy/CornellBox.glb");
+  const auto w = loadWorld(DRTV_TEST_ASSETS "/cornell_bevy/CornellBox.glb");
   ASSERT_TRUE(w.has_value()) << w.error().message;
   EXPECT_GT(w->triangleCount(), 0u);
   EXPECT_EQ(w->instancesByClass()[size_t(InstanceClass::kStatic)], w->instances.size());

@@ -5,7 +5,9 @@
 #include <cmath>
 #include <array>
 #include <cctype>
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <map>
 
 #define STB_IMAGE_WRITE_IMPLEMENTATION
@@ -82,6 +84,7 @@ const std::map<char, std::array<uint8_t, 7>>& font() {
 }  // namespace
 
 RgbImage blankImage(int w, int h, Rgb bg) {
+  DRTV_CHECK(w >= 0 && h >= 0 && w <= kMaxImageSide && h <= kMaxImageSide);
   RgbImage img;
   img.width = w;
   img.height = h;
@@ -113,9 +116,30 @@ void Canvas::rect(int x0, int y0, int x1, int y1, Rgb c) {
 }
 
 void Canvas::line(double x0, double y0, double x1, double y1, Rgb c, bool dashed) {
+  if (!std::isfinite(x0) || !std::isfinite(y0) || !std::isfinite(x1) || !std::isfinite(y1)) return;
   const double len = std::max(std::abs(x1 - x0), std::abs(y1 - y0));
-  const int n = std::max(1, int(std::ceil(len)));
-  for (int i = 0; i <= n; ++i) {
+  // Steps of at most a pixel along the longer axis; the steps whose point can land in the image
+  // (t within the image grown by a pixel, each axis in turn) are the only ones taken, so a line
+  // reaching far outside costs what its visible part costs and sets the same pixels.
+  if (len > 1e15) return;  // beyond any image: its steps would not fit a counter
+  const long long n = std::max<long long>(1, (long long)std::ceil(len));
+  double t_lo = 0.0, t_hi = 1.0;
+  auto clipAxis = [&](double a0, double a1, double hi) {
+    const double lo = -1.0;
+    if (a0 == a1) {
+      if (a0 < lo || a0 > hi) t_lo = 1.0, t_hi = 0.0;
+      return;
+    }
+    double ta = (lo - a0) / (a1 - a0), tb = (hi - a0) / (a1 - a0);
+    if (ta > tb) std::swap(ta, tb);
+    t_lo = std::max(t_lo, ta), t_hi = std::min(t_hi, tb);
+  };
+  clipAxis(x0, x1, double(img_.width));
+  clipAxis(y0, y1, double(img_.height));
+  if (t_lo > t_hi) return;
+  const long long i_lo = std::max<long long>(0, (long long)std::floor(t_lo * double(n)) - 1);
+  const long long i_hi = std::min<long long>(n, (long long)std::ceil(t_hi * double(n)) + 1);
+  for (long long i = i_lo; i <= i_hi; ++i) {
     if (dashed && (i / 6) % 2) continue;
     const double t = double(i) / n;
     set(int(std::lround(x0 + (x1 - x0) * t)), int(std::lround(y0 + (y1 - y0) * t)), c);
@@ -149,15 +173,16 @@ int Canvas::text(int x, int y, const std::string& s, Rgb c, int scale) {
 Result<void> writePng(const std::filesystem::path& path, const RgbImage& image) {
   if (image.width <= 0 || image.height <= 0 || image.pixels.size() != size_t(image.width) * image.height * 3)
     return fail(path.string() + ": image has no pixels");
+  errno = 0;
   if (!stbi_write_png(path.c_str(), image.width, image.height, 3, image.pixels.data(), image.width * 3))
-    return fail(path.string() + ": cannot write PNG");
+    return fail(path.string() + ": cannot write PNG" + (errno ? std::string(": ") + std::strerror(errno) : std::string()));
   return {};
 }
 
 Canvas linePlot(const std::vector<double>& ys, Rgb colour, const std::vector<RefLine>& refs, double y_max, int width, int height) {
   Canvas c(width, height, {255, 255, 255});
   const int left = 70, right = width - 10, top = 10, bottom = height - 30;
-  if (!(y_max > 0)) y_max = 1;
+  if (!(y_max > 0) || !std::isfinite(y_max)) y_max = 1;
   auto py = [&](double y) { return bottom - (bottom - top) * std::clamp(y / y_max, 0.0, 1.05); };
   const size_t n = std::max<size_t>(ys.size(), 2);
   auto px = [&](double i) { return left + (right - left) * i / double(n - 1); };
@@ -177,8 +202,13 @@ Canvas linePlot(const std::vector<double>& ys, Rgb colour, const std::vector<Ref
   }
   c.rect(left, top, right, bottom, {120, 120, 120});
   for (const RefLine& r : refs) c.line(left, py(r.y), right, py(r.y), r.colour, true);
-  for (size_t i = 1; i < ys.size(); ++i) c.line(px(double(i - 1)), py(ys[i - 1]), px(double(i)), py(ys[i]), colour);
-  if (ys.size() == 1) c.set(int(px(0)), int(py(ys[0])), colour);
+  for (size_t i = 1; i < ys.size(); ++i)
+    if (std::isfinite(ys[i - 1]) && std::isfinite(ys[i])) c.line(px(double(i - 1)), py(ys[i - 1]), px(double(i)), py(ys[i]), colour);
+  // A finite value with no finite neighbour (one frame, or between two breaks) is a dot.
+  for (size_t i = 0; i < ys.size(); ++i) {
+    const bool before = i > 0 && std::isfinite(ys[i - 1]), after = i + 1 < ys.size() && std::isfinite(ys[i + 1]);
+    if (std::isfinite(ys[i]) && !before && !after) c.set(int(px(double(i))), int(py(ys[i])), colour);
+  }
   return c;
 }
 

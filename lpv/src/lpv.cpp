@@ -10,17 +10,14 @@
 #include <string>
 #include <thread>
 
+#include "simd_clones.h"
+
 namespace drtv::lpv {
 namespace {
 
-// The propagation's loops compiled for the baseline and for AVX2 (no FMA: the same operations in
-// the same order, so the same bits), chosen at load time; not under the sanitizers, whose
-// run-time is not up when the ifunc resolvers run, nor off x86-64.
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(__SANITIZE_ADDRESS__)
-#define DRTV_LPV_CLONES __attribute__((target_clones("arch=x86-64-v4", "avx2", "default")))
-#else
-#define DRTV_LPV_CLONES
-#endif
+// The propagation's loops are DRTV_SIMD_CLONES (simd_clones.h): compiled for the baseline, AVX2
+// and AVX-512, chosen at load time; no FMA (-ffp-contract=off, lpv/CMakeLists.txt): the same
+// operations in the same order, so the same bits.
 
 constexpr int kPlanes = 12;  // 3 channels x 4 SH coefficients, plane p = channel * 4 + coefficient
 
@@ -661,7 +658,7 @@ DRTV_LPV_INLINE void propagateRowAt(int n, const StepConstants& k, const float* 
 // the step (the last one), with its n row flags `last_lit` (0: the row holds zeros).
 // Rows are skipped when neither they nor their 4 neighbour rows hold light in the previous step.
 // AVX-512 or AVX2 where the CPU has it (no FMA: -ffp-contract=off, so the same bits as SSE2).
-DRTV_LPV_CLONES
+DRTV_SIMD_CLONES
 void propagateSlab(int n, const Slab& below, const Slab& mid, const Slab& above, const Slab& dst,
                    const std::array<const float*, kDirs>& tr, const std::array<float*, 4>& light, uint8_t* light_lit,
                    bool first, float* last, uint8_t* last_lit) {

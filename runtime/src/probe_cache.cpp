@@ -10,6 +10,7 @@
 
 #include "drtv/runtime/lighting_sh.h"
 #include "pack.h"
+#include "simd_clones.h"
 
 namespace drtv::runtime {
 namespace {
@@ -118,14 +119,7 @@ struct Slot {
 };
 
 // The hot loops are compiled for AVX-512 and AVX2 as well as the baseline, and picked at load
-// time (GCC function multi-versioning): the relight streams 52 planes and is SIMD-bound.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__SANITIZE_ADDRESS__) && \
-    !defined(__SANITIZE_THREAD__)
-#define DRTV_HOT_CLONES __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
-#define DRTV_HOT_MULTIVERSION 1
-#else
-#define DRTV_HOT_CLONES
-#endif
+// time (DRTV_SIMD_CLONES, simd_clones.h): the relight streams 52 planes and is SIMD-bound.
 
 // Ringing is clamped at the end of a probe's sum, and only there (DESIGN.md): negative and NaN
 // (inf - inf) become 0, and colours stop at kMaxColour. Clamped colours are >= 0, so their bit
@@ -152,7 +146,7 @@ inline float clampColour(float x) {
 // colour[c][b][i] = dot(L[c], T[c][b][i]) + direct[c][b] v[b][i] (+ local[c][b][i], the local
 // lights' term, unless `local` is null) for i < n, clamped. Returns the bit pattern of the largest
 // clamped value.
-DRTV_HOT_CLONES int32_t relightPlanes(const float* in, float* out, int n, int stride, const float (&lc)[3][4],
+DRTV_SIMD_CLONES int32_t relightPlanes(const float* in, float* out, int n, int stride, const float (&lc)[3][4],
                                       const float (&direct)[3][4], const float* local) {
   for (int c = 0; c < 3; ++c)
     for (int b = 0; b < 4; ++b) {
@@ -293,8 +287,8 @@ template <int L>
 // (+ the sun's a x + b y) (+ local[c][i][k], the local lights' term, plane-major at `stride`,
 // unless null), then clamped (e0 to [0, kMaxColour], e1..3 to +-kMaxColour, NaN to 0). Returns the
 // bit pattern of the largest |clamped value|. `n` a multiple of 16. One version per target
-// (GCC's function multiversioning, as DRTV_HOT_CLONES but with the lanes each target wants).
-#ifdef DRTV_HOT_MULTIVERSION
+// (GCC's function multiversioning, as DRTV_SIMD_CLONES but with the lanes each target wants).
+#if DRTV_SIMD_MULTIVERSION
 __attribute__((target("arch=x86-64-v4"))) int32_t relightBlocksShL1(const float* in, float* out, int n, int stride,
                                                                     const ShL1Weights& w, const float* sx, const float* sy,
                                                                     const float* local) {
@@ -316,7 +310,7 @@ int32_t relightBlocksShL1(const float* in, float* out, int n, int stride, const 
 constexpr float kLobe[4] = {sh::kCosineLobe0, sh::kCosineLobe1, sh::kCosineLobe1, sh::kCosineLobe1};
 
 // acc[k][i] += colour_k * scale[i] * q[k][i] for the 12 (channel, k) planes of one source.
-DRTV_HOT_CLONES void accumulateSource(float* acc, const int16_t* q, const float* scale, int n, int stride,
+DRTV_SIMD_CLONES void accumulateSource(float* acc, const int16_t* q, const float* scale, int n, int stride,
                                       const float (&colour)[12]) {
   for (int k = 0; k < 12; ++k) {
     float* __restrict a = acc + k * stride;
@@ -1094,7 +1088,7 @@ namespace {
 // that these loops vectorise). Per probe and
 // channel the scalar form, with the representation tested per texel, made the pack after each
 // relight as costly as half a volume refill (perf of a fly at 0.2 h/s).
-DRTV_HOT_CLONES void packPlanes(const float* __restrict p0, const float* __restrict p1, const float* __restrict p2,
+DRTV_SIMD_CLONES void packPlanes(const float* __restrict p0, const float* __restrict p1, const float* __restrict p2,
                                 const float* __restrict p3, int n, float inv, bool sh_l1, uint32_t* __restrict out) {
   if (sh_l1)
     for (int i = 0; i < n; ++i) out[i] = detail::packTexelShL1(p0[i], p1[i], p2[i], p3[i], inv);

@@ -10,6 +10,7 @@
 
 #include "drtv/formats/error.h"
 #include "pack.h"
+#include "simd_clones.h"
 
 namespace drtv::runtime {
 namespace {
@@ -62,31 +63,25 @@ struct SlotTable {
 
 // The blur's row kernels, on 16-bit lanes (sums stay below 64 * 255), written so that they
 // vectorise: restrict pointers, no widening to int. They are compiled for AVX-512 and AVX2 as well
-// as the baseline and picked at load time (GCC function multi-versioning, as in probe_cache.cpp):
-// the baseline's 8 lanes made the blur 3x a plain refill.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__SANITIZE_ADDRESS__) && \
-    !defined(__SANITIZE_THREAD__)
-#define DRTV_BLUR_CLONES __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
-#else
-#define DRTV_BLUR_CLONES
-#endif
-DRTV_BLUR_CLONES void blurTap3(const uint8_t* __restrict m, uint16_t* __restrict out, int lo, int hi) {
+// as the baseline and picked at load time (DRTV_SIMD_CLONES, simd_clones.h): the baseline's 8
+// lanes made the blur 3x a plain refill.
+DRTV_SIMD_CLONES void blurTap3(const uint8_t* __restrict m, uint16_t* __restrict out, int lo, int hi) {
   for (int i = lo; i < hi; ++i) out[i] = uint16_t(uint16_t(m[i - 4]) + uint16_t(2 * m[i]) + uint16_t(m[i + 4]));
 }
-DRTV_BLUR_CLONES void blurRows3(const uint16_t* __restrict r0, const uint16_t* __restrict r1, const uint16_t* __restrict r2,
+DRTV_SIMD_CLONES void blurRows3(const uint16_t* __restrict r0, const uint16_t* __restrict r1, const uint16_t* __restrict r2,
                uint16_t* __restrict out, int n) {
   for (int i = 0; i < n; ++i) out[i] = uint16_t(r0[i] + uint16_t(2 * r1[i]) + r2[i]);
 }
 // The same taps for the thin-x blur, whose rows run along y: bytes in, and 16-bit sums in.
-DRTV_BLUR_CLONES void blurRows3Bytes(const uint8_t* __restrict r0, const uint8_t* __restrict r1, const uint8_t* __restrict r2,
+DRTV_SIMD_CLONES void blurRows3Bytes(const uint8_t* __restrict r0, const uint8_t* __restrict r1, const uint8_t* __restrict r2,
                     uint16_t* __restrict out, int n) {
   for (int i = 0; i < n; ++i) out[i] = uint16_t(uint16_t(r0[i]) + uint16_t(2 * r1[i]) + uint16_t(r2[i]));
 }
-DRTV_BLUR_CLONES void blurTap3Wide(const uint16_t* __restrict m, uint16_t* __restrict out, int lo, int hi) {
+DRTV_SIMD_CLONES void blurTap3Wide(const uint16_t* __restrict m, uint16_t* __restrict out, int lo, int hi) {
   for (int i = lo; i < hi; ++i) out[i] = uint16_t(m[i - 4] + uint16_t(2 * m[i]) + m[i + 4]);
 }
 // The x pass and the rounding in one (blurWholeRows): m holds the z and y passes' sums.
-DRTV_BLUR_CLONES void blurTap3Finish(const uint16_t* __restrict m, uint8_t* __restrict out, int lo, int hi) {
+DRTV_SIMD_CLONES void blurTap3Finish(const uint16_t* __restrict m, uint8_t* __restrict out, int lo, int hi) {
   for (int i = lo; i < hi; ++i) out[i] = uint8_t(uint16_t(m[i - 4] + uint16_t(2 * m[i]) + m[i + 4] + 32) >> 6);
 }
 // blurTap3Finish for chosen texels of `rows` rows of `stride` lanes (blurWholeRows's patches):
@@ -100,7 +95,7 @@ struct BlurPatch {
 };
 using BlurBytes8 = uint8_t __attribute__((vector_size(8)));
 using BlurLanes8 = uint16_t __attribute__((vector_size(16)));
-DRTV_BLUR_CLONES void blurFinishPatches(const uint16_t* __restrict m, uint8_t* __restrict out, int rows, int stride,
+DRTV_SIMD_CLONES void blurFinishPatches(const uint16_t* __restrict m, uint8_t* __restrict out, int rows, int stride,
                                         const BlurPatch* __restrict patches, int count) {
   for (int r = 0; r < rows; ++r, m += stride, out += stride)
     for (int p = 0; p < count; ++p) {
@@ -112,7 +107,7 @@ DRTV_BLUR_CLONES void blurFinishPatches(const uint16_t* __restrict m, uint8_t* _
     }
 }
 // Weights sum to 64: round half up, back to a byte.
-DRTV_BLUR_CLONES void blurFinish(const uint16_t* __restrict r0, const uint16_t* __restrict r1, const uint16_t* __restrict r2,
+DRTV_SIMD_CLONES void blurFinish(const uint16_t* __restrict r0, const uint16_t* __restrict r1, const uint16_t* __restrict r2,
                 uint8_t* __restrict out, int n) {
   for (int i = 0; i < n; ++i) out[i] = uint8_t(uint16_t(r0[i] + uint16_t(2 * r1[i]) + r2[i] + 32) >> 6);
 }

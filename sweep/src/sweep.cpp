@@ -28,6 +28,7 @@
 #endif
 
 #include "drtv/formats/error.h"
+#include "simd_clones.h"
 #include "small_float.h"
 
 // The 8-lane helpers below are inlined into the row loops (always_inline), so how a 32-byte vector
@@ -40,19 +41,11 @@ namespace {
 // The row loops are compiled three times, for the baseline, AVX2 and x86-64-v4 (AVX-512), chosen
 // at run time by what the CPU supports: the same IEEE operations in the same order, so the same results (no FMA: the
 // v4 code could fuse a * b + c, which -ffp-contract=off for this file forbids, sweep/CMakeLists.txt).
-// The scalar loops as target_clones; the vector ones (storeCells, gatherRow) as one body per lane
-// count, 16 lanes for x86-64-v4 and 8 otherwise, chosen by isa(). Not under the sanitizers or
-// Clang (as runtime/src/probe_cache.cpp): there the baseline's 8 lanes only.
-#if defined(__GNUC__) && defined(__x86_64__) && !defined(__clang__) && !defined(__SANITIZE_ADDRESS__) && \
-    !defined(__SANITIZE_THREAD__)
-#define DRTV_SWEEP_DISPATCH 1
-#define DRTV_SWEEP_CLONES __attribute__((target_clones("arch=x86-64-v4", "avx2", "default")))
-#else
-#define DRTV_SWEEP_DISPATCH 0
-#define DRTV_SWEEP_CLONES
-#endif
-
-#if DRTV_SWEEP_DISPATCH
+// The scalar loops as DRTV_SIMD_CLONES (simd_clones.h); the vector ones (storeCells, gatherRow)
+// as one body per lane count, 16 lanes for x86-64-v4 and 8 otherwise, chosen by isa(): the AVX2
+// body's target is "avx2", the lanes it was tuned for. Where DRTV_SIMD_MULTIVERSION is 0 (the
+// sanitizers, Clang), the baseline's 8 lanes only.
+#if DRTV_SIMD_MULTIVERSION
 enum class Isa { kBase, kAvx2, kV4 };
 Isa isa() {
   static const Isa i = __builtin_cpu_supports("x86-64-v4") ? Isa::kV4 : __builtin_cpu_supports("avx2") ? Isa::kAvx2 : Isa::kBase;
@@ -488,7 +481,7 @@ template <bool kSubtract, bool kFinish, bool kResume, int L>
     }
   }
 }
-#if DRTV_SWEEP_DISPATCH
+#if DRTV_SIMD_MULTIVERSION
 template <bool kSubtract, bool kFinish, bool kResume>
 __attribute__((target("arch=x86-64-v4"))) void storeCellsV4(DRTV_SWEEP_STORE_PARAMS) {
   storeCellsBody<kSubtract, kFinish, kResume, 16>(DRTV_SWEEP_STORE_ARGS);
@@ -500,7 +493,7 @@ __attribute__((target("avx2"))) void storeCellsAvx2(DRTV_SWEEP_STORE_PARAMS) {
 #endif
 template <bool kSubtract, bool kFinish, bool kResume = false>
 void storeCells(DRTV_SWEEP_STORE_PARAMS) {
-#if DRTV_SWEEP_DISPATCH
+#if DRTV_SIMD_MULTIVERSION
   switch (isa()) {
     case Isa::kV4: return storeCellsV4<kSubtract, kFinish, kResume>(DRTV_SWEEP_STORE_ARGS);
     case Isa::kAvx2: return storeCellsAvx2<kSubtract, kFinish, kResume>(DRTV_SWEEP_STORE_ARGS);
@@ -515,7 +508,7 @@ void storeCells(DRTV_SWEEP_STORE_PARAMS) {
 // A row's pass-through where it is 0 or 1: 1 in a clear cell (sigma 0), 0 in a full one (sigma inf);
 // the cells of fractional density are patched in after. Sweeper's own code is the baseline's (SSE):
 // its row loops are clones like these so that the v4 code runs them 16 floats at a time.
-DRTV_SWEEP_CLONES void clearOrFull(int n, const float* __restrict sigma, float* __restrict out) {
+DRTV_SIMD_CLONES void clearOrFull(int n, const float* __restrict sigma, float* __restrict out) {
   for (int x = 0; x < n; ++x) out[x] = sigma[x] == 0.f ? 1.f : 0.f;
 }
 
@@ -525,7 +518,7 @@ DRTV_SWEEP_CLONES void clearOrFull(int n, const float* __restrict sigma, float* 
 struct DensityRow {
   int material = 0, fractional = 0, outside = 0;
 };
-DRTV_SWEEP_CLONES DensityRow opticalDepthRow(int n, const float* __restrict d, float* __restrict s) {
+DRTV_SIMD_CLONES DensityRow opticalDepthRow(int n, const float* __restrict d, float* __restrict s) {
   int material = 0, fractional = 0, outside = 0;
   for (int x = 0; x < n; ++x) {  // as ints and &: with && GCC did not vectorise the loop
     const float v = d[x];
@@ -548,14 +541,14 @@ DRTV_SWEEP_CLONES DensityRow opticalDepthRow(int n, const float* __restrict d, f
 // dst_stride apart). A row's span is short (tens of floats) and copied into 6-57 rows: one memcpy
 // call per row, with its set-up, was 3 % of a re-sweep; GCC would turn this loop back into those
 // calls (-ftree-loop-distribute-patterns), hence the attribute.
-DRTV_SWEEP_CLONES DRTV_SWEEP_NO_MEMCPY_IDIOM void copyRows(int rows, int n, const float* __restrict src, size_t src_stride,
+DRTV_SIMD_CLONES DRTV_SWEEP_NO_MEMCPY_IDIOM void copyRows(int rows, int n, const float* __restrict src, size_t src_stride,
                                                          float* __restrict dst, size_t dst_stride) {
   for (int r = 0; r < rows; ++r, src += src_stride, dst += dst_stride)
     for (int x = 0; x < n; ++x) dst[x] = src[x];
 }
 
 // (1 + tau) / 2 and (1 - tau) / 2 of a row's cells (Sweeper::interactRow).
-DRTV_SWEEP_CLONES void halfSums(int n, const float* __restrict tau, float* __restrict fa, float* __restrict fb) {
+DRTV_SIMD_CLONES void halfSums(int n, const float* __restrict tau, float* __restrict fa, float* __restrict fb) {
   for (int m = 0; m < n; ++m) {
     fa[m] = 0.5f * (1.f + tau[m]);
     fb[m] = 0.5f * (1.f - tau[m]);
@@ -564,7 +557,7 @@ DRTV_SWEEP_CLONES void halfSums(int n, const float* __restrict tau, float* __res
 
 // n RGB triples (glm::vec3, 3 floats each) into 3 rows. Through glm's operator[] GCC switched on
 // the channel per element.
-DRTV_SWEEP_CLONES void splitRgb(int n, const float* __restrict rgb, float* __restrict r, float* __restrict g, float* __restrict b) {
+DRTV_SIMD_CLONES void splitRgb(int n, const float* __restrict rgb, float* __restrict r, float* __restrict g, float* __restrict b) {
   for (int m = 0; m < n; ++m) {
     r[m] = rgb[3 * m];
     g[m] = rgb[3 * m + 1];
@@ -576,7 +569,7 @@ DRTV_SWEEP_CLONES void splitRgb(int n, const float* __restrict rgb, float* __res
 // channels `stride` apart) passes the cell as T (row t) plus what the cell reflects up (e, 3 rows
 // of `e_stride`), and leaves as v T + e (into v); what is stored is v sqrt(T) + e / 2 (rows
 // `stored`, channels `stride` apart). As Sweeper::bottomUp did it cell by cell.
-DRTV_SWEEP_CLONES void upCells(int n, float* __restrict v, size_t stride, const float* __restrict t, const float* __restrict st,
+DRTV_SIMD_CLONES void upCells(int n, float* __restrict v, size_t stride, const float* __restrict t, const float* __restrict st,
                                const float* __restrict e, size_t e_stride, float* __restrict stored) {
   for (size_t c = 0; c < 3; ++c) {
     float* __restrict vc = v + c * stride;
@@ -651,7 +644,7 @@ template <bool kVarying, int L>
     }
   }
 }
-#if DRTV_SWEEP_DISPATCH
+#if DRTV_SIMD_MULTIVERSION
 template <bool kVarying>
 __attribute__((target("arch=x86-64-v4"))) void gatherRowV4(int n, const TapRows& g) {
   gatherRowBody<kVarying, 16>(n, g);
@@ -663,7 +656,7 @@ __attribute__((target("avx2"))) void gatherRowAvx2(int n, const TapRows& g) {
 #endif
 template <bool kVarying>
 void gatherRow(int n, const TapRows& g) {
-#if DRTV_SWEEP_DISPATCH
+#if DRTV_SIMD_MULTIVERSION
   switch (isa()) {
     case Isa::kV4: return gatherRowV4<kVarying>(n, g);
     case Isa::kAvx2: return gatherRowAvx2<kVarying>(n, g);
@@ -685,7 +678,7 @@ struct ReflectionRows {
 
 // Adds what one direction loses in each cell of the span, its light I (rows in_*) times (1 - T)
 // (row t), normalised by the direction's norm, to the sums.
-DRTV_SWEEP_CLONES void addStopped(int n, const ReflectionRows& w, const float* __restrict in_r, const float* __restrict in_g,
+DRTV_SIMD_CLONES void addStopped(int n, const ReflectionRows& w, const float* __restrict in_r, const float* __restrict in_g,
                                   const float* __restrict in_b, const float* __restrict t, float cos_sum, float ux, float uy, float uz) {
   const float* __restrict tau = w.tau;
   float *__restrict sr = w.sum[0], *__restrict sg = w.sum[1], *__restrict sb = w.sum[2];
@@ -719,7 +712,7 @@ DRTV_SWEEP_CLONES void addStopped(int n, const ReflectionRows& w, const float* _
 
 // A down-going direction's light in each cell of the span: what it stores (I sqrt(T) + reflected
 // / 2, replacing its gathered light in rows io_*) and what it sends on (I T + reflected, rows l*).
-DRTV_SWEEP_CLONES void reflectDown(int n, const ReflectionRows& w, float ux, float uy, float uz, float omega, const float* __restrict t,
+DRTV_SIMD_CLONES void reflectDown(int n, const ReflectionRows& w, float ux, float uy, float uz, float omega, const float* __restrict t,
                                    const float* __restrict st, float* __restrict io_r, float* __restrict io_g, float* __restrict io_b,
                                    float* __restrict lr, float* __restrict lg, float* __restrict lb) {
   const float *__restrict fa = w.fa, *__restrict fb = w.fb;
@@ -742,7 +735,7 @@ DRTV_SWEEP_CLONES void reflectDown(int n, const ReflectionRows& w, float ux, flo
 }
 
 // An up-going direction's reflected light in each cell of the span, into rows e*.
-DRTV_SWEEP_CLONES void reflectUp(int n, const ReflectionRows& w, float ux, float uy, float uz, float omega, float* __restrict er,
+DRTV_SIMD_CLONES void reflectUp(int n, const ReflectionRows& w, float ux, float uy, float uz, float omega, float* __restrict er,
                                  float* __restrict eg, float* __restrict eb) {
   const float *__restrict fa = w.fa, *__restrict fb = w.fb;
   const float *__restrict rhor = w.rho[0], *__restrict rhog = w.rho[1], *__restrict rhob = w.rho[2];

@@ -9,6 +9,7 @@
 #include <immintrin.h>
 #endif
 
+#include "drtv/formats/sh.h"
 #include "simd_clones.h"
 #include "small_float.h"
 
@@ -34,7 +35,7 @@ Isa isa() {
 }
 #endif
 
-constexpr float kFourPi = 12.566370614359172f;
+constexpr float kFourPi = 4.f * sh::kPi;  // exact: 4 is a power of two
 
 }  // namespace
 

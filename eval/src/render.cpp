@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <numbers>
 #include <optional>
 #include <sstream>
 
@@ -26,7 +27,6 @@ namespace {
 using baker::detail::Clock;
 using baker::detail::since;
 
-constexpr double kPi = 3.14159265358979323846;
 // Reinhard's middle grey [3]: the log-average luminance is mapped here.
 constexpr double kExposureKey = 0.18;
 // Added to luminance before the log so that black pixels do not send the average to -inf [3].
@@ -164,7 +164,7 @@ Result<RenderResult> render(const worlds::World& world, const std::string& where
   if (glm::dot(right, right) < 1e-12) right = glm::cross(fwd, glm::dvec3(0, 1, 0));
   right = glm::normalize(right);
   const glm::dvec3 up = glm::cross(right, fwd);
-  const double tan_half = std::tan(cam.vertical_fov_deg * kPi / 360.0);
+  const double tan_half = std::tan(cam.vertical_fov_deg * std::numbers::pi / 360.0);
   const double aspect = double(cam.width) / double(cam.height);
   const size_t n = size_t(cam.width) * size_t(cam.height);
   out.stats.pixels = n;
@@ -203,7 +203,7 @@ Result<RenderResult> render(const worlds::World& world, const std::string& where
     }
   });
   auto radiance = [&](size_t i, const glm::vec3& ambient) {
-    return out.hit[i] ? px[i].albedo * float(1.0 / kPi) * (ambient + px[i].direct) : px[i].sky;
+    return out.hit[i] ? px[i].albedo * float(1.0 / std::numbers::pi) * (ambient + px[i].direct) : px[i].sky;
   };
   out.stats.preview_s = since(t_preview);
 

@@ -18,7 +18,6 @@
 namespace drtv::reference {
 namespace {
 
-constexpr float kPi = sh::kPi;
 // The absolute part of rayOffset: 0.1 mm, below any modelled detail.
 constexpr float kRayOffsetAbsM = 1e-4f;
 // The relative part: 30 float ulps (2^-23 each) of the largest coordinate.
@@ -150,7 +149,7 @@ ReferenceIrradiance estimate(const ReferenceScene& scene, const Prepared& prep, 
       ++out.rays;
       const raytrace::Hit h = rs.intersect(ray);
       if (!h.hit()) {
-        const glm::vec3 L = skyRadiance(prep, ray.dir) * kPi;
+        const glm::vec3 L = skyRadiance(prep, ray.dir) * sh::kPi;
         if (bounce == 0) sky_d += L;
         else sky_b += beta * L;
         break;

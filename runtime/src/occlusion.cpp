@@ -6,10 +6,11 @@
 #include <limits>
 
 #include "drtv/formats/quantize.h"
+#include "world_limits.h"
 
 namespace drtv::runtime {
 namespace {
-constexpr double kMaxWorldM = 1e11;  // beyond, no sector (floor(x / 64) must fit in int32)
+using detail::kMaxWorldM;
 
 // Round half away from zero, as lround, without the library call (v * 255 + 0.5 >= 0.5 here).
 uint8_t toUnorm8(float v) { return uint8_t(int(std::clamp(v, 0.f, 1.f) * 255.f + 0.5f)); }

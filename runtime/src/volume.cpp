@@ -1,4 +1,5 @@
-// volume.cpp — see volume.h for the references [1-2], the layout and the defaults.
+// volume.cpp — see volume.h for the references [1-2], the layout and the defaults. The blur is
+// volume_blur.cpp.
 #include "drtv/runtime/volume.h"
 
 #include <algorithm>
@@ -10,6 +11,7 @@
 
 #include "drtv/formats/error.h"
 #include "pack.h"
+#include "toroidal.h"
 
 namespace drtv::runtime {
 namespace {
@@ -17,17 +19,11 @@ namespace {
 // Cameras are clamped to +-1e8 m so that world texel indices fit in int32 for texels >= 0.05 m.
 constexpr double kMaxCameraM = 1e8;
 
-inline int floorMod(int a, int n) {
-  const int r = a % n;
-  return r < 0 ? r + n : r;
-}
-inline int floorDiv(int a, int n) { return (a - floorMod(a, n)) / n; }
+using detail::floorDiv;
+using detail::floorMod;
+
 // Boxes at most this many texels wide in x are filled column by column (see fillBox).
 constexpr int kThinSlabX = 2;
-// Boxes at most this many texels wide in x are blurred with y as the fast axis (see blurBox).
-constexpr int kThinBlurX = 4;
-// Box rows blurred together (blurBox): a strip's buffers fit in L1.
-constexpr int kBlurStripRows = 8;
 
 // floor() inline: on the x86-64 baseline std::floor is a libm call (no SSE4.1 roundsd), and a
 // one-texel scroll computes ~250 of them (a third of its time). |v| < 2^31 (cameras are clamped).
@@ -59,63 +55,6 @@ struct SlotTable {
     return present[i] ? &views[i] : nullptr;
   }
 };
-
-// The blur's row kernels, on 16-bit lanes (sums stay below 64 * 255), written so that they
-// vectorise: restrict pointers, no widening to int. They are compiled for AVX-512 and AVX2 as well
-// as the baseline and picked at load time (GCC function multi-versioning, as in probe_cache.cpp):
-// the baseline's 8 lanes made the blur 3x a plain refill.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__SANITIZE_ADDRESS__) && \
-    !defined(__SANITIZE_THREAD__)
-#define DRTV_BLUR_CLONES __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
-#else
-#define DRTV_BLUR_CLONES
-#endif
-DRTV_BLUR_CLONES void blurTap3(const uint8_t* __restrict m, uint16_t* __restrict out, int lo, int hi) {
-  for (int i = lo; i < hi; ++i) out[i] = uint16_t(uint16_t(m[i - 4]) + uint16_t(2 * m[i]) + uint16_t(m[i + 4]));
-}
-DRTV_BLUR_CLONES void blurRows3(const uint16_t* __restrict r0, const uint16_t* __restrict r1, const uint16_t* __restrict r2,
-               uint16_t* __restrict out, int n) {
-  for (int i = 0; i < n; ++i) out[i] = uint16_t(r0[i] + uint16_t(2 * r1[i]) + r2[i]);
-}
-// The same taps for the thin-x blur, whose rows run along y: bytes in, and 16-bit sums in.
-DRTV_BLUR_CLONES void blurRows3Bytes(const uint8_t* __restrict r0, const uint8_t* __restrict r1, const uint8_t* __restrict r2,
-                    uint16_t* __restrict out, int n) {
-  for (int i = 0; i < n; ++i) out[i] = uint16_t(uint16_t(r0[i]) + uint16_t(2 * r1[i]) + uint16_t(r2[i]));
-}
-DRTV_BLUR_CLONES void blurTap3Wide(const uint16_t* __restrict m, uint16_t* __restrict out, int lo, int hi) {
-  for (int i = lo; i < hi; ++i) out[i] = uint16_t(m[i - 4] + uint16_t(2 * m[i]) + m[i + 4]);
-}
-// The x pass and the rounding in one (blurWholeRows): m holds the z and y passes' sums.
-DRTV_BLUR_CLONES void blurTap3Finish(const uint16_t* __restrict m, uint8_t* __restrict out, int lo, int hi) {
-  for (int i = lo; i < hi; ++i) out[i] = uint8_t(uint16_t(m[i - 4] + uint16_t(2 * m[i]) + m[i + 4] + 32) >> 6);
-}
-// blurTap3Finish for chosen texels of `rows` rows of `stride` lanes (blurWholeRows's patches):
-// bytes [to, to + 4) of each row from the lanes at offsets left, centre and right. Each is one
-// 8-lane vector sum of two texels' lanes (the second texel's are dropped; every offset is of a
-// column before the row's last, so its successor is in the row): a few instructions, where
-// twelve scalar loads and stores per texel (this path's first form) were 15 % of a blurred refill. Cloned: the baseline
-// lacks the byte-to-word and word-to-byte moves.
-struct BlurPatch {
-  int to, left, centre, right;
-};
-using BlurBytes8 = uint8_t __attribute__((vector_size(8)));
-using BlurLanes8 = uint16_t __attribute__((vector_size(16)));
-DRTV_BLUR_CLONES void blurFinishPatches(const uint16_t* __restrict m, uint8_t* __restrict out, int rows, int stride,
-                                        const BlurPatch* __restrict patches, int count) {
-  for (int r = 0; r < rows; ++r, m += stride, out += stride)
-    for (int p = 0; p < count; ++p) {
-      BlurLanes8 l, c, x;
-      std::memcpy(&l, m + patches[p].left, sizeof l), std::memcpy(&c, m + patches[p].centre, sizeof c);
-      std::memcpy(&x, m + patches[p].right, sizeof x);
-      const BlurBytes8 bytes = __builtin_convertvector((l + c + c + x + 32) >> 6, BlurBytes8);
-      std::memcpy(out + patches[p].to, &bytes, 4);
-    }
-}
-// Weights sum to 64: round half up, back to a byte.
-DRTV_BLUR_CLONES void blurFinish(const uint16_t* __restrict r0, const uint16_t* __restrict r1, const uint16_t* __restrict r2,
-                uint8_t* __restrict out, int n) {
-  for (int i = 0; i < n; ++i) out[i] = uint8_t(uint16_t(r0[i] + uint16_t(2 * r1[i]) + r2[i] + 32) >> 6);
-}
 
 }  // namespace
 
@@ -356,269 +295,6 @@ void Volume::fillBoxSmooth(const glm::ivec3& g0, const glm::ivec3& g1, const Pro
   filled_ += uint64_t(d.x) * d.y * d.z;
 }
 
-void Volume::blurBox(glm::ivec3 g0, glm::ivec3 g1) {
-  const glm::ivec3 n = period();
-  g0 = glm::max(g0, origin_);
-  g1 = glm::min(g1, origin_ + n);
-  const glm::ivec3 b = g1 - g0;
-  if (b.x <= 0 || b.y <= 0 || b.z <= 0) return;
-  // The apron: one texel around the box, inside the covered range. Clamping a neighbour index
-  // into the apron is the same as clamping it into the range (see volume.h: edges repeat).
-  const glm::ivec3 a0 = glm::max(g0 - 1, origin_), a1 = glm::min(g1 + 1, origin_ + n);
-  const glm::ivec3 a = a1 - a0;
-  if (b.x <= kThinBlurX) return blurThinX(g0, b, a0, a);
-  if (b.x == n.x) return blurWholeRows(g0, b, a0, a);
-  // Storage index per apron column, row and layer, computed once (no per-texel modulo).
-  thread_local std::vector<int> sx, sy, sz;
-  sx.resize(a.x), sy.resize(a.y), sz.resize(a.z);
-  for (int x = 0; x < a.x; ++x) sx[x] = floorMod(a0.x + x, n.x);
-  for (int y = 0; y < a.y; ++y) sy[y] = floorMod(a0.y + y, n.y);
-  for (int z = 0; z < a.z; ++z) sz[z] = floorMod(a0.z + z, n.z);
-  const size_t row_stride = size_t(options_.size.x), layer_stride = row_stride * size_t(options_.size.y);
-  // Columns [0, apron_run) of the apron and [0, box_run) of the box are contiguous in storage; the
-  // rest (if any) continues from storage column 0.
-  int apron_run = 1;
-  while (apron_run < a.x && sx[apron_run] == sx[apron_run - 1] + 1) ++apron_run;
-  const int ox0 = g0.x - a0.x;
-  int box_run = 1;
-  while (box_run < b.x && sx[ox0 + box_run] == sx[ox0 + box_run - 1] + 1) ++box_run;
-  // Strips of kBlurStripRows box rows at a time, and in each strip one layer at a time: a layer's
-  // x and y passes go into a ring of three blurred layers, and the z pass combines the ring as
-  // soon as it holds the layers an output layer needs. A strip's working set (~30 KB) stays in
-  // L1; whole layers (~330 KB) ran at L2's bandwidth, and whole-volume passes streamed ~10 MB.
-  // Every pass runs over a strip as one run of lanes, apron columns included (rows of W lanes in
-  // every buffer): per-row calls left a scalar remainder of up to 63 of a row's 380 lanes. Lanes
-  // of apron columns that a pass computes across a row's end are never read for a box texel; the
-  // box's own edge columns, where the apron has no column beyond them, are patched with their
-  // clamped taps.
-  const int ox = g0.x - a0.x, oy = g0.y - a0.y, oz = g0.z - a0.z;  // the box inside the apron
-  const int W = 4 * a.x;                                            // lanes per row, every buffer
-  const size_t strip_in = size_t(W) * (kBlurStripRows + 2), strip_out = size_t(W) * kBlurStripRows;
-  // Bytes are blurred as 16-bit sums on the four interleaved lanes of a texel (tap offset +-4
-  // bytes in x), in plain loops over arrays that the compiler vectorises.
-  thread_local std::vector<uint8_t> src, blurred;
-  thread_local std::vector<uint16_t> bx, ring;
-  src.resize(strip_in), bx.resize(strip_in), ring.resize(3 * strip_out), blurred.resize(strip_out);
-  const bool clamp_first = ox == 0, clamp_last = ox + b.x == a.x;  // a box edge column without apron
-  for (int c = 0; c < 3; ++c) {
-    const uint32_t* in = source_[c].data();
-    uint32_t* dst = texels_[c].data();
-    for (int y0 = 0; y0 < b.y; y0 += kBlurStripRows) {
-      const int y1 = std::min(y0 + kBlurStripRows, b.y);
-      const int r0 = std::max(oy + y0 - 1, 0), r1 = std::min(oy + y1 + 1, a.y);  // apron rows the strip reads
-      const int rn = r1 - r0;
-      int ring_z[3] = {-1, -1, -1};  // the apron layer each ring slot holds
-      auto layer = [&](int zi) -> const uint16_t* {
-        uint16_t* out_layer = &ring[size_t(zi % 3) * strip_out];
-        if (ring_z[zi % 3] == zi) return out_layer;
-        ring_z[zi % 3] = zi;
-        for (int r = 0; r < rn; ++r) {
-          const uint32_t* row = in + sz[zi] * layer_stride + sy[r0 + r] * row_stride;
-          uint8_t* out = &src[size_t(r) * W];
-          // sx runs contiguously up to the storage wrap: at most two copies.
-          std::memcpy(out, row + sx[0], size_t(apron_run) * 4);
-          if (apron_run < a.x) std::memcpy(out + 4 * apron_run, row + sx[apron_run], size_t(a.x - apron_run) * 4);
-        }
-        // x: [4, n - 4) has both neighbours in the strip; only the box's clamped edge columns differ.
-        blurTap3(src.data(), bx.data(), 4, rn * W - 4);
-        for (int r = 0; r < rn; ++r) {
-          const uint8_t* q = &src[size_t(r) * W];
-          uint16_t* o = &bx[size_t(r) * W];
-          for (int l = 0; l < 4; ++l) {
-            if (clamp_first) o[l] = uint16_t(3 * q[l] + q[4 + l]);
-            if (clamp_last) o[W - 4 + l] = uint16_t(q[W - 8 + l] + 3 * q[W - 4 + l]);
-          }
-        }
-        // y: box rows [y0, y1); only the apron's first and last rows clamp.
-        auto at = [&](int apron_row) { return &bx[size_t(apron_row - r0) * W]; };
-        const int first = oy + y0 == 0 ? y0 + 1 : y0, last = oy + y1 == a.y ? y1 - 1 : y1;
-        if (first > y0) blurRows3(at(0), at(0), at(std::min(1, a.y - 1)), out_layer, W);
-        if (last > first)
-          blurRows3(at(oy + first - 1), at(oy + first), at(oy + first + 1), &out_layer[size_t(first - y0) * W], (last - first) * W);
-        if (last < y1 && last >= first)
-          blurRows3(at(std::max(oy + last - 1, 0)), at(oy + last), at(oy + last), &out_layer[size_t(last - y0) * W], W);
-        return out_layer;
-      };
-      for (int z = 0; z < b.z; ++z) {
-        const int gz = oz + z;
-        const uint16_t* l0 = layer(std::max(gz - 1, 0));
-        const uint16_t* l1 = layer(gz);
-        const uint16_t* l2 = layer(std::min(gz + 1, a.z - 1));
-        blurFinish(l0, l1, l2, blurred.data(), (y1 - y0) * W);
-        const int tz = sz[gz];
-        for (int y = y0; y < y1; ++y) {
-          const uint8_t* br = &blurred[size_t(y - y0) * W + 4 * size_t(ox)];
-          uint32_t* row = dst + tz * layer_stride + sy[oy + y] * row_stride;
-          std::memcpy(row + sx[ox], br, size_t(box_run) * 4);
-          if (box_run < b.x) std::memcpy(row + sx[ox + box_run], br + 4 * box_run, size_t(b.x - box_run) * 4);
-        }
-      }
-    }
-    mirrorBoundary(dst, std::span(sx).subspan(size_t(ox), size_t(b.x)), std::span(sy).subspan(size_t(oy), size_t(b.y)),
-                   std::span(sz).subspan(size_t(oz), size_t(b.z)));
-  }
-}
-
-// blurBox for a box of whole rows (b.x == n.x, so the apron is the box in x): every rebuild,
-// advanceRebuild's layers, a z or y scroll's slabs. It runs in storage order, z first: per output
-// layer, strip of kBlurStripRows rows and channel, the z pass reads the three source layers' rows
-// where they lie (bytes in, 16-bit sums out), the y pass combines rows, and the x pass with the
-// rounding writes the bytes straight into the toroidal rows, duplicated column included. Nothing
-// is copied in or out (copying rows out and back was ~20 % of a blurred refill in blurBox's strip
-// order, the separate mirror ~6 %), and no ring of blurred layers is kept. (An output layer reads
-// only three source layers, so a rebuild could blur each layer right after filling the one above
-// it, while they are in L2; measured, that was no faster: 2026-12-02, BM_FullRefillNearestBlurred.
-// Nor were strips of 16 or 24 rows.) In storage order a texel's x neighbours are adjacent except
-// across column 0 (its left neighbour is column n.x - 1), at the range's two clamped edge columns,
-// and for the duplicated column (which copies column 0); those are patched per row
-// (blurFinishPatches). The sums are the same integers as blurBox's: the texels are equal bit for
-// bit. No texel depends on the source's duplicated column, row or layer.
-void Volume::blurWholeRows(const glm::ivec3& g0, const glm::ivec3& b, const glm::ivec3& a0, const glm::ivec3& a) {
-  const glm::ivec3 n = period();
-  thread_local std::vector<int> sy, sz;
-  sy.resize(size_t(a.y)), sz.resize(size_t(a.z));
-  for (int y = 0; y < a.y; ++y) sy[size_t(y)] = floorMod(a0.y + y, n.y);
-  for (int z = 0; z < a.z; ++z) sz[size_t(z)] = floorMod(a0.z + z, n.z);
-  const int oy = g0.y - a0.y, oz = g0.z - a0.z;  // the box inside the apron (in x it is the apron)
-  const size_t row_stride = size_t(options_.size.x), layer_stride = row_stride * size_t(options_.size.y);
-  const int W = 4 * options_.size.x;  // lanes per row: the storage row, duplicated column included
-  // The patched columns (lane offsets): storage columns 0 and n.x - 1, the range's first and last
-  // (clamped to themselves), and the duplicated column from column 0's taps.
-  const int e0 = floorMod(a0.x, n.x), e1 = floorMod(a0.x + a.x - 1, n.x);
-  std::array<BlurPatch, 5> patches{};
-  int patch_count = 0;
-  auto patch = [&](int to, int s) {
-    const int left = s == e0 ? s : (s == 0 ? n.x - 1 : s - 1), right = s == e1 ? s : (s + 1 == n.x ? 0 : s + 1);
-    patches[size_t(patch_count++)] = {4 * to, 4 * left, 4 * s, 4 * right};
-  };
-  for (const int s : {0, n.x - 1, e0, e1}) {
-    bool seen = false;
-    for (int k = 0; k < patch_count; ++k) seen |= patches[size_t(k)].to == 4 * s;
-    if (!seen) patch(s, s);
-  }
-  patch(n.x, 0);
-  // Apron rows [i, rowRun(i, end)) are adjacent storage rows (sy counts up by one): at most two runs.
-  auto rowRun = [&](int i, int end) {
-    int j = i + 1;
-    while (j < end && sy[size_t(j)] == sy[size_t(j - 1)] + 1) ++j;
-    return j;
-  };
-  thread_local std::vector<uint16_t> zt, yt;
-  zt.resize(size_t(W) * (kBlurStripRows + 2)), yt.resize(size_t(W) * kBlurStripRows);
-  for (int z = 0; z < b.z; ++z) {
-    const int gz = oz + z, tz = sz[size_t(gz)];
-    const size_t lm = size_t(sz[size_t(std::max(gz - 1, 0))]) * layer_stride, l0 = size_t(tz) * layer_stride,
-                 lp = size_t(sz[size_t(std::min(gz + 1, a.z - 1))]) * layer_stride;
-    for (int c = 0; c < 3; ++c) {
-      const auto* in = reinterpret_cast<const uint8_t*>(source_[c].data());
-      uint32_t* dst = texels_[c].data();
-      for (int y0 = 0; y0 < b.y; y0 += kBlurStripRows) {
-        const int y1 = std::min(y0 + kBlurStripRows, b.y);
-        const int r0 = std::max(oy + y0 - 1, 0), r1 = std::min(oy + y1 + 1, a.y);  // apron rows the strip reads
-        // z: the strip's apron rows, one run of lanes per run of adjacent storage rows.
-        for (int r = r0; r < r1;) {
-          const int r_end = rowRun(r, r1);
-          const size_t row = size_t(sy[size_t(r)]) * row_stride * 4;
-          blurRows3Bytes(in + 4 * lm + row, in + 4 * l0 + row, in + 4 * lp + row, &zt[size_t(r - r0) * W], (r_end - r) * W);
-          r = r_end;
-        }
-        // y: box rows [y0, y1); only the apron's first and last rows clamp.
-        auto at = [&](int apron_row) { return &zt[size_t(apron_row - r0) * W]; };
-        const int first = oy + y0 == 0 ? y0 + 1 : y0, last = oy + y1 == a.y ? y1 - 1 : y1;
-        if (first > y0) blurRows3(at(0), at(0), at(std::min(1, a.y - 1)), yt.data(), W);
-        if (last > first)
-          blurRows3(at(oy + first - 1), at(oy + first), at(oy + first + 1), &yt[size_t(first - y0) * W], (last - first) * W);
-        if (last < y1 && last >= first)
-          blurRows3(at(std::max(oy + last - 1, 0)), at(oy + last), at(oy + last), &yt[size_t(last - y0) * W], W);
-        // x and the rounding, into the texels; then the patched columns.
-        for (int y = y0; y < y1;) {
-          const int y_end = rowRun(oy + y, oy + y1) - oy;
-          const uint16_t* m = &yt[size_t(y - y0) * W];
-          auto* out = reinterpret_cast<uint8_t*>(dst + l0 + size_t(sy[size_t(oy + y)]) * row_stride);
-          blurTap3Finish(m, out, 4, (y_end - y) * W - 4);
-          blurFinishPatches(m, out, y_end - y, W, patches.data(), patch_count);
-          y = y_end;
-        }
-        // The duplicated row and layer (mirrorBoundary's y and z; x is done).
-        auto row = [&](int ry, int rz) { return dst + size_t(rz) * layer_stride + size_t(ry) * row_stride; };
-        for (int y = y0; y < y1; ++y) {
-          const int ty = sy[size_t(oy + y)];
-          if (ty == 0) std::memcpy(row(n.y, tz), row(0, tz), size_t(W));
-          if (tz == 0) std::memcpy(row(ty, n.z), row(ty, 0), size_t(W));
-          if (ty == 0 && tz == 0) std::memcpy(row(n.y, n.z), row(0, 0), size_t(W));
-        }
-      }
-    }
-  }
-}
-
-// blurBox for a box at most kThinBlurX texels wide in x (what a scroll along x re-blurs: the
-// entered slab with one texel either side, and the new face). Its rows along x are a few texels
-// long, so the row-wise passes of blurBox paid their per-row set-up for every texel (136 us for a
-// one-texel x scroll, 30x the cost per texel of a whole-volume blur). Here the apron is gathered
-// with y as the fast axis, the three passes run along y, and the result is scattered back. The
-// sums are the same integers as blurBox's: the texels are equal bit for bit.
-void Volume::blurThinX(const glm::ivec3& g0, const glm::ivec3& b, const glm::ivec3& a0, const glm::ivec3& a) {
-  const glm::ivec3 n = period();
-  thread_local std::vector<int> sx, sy, sz;
-  sx.resize(size_t(a.x)), sy.resize(size_t(a.y)), sz.resize(size_t(a.z));
-  for (int x = 0; x < a.x; ++x) sx[size_t(x)] = floorMod(a0.x + x, n.x);
-  for (int y = 0; y < a.y; ++y) sy[size_t(y)] = floorMod(a0.y + y, n.y);
-  for (int z = 0; z < a.z; ++z) sz[size_t(z)] = floorMod(a0.z + z, n.z);
-  const int ox = g0.x - a0.x, oy = g0.y - a0.y, oz = g0.z - a0.z;  // the box inside the apron
-  const size_t row_stride = size_t(options_.size.x), layer_stride = row_stride * size_t(options_.size.y);
-  const size_t ay4 = size_t(a.y) * 4, by4 = size_t(b.y) * 4;
-  // Lanes: [x][z][y][byte]; `src` over the apron, `px` after the x pass (box columns, apron
-  // rows and layers), `py` after the y pass (box rows), `out` the finished bytes of one column.
-  thread_local std::vector<uint8_t> src, out;
-  thread_local std::vector<uint16_t> px, py;
-  src.resize(size_t(a.x) * a.z * ay4);
-  px.resize(size_t(b.x) * a.z * ay4);
-  py.resize(size_t(b.x) * a.z * by4);
-  out.resize(by4);
-  for (int c = 0; c < 3; ++c) {
-    const uint32_t* in = source_[c].data();
-    for (int z = 0; z < a.z; ++z)
-      for (int y = 0; y < a.y; ++y) {
-        const uint32_t* row = in + size_t(sz[size_t(z)]) * layer_stride + size_t(sy[size_t(y)]) * row_stride;
-        for (int x = 0; x < a.x; ++x) std::memcpy(&src[(size_t(x) * a.z + z) * ay4 + size_t(y) * 4], row + sx[size_t(x)], 4);
-      }
-    // x: neighbours clamped into the apron (the same as into the covered range, see blurBox).
-    for (int x = 0; x < b.x; ++x) {
-      const int gx = ox + x, xm = std::max(gx - 1, 0), xp = std::min(gx + 1, a.x - 1);
-      for (int z = 0; z < a.z; ++z)
-        blurRows3Bytes(&src[(size_t(xm) * a.z + z) * ay4], &src[(size_t(gx) * a.z + z) * ay4], &src[(size_t(xp) * a.z + z) * ay4],
-                       &px[(size_t(x) * a.z + z) * ay4], int(ay4));
-    }
-    // y: only the apron's first and last rows clamp.
-    const int rb = int(by4), lo = oy == 0 ? 4 : 0, hi = oy + b.y == a.y ? rb - 4 : rb;
-    for (int x = 0; x < b.x; ++x)
-      for (int z = 0; z < a.z; ++z) {
-        const uint16_t* r = &px[(size_t(x) * a.z + z) * ay4];
-        uint16_t* o = &py[(size_t(x) * a.z + z) * by4];
-        auto tap = [&](int i) {
-          const int gy = oy + i / 4, l = i % 4;
-          return uint16_t(r[4 * std::max(gy - 1, 0) + l] + 2 * r[4 * gy + l] + r[4 * std::min(gy + 1, a.y - 1) + l]);
-        };
-        for (int i = 0; i < lo && i < rb; ++i) o[i] = tap(i);
-        blurTap3Wide(r + 4 * oy, o, lo, hi);
-        for (int i = std::max(hi, lo); i < rb; ++i) o[i] = tap(i);
-      }
-    // z, rounding, and back into the texels.
-    uint32_t* dst = texels_[c].data();
-    for (int x = 0; x < b.x; ++x) {
-      const size_t tx = size_t(sx[size_t(ox + x)]);
-      for (int z = 0; z < b.z; ++z) {
-        const int gz = oz + z, zm = std::max(gz - 1, 0), zp = std::min(gz + 1, a.z - 1);
-        blurFinish(&py[(size_t(x) * a.z + zm) * by4], &py[(size_t(x) * a.z + gz) * by4], &py[(size_t(x) * a.z + zp) * by4], out.data(), rb);
-        uint32_t* layer = dst + size_t(sz[size_t(gz)]) * layer_stride + tx;
-        for (int y = 0; y < b.y; ++y) std::memcpy(layer + size_t(sy[size_t(oy + y)]) * row_stride, &out[size_t(y) * 4], 4);
-      }
-    }
-    mirrorBoundary(dst, std::span(sx).subspan(size_t(ox), size_t(b.x)), std::span(sy).subspan(size_t(oy), size_t(b.y)),
-                   std::span(sz).subspan(size_t(oz), size_t(b.z)));
-  }
-}
 
 void Volume::mirrorBoundary(uint32_t* tex, std::span<const int> xs, std::span<const int> ys, std::span<const int> zs) const {
   const glm::ivec3 n = period();

@@ -3,6 +3,7 @@
 #include "drtv/sweep/directions.h"
 
 #include <cmath>
+#include <numbers>
 #include <vector>
 
 namespace drtv::sweep {
@@ -12,7 +13,6 @@ namespace {
 // degrees ~90. The midpoint rule in z integrates the cosine exactly whatever the count.
 constexpr int kRows = 256;
 constexpr int kCols = 512;
-constexpr double kPi = 3.14159265358979323846;
 
 struct Tables {
   std::array<Direction, kDirections> dirs;
@@ -25,7 +25,7 @@ struct Tables {
 glm::dvec3 sampleDir(int i, int j) {
   const double z = -1.0 + (i + 0.5) * 2.0 / kRows;
   const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
-  const double phi = (j + 0.5) * 2.0 * kPi / kCols;
+  const double phi = (j + 0.5) * 2.0 * std::numbers::pi / kCols;
   return {r * std::cos(phi), r * std::sin(phi), z};
 }
 
@@ -47,7 +47,7 @@ Tables build() {
     if (d.step.z == 0) d.sweep_step = {kNearHorizontalStep * d.step.x, kNearHorizontalStep * d.step.y, -1};
     from[size_t(b)] = -glm::normalize(glm::dvec3(d.sweep_step));
   }
-  const double d_omega = 4.0 * kPi / (double(kRows) * kCols);
+  const double d_omega = 4.0 * std::numbers::pi / (double(kRows) * kCols);
   std::array<double, kDirections> omega{};
   std::array<glm::dvec3, kDirections> sum{};
   t.row_omega.assign(kRows, {});

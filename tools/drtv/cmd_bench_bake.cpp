@@ -14,7 +14,7 @@
 
 #include "commands.h"
 #include "drtv/baker/bake.h"
-#include "raw_rays.h"
+#include "drtv/raytrace/raw_rays.h"
 #include "drtv/raytrace/ray_scene.h"
 #include "drtv/worlds/island.h"
 
@@ -49,9 +49,9 @@ Result<void> runBench(const BenchOptions& o) {
     bo.quality = *quality;
     bo.threads = o.threads;
     const auto archive = dir / ("island-" + std::to_string(int(size)) + ".drtv");
-    const double cpu0 = bench::processCpuSeconds();
+    const double cpu0 = raytrace::processCpuSeconds();
     auto report = baker::bake(*world, "island", archive, bo);
-    const double bake_cpu_s = bench::processCpuSeconds() - cpu0;
+    const double bake_cpu_s = raytrace::processCpuSeconds() - cpu0;
     if (!report) return std::unexpected(report.error());
     if (auto w = baker::writeReports(*report, dir / "bake-report.json", dir / "bake-report.md"); !w) return w;
     uint64_t rays = 0;
@@ -68,11 +68,11 @@ Result<void> runBench(const BenchOptions& o) {
     std::vector<SectorKey> keys;
     for (int i = 0; i < 8; ++i)
       keys.push_back({r.x0 + (r.x1 - r.x0) * (2 * i + 1) / 16, r.y0 + (r.y1 - r.y0) * (2 * i + 1) / 16});
-    auto raw = bench::measureRawRays(*geometry, keys, o.rays, report->settings.halo_m);
+    auto raw = raytrace::measureRawRays(*geometry, keys, o.rays, report->settings.halo_m);
     if (!raw) return std::unexpected(raw.error());
     // Embree alone on the bake's own rays: bake each of those sectors again in memory with a ray
     // log installed, then cast the logged calls again on the same sector's scene.
-    bench::ReplayFigures replay;
+    raytrace::ReplayFigures replay;
     uint64_t logged = 0, counted = 0;
     for (const SectorKey key : keys) {
       raytrace::RayLog log;
@@ -89,7 +89,7 @@ Result<void> runBench(const BenchOptions& o) {
       const raytrace::SectorGeometry g = geometry->gather(key, baker::haloFor(report->settings, report->effects_baked));
       auto scene = raytrace::RayScene::build(g.vertices);
       if (!scene) return std::unexpected(scene.error());
-      const bench::ReplayFigures f = bench::replayRays(*scene, log, 3);
+      const raytrace::ReplayFigures f = raytrace::replayRays(*scene, log, 3);
       replay.rays += f.rays;
       replay.wall_s += f.wall_s;
       replay.cpu_s += f.cpu_s;

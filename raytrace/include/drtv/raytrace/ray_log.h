@@ -1,6 +1,6 @@
 // drtv/raytrace/ray_log.h — a benchmark's hook, not for production: records every ray query made
 // on any RayScene while installed. `drtv bench-bake` bakes a few sectors with one installed and
-// then casts exactly those rays again with nothing else around them (bench/common/raw_rays.h), to
+// then casts exactly those rays again with nothing else around them (drtv/raytrace/raw_rays.h), to
 // time Embree alone on the bake's own rays. Kept out of ray_scene.h: a bake never includes it.
 #pragma once
 

@@ -1,5 +1,5 @@
 // Raw Embree throughput on the bake's scenes (see raw_rays.h).
-#include "raw_rays.h"
+#include "drtv/raytrace/raw_rays.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -12,7 +12,7 @@
 #include "drtv/raytrace/ray_scene.h"
 #include "drtv/raytrace/sampling.h"
 
-namespace drtv::bench {
+namespace drtv::raytrace {
 
 double processCpuSeconds() {
   timespec ts{};
@@ -20,7 +20,7 @@ double processCpuSeconds() {
   return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
 }
 
-Result<RawRayFigures> measureRawRays(const raytrace::WorldGeometry& geometry, std::span<const SectorKey> keys, uint64_t rays,
+Result<RawRayFigures> measureRawRays(const WorldGeometry& geometry, std::span<const SectorKey> keys, uint64_t rays,
                                      double halo_m, uint64_t seed) {
   constexpr size_t kBatch = 256;
   RawRayFigures f;
@@ -28,21 +28,21 @@ Result<RawRayFigures> measureRawRays(const raytrace::WorldGeometry& geometry, st
   double t_single = 0, t_stream = 0, t_occluded = 0, c_single = 0, c_stream = 0, c_occluded = 0;
   const size_t points = std::max<size_t>(1, size_t(rays / keys.size() / kBatch));
   for (const SectorKey key : keys) {
-    const raytrace::SectorGeometry g = geometry.gather(key, halo_m);
-    auto scene = raytrace::RayScene::build(g.vertices);
+    const SectorGeometry g = geometry.gather(key, halo_m);
+    auto scene = RayScene::build(g.vertices);
     if (!scene) return std::unexpected(scene.error());
     f.triangles += g.triangleCount();
     // Probe-like origins: 1.5 m above the first surface under random points of the sector.
-    std::vector<raytrace::Ray> all(points * kBatch);
+    std::vector<Ray> all(points * kBatch);
     for (size_t p = 0; p < points; ++p) {
-      const uint64_t k = raytrace::hashKey(seed, uint64_t(uint32_t(key.ix)), uint64_t(uint32_t(key.iy)), p);
-      const glm::vec3 top(raytrace::unitFloat(raytrace::hashKey(k, 1)) * 64.f, raytrace::unitFloat(raytrace::hashKey(k, 2)) * 64.f, g.z_max + 10.f);
-      const raytrace::Hit h = scene->intersect(raytrace::Ray{top, 0.f, glm::vec3(0, 0, -1), INFINITY});
+      const uint64_t k = hashKey(seed, uint64_t(uint32_t(key.ix)), uint64_t(uint32_t(key.iy)), p);
+      const glm::vec3 top(unitFloat(hashKey(k, 1)) * 64.f, unitFloat(hashKey(k, 2)) * 64.f, g.z_max + 10.f);
+      const Hit h = scene->intersect(Ray{top, 0.f, glm::vec3(0, 0, -1), INFINITY});
       const glm::vec3 origin = h.hit() ? top - glm::vec3(0, 0, h.t - 1.5f) : glm::vec3(top.x, top.y, 1.5f);
-      const glm::vec2 shift(raytrace::unitFloat(raytrace::hashKey(k, 3)), raytrace::unitFloat(raytrace::hashKey(k, 4)));
-      for (size_t i = 0; i < kBatch; ++i) all[p * kBatch + i] = raytrace::Ray{origin, 0.f, raytrace::uniformSphere(raytrace::r2Point(uint32_t(i), shift)), INFINITY};
+      const glm::vec2 shift(unitFloat(hashKey(k, 3)), unitFloat(hashKey(k, 4)));
+      for (size_t i = 0; i < kBatch; ++i) all[p * kBatch + i] = Ray{origin, 0.f, uniformSphere(r2Point(uint32_t(i), shift)), INFINITY};
     }
-    std::vector<raytrace::Hit> hits(all.size());
+    std::vector<Hit> hits(all.size());
     std::vector<uint8_t> blocked(all.size());
     using Clock = std::chrono::steady_clock;
     auto t0 = Clock::now();
@@ -78,30 +78,30 @@ Result<RawRayFigures> measureRawRays(const raytrace::WorldGeometry& geometry, st
   return f;
 }
 
-ReplayFigures replayRays(const raytrace::RayScene& scene, const raytrace::RayLog& log, int repeat) {
+ReplayFigures replayRays(const RayScene& scene, const RayLog& log, int repeat) {
   ReplayFigures f;
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
   const double c0 = processCpuSeconds();
   for (int k = 0; k < repeat; ++k)
     tbb::parallel_for(tbb::blocked_range<size_t>(0, log.calls.size()), [&](const tbb::blocked_range<size_t>& r) {
-      std::vector<raytrace::Hit> hits;
+      std::vector<Hit> hits;
       std::vector<uint8_t> blocked;
       for (size_t c = r.begin(); c < r.end(); ++c) {
-        const raytrace::RayLog::Call& call = log.calls[c];
-        const std::span<const raytrace::Ray> rays(log.rays.data() + call.first, call.count);
+        const RayLog::Call& call = log.calls[c];
+        const std::span<const Ray> rays(log.rays.data() + call.first, call.count);
         switch (call.kind) {
-          case raytrace::RayLog::Kind::kIntersect1:
-            for (const raytrace::Ray& ray : rays) (void)scene.intersect(ray);
+          case RayLog::Kind::kIntersect1:
+            for (const Ray& ray : rays) (void)scene.intersect(ray);
             break;
-          case raytrace::RayLog::Kind::kIntersectM:
+          case RayLog::Kind::kIntersectM:
             hits.resize(rays.size());
             scene.intersect(rays, hits);
             break;
-          case raytrace::RayLog::Kind::kOccluded1:
-            for (const raytrace::Ray& ray : rays) (void)scene.occluded(ray);
+          case RayLog::Kind::kOccluded1:
+            for (const Ray& ray : rays) (void)scene.occluded(ray);
             break;
-          case raytrace::RayLog::Kind::kOccludedM:
+          case RayLog::Kind::kOccludedM:
             blocked.resize(rays.size());
             scene.occluded(rays, blocked);
             break;
@@ -114,4 +114,4 @@ ReplayFigures replayRays(const raytrace::RayScene& scene, const raytrace::RayLog
   return f;
 }
 
-}  // namespace drtv::bench
+}  // namespace drtv::raytrace

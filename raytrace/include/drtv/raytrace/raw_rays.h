@@ -1,5 +1,7 @@
-// drtv/baker/raw_rays.h — raw Embree throughput on the bake's own scenes, so that the bake's
-// rays/s can be read against what the ray tracer alone does on the same geometry (bench-bake).
+// drtv/raytrace/raw_rays.h — raw Embree throughput on the bake's own scenes, so that the bake's
+// rays/s can be read against what the ray tracer alone does on the same geometry (`drtv
+// bench-bake`, which owns the measurement: the program links no benchmark helper). Embree and
+// TBB stay private to raytrace/src.
 #pragma once
 
 #include <cstdint>
@@ -10,7 +12,7 @@
 #include "drtv/raytrace/world_geometry.h"
 #include "drtv/formats/error.h"
 
-namespace drtv::bench {
+namespace drtv::raytrace {
 
 struct RawRayFigures {
   uint64_t rays = 0;                   // rays cast per mode
@@ -29,7 +31,7 @@ double processCpuSeconds();
 // For each sector in `keys`, gathers it with `halo_m`, builds its scene and casts rays/keys.size()
 // incoherent rays (uniform directions from points 1.5 m above the ground, 256 per point) in each
 // mode, in parallel over points (TBB). Scene builds are not timed. Errors: Embree's.
-Result<RawRayFigures> measureRawRays(const raytrace::WorldGeometry& geometry, std::span<const SectorKey> keys, uint64_t rays,
+Result<RawRayFigures> measureRawRays(const WorldGeometry& geometry, std::span<const SectorKey> keys, uint64_t rays,
                                      double halo_m, uint64_t seed = 1);
 
 // Embree alone on a bake's own rays: `log`'s calls cast again on `scene` through the same entry
@@ -39,6 +41,6 @@ struct ReplayFigures {
   uint64_t rays = 0;  // rays cast (log rays x repeat)
   double wall_s = 0, cpu_s = 0;
 };
-ReplayFigures replayRays(const raytrace::RayScene& scene, const raytrace::RayLog& log, int repeat = 1);
+ReplayFigures replayRays(const RayScene& scene, const RayLog& log, int repeat = 1);
 
-}  // namespace drtv::bench
+}  // namespace drtv::raytrace

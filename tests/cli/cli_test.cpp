@@ -694,6 +694,11 @@ TEST(Farm, ASlurmShardIsTheArrayTaskCountedFromTheArraysFirstIndex) {
   const Outcome r = bakeShard(scratch("s.drtv"), "slurm", "export SLURM_ARRAY_TASK_ID=5 SLURM_ARRAY_TASK_MIN=4 SLURM_ARRAY_TASK_COUNT=2;");
   ASSERT_EQ(r.status, 0) << r.out;
   EXPECT_NE(r.out.find("baked shard 1/2 of"), std::string::npos) << r.out;
+  // --array=2-6:2 gives tasks 2, 4, 6: task 6 is shard 2 of 3.
+  const Outcome step = bakeShard(scratch("s.drtv"), "auto",
+                                 "export SLURM_ARRAY_TASK_ID=6 SLURM_ARRAY_TASK_MIN=2 SLURM_ARRAY_TASK_STEP=2 SLURM_ARRAY_TASK_COUNT=3;");
+  ASSERT_EQ(step.status, 0) << step.out;
+  EXPECT_NE(step.out.find("baked shard 2/3 of"), std::string::npos) << step.out;
 }
 
 TEST(Farm, AKubernetesShardIsTheCompletionIndexOfTheCountGivenOnTheCommandLineOrInTheEnvironment) {
@@ -714,6 +719,8 @@ TEST(Farm, AShardFromAMissingOrMalformedVariableIsAUsageErrorNamingIt) {
       {"slurm", "export SLURM_ARRAY_TASK_ID=1 SLURM_ARRAY_TASK_COUNT=x4;", "SLURM_ARRAY_TASK_COUNT='x4' is not a whole number"},
       {"slurm", "export SLURM_ARRAY_TASK_ID=4 SLURM_ARRAY_TASK_COUNT=4;", "past SLURM_ARRAY_TASK_COUNT=4"},
       {"slurm/3", "export SLURM_ARRAY_TASK_ID=1 SLURM_ARRAY_TASK_COUNT=4;", "SLURM_ARRAY_TASK_COUNT=4"},
+      {"slurm", "export SLURM_ARRAY_TASK_ID=3 SLURM_ARRAY_TASK_MIN=0 SLURM_ARRAY_TASK_STEP=2 SLURM_ARRAY_TASK_COUNT=4;",
+       "SLURM_ARRAY_TASK_ID=3 is not SLURM_ARRAY_TASK_MIN=0 plus a multiple of SLURM_ARRAY_TASK_STEP=2"},
       {"k8s", "export JOB_COMPLETION_INDEX=0;", "DRTV_SHARD_COUNT"},
       {"k8s/2", "", "JOB_COMPLETION_INDEX is not set"},
       {"k8s/2", "export JOB_COMPLETION_INDEX=-1;", "JOB_COMPLETION_INDEX='-1' is not a whole number"},

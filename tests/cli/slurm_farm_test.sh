@@ -42,12 +42,19 @@ cleanup() {
 }
 trap cleanup EXIT
 
-# Free TCP ports for the two daemons (another Slurm on this machine keeps its own).
-read -r ctld_port slurmd_port < <(python3 -c '
-import socket
-s = [socket.socket() for _ in range(2)]
-for x in s: x.bind(("127.0.0.1", 0))
-print(*[x.getsockname()[1] for x in s])')
+# Free TCP ports for the two daemons (another Slurm on this machine keeps its own): a port nothing
+# answers on (bash's /dev/tcp; no other tool needed).
+free_port() {
+  local port
+  for _ in $(seq 200); do
+    port=$((20000 + RANDOM % 40000))
+    [ "$port" = "${1:-}" ] && continue
+    if ! (exec 3<>"/dev/tcp/127.0.0.1/$port") 2>/dev/null; then echo "$port"; return 0; fi
+  done
+  fail "no free TCP port found for the test's Slurm"
+}
+ctld_port=$(free_port)
+slurmd_port=$(free_port "$ctld_port")
 
 # munge: its own key, socket, pid and seed files.
 mkdir -p "$tmp/munge"

@@ -16,26 +16,28 @@ constexpr uint64_t kMiB = 1ull << 20;
 
 uint64_t roundUp64MiB(uint64_t bytes) { return (bytes + 64 * kMiB - 1) / (64 * kMiB) * (64 * kMiB); }
 
-std::string bakeCommand(const FarmPlan& p, const std::string& shard_flag) {
-  std::string out = shellQuote(p.drtv) + " bake " + shellQuote(p.world) + " -o " + shellQuote(p.archive);
-  if (!shard_flag.empty()) out += " --shard " + shard_flag + " --threads " + std::to_string(p.cpus_per_task);
-  else out += " --merge";
-  for (const std::string& a : p.bake_args) out += " " + shellQuote(a);
-  return out;
-}
+std::string megabytes(uint64_t bytes) { return std::to_string((bytes + kMiB - 1) / kMiB); }
 
-std::vector<std::string> bakeArgv(const FarmPlan& p, bool merge) {
+// The bake's argv: a shard (`shard_flag`) or the merge, bounded by the memory its task is given
+// (--max-memory, memory_limit.h): an input that needs more is refused up front with an error
+// naming it, which the shard writes into its status, instead of the scheduler killing the task.
+std::vector<std::string> bakeArgv(const FarmPlan& p, const std::string& shard_flag) {
   std::vector<std::string> argv{p.drtv, "bake", p.world, "-o", p.archive};
-  if (merge) {
-    argv.push_back("--merge");
+  if (shard_flag.empty()) {
+    argv.insert(argv.end(), {"--merge", "--max-memory", megabytes(p.merge_memory_bytes) + "M"});
   } else {
-    argv.insert(argv.end(), {"--shard", "k8s/" + std::to_string(p.shards), "--threads", std::to_string(p.cpus_per_task)});
+    argv.insert(argv.end(), {"--shard", shard_flag, "--threads", std::to_string(p.cpus_per_task), "--max-memory",
+                             megabytes(p.memory_bytes) + "M"});
   }
   argv.insert(argv.end(), p.bake_args.begin(), p.bake_args.end());
   return argv;
 }
 
-std::string megabytes(uint64_t bytes) { return std::to_string((bytes + kMiB - 1) / kMiB); }
+std::string bakeCommand(const FarmPlan& p, const std::string& shard_flag) {
+  std::string out;
+  for (const std::string& a : bakeArgv(p, shard_flag)) out += (out.empty() ? "" : " ") + shellQuote(a);
+  return out;
+}
 
 nlohmann::ordered_json podSpec(const FarmPlan& p, bool merge, const std::string& container) {
   nlohmann::ordered_json resources;
@@ -45,7 +47,7 @@ nlohmann::ordered_json podSpec(const FarmPlan& p, bool merge, const std::string&
   nlohmann::ordered_json c;
   c["name"] = container;
   c["image"] = p.image;
-  c["command"] = bakeArgv(p, merge);
+  c["command"] = bakeArgv(p, merge ? "" : "k8s/" + std::to_string(p.shards));
   c["env"] = nlohmann::ordered_json::array({{{"name", "CI"}, {"value", "1"}}});  // no progress bars in pod logs
   c["resources"] = resources;
   c["volumeMounts"] = nlohmann::ordered_json::array({{{"name", "bake"}, {"mountPath", p.mount_path}}});

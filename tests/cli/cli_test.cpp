@@ -861,7 +861,8 @@ TEST(Farm, SlurmScriptsRunAnArrayWithAppendedPerTaskLogsAndAMergeAfterEachTask) 
   EXPECT_NE(shards.find("/logs/%A_%a.log\n"), std::string::npos) << shards;
   EXPECT_NE(shards.find(" --shard slurm --threads "), std::string::npos) << shards;
   EXPECT_NE(shards.find(" --quality draft"), std::string::npos) << shards;
-  EXPECT_NE(merge_script.find(" --merge --quality draft"), std::string::npos) << merge_script;
+  EXPECT_NE(merge_script.find(" --merge --max-memory "), std::string::npos) << merge_script;
+  EXPECT_NE(merge_script.find(" --quality draft\n"), std::string::npos) << merge_script;
   EXPECT_NE(submit.find("--dependency=\"afterok$deps\""), std::string::npos) << submit;
   EXPECT_NE(submit.find("for ((i = 0; i < 4; ++i)); do deps=\"$deps:${array}_$i\"; done"), std::string::npos) << submit;
   // The estimate: one core per sector up to --max-cpus, memory in whole 64 MiB steps.
@@ -871,6 +872,9 @@ TEST(Farm, SlurmScriptsRunAnArrayWithAppendedPerTaskLogsAndAMergeAfterEachTask) 
   EXPECT_LE(cpus, 8);
   EXPECT_EQ(mem % 64, 0);
   EXPECT_GE(mem, 256);
+  // Each shard refuses up front what would not fit its task's memory, rather than being killed.
+  EXPECT_NE(shards.find(" --max-memory " + std::to_string(mem) + "M"), std::string::npos) << shards;
+  EXPECT_NE(merge_script.find(" --max-memory "), std::string::npos) << merge_script;
 }
 
 TEST(Farm, OneShardIsNoFarm) {
@@ -923,6 +927,9 @@ TEST(Farm, KubernetesManifestsAreAnIndexedJobOfTheShardsAndAMergeJobOnOneClaim) 
   const std::string memory = c["resources"]["requests"]["memory"];
   EXPECT_EQ(memory.substr(memory.size() - 2), "Mi") << memory;
   EXPECT_EQ(c["resources"]["requests"]["memory"], c["resources"]["limits"]["memory"]);
+  const auto max_memory = std::find(command.begin(), command.end(), "--max-memory");
+  ASSERT_NE(max_memory, command.end());
+  EXPECT_EQ(*(max_memory + 1) + "i", memory);  // --max-memory 320M is the pod's limit of 320Mi
 
   EXPECT_EQ(merge_job["kind"], "Job");
   EXPECT_EQ(merge_job["metadata"]["name"], "drtv-bake-merge");

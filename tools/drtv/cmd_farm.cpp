@@ -215,7 +215,8 @@ Command registerFarm(CLI::App& app) {
       "farm", "Bake on a cluster: write a Slurm job array or Kubernetes Indexed Job of shards and their merge; show the shards' status");
   farm->require_subcommand(1);
   CLI::App* slurm = farm->add_subcommand(
-      "slurm", "Write shards.sbatch (an array of N shard tasks), merge.sbatch and submit.sh (the merge waits on afterok of every task)");
+      "slurm", "Write shards.sbatch (an array of N shard tasks), merge.sbatch, submit.sh (the merge waits on afterok of every task) "
+      "and retry.sh (requeue failed tasks, re-arm the merge)");
   addPlanOptions(slurm, *o);
   slurm->add_option("--partition", o->partition, "Slurm partition (default: the cluster's)");
   slurm->add_option("--time", o->time_limit, "Time limit per task, e.g. 02:00:00 (default: the partition's)");

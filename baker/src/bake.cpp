@@ -572,14 +572,15 @@ uint64_t bakeFingerprint(const raytrace::WorldGeometry& geometry, const worlds::
   return fingerprint;
 }
 
-// Creates `dir` and stamps it with `fingerprint`; a directory stamped by a different bake is an
-// error unless `fresh` (then its journals are removed).
+// The fingerprint as bake.txt and the shards' status files write it: 16 hex digits.
 std::string fingerprintText(uint64_t fingerprint) {
   char text[32];
   std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(fingerprint));
   return text;
 }
 
+// Creates `dir` and stamps it with `fingerprint`; a directory stamped by a different bake is an
+// error unless `fresh` (then its journals are removed).
 Result<void> claimSectorDirectory(const fs::path& dir, uint64_t fingerprint, bool fresh) {
   const std::string fp = fingerprintText(fingerprint);
   const char* fp_text = fp.c_str();
@@ -717,7 +718,7 @@ std::string missingShards(const fs::path& dir, const std::vector<SectorKey>& key
     std::map<int, std::pair<SectorKey, size_t>> owners;  // shard -> (first missing sector, count)
     for (size_t i = 0; i < keys.size(); ++i)
       if (!have[i]) {
-        auto [it, added] = owners.try_emplace(int(i % size_t(n)), keys[i], 0);
+        const auto it = owners.try_emplace(int(i % size_t(n)), keys[i], 0).first;
         ++it->second.second;
       }
     for (const auto& [k, first] : owners) {

@@ -2,6 +2,7 @@
 // See bake.h for the overview and references.
 #include "drtv/baker/bake.h"
 
+#include <unistd.h>
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 #include <xxhash.h>
@@ -20,6 +21,7 @@
 #include <set>
 #include <sstream>
 
+#include "drtv/baker/shard.h"
 #include "drtv/raytrace/sampling.h"
 #include "sector_journal.h"
 #include "sector_stats.h"
@@ -68,8 +70,12 @@ float groundAt(const raytrace::RayScene& scene, const raytrace::SectorGeometry& 
 }
 
 
+// Shards on a farm write the same stamp at once: each through a temporary file of its own (host
+// and process), or one shard's rename would take the file another is still writing.
 Result<void> writeAtomically(const fs::path& path, const void* data, size_t size) {
-  const fs::path tmp = path.string() + ".tmp";
+  char host[256] = {};
+  if (::gethostname(host, sizeof host - 1) != 0) std::strcpy(host, "host");
+  const fs::path tmp = path.string() + "." + host + "." + std::to_string(::getpid()) + ".tmp";
   {
     std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
     if (!f) return fail(tmp.string() + ": cannot open for writing");
@@ -566,11 +572,18 @@ uint64_t bakeFingerprint(const raytrace::WorldGeometry& geometry, const worlds::
   return fingerprint;
 }
 
+// The fingerprint as bake.txt and the shards' status files write it: 16 hex digits.
+std::string fingerprintText(uint64_t fingerprint) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(fingerprint));
+  return text;
+}
+
 // Creates `dir` and stamps it with `fingerprint`; a directory stamped by a different bake is an
 // error unless `fresh` (then its journals are removed).
 Result<void> claimSectorDirectory(const fs::path& dir, uint64_t fingerprint, bool fresh) {
-  char fp_text[32];
-  std::snprintf(fp_text, sizeof fp_text, "%016llx", static_cast<unsigned long long>(fingerprint));
+  const std::string fp = fingerprintText(fingerprint);
+  const char* fp_text = fp.c_str();
   std::error_code ec;
   fs::create_directories(dir, ec);
   if (ec) return fail(dir.string() + ": cannot create: " + ec.message());
@@ -669,10 +682,78 @@ Result<void> packArchive(const raytrace::WorldGeometry& geometry, const worlds::
   return {};
 }
 
+// The shards' status files (shard.h) in `dir`, each checked against the merge's bake: a shard
+// baked from another world or with other settings is named, with what differs.
+Result<std::vector<ShardStatus>> shardsOfThisBake(const fs::path& dir, const std::string& fingerprint, const std::string& world_name,
+                                                  const BakeSettings& settings) {
+  auto statuses = readShardStatuses(dir);
+  if (!statuses) return std::unexpected(statuses.error());
+  for (const ShardStatus& s : *statuses) {
+    if (s.fingerprint.empty() || s.fingerprint == fingerprint) continue;  // empty: it failed before it knew
+    const std::map<std::string, std::string> theirs(s.settings.begin(), s.settings.end());
+    std::string differ;
+    for (const auto& [key, value] : settings.describe()) {
+      const auto it = theirs.find(key);
+      const std::string there = it == theirs.end() ? "unset" : it->second;
+      if (there != value) differ += (differ.empty() ? "" : ", ") + key + " " + there + " there, " + value + " here";
+    }
+    std::string why = differ.empty() ? "another world (its geometry, effects or interiors differ)" : "other settings (" + differ + ")";
+    if (s.world != world_name) why += "; it baked '" + s.world + "', this merge '" + world_name + "'";
+    return fail(shardStatusFile(dir, s.index, s.count).string() + ": shard " + std::to_string(s.index) + "/" +
+                std::to_string(s.count) + " was baked from " + why + "; rebake it like the others (--fresh discards its sectors)");
+  }
+  return statuses;
+}
+
+// Why the sectors `keys[i]` with !have[i] are missing, shard by shard, as the shards' status files
+// tell it: which shard of each split owns them, and whether it failed (its error), is running or
+// was killed, says it is done (its journal lost them), or never ran.
+std::string missingShards(const fs::path& dir, const std::vector<SectorKey>& keys, const std::vector<uint8_t>& have,
+                          const std::vector<ShardStatus>& statuses) {
+  std::set<int> splits;
+  for (const ShardStatus& s : statuses) splits.insert(s.count);
+  if (splits.empty()) return "; no shard has written a status in " + dir.string();
+  std::string out;
+  for (const int n : splits) {
+    std::map<int, std::pair<SectorKey, size_t>> owners;  // shard -> (first missing sector, count)
+    for (size_t i = 0; i < keys.size(); ++i)
+      if (!have[i]) {
+        const auto it = owners.try_emplace(int(i % size_t(n)), keys[i], 0).first;
+        ++it->second.second;
+      }
+    for (const auto& [k, first] : owners) {
+      const auto st = std::find_if(statuses.begin(), statuses.end(), [&](const ShardStatus& s) { return s.count == n && s.index == k; });
+      const std::string shard = "shard " + std::to_string(k) + "/" + std::to_string(n);
+      const std::string owned = " (" + std::to_string(first.second) + " of its sectors, first " + toString(first.first) + ")";
+      out += "; " + shard;
+      if (st == statuses.end()) out += " has not run" + owned;
+      else if (st->state == ShardStatus::State::kFailed) out += " failed" + owned + ": " + st->error;
+      else if (st->state == ShardStatus::State::kRunning) out += " is running or was killed" + owned;
+      else out += " says it is done but its journal sectors-" + std::to_string(k) + "-of-" + std::to_string(n) + ".log lacks" + owned;
+    }
+  }
+  return out;
+}
+
 }  // namespace
+
+static Result<BakeReport> bakeRecorded(const worlds::World& given, const std::string& world_name, const fs::path& archive,
+                                const BakeOptions& options);
 
 Result<BakeReport> bake(const worlds::World& given, const std::string& world_name, const fs::path& archive,
                         const BakeOptions& options) {
+  auto report = bakeRecorded(given, world_name, archive, options);
+  // A shard that fails says why in its status file, for the merge and `drtv farm status` (its
+  // scheduler's log may be on another machine, or gone).
+  const bool shard = !options.merge_only && options.shard_count > 1 && options.shard_index >= 0 && options.shard_index < options.shard_count;
+  if (!report && shard)
+    if (auto w = recordShardFailure(archive, {options.shard_index, options.shard_count}, report.error().message); !w)
+      return fail(report.error().message + " (and its status could not be written: " + w.error().message + ")");
+  return report;
+}
+
+static Result<BakeReport> bakeRecorded(const worlds::World& given, const std::string& world_name, const fs::path& archive,
+                                const BakeOptions& options) {
   const auto t_start = Clock::now();
   if (options.shard_count < 1 || options.shard_index < 0 || options.shard_index >= options.shard_count)
     return fail("--shard " + std::to_string(options.shard_index) + "/" + std::to_string(options.shard_count) +
@@ -751,8 +832,14 @@ Result<BakeReport> bake(const worlds::World& given, const std::string& world_nam
 
   // The sector directory, stamped with the bake's fingerprint: a resumed bake must be the same bake.
   const fs::path dir = sectorDirectory(archive);
-  if (auto ok = claimSectorDirectory(dir, bakeFingerprint(*geometry, world, report.settings, effects), options.fresh); !ok)
-    return std::unexpected(ok.error());
+  const uint64_t fingerprint = bakeFingerprint(*geometry, world, report.settings, effects);
+  std::vector<ShardStatus> shard_statuses;
+  if (options.merge_only) {
+    auto s = shardsOfThisBake(dir, fingerprintText(fingerprint), world_name, report.settings);
+    if (!s) return std::unexpected(s.error());
+    shard_statuses = std::move(*s);
+  }
+  if (auto ok = claimSectorDirectory(dir, fingerprint, options.fresh); !ok) return std::unexpected(ok.error());
   std::error_code ec;
 
   // Which sectors this process bakes; the rest are resumed (or, on merge, must exist).
@@ -778,7 +865,20 @@ Result<BakeReport> bake(const worlds::World& given, const std::string& world_nam
     std::string first;
     for (size_t i = 0; i < keys.size(); ++i)
       if (!have[i] && missing++ == 0) first = toString(keys[i]);
-    if (missing) return fail(dir.string() + ": " + std::to_string(missing) + " sectors not baked yet (first " + first + "); run the missing shards");
+    if (missing)
+      return fail(dir.string() + ": " + std::to_string(missing) + " sectors not baked yet (first " + first + ")" +
+                  missingShards(dir, keys, have, shard_statuses) + "; run the missing shards");
+  }
+
+  ShardStatus status;
+  if (!options.merge_only) {
+    status.index = options.shard_index;
+    status.count = options.shard_count;
+    status.fingerprint = fingerprintText(fingerprint);
+    status.world = world_name;
+    status.settings = report.settings.describe();
+    for (size_t i = size_t(options.shard_index); i < keys.size(); i += size_t(options.shard_count)) ++status.sectors;
+    if (auto w = writeShardStatus(dir, status); !w) return std::unexpected(w.error());
   }
 
   // Pass 1, with LPRT: the placement of every sector this process bakes and of their neighbours.
@@ -826,6 +926,12 @@ Result<BakeReport> bake(const worlds::World& given, const std::string& world_nam
   report.bake_s = since(t0);
   for (const auto& e : errors)
     if (e) return std::unexpected(e->context(world_name));
+  if (!options.merge_only) {
+    status.state = ShardStatus::State::kDone;
+    status.baked = todo.size();
+    status.wall_s = since(t_start);
+    if (auto w = writeShardStatus(dir, status); !w) return std::unexpected(w.error());
+  }
 
   for (size_t i = 0; i < keys.size(); ++i)
     if (have[i]) {

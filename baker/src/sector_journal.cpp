@@ -134,7 +134,10 @@ Result<void> removeJournals(const fs::path& dir) {
 }
 
 bool isJournalFile(const std::string& name) {
-  return ((name.starts_with("sectors-") || name.starts_with("placement-")) && name.ends_with(".log")) || name.starts_with("s_");
+  // shard-<k>-of-<N>.json (shard.h) goes with its journals: a status of a discarded bake would
+  // make the merge name a shard that no longer exists.
+  return ((name.starts_with("sectors-") || name.starts_with("placement-")) && name.ends_with(".log")) || name.starts_with("s_") ||
+         (name.starts_with("shard-") && name.ends_with(".json"));
 }
 
 Result<std::map<SectorKey, JournalEntry>> scanJournals(const fs::path& dir, std::string_view prefix) {

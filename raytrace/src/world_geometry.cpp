@@ -308,9 +308,9 @@ const WorldGeometry::Bin* WorldGeometry::bin(int32_t ix, int32_t iy) const {
   return &bins_[size_t(iy - bin_y0_) * bin_nx_ + (ix - bin_x0_)];
 }
 
-Result<void> WorldGeometry::checkBakeMemory(const SectorRange& range, double halo_m, int concurrent, const std::string& where) const {
+uint64_t WorldGeometry::largestGather(const SectorRange& range, double halo_m, SectorKey* at) const {
   uint64_t largest = 0;
-  SectorKey at{};
+  SectorKey where{};
   const int32_t reach = int32_t(std::ceil(halo_m / kSectorSizeM));
   // Bins outside the world's are empty: clamp the range to them first (a --sectors range may be
   // wider than the world, and a 1024 x 1024 world costs 1 M sums of (2 reach + 1)^2 bins).
@@ -322,8 +322,15 @@ Result<void> WorldGeometry::checkBakeMemory(const SectorRange& range, double hal
       for (int32_t by = y - reach; by <= y + reach; ++by)
         for (int32_t bx = x - reach; bx <= x + reach; ++bx)
           if (const Bin* b = bin(bx, by)) tris += b->triangles;
-      if (tris > largest) largest = tris, at = SectorKey{x, y};
+      if (tris > largest) largest = tris, where = SectorKey{x, y};
     }
+  if (at) *at = where;
+  return largest;
+}
+
+Result<void> WorldGeometry::checkBakeMemory(const SectorRange& range, double halo_m, int concurrent, const std::string& where) const {
+  SectorKey at{};
+  const uint64_t largest = largestGather(range, halo_m, &at);
   const uint64_t sectors = range.count();
   const uint64_t at_once = std::max<uint64_t>(1, std::min<uint64_t>(uint64_t(std::max(concurrent, 1)), sectors));
   return checkMemory(at_once * largest * kBakeBytesPerGatheredTriangle, where,

@@ -3,6 +3,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdio>
 #include <cstring>
@@ -675,4 +676,269 @@ TEST(Cli, InfoAndTheBakeReportSayWhatWasDoneWithTheMaterials) {
   EXPECT_NE(json.find("-> 8 point lights of I = Le A / 2"), std::string::npos);
   EXPECT_NE(md.find("- materials: 5 (opaque 5,"), std::string::npos) << md.substr(0, 2000);
   EXPECT_NE(md.find("- loader emissive: "), std::string::npos) << md.substr(0, 2000);
+}
+
+// ---- Baking on a farm (docs/baker.md, "Baking on a farm"; drtv/baker/shard.h and farm.h) ----
+
+const std::string kFarmWorld = src("worlds/fc3_testbox.json");
+// Clears the schedulers' variables a test run may itself have been given (inside Slurm or a pod).
+const std::string kNoScheduler =
+    "unset SLURM_ARRAY_TASK_ID SLURM_ARRAY_TASK_MIN SLURM_ARRAY_TASK_STEP SLURM_ARRAY_TASK_COUNT JOB_COMPLETION_INDEX "
+    "DRTV_SHARD_COUNT; export CI=1;";
+
+Outcome bakeShard(const std::string& archive, const std::string& shard, const std::string& env = "", const std::string& extra = "") {
+  return drtv("bake " + kFarmWorld + " -o " + archive + " --quality draft --threads 1 --shard " + shard + extra, kNoScheduler + env);
+}
+
+TEST(Farm, ASlurmShardIsTheArrayTaskCountedFromTheArraysFirstIndex) {
+  const Outcome r = bakeShard(scratch("s.drtv"), "slurm", "export SLURM_ARRAY_TASK_ID=5 SLURM_ARRAY_TASK_MIN=4 SLURM_ARRAY_TASK_COUNT=2;");
+  ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_NE(r.out.find("baked shard 1/2 of"), std::string::npos) << r.out;
+  // --array=2-6:2 gives tasks 2, 4, 6: task 6 is shard 2 of 3.
+  const Outcome step = bakeShard(scratch("s.drtv"), "auto",
+                                 "export SLURM_ARRAY_TASK_ID=6 SLURM_ARRAY_TASK_MIN=2 SLURM_ARRAY_TASK_STEP=2 SLURM_ARRAY_TASK_COUNT=3;");
+  ASSERT_EQ(step.status, 0) << step.out;
+  EXPECT_NE(step.out.find("baked shard 2/3 of"), std::string::npos) << step.out;
+}
+
+TEST(Farm, AKubernetesShardIsTheCompletionIndexOfTheCountGivenOnTheCommandLineOrInTheEnvironment) {
+  const Outcome line = bakeShard(scratch("k.drtv"), "k8s/2", "export JOB_COMPLETION_INDEX=1;");
+  ASSERT_EQ(line.status, 0) << line.out;
+  EXPECT_NE(line.out.find("baked shard 1/2 of"), std::string::npos) << line.out;
+  const Outcome env = bakeShard(scratch("k.drtv"), "auto", "export JOB_COMPLETION_INDEX=0 DRTV_SHARD_COUNT=2;");
+  ASSERT_EQ(env.status, 0) << env.out;
+  EXPECT_NE(env.out.find("baked shard 0/2 of"), std::string::npos) << env.out;
+}
+
+TEST(Farm, AShardFromAMissingOrMalformedVariableIsAUsageErrorNamingIt) {
+  const struct {
+    std::string shard, env, named;
+  } cases[] = {
+      {"slurm", "", "SLURM_ARRAY_TASK_ID is not set"},
+      {"slurm", "export SLURM_ARRAY_TASK_ID=1;", "SLURM_ARRAY_TASK_COUNT is not set"},
+      {"slurm", "export SLURM_ARRAY_TASK_ID=1 SLURM_ARRAY_TASK_COUNT=x4;", "SLURM_ARRAY_TASK_COUNT='x4' is not a whole number"},
+      {"slurm", "export SLURM_ARRAY_TASK_ID=4 SLURM_ARRAY_TASK_COUNT=4;", "past SLURM_ARRAY_TASK_COUNT=4"},
+      {"slurm/3", "export SLURM_ARRAY_TASK_ID=1 SLURM_ARRAY_TASK_COUNT=4;", "SLURM_ARRAY_TASK_COUNT=4"},
+      {"slurm", "export SLURM_ARRAY_TASK_ID=3 SLURM_ARRAY_TASK_MIN=0 SLURM_ARRAY_TASK_STEP=2 SLURM_ARRAY_TASK_COUNT=4;",
+       "SLURM_ARRAY_TASK_ID=3 is not SLURM_ARRAY_TASK_MIN=0 plus a multiple of SLURM_ARRAY_TASK_STEP=2"},
+      {"k8s", "export JOB_COMPLETION_INDEX=0;", "DRTV_SHARD_COUNT"},
+      {"k8s/2", "", "JOB_COMPLETION_INDEX is not set"},
+      {"k8s/2", "export JOB_COMPLETION_INDEX=-1;", "JOB_COMPLETION_INDEX='-1' is not a whole number"},
+      {"k8s/2", "export JOB_COMPLETION_INDEX=2;", "JOB_COMPLETION_INDEX=2 is past the 2 shards"},
+      {"auto", "", "neither SLURM_ARRAY_TASK_ID"},
+      {"2/2", "", "shard 2 is not in 0..1"},
+  };
+  for (const auto& c : cases) {
+    const Outcome r = bakeShard(scratch("bad.drtv"), c.shard, c.env);
+    EXPECT_EQ(r.status, 2) << c.shard << " " << c.env << "\n" << r.out;
+    EXPECT_NE(r.out.find(c.named), std::string::npos) << c.shard << " " << c.env << "\n" << r.out;
+  }
+}
+
+// Shards 0..n-1 of `archive`, each must succeed.
+void bakeShards(const std::string& archive, int n, const std::string& extra = "") {
+  for (int k = 0; k < n; ++k) {
+    const Outcome r = bakeShard(archive, std::to_string(k) + "/" + std::to_string(n), "", extra);
+    ASSERT_EQ(r.status, 0) << r.out;
+  }
+}
+
+Outcome merge(const std::string& archive, const std::string& world = kFarmWorld, const std::string& quality = "draft") {
+  return drtv("bake " + world + " -o " + archive + " --quality " + quality + " --merge", kNoScheduler);
+}
+
+TEST(Farm, EachShardWritesOnlyFilesNamedByItsOwnIndexBesideTheSharedStamp) {
+  const std::string archive = scratch("own.drtv");
+  bakeShards(archive, 3);
+  std::vector<std::string> names;
+  for (const auto& e : std::filesystem::directory_iterator(archive + ".sectors")) names.push_back(e.path().filename().string());
+  std::sort(names.begin(), names.end());
+  const std::vector<std::string> expected{"bake.txt",         "sectors-0-of-3.log", "sectors-1-of-3.log", "sectors-2-of-3.log",
+                                          "shard-0-of-3.json", "shard-1-of-3.json",  "shard-2-of-3.json"};
+  EXPECT_EQ(names, expected);
+}
+
+TEST(Farm, TheMergeNamesAShardBakedWithOtherSettingsAndWhatDiffers) {
+  const std::string archive = scratch("mixed.drtv");
+  bakeShards(archive, 2);
+  const Outcome m = merge(archive, kFarmWorld, "default");
+  EXPECT_EQ(m.status, 1) << m.out;
+  EXPECT_NE(m.out.find("shard-0-of-2.json: shard 0/2 was baked from other settings (quality draft there, default here"), std::string::npos)
+      << m.out;
+  EXPECT_FALSE(std::filesystem::exists(archive));
+}
+
+TEST(Farm, TheMergeNamesAShardBakedFromAnotherWorld) {
+  const std::string archive = scratch("other.drtv");
+  bakeShards(archive, 2);
+  const std::string other = src("tests/reference/data/cornell_world.json");
+  const Outcome m = merge(archive, other);
+  EXPECT_EQ(m.status, 1) << m.out;
+  EXPECT_NE(m.out.find("shard 0/2 was baked from another world"), std::string::npos) << m.out;
+  EXPECT_NE(m.out.find("it baked '" + kFarmWorld + "', this merge '" + other + "'"), std::string::npos) << m.out;
+  EXPECT_FALSE(std::filesystem::exists(archive));
+}
+
+TEST(Farm, TheMergeNamesAShardThatHasNotRun) {
+  const std::string archive = scratch("partial.drtv");
+  ASSERT_EQ(bakeShard(archive, "0/3").status, 0);
+  ASSERT_EQ(bakeShard(archive, "2/3").status, 0);
+  const Outcome m = merge(archive);
+  EXPECT_EQ(m.status, 1) << m.out;
+  EXPECT_NE(m.out.find("not baked yet"), std::string::npos) << m.out;
+  EXPECT_NE(m.out.find("; shard 1/3 has not run ("), std::string::npos) << m.out;
+  EXPECT_EQ(m.out.find("shard 0/3"), std::string::npos) << m.out;
+  EXPECT_FALSE(std::filesystem::exists(archive));
+}
+
+// A shard fails for real: another process (a straggler of the same shard) holds its journal.
+// `flock` in the shell that starts drtv holds the lock while drtv runs.
+Outcome bakeShardWithItsJournalHeld(const std::string& archive, int k, int n) {
+  const std::string dir = archive + ".sectors";
+  std::filesystem::create_directories(dir);
+  const std::string journal = dir + "/sectors-" + std::to_string(k) + "-of-" + std::to_string(n) + ".log";
+  return bakeShard(archive, std::to_string(k) + "/" + std::to_string(n), "exec 9>>'" + journal + "'; flock -n 9 || exit 99;");
+}
+
+TEST(Farm, AFailedShardWritesItsErrorWhichTheMergeAndTheStatusName) {
+  const std::string archive = scratch("failed.drtv");
+  ASSERT_EQ(bakeShard(archive, "0/3").status, 0);
+  const Outcome f = bakeShardWithItsJournalHeld(archive, 1, 3);
+  ASSERT_EQ(f.status, 1) << f.out;
+  EXPECT_NE(f.out.find("another bake is writing this shard's journal"), std::string::npos) << f.out;
+  const Outcome m = merge(archive);
+  EXPECT_EQ(m.status, 1) << m.out;
+  EXPECT_NE(m.out.find("; shard 1/3 failed ("), std::string::npos) << m.out;
+  EXPECT_NE(m.out.find("another bake is writing this shard's journal"), std::string::npos) << m.out;
+  EXPECT_NE(m.out.find("; shard 2/3 has not run"), std::string::npos) << m.out;
+
+  const Outcome s = drtv("farm status " + archive, kNoScheduler);
+  ASSERT_EQ(s.status, 0) << s.out;
+  EXPECT_NE(s.out.find(": 3 shards: 1 done, 0 running, 1 failed, 1 missing"), std::string::npos) << s.out;
+  EXPECT_NE(s.out.find("shard 0/3 done"), std::string::npos) << s.out;
+  EXPECT_NE(s.out.find("shard 1/3 failed"), std::string::npos) << s.out;
+  EXPECT_NE(s.out.find("sectors-1-of-3.log: another bake is writing this shard's journal"), std::string::npos) << s.out;
+  EXPECT_NE(s.out.find("shard 2/3 missing"), std::string::npos) << s.out;
+  const Outcome j = drtv("farm status --json " + archive, kNoScheduler);
+  ASSERT_EQ(j.status, 0) << j.out;
+  const nlohmann::json status = nlohmann::json::parse(j.out);
+  ASSERT_EQ(status["list"].size(), 3u);
+  EXPECT_EQ(status["list"][1]["state"], "failed");
+  EXPECT_EQ(status["list"][2]["state"], "missing");
+
+  // Its rerun, and the last shard, complete the set.
+  ASSERT_EQ(bakeShard(archive, "1/3").status, 0);
+  ASSERT_EQ(bakeShard(archive, "2/3").status, 0);
+  const Outcome done = merge(archive);
+  ASSERT_EQ(done.status, 0) << done.out;
+  const Outcome one = drtv("bake " + kFarmWorld + " -o " + scratch("one.drtv") + " --quality draft", kNoScheduler);
+  ASSERT_EQ(one.status, 0) << one.out;
+  EXPECT_EQ(slurp(archive), slurp(scratch("one.drtv")));
+  const Outcome packed = drtv("farm status " + archive, kNoScheduler);
+  EXPECT_NE(packed.out.find("packed"), std::string::npos) << packed.out;
+}
+
+TEST(Farm, AShardThatSaysItIsDoneButLostItsJournalIsNamedByTheMerge) {
+  const std::string archive = scratch("lost.drtv");
+  bakeShards(archive, 2);
+  std::filesystem::remove(archive + ".sectors/sectors-1-of-2.log");
+  const Outcome m = merge(archive);
+  EXPECT_EQ(m.status, 1) << m.out;
+  EXPECT_NE(m.out.find("shard 1/2 says it is done but its journal sectors-1-of-2.log lacks"), std::string::npos) << m.out;
+}
+
+TEST(Farm, SlurmScriptsRunAnArrayWithAppendedPerTaskLogsAndAMergeAfterEachTask) {
+  const std::string dir = scratch("slurm");
+  const Outcome r = drtv("farm slurm " + kFarmWorld + " -o " + scratch("w.drtv") + " --shards 4 --scripts " + dir +
+                             " --quality draft --partition bake --time 01:00:00",
+                         kNoScheduler);
+  ASSERT_EQ(r.status, 0) << r.out;
+  const std::string shards = slurp(dir + "/shards.sbatch"), merge_script = slurp(dir + "/merge.sbatch"),
+                    submit = slurp(dir + "/submit.sh");
+  for (const char* line : {"#SBATCH --array=0-3\n", "#SBATCH --open-mode=append\n", "#SBATCH --partition=bake\n",
+                           "#SBATCH --time=01:00:00\n", "#SBATCH --cpus-per-task=", "#SBATCH --mem="})
+    EXPECT_NE(shards.find(line), std::string::npos) << line << "\n" << shards;
+  EXPECT_NE(shards.find("/logs/%A_%a.log\n"), std::string::npos) << shards;
+  EXPECT_NE(shards.find(" --shard slurm --threads "), std::string::npos) << shards;
+  EXPECT_NE(shards.find(" --quality draft"), std::string::npos) << shards;
+  EXPECT_NE(merge_script.find(" --merge --max-memory "), std::string::npos) << merge_script;
+  EXPECT_NE(merge_script.find(" --quality draft\n"), std::string::npos) << merge_script;
+  EXPECT_NE(submit.find("--dependency=\"afterok$deps\""), std::string::npos) << submit;
+  EXPECT_NE(submit.find("for ((i = 0; i < 4; ++i)); do deps=\"$deps:${array}_$i\"; done"), std::string::npos) << submit;
+  // The estimate: one core per sector up to --max-cpus, memory in whole 64 MiB steps.
+  const auto cpus = std::stoi(shards.substr(shards.find("--cpus-per-task=") + 16));
+  const auto mem = std::stoi(shards.substr(shards.find("--mem=") + 6));
+  EXPECT_GE(cpus, 1);
+  EXPECT_LE(cpus, 8);
+  EXPECT_EQ(mem % 64, 0);
+  EXPECT_GE(mem, 256);
+  // Each shard refuses up front what would not fit its task's memory, rather than being killed.
+  EXPECT_NE(shards.find(" --max-memory " + std::to_string(mem) + "M"), std::string::npos) << shards;
+  EXPECT_NE(merge_script.find(" --max-memory "), std::string::npos) << merge_script;
+}
+
+TEST(Farm, OneShardIsNoFarm) {
+  const Outcome r = drtv("farm slurm " + kFarmWorld + " -o " + scratch("w.drtv") + " --shards 1 --scripts " + scratch("s"));
+  EXPECT_EQ(r.status, 2) << r.out;
+  EXPECT_NE(r.out.find("--shards"), std::string::npos) << r.out;
+}
+
+TEST(Farm, KubernetesManifestsAreAnIndexedJobOfTheShardsAndAMergeJobOnOneClaim) {
+  const std::string root = scratch("");
+  const std::string dir = scratch("k8s");
+  const Outcome r = drtv("farm k8s " + kFarmWorld + " -o " + root + "bakes/w.drtv --shards 6 --parallelism 4 --backoff-per-index 3 "
+                             "--scripts " + dir + " --image registry.example/drtv:1 --claim bake-data --mount-path /data "
+                             "--volume-root " + src("") + " --quality draft",
+                         kNoScheduler);
+  // The archive must lie under the claim too: here it does not.
+  ASSERT_EQ(r.status, 1) << r.out;
+  EXPECT_NE(r.out.find("must lie under --volume-root"), std::string::npos) << r.out;
+
+  std::filesystem::create_directories(root + "worlds");
+  std::filesystem::copy_file(kFarmWorld, root + "worlds/box.json", std::filesystem::copy_options::overwrite_existing);
+  const Outcome ok = drtv("farm k8s " + root + "worlds/box.json -o " + root + "bakes/w.drtv --shards 6 --parallelism 4 "
+                              "--backoff-per-index 3 --scripts " + dir + " --image registry.example/drtv:1 --claim bake-data "
+                              "--mount-path /data --volume-root " + root + " --quality draft",
+                          kNoScheduler);
+  ASSERT_EQ(ok.status, 0) << ok.out;
+  const nlohmann::json shards = nlohmann::json::parse(slurp(dir + "/shards-job.json"));
+  const nlohmann::json merge_job = nlohmann::json::parse(slurp(dir + "/merge-job.json"));
+  EXPECT_EQ(shards["apiVersion"], "batch/v1");
+  EXPECT_EQ(shards["kind"], "Job");
+  EXPECT_EQ(shards["metadata"]["name"], "drtv-bake-shards");
+  EXPECT_EQ(shards["spec"]["completionMode"], "Indexed");
+  EXPECT_EQ(shards["spec"]["completions"], 6);
+  EXPECT_EQ(shards["spec"]["parallelism"], 4);
+  EXPECT_EQ(shards["spec"]["backoffLimitPerIndex"], 3);
+  const nlohmann::json& pod = shards["spec"]["template"]["spec"];
+  EXPECT_EQ(pod["restartPolicy"], "Never");
+  ASSERT_EQ(pod["volumes"].size(), 1u);
+  EXPECT_EQ(pod["volumes"][0]["persistentVolumeClaim"]["claimName"], "bake-data");
+  ASSERT_EQ(pod["containers"].size(), 1u);
+  const nlohmann::json& c = pod["containers"][0];
+  EXPECT_EQ(c["image"], "registry.example/drtv:1");
+  EXPECT_EQ(c["volumeMounts"][0]["name"], pod["volumes"][0]["name"]);
+  EXPECT_EQ(c["volumeMounts"][0]["mountPath"], "/data");
+  const std::vector<std::string> command = c["command"];
+  const std::vector<std::string> expected_start{"drtv", "bake", "/data/worlds/box.json", "-o", "/data/bakes/w.drtv", "--shard", "k8s/6"};
+  ASSERT_GE(command.size(), expected_start.size());
+  EXPECT_EQ(std::vector<std::string>(command.begin(), command.begin() + 7), expected_start);
+  EXPECT_NE(std::find(command.begin(), command.end(), "draft"), command.end());
+  const std::string memory = c["resources"]["requests"]["memory"];
+  EXPECT_EQ(memory.substr(memory.size() - 2), "Mi") << memory;
+  EXPECT_EQ(c["resources"]["requests"]["memory"], c["resources"]["limits"]["memory"]);
+  const auto max_memory = std::find(command.begin(), command.end(), "--max-memory");
+  ASSERT_NE(max_memory, command.end());
+  EXPECT_EQ(*(max_memory + 1) + "i", memory);  // --max-memory 320M is the pod's limit of 320Mi
+
+  EXPECT_EQ(merge_job["kind"], "Job");
+  EXPECT_EQ(merge_job["metadata"]["name"], "drtv-bake-merge");
+  EXPECT_EQ(merge_job["spec"]["completions"], 1);
+  EXPECT_FALSE(merge_job["spec"].contains("completionMode"));
+  const nlohmann::json& mc = merge_job["spec"]["template"]["spec"]["containers"][0];
+  const std::vector<std::string> merge_command = mc["command"];
+  EXPECT_NE(std::find(merge_command.begin(), merge_command.end(), "--merge"), merge_command.end());
+  EXPECT_EQ(std::find(merge_command.begin(), merge_command.end(), "--shard"), merge_command.end());
+  EXPECT_EQ(merge_job["spec"]["template"]["spec"]["volumes"], pod["volumes"]);
+  EXPECT_NE(slurp(dir + "/submit.sh").find("kubectl wait --for=condition=complete"), std::string::npos);
 }

@@ -1,7 +1,8 @@
 // drtv bake <world.json> -o <archive> [--threads N] [--quality draft|default|high]
-//           [--sectors x0:x1,y0:y1] [--shard k/N] [--merge] [--fresh] [--keep-sectors] [--seed S]
+//           [--sectors x0:x1,y0:y1] [--shard k/N|slurm|k8s[/N]|auto[/N]] [--merge] [--fresh] [--keep-sectors] [--seed S]
 //           [--representation fc3|sh-l1]
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <memory>
 #include <optional>
@@ -9,6 +10,7 @@
 
 #include "commands.h"
 #include "drtv/baker/bake.h"
+#include "drtv/baker/shard.h"
 #include "drtv/worlds/load.h"
 
 namespace drtv::app {
@@ -66,22 +68,23 @@ Result<void> runBake(const BakeCliOptions& o) {
     options.sectors = *r;
   }
   if (!o.shard.empty()) {
-    const size_t slash = o.shard.find('/');
-    if (slash == std::string::npos) return fail("--shard '" + o.shard + "': expected k/N");
-    auto k = parseInt(o.shard.substr(0, slash), "--shard");
-    auto n = parseInt(o.shard.substr(slash + 1), "--shard");
-    if (!k) return std::unexpected(k.error());
-    if (!n) return std::unexpected(n.error());
-    options.shard_index = *k;
-    options.shard_count = *n;
+    auto shard = baker::parseShard(o.shard, [](const char* name) { return std::getenv(name); });
+    if (!shard) return std::unexpected(shard.error());  // the option's check took it already
+    options.shard_index = shard->index;
+    options.shard_count = shard->count;
     if (o.merge) return fail("--merge packs what all shards baked; it takes no --shard");
   }
   if (showProgress()) options.progress = drawProgress;
 
-  auto world = worlds::loadWorld(o.world);
-  if (!world) return std::unexpected(world.error());
-  if (auto made = createParentFolder(o.output); !made) return made;
   const std::filesystem::path archive(o.output);
+  // bake() records its own failures in the shard's status; these come before it.
+  const auto shardFailed = [&](const Error& e) -> std::unexpected<Error> {
+    if (options.shard_count > 1 && !o.merge) (void)baker::recordShardFailure(archive, {options.shard_index, options.shard_count}, e.message);
+    return std::unexpected(e);
+  };
+  if (auto made = createParentFolder(o.output); !made) return shardFailed(made.error());
+  auto world = worlds::loadWorld(o.world);
+  if (!world) return shardFailed(world.error());
   auto report = baker::bake(*world, o.world, archive, options);
   if (!report) return std::unexpected(report.error());
 
@@ -128,7 +131,16 @@ Command registerBake(CLI::App& app) {
   sub->add_option("--threads", o->threads, "Worker threads (0 = all cores)");
   sub->add_option("--quality", o->quality, "draft | default | high")->check(CLI::IsMember({"draft", "default", "high"}));
   sub->add_option("--sectors", o->sectors, "Only sectors x0:x1,y0:y1 (inclusive sector keys)");
-  sub->add_option("--shard", o->shard, "Bake shard k of N (sectors i with i % N == k); pack later with --merge");
+  sub->add_option("--shard", o->shard,
+                  "Bake shard k of N (sectors i with i % N == k); pack later with --merge. k/N, or from the scheduler: "
+                  "slurm (SLURM_ARRAY_TASK_ID - SLURM_ARRAY_TASK_MIN of SLURM_ARRAY_TASK_COUNT), k8s[/N] "
+                  "(JOB_COMPLETION_INDEX of N, else of DRTV_SHARD_COUNT), auto[/N] (whichever is set)")
+      ->check(CLI::Validator(
+          [](std::string& v) -> std::string {
+            auto shard = baker::parseShard(v, [](const char* name) { return std::getenv(name); });
+            return shard ? std::string() : shard.error().message;
+          },
+          "SHARD"));
   sub->add_flag("--merge", o->merge, "Pack the sectors all shards wrote (their journals) into the archive");
   sub->add_flag("--fresh", o->fresh, "Discard sector journals left by a different bake");
   sub->add_flag("--keep-sectors", o->keep_sectors, "Keep <archive>.sectors/ after packing");

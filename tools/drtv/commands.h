@@ -35,6 +35,7 @@ Command registerFly(CLI::App& app);
 Command registerRender(CLI::App& app);
 Command registerAccuracy(CLI::App& app);
 Command registerExportVdb(CLI::App& app);
+Command registerFarm(CLI::App& app);
 
 // A time of day "HH:MM" (00:00 to 23:59) as hours; the error names `flag` and the text.
 Result<double> parseTimeOfDay(const std::string& text, const std::string& flag = "--time");

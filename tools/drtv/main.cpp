@@ -143,6 +143,7 @@ int main(int argc, char** argv) {
   commands.push_back(drtv::app::registerRender(app));
   commands.push_back(drtv::app::registerAccuracy(app));
   commands.push_back(drtv::app::registerExportVdb(app));
+  commands.push_back(drtv::app::registerFarm(app));
   // One line per subcommand below.
 
   try {

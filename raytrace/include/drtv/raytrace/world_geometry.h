@@ -113,6 +113,10 @@ class WorldGeometry {
   // `where` names the file. The gather's size comes from per-bin triangle counts (instances
   // that straddle bins count in each: it errs high), without gathering anything.
   Result<void> checkBakeMemory(const SectorRange& range, double halo_m, int concurrent, const std::string& where) const;
+  // The most triangles one sector of `range` gathers with `halo_m`, from the per-bin counts as
+  // checkBakeMemory counts them (it errs high), and which sector that is (`at`, may be null).
+  // What a farm sizes a shard's memory by (drtv/baker/farm.h). O(sectors * halo bins).
+  uint64_t largestGather(const SectorRange& range, double halo_m, SectorKey* at = nullptr) const;
 
  private:
   struct SmallInstance {

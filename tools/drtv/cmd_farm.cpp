@@ -1,0 +1,251 @@
+// drtv farm slurm <world> -o <archive> --shards N --scripts DIR [--submit] ...
+// drtv farm k8s   <world> -o <archive> --shards N --scripts DIR --image I --claim C ...
+// drtv farm status <archive> [--json]
+// Writes the jobs of a sharded bake for an existing scheduler (drtv/baker/farm.h), and reads what
+// the shards left behind (drtv/baker/shard.h). docs/baker.md, "Baking on a farm".
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <string>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "commands.h"
+#include "drtv/baker/farm.h"
+#include "drtv/baker/shard.h"
+#include "drtv/worlds/load.h"
+
+namespace drtv::app {
+namespace {
+namespace fs = std::filesystem;
+
+struct FarmCliOptions {
+  std::string world, archive, scripts;
+  int shards = 0;
+  int max_cpus = 8;
+  int mem_mb = 0;  // 0 = estimated
+  std::string quality, seed;
+  std::vector<std::string> bake_args;
+  std::string name = "drtv-bake";
+  // Slurm
+  std::string partition, time_limit, log_dir, drtv;
+  bool submit = false;
+  // Kubernetes
+  std::string image, claim, mount_path = "/bake", volume_root = ".";
+  int parallelism = 0, backoff_per_index = 2;
+  // status
+  bool json = false;
+};
+
+Result<void> writeText(const fs::path& file, const std::string& text, bool executable) {
+  std::ofstream f(file, std::ios::binary | std::ios::trunc);
+  if (!f) return fail(file.string() + ": cannot open for writing");
+  f << text;
+  f.close();
+  if (!f) return fail(file.string() + ": write failed");
+  if (executable && ::chmod(file.c_str(), 0755) != 0) return fail(file.string() + ": cannot make it executable");
+  return {};
+}
+
+fs::path absolute(const std::string& p) { return fs::absolute(fs::path(p)).lexically_normal(); }
+
+// The plan both schedulers share: the estimate from the world, the bake's own flags.
+Result<baker::FarmPlan> planFor(const FarmCliOptions& o, bool kubernetes) {
+  auto world = worlds::loadWorld(o.world);
+  if (!world) return std::unexpected(world.error());
+  auto estimate = baker::estimateShard(*world, o.world, o.shards, o.max_cpus);
+  if (!estimate) return std::unexpected(estimate.error());
+  baker::FarmPlan plan;
+  plan.shards = o.shards;
+  plan.job_name = o.name;
+  plan.cpus_per_task = estimate->cpus;
+  plan.memory_bytes = o.mem_mb > 0 ? uint64_t(o.mem_mb) << 20 : estimate->memory_bytes;
+  plan.merge_memory_bytes = estimate->merge_memory_bytes;
+  if (!o.quality.empty()) plan.bake_args.insert(plan.bake_args.end(), {"--quality", o.quality});
+  if (!o.seed.empty()) plan.bake_args.insert(plan.bake_args.end(), {"--seed", o.seed});
+  plan.bake_args.insert(plan.bake_args.end(), o.bake_args.begin(), o.bake_args.end());
+  std::printf("%s: %zu sectors, %zu per shard at most; the largest gather %llu triangles (sector %s); per task %d CPUs, %llu MiB%s\n",
+              o.world.c_str(), estimate->sectors, estimate->sectors_per_shard,
+              static_cast<unsigned long long>(estimate->largest_gather), toString(estimate->largest_at).c_str(), plan.cpus_per_task,
+              static_cast<unsigned long long>(plan.memory_bytes >> 20), o.mem_mb > 0 ? " (--mem)" : " (estimated)");
+  if (kubernetes) {
+    // In the pods the claim's root is mount_path; here it is --volume-root.
+    const fs::path root = absolute(o.volume_root);
+    auto inPod = [&](const std::string& local, const char* what) -> Result<std::string> {
+      const fs::path rel = absolute(local).lexically_relative(root);
+      if (rel.empty() || *rel.begin() == "..")
+        return fail(local + ": the " + std::string(what) + " must lie under --volume-root " + root.string() +
+                    " (the claim's contents as seen here)");
+      return (fs::path(o.mount_path) / rel).string();
+    };
+    auto w = inPod(o.world, "world");
+    if (!w) return std::unexpected(w.error());
+    auto a = inPod(o.archive, "archive");
+    if (!a) return std::unexpected(a.error());
+    plan.world = *w;
+    plan.archive = *a;
+    plan.drtv = o.drtv.empty() ? "drtv" : o.drtv;
+    plan.image = o.image;
+    plan.claim = o.claim;
+    plan.mount_path = o.mount_path;
+    plan.parallelism = o.parallelism;
+    plan.backoff_per_index = o.backoff_per_index;
+  } else {
+    plan.world = absolute(o.world).string();
+    plan.archive = absolute(o.archive).string();
+    plan.log_dir = absolute(o.log_dir.empty() ? (fs::path(o.scripts) / "logs").string() : o.log_dir).string();
+    std::error_code ec;
+    plan.drtv = o.drtv.empty() ? fs::read_symlink("/proc/self/exe", ec).string() : absolute(o.drtv).string();
+    if (ec || plan.drtv.empty()) plan.drtv = "drtv";
+    plan.partition = o.partition;
+    plan.time_limit = o.time_limit;
+  }
+  if (std::string why = baker::validatePlan(plan, kubernetes); !why.empty()) return fail(why);
+  return plan;
+}
+
+Result<void> runSlurm(const FarmCliOptions& o) {
+  auto plan = planFor(o, false);
+  if (!plan) return std::unexpected(plan.error());
+  const fs::path dir(o.scripts);
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) return fail(dir.string() + ": cannot create: " + ec.message());
+  fs::create_directories(plan->log_dir, ec);
+  if (ec) return fail(plan->log_dir + ": cannot create the log folder: " + ec.message());
+  if (auto w = writeText(dir / "shards.sbatch", baker::slurmShardScript(*plan), true); !w) return w;
+  if (auto w = writeText(dir / "merge.sbatch", baker::slurmMergeScript(*plan), true); !w) return w;
+  if (auto w = writeText(dir / "submit.sh", baker::slurmSubmitScript(*plan), true); !w) return w;
+  if (auto w = writeText(dir / "retry.sh", baker::slurmRetryScript(*plan), true); !w) return w;
+  std::printf("wrote %s/{shards.sbatch,merge.sbatch,submit.sh,retry.sh}; logs go to %s\n", dir.string().c_str(), plan->log_dir.c_str());
+  if (!o.submit) {
+    std::printf("submit with: %s/submit.sh\n", dir.string().c_str());
+    return {};
+  }
+  std::fflush(stdout);
+  const std::string cmd = "bash " + baker::shellQuote((dir / "submit.sh").string());
+  const int st = std::system(cmd.c_str());
+  if (!WIFEXITED(st) || WEXITSTATUS(st) != 0)
+    return fail((dir / "submit.sh").string() + ": submitting failed (exit " + std::to_string(WIFEXITED(st) ? WEXITSTATUS(st) : -1) +
+                "; is sbatch on the PATH and the cluster up?)");
+  return {};
+}
+
+Result<void> runKubernetes(const FarmCliOptions& o) {
+  auto plan = planFor(o, true);
+  if (!plan) return std::unexpected(plan.error());
+  const fs::path dir(o.scripts);
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) return fail(dir.string() + ": cannot create: " + ec.message());
+  if (auto w = writeText(dir / "shards-job.json", baker::kubernetesShardJob(*plan), false); !w) return w;
+  if (auto w = writeText(dir / "merge-job.json", baker::kubernetesMergeJob(*plan), false); !w) return w;
+  if (auto w = writeText(dir / "submit.sh", baker::kubernetesSubmitScript(*plan), true); !w) return w;
+  std::printf("wrote %s/{shards-job.json,merge-job.json,submit.sh}\nsubmit with: %s/submit.sh\n", dir.string().c_str(),
+              dir.string().c_str());
+  return {};
+}
+
+Result<void> runStatus(const FarmCliOptions& o) {
+  auto status = baker::farmStatus(o.archive);
+  if (!status) return std::unexpected(status.error());
+  if (o.json) {
+    nlohmann::ordered_json j;
+    j["archive"] = o.archive;
+    j["packed"] = status->packed;
+    j["shards"] = status->count;
+    nlohmann::ordered_json list = nlohmann::ordered_json::array();
+    for (const baker::FarmShard& s : status->shards) {
+      nlohmann::ordered_json e{{"shard", s.index}, {"state", s.state}, {"sectors", s.sectors}, {"journaled", s.journaled},
+                               {"wall_s", s.wall_s}, {"host", s.host}};
+      if (!s.error.empty()) e["error"] = s.error;
+      list.push_back(e);
+    }
+    j["list"] = list;
+    j["problems"] = status->problems;
+    std::printf("%s\n", j.dump(2).c_str());
+    return {};
+  }
+  if (status->packed) {
+    std::printf("%s: packed (no sector folder left)\n", o.archive.c_str());
+    return {};
+  }
+  std::map<std::string, int> counts;
+  for (const baker::FarmShard& s : status->shards) ++counts[s.state];
+  std::printf("%s: %d shards: %d done, %d running, %d failed, %d missing\n", o.archive.c_str(), status->count, counts["done"],
+              counts["running"], counts["failed"], counts["missing"]);
+  for (const baker::FarmShard& s : status->shards) {
+    std::printf("shard %d/%d %-8s %zu/%zu sectors journaled", s.index, status->count, s.state.c_str(), s.journaled, s.sectors);
+    if (s.state == "done") std::printf(", %.1f s", s.wall_s);
+    if (!s.host.empty()) std::printf(", on %s", s.host.c_str());
+    if (!s.error.empty()) std::printf(": %s", s.error.c_str());
+    std::printf("\n");
+  }
+  for (const std::string& p : status->problems) std::printf("problem: %s\n", p.c_str());
+  return {};
+}
+
+void addPlanOptions(CLI::App* sub, FarmCliOptions& o) {
+  sub->add_option("world", o.world, "World file (.json, .gltf, .glb), read here for the estimate")->required();
+  sub->add_option("-o,--output", o.archive, "Archive the merge writes; shard journals go to <archive>.sectors/")->required();
+  sub->add_option("--shards", o.shards, "Number of shards N (at least 2)")->required()->check(CLI::Range(2, 100000));
+  sub->add_option("--scripts", o.scripts, "Folder to write the job files into")->required();
+  sub->add_option("--max-cpus", o.max_cpus, "Most CPUs per shard task (default 8; the estimate gives each sector a core)")
+      ->check(CLI::Range(1, 1024));
+  sub->add_option("--mem", o.mem_mb, "Memory per shard task in MiB (default: estimated from the world)")->check(CLI::Range(1, 1 << 24));
+  sub->add_option("--quality", o.quality, "draft | default | high, passed to every shard and the merge")
+      ->check(CLI::IsMember({"draft", "default", "high"}));
+  sub->add_option("--seed", o.seed, "Seed, passed to every shard and the merge");
+  sub->add_option("--bake-arg", o.bake_args, "Another `drtv bake` argument for every shard and the merge (repeat it)")
+      ->allow_extra_args(false);
+  sub->add_option("--name", o.name, "Job name (Slurm) / name prefix (Kubernetes); default drtv-bake");
+}
+
+}  // namespace
+
+Command registerFarm(CLI::App& app) {
+  auto o = std::make_shared<FarmCliOptions>();
+  CLI::App* farm = app.add_subcommand(
+      "farm", "Bake on a cluster: write a Slurm job array or Kubernetes Indexed Job of shards and their merge; show the shards' status");
+  farm->require_subcommand(1);
+  CLI::App* slurm = farm->add_subcommand(
+      "slurm", "Write shards.sbatch (an array of N shard tasks), merge.sbatch, submit.sh (the merge waits on afterok of every task) "
+      "and retry.sh (requeue failed tasks, re-arm the merge)");
+  addPlanOptions(slurm, *o);
+  slurm->add_option("--partition", o->partition, "Slurm partition (default: the cluster's)");
+  slurm->add_option("--time", o->time_limit, "Time limit per task, e.g. 02:00:00 (default: the partition's)");
+  slurm->add_option("--log-dir", o->log_dir, "Folder of the per-task logs %A_%a.log (default <scripts>/logs)");
+  slurm->add_option("--drtv", o->drtv, "The drtv program as the nodes see it (default: this one's absolute path)");
+  slurm->add_flag("--submit", o->submit, "Run submit.sh: sbatch the array and the merge, print their job ids");
+  CLI::App* k8s = farm->add_subcommand(
+      "k8s", "Write shards-job.json (an Indexed Job), merge-job.json and submit.sh (kubectl apply, wait, apply the merge)");
+  addPlanOptions(k8s, *o);
+  k8s->add_option("--image", o->image, "Container image with drtv on its PATH")->required();
+  k8s->add_option("--claim", o->claim, "PersistentVolumeClaim holding the world and the archive (ReadWriteMany)")->required();
+  k8s->add_option("--mount-path", o->mount_path, "Where the pods mount the claim (default /bake)");
+  k8s->add_option("--volume-root", o->volume_root, "The claim's contents as seen here: world and archive lie under it (default .)");
+  k8s->add_option("--parallelism", o->parallelism, "Pods at once (default N)")->check(CLI::Range(0, 100000));
+  k8s->add_option("--backoff-per-index", o->backoff_per_index, "Retries of each shard before it counts as failed (default 2)")
+      ->check(CLI::Range(0, 1000));
+  k8s->add_option("--drtv", o->drtv, "The drtv program in the image (default drtv)");
+  CLI::App* status = farm->add_subcommand(
+      "status", "List the shards of a bake: done, running (journal present, not complete), failed (with the error the shard wrote) and missing");
+  status->add_option("archive", o->archive, "The archive the shards bake (its <archive>.sectors/ folder is read)")->required();
+  status->add_flag("--json", o->json, "Print JSON instead of lines");
+  return {farm,
+          [o, slurm, k8s, status]() -> Result<void> {
+            if (slurm->parsed()) return runSlurm(*o);
+            if (k8s->parsed()) return runKubernetes(*o);
+            if (status->parsed()) return runStatus(*o);
+            return fail("farm: expected slurm, k8s or status");
+          },
+          &o->world};
+}
+
+}  // namespace drtv::app

@@ -125,7 +125,7 @@ HttpSectorSource::HttpSectorSource(std::string url, HttpOptions options) : url_(
 HttpSectorSource::~HttpSectorSource() = default;
 
 HttpStats HttpSectorSource::stats() const {
-  return {requests_.load(), retries_.load(), failures_.load(), bytes_.load(), refused_200_.load()};
+  return {requests_.load(), connections_.load(), retries_.load(), failures_.load(), bytes_.load(), refused_200_.load()};
 }
 
 Result<std::unique_ptr<HttpSectorSource>> HttpSectorSource::open(const std::string& url, HttpOptions options) {
@@ -233,8 +233,10 @@ Result<std::vector<uint8_t>> HttpSectorSource::readRange(uint64_t offset, uint64
     curl_easy_setopt(c, CURLOPT_WRITEFUNCTION, onBody);
     curl_easy_setopt(c, CURLOPT_WRITEDATA, &a);
     const CURLcode rc = curl_easy_perform(c);
-    long status = 0;
+    long status = 0, connects = 0;
     curl_easy_getinfo(c, CURLINFO_RESPONSE_CODE, &status);
+    curl_easy_getinfo(c, CURLINFO_NUM_CONNECTS, &connects);
+    connections_ += uint64_t(connects);
 
     if (a.too_long) {
       ++failures_;

@@ -129,6 +129,9 @@ TEST_F(HttpSourceTest, OpensTheSameManifestAsTheFileAndReadsTheSameBytes) {
   }
   EXPECT_EQ(http->stats().retries, 0u);
   EXPECT_EQ(http->stats().failures, 0u);
+  // Read one after another, every request went over the one kept-alive connection open() made.
+  EXPECT_EQ(http->stats().requests, m.sectors.size() + 2);
+  EXPECT_EQ(http->stats().connections, 1u);
 }
 
 TEST_F(HttpSourceTest, AFlightOverHttpLoadsTheSameSectorsInTheSameFramesAsFromTheFile) {

@@ -30,7 +30,7 @@ Result<OpenedArchive> openArchive(const std::string& path_or_url, int http_conne
     a.http = true;
     a.http_stats = [source] {
       const netsource::HttpStats st = source->stats();
-      return std::to_string(st.requests) + " requests, " + std::to_string(st.retries) + " retries, " + std::to_string(st.failures) +
+      return std::to_string(st.requests) + " requests on " + std::to_string(st.connections) + " connections, " + std::to_string(st.retries) + " retries, " + std::to_string(st.failures) +
              " failed reads, " + std::to_string(st.bytes) + " payload bytes";
     };
     return a;

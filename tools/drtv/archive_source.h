@@ -17,7 +17,8 @@ struct OpenedArchive {
   Manifest manifest;                                // checked as ArchiveReader::open checks it
   std::shared_ptr<streamer::SectorSource> source;   // reads payloads as stored, unchecked
   bool http = false;                                // read over HTTP
-  // HTTP only: "N requests, R retries, F failed reads, B payload bytes" since open; empty for a file.
+  // HTTP only: "N requests on C connections, R retries, F failed reads, B payload bytes" since
+  // open; empty for a file.
   std::function<std::string()> http_stats;
 };
 

@@ -54,6 +54,7 @@ struct HttpOptions {
 // Counts since open(), for reports and tests. Read with stats(); updated atomically.
 struct HttpStats {
   uint64_t requests = 0;     // attempts made (range requests sent), open()'s included
+  uint64_t connections = 0;  // new connections opened for them (the rest reused a kept-alive one)
   uint64_t retries = 0;      // attempts after a retryable failure
   uint64_t failures = 0;     // reads that returned an Error (after their last attempt)
   uint64_t bytes = 0;        // payload bytes received in successful reads
@@ -104,7 +105,7 @@ class HttpSectorSource final : public streamer::SectorSource {
   std::vector<std::unique_ptr<Handle>> handles_;  // all made so far (<= max_connections)
   std::vector<Handle*> free_;
 
-  std::atomic<uint64_t> requests_{0}, retries_{0}, failures_{0}, bytes_{0}, refused_200_{0};
+  std::atomic<uint64_t> requests_{0}, connections_{0}, retries_{0}, failures_{0}, bytes_{0}, refused_200_{0};
 };
 
 }  // namespace drtv::netsource

@@ -1,7 +1,7 @@
 // The HTTP sector source against a real nginx: the same sectors and the same flight as from the
 // file, and the faults a web server really produces (503 then recovery, 404, a 200 that ignores
 // Range, a rate limit past the timeout, a corrupt copy, the server stopped and restarted
-// mid-flight). The flight goes on through each, counts its misses and failures, and never makes
+// mid-flight; and through a proxy, answers cut short, reset or stalled). The flight goes on through each, counts its misses and failures, and never makes
 // resident a sector that failed its checks.
 #include <filesystem>
 #include <fstream>
@@ -11,6 +11,7 @@
 
 #include "drtv/netsource/http_source.h"
 #include "drtv/streamer/streamer.h"
+#include "fault_proxy.h"
 #include "nginx_server.h"
 #include "streamer_world.h"
 
@@ -296,6 +297,69 @@ TEST_F(HttpSourceTest, TheFlightGoesOnWhileTheServerIsStoppedAndRestarted) {
   EXPECT_TRUE(s.idle());
   for (const SectorEntry& e : manifest_.sectors) EXPECT_NE(s.state(e.key), streamer::SectorState::kBackingOff) << toString(e.key);
 }
+
+// Answers broken in the network, between nginx and the source: cut short, reset, stalled.
+class BrokenAnswerTest : public HttpSourceTest, public ::testing::WithParamInterface<testing::FaultProxy::Mode> {};
+
+const char* modeName(testing::FaultProxy::Mode m) {
+  switch (m) {
+    case testing::FaultProxy::Mode::kCut: return "cut_short";
+    case testing::FaultProxy::Mode::kReset: return "reset";
+    case testing::FaultProxy::Mode::kStall: return "stalled";
+    default: return "pass";
+  }
+}
+
+TEST_P(BrokenAnswerTest, IsRetriedOnAFreshConnectionAndTheReadSucceeds) {
+  testing::FaultProxy proxy(nginx_->port());
+  HttpOptions o = quick();
+  o.request_timeout_ms = 300;  // a stalled answer is given up after this
+  auto s = HttpSectorSource::open(proxy.url("/ok/world.drtv"), o);
+  ASSERT_TRUE(s.has_value()) << s.error().message;
+  const SectorEntry& e = *(*s)->manifest().find(kBad);
+  auto file = streamer::FileSectorSource::open(file_);
+  const auto want = (*file)->read(e);
+
+  proxy.fault(GetParam(), 2);  // the first two attempts break, the third gets through
+  auto r = (*s)->read(e);
+  ASSERT_TRUE(r.has_value()) << r.error().message;
+  EXPECT_EQ(*r, *want);
+  EXPECT_EQ(proxy.faulted(), 2);
+  EXPECT_EQ((*s)->stats().retries, 2u);
+  EXPECT_EQ((*s)->stats().failures, 0u);
+  // open()'s connection, and a new one after each broken answer (the proxy closed the first two).
+  EXPECT_EQ((*s)->stats().connections, 3u);
+}
+
+TEST_P(BrokenAnswerTest, FailsNamingTheSectorWhenEveryAttemptBreaksAndTheFlightGoesOn) {
+  testing::FaultProxy proxy(nginx_->port());
+  HttpOptions o = quick();
+  o.request_timeout_ms = 300;
+  auto opened = HttpSectorSource::open(proxy.url("/ok/world.drtv"), o);
+  ASSERT_TRUE(opened.has_value()) << opened.error().message;
+  std::shared_ptr<HttpSectorSource> http(std::move(*opened));
+  streamer::Streamer s(http->manifest(), http, deterministic());
+  testing::CheckingSink sink;
+  const streamer::Camera cam{{512, 512, 40}, {0, 0, 0}};
+  // Every attempt of the first three reads breaks: the first sector the streamer asks for fails.
+  proxy.fault(GetParam(), 3);
+  int failures = 0;
+  for (int i = 0; i < 120; ++i) failures += s.update(cam, i * kFrameS, sink).failures;
+  EXPECT_EQ(failures, 1);
+  EXPECT_NE(sink.last_error.find(": sector ("), std::string::npos) << sink.last_error;
+  EXPECT_NE(sink.last_error.find("gave up after 3 attempts"), std::string::npos) << sink.last_error;
+  // Retried by the streamer after its back-off, with the proxy passing again: all loaded.
+  for (int i = 120; i < 120 + 60 * 2; ++i) s.update(cam, i * kFrameS, sink);
+  const streamer::FrameStats last = s.update(cam, 240 * kFrameS, sink);
+  EXPECT_EQ(last.misses, 0);
+  EXPECT_EQ(last.resident, last.wanted);
+  EXPECT_EQ(http->stats().failures, 1u);
+}
+
+INSTANTIATE_TEST_SUITE_P(EveryBreak, BrokenAnswerTest,
+                         ::testing::Values(testing::FaultProxy::Mode::kCut, testing::FaultProxy::Mode::kReset,
+                                           testing::FaultProxy::Mode::kStall),
+                         [](const auto& info) { return std::string(modeName(info.param)); });
 
 }  // namespace
 }  // namespace drtv::netsource

@@ -69,6 +69,8 @@ class HttpSectorSource final : public streamer::SectorSource {
  public:
   // Reads and checks `url`'s header and manifest (two range requests, retried as reads are).
   // Errors: the URL and what failed (connection, status, a header or manifest check).
+  // Preconditions (bugs): options.max_connections >= 1, options.max_attempts >= 1. libcurl
+  // honours the http_proxy / https_proxy / no_proxy environment variables.
   static Result<std::unique_ptr<HttpSectorSource>> open(const std::string& url, HttpOptions options = {});
   ~HttpSectorSource() override;
   HttpSectorSource(const HttpSectorSource&) = delete;
@@ -82,6 +84,7 @@ class HttpSectorSource final : public streamer::SectorSource {
   Result<std::vector<uint8_t>> read(const SectorEntry& entry) override;
   // The URL, for messages.
   const std::string& name() const override { return url_; }
+  // Counts since open(). Thread-safe (each count is read atomically, not all at one instant).
   HttpStats stats() const;
 
  private:

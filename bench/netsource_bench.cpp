@@ -113,6 +113,23 @@ void BM_StreamInOneSector(benchmark::State& state, bool http) {
 BENCHMARK_CAPTURE(BM_StreamInOneSector, file, false);
 BENCHMARK_CAPTURE(BM_StreamInOneSector, http_loopback, true);
 
+// Reads in flight at once: N threads share one source (16 connections), each reading payloads
+// in turn, as the streamer's I/O threads do; items/s is the total sector rate.
+void BM_ReadsInFlight(benchmark::State& state) {
+  static std::string error;
+  static const std::shared_ptr<streamer::SectorSource> source = sourceFor(true, error);
+  if (!source) return state.SkipWithError(error.c_str());
+  const auto& sectors = served().manifest.sectors;
+  size_t i = size_t(state.thread_index()) * 101;
+  for (auto _ : state) {
+    auto b = source->read(sectors[i++ * 37 % sectors.size()]);
+    if (!b) return state.SkipWithError(b.error().message.c_str());
+    benchmark::DoNotOptimize(b);
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_ReadsInFlight)->Threads(1)->Threads(8)->UseRealTime();
+
 }  // namespace
 }  // namespace drtv::netsource
 BENCHMARK_MAIN();

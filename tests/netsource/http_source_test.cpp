@@ -3,9 +3,11 @@
 // Range, a rate limit past the timeout, a corrupt copy, the server stopped and restarted
 // mid-flight; and through a proxy, answers cut short, reset or stalled). The flight goes on through each, counts its misses and failures, and never makes
 // resident a sector that failed its checks.
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <thread>
 
 #include <gtest/gtest.h>
 
@@ -158,6 +160,39 @@ TEST_F(HttpSourceTest, AFlightOverHttpLoadsTheSameSectorsInTheSameFramesAsFromTh
   for (SectorKey key : over_http.residentKeys())
     ASSERT_EQ(encodeSector(*over_http.resident(key)), encodeSector(*from_file.resident(key))) << toString(key);
   EXPECT_EQ(http->stats().failures, 0u);
+}
+
+// Eight I/O threads, eight reads in flight at once over the pool's connections: the streamer
+// settles on the sectors the file gives, each checked, over at most eight connections.
+TEST_F(HttpSourceTest, EightIoThreadsReadAtOnceOverAtMostEightConnections) {
+  HttpOptions o = quick();
+  o.max_connections = 8;
+  auto http = openHttp("/ok/world.drtv", o);
+  ASSERT_NE(http, nullptr);
+  streamer::StreamerOptions so;
+  so.io_mode = streamer::IoMode::kThreads;
+  so.io_threads = 8;
+  so.max_in_flight = 16;
+  streamer::Streamer s(http->manifest(), http, so);
+  testing::CheckingSink sink;
+  const streamer::Camera cam{{512, 512, 40}, {0, 0, 0}};
+  // Until every wanted sector is resident; a bound for a loaded machine, not a timed assertion.
+  streamer::FrameStats st;
+  double t = 0;
+  for (int i = 0; i < 20000; ++i, t += kFrameS) {
+    st = s.update(cam, t, sink);
+    if (st.resident == st.wanted && s.idle()) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  ASSERT_EQ(st.resident, st.wanted);
+  EXPECT_EQ(sink.failures, 0) << sink.last_error;
+  EXPECT_EQ(s.residentKeys(), settledFromFile(cam));
+  for (SectorKey key : s.residentKeys()) {
+    auto from_file = ArchiveReader::open(file_)->readSector(key);
+    ASSERT_EQ(encodeSector(*s.resident(key)), encodeSector(*from_file)) << toString(key);
+  }
+  EXPECT_LE(http->stats().connections, 8u);
+  EXPECT_EQ(http->stats().requests, 2 + uint64_t(sink.loads));
 }
 
 TEST_F(HttpSourceTest, A503IsRetriedAndTheFlightRecoversWhenTheServerDoes) {

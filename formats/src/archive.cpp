@@ -35,10 +35,7 @@ std::unexpected<Error> failAt(const std::string& where, uint64_t offset, const s
 
 uint64_t hash64(std::span<const uint8_t> bytes) { return XXH3_64bits(bytes.data(), bytes.size()); }
 
-struct Header {
-  uint32_t version = 0;
-  uint64_t manifest_offset = 0, manifest_bytes = 0, manifest_hash = 0, file_bytes = 0;
-};
+using Header = ArchiveHeader;
 
 std::vector<uint8_t> encodeHeader(const Header& h) {
   std::vector<uint8_t> out;
@@ -337,12 +334,22 @@ Result<std::vector<uint8_t>> zstdDecompress(std::span<const uint8_t> frame, size
 
 size_t zstdContextBytes() { return ZSTD_estimateDCtxSize(); }
 
+Result<ArchiveHeader> decodeArchiveHeader(std::span<const uint8_t> head, uint64_t file_bytes, const std::string& where) {
+  return parseHeader(head.first(std::min(head.size(), kArchiveHeaderBytes)), file_bytes, where);
+}
+
+Result<Manifest> decodeArchiveManifest(const ArchiveHeader& header, std::span<const uint8_t> manifest, const std::string& where) {
+  if (manifest.size() != header.manifest_bytes)
+    return failAt(where, header.manifest_offset + manifest.size(), "manifest truncated: " + std::to_string(manifest.size()) + " of " +
+                                                                         std::to_string(header.manifest_bytes) + " bytes");
+  if (hash64(manifest) != header.manifest_hash) return failAt(where, header.manifest_offset, "manifest hash mismatch (corrupt)");
+  return parseManifest(manifest, header.version, header.manifest_offset, header.manifest_offset, where);
+}
+
 Result<Manifest> decodeArchiveHeaderAndManifest(std::span<const uint8_t> file, const std::string& where) {
-  auto header = parseHeader(file.first(std::min(file.size(), kArchiveHeaderBytes)), file.size(), where);
+  auto header = decodeArchiveHeader(file, file.size(), where);
   if (!header) return std::unexpected(header.error());
-  const auto manifest_bytes = file.subspan(header->manifest_offset, header->manifest_bytes);
-  if (hash64(manifest_bytes) != header->manifest_hash) return failAt(where, header->manifest_offset, "manifest hash mismatch (corrupt)");
-  return parseManifest(manifest_bytes, header->version, header->manifest_offset, header->manifest_offset, where);
+  return decodeArchiveManifest(*header, file.subspan(header->manifest_offset, header->manifest_bytes), where);
 }
 
 // ---- reader -----------------------------------------------------------------------------------
@@ -394,9 +401,7 @@ Result<ArchiveReader> ArchiveReader::open(const std::filesystem::path& path) {
   std::vector<uint8_t> manifest(header->manifest_bytes);
   if (!impl->readAt(manifest.data(), manifest.size(), header->manifest_offset))
     return fail(impl->name + ": cannot read the manifest: " + errnoText());
-  if (hash64(manifest) != header->manifest_hash)
-    return failAt(impl->name, header->manifest_offset, "manifest hash mismatch (corrupt)");
-  auto parsed = parseManifest(manifest, header->version, header->manifest_offset, header->manifest_offset, impl->name);
+  auto parsed = decodeArchiveManifest(*header, manifest, impl->name);
   if (!parsed) return std::unexpected(parsed.error());
   impl->manifest = std::move(*parsed);
   return ArchiveReader(std::move(impl));

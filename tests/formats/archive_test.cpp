@@ -119,6 +119,44 @@ TEST_F(ArchiveTest, EveryTruncatedPrefixIsRejected) {
   }
 }
 
+// What a reader that fetches the header and the manifest apart (the HTTP source) runs: the same
+// manifest as open(), and a manifest cut short or one byte off refused, naming the file offset.
+TEST_F(ArchiveTest, TheHeaderAndManifestDecodedApartGiveOpensManifest) {
+  const fs::path path = writeSample();
+  const std::vector<uint8_t> bytes = readFile(path);
+  auto header = decodeArchiveHeader(std::span(bytes.data(), kArchiveHeaderBytes), bytes.size(), "w.drtv");
+  ASSERT_TRUE(header.has_value()) << header.error().message;
+  EXPECT_EQ(header->file_bytes, bytes.size());
+  EXPECT_EQ(header->manifest_offset + header->manifest_bytes, bytes.size());
+  const auto manifest_bytes = std::span(bytes).subspan(header->manifest_offset);
+  auto m = decodeArchiveManifest(*header, manifest_bytes, "w.drtv");
+  ASSERT_TRUE(m.has_value()) << m.error().message;
+  auto r = ArchiveReader::open(path);
+  ASSERT_TRUE(r.has_value());
+  ASSERT_EQ(m->sectors.size(), r->manifest().sectors.size());
+  for (size_t i = 0; i < m->sectors.size(); ++i) {
+    EXPECT_EQ(m->sectors[i].key, r->manifest().sectors[i].key);
+    EXPECT_EQ(m->sectors[i].offset, r->manifest().sectors[i].offset);
+    EXPECT_EQ(m->sectors[i].hash, r->manifest().sectors[i].hash);
+  }
+  EXPECT_EQ(m->settings, r->manifest().settings);
+
+  // A file size other than the header's (a server's Content-Range total): refused at byte 40.
+  auto other = decodeArchiveHeader(std::span(bytes.data(), kArchiveHeaderBytes), bytes.size() + 1, "w.drtv");
+  ASSERT_FALSE(other.has_value());
+  EXPECT_EQ(other.error().message.rfind("w.drtv: byte 40: ", 0), 0u) << other.error().message;
+  // A manifest body cut short (a server that closed early).
+  auto short_body = decodeArchiveManifest(*header, manifest_bytes.first(manifest_bytes.size() - 1), "w.drtv");
+  ASSERT_FALSE(short_body.has_value());
+  EXPECT_NE(short_body.error().message.find("manifest truncated"), std::string::npos) << short_body.error().message;
+  // One byte flipped in it.
+  std::vector<uint8_t> flipped(manifest_bytes.begin(), manifest_bytes.end());
+  flipped[flipped.size() / 2] ^= 1;
+  auto bad = decodeArchiveManifest(*header, flipped, "w.drtv");
+  ASSERT_FALSE(bad.has_value());
+  EXPECT_EQ(bad.error().message, "w.drtv: byte " + std::to_string(header->manifest_offset) + ": manifest hash mismatch (corrupt)");
+}
+
 TEST_F(ArchiveTest, EveryFlippedByteIsDetected) {
   const fs::path path = writeSample();
   const std::vector<uint8_t> bytes = readFile(path);

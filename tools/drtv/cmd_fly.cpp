@@ -1,4 +1,4 @@
-// drtv fly <archive> [--path path.json | --loop] [--speed m/s] [--frames N]
+// drtv fly <archive | URL> [--path path.json | --loop] [--speed m/s] [--frames N]
 //          [--time-of-day-rate h/s] [--json] [-o outdir]
 // A deterministic fly-through of a baked archive (drtv/streamer/fly.h): streaming, relighting and
 // volume updates per frame, written as frames.csv, fly-report.json, fly-report.md and PNGs.
@@ -10,6 +10,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "archive_source.h"
 #include "commands.h"
 #include "drtv/eval/technique.h"
 #include "drtv/worlds/load.h"
@@ -51,11 +52,11 @@ Result<std::pair<SectorKey, streamer::Fault>> parseFault(const std::string& text
 }
 
 Result<void> runFly(const FlyCliOptions& o) {
-  auto reader = ArchiveReader::open(o.archive);
-  if (!reader) return std::unexpected(reader.error());
-  auto file = streamer::FileSectorSource::open(o.archive);
-  if (!file) return std::unexpected(file.error());
-  std::shared_ptr<streamer::SectorSource> source(std::move(*file));
+  // A URL: as many connections as I/O threads read at once (one in deterministic mode).
+  auto archive = openArchive(o.archive, std::max(1, o.io_threads));
+  if (!archive) return std::unexpected(archive.error());
+  const Manifest& manifest = archive->manifest;
+  std::shared_ptr<streamer::SectorSource> source = archive->source;
   if (!o.faults.empty()) {
     auto faults = std::make_shared<streamer::FaultInjectingSource>(
         source, o.io_threads ? streamer::FaultInjectingSource::SlowReads::kSleep : streamer::FaultInjectingSource::SlowReads::kSimulated);
@@ -76,7 +77,7 @@ Result<void> runFly(const FlyCliOptions& o) {
     if (!params) return std::unexpected(params.error().context("--params"));
     auto t = eval::makeTechnique(o.technique, *params);
     if (!t) return std::unexpected(t.error());
-    technique_options = (*t)->streamingRuntime(reader->manifest());
+    technique_options = (*t)->streamingRuntime(manifest);
     technique_name = (*t)->describe();
     if (!technique_options) {
       if (!(*t)->preparesFromWorld())
@@ -92,9 +93,11 @@ Result<void> runFly(const FlyCliOptions& o) {
   if (technique_options) so.residency.volume = technique_options->volume;
   so.io_mode = o.io_threads ? streamer::IoMode::kThreads : streamer::IoMode::kDeterministic;
   so.io_threads = std::max(1, o.io_threads);
-  streamer::Streamer s(reader->manifest(), source, so);
+  // Over HTTP each I/O thread holds one request in flight: let every thread have one.
+  so.max_in_flight = std::max(so.max_in_flight, so.io_threads);
+  streamer::Streamer s(manifest, source, so);
 
-  auto path = o.path_file.empty() ? Result<fly::CatmullRomPath>(fly::defaultFlightPath(reader->manifest(), o.loop))
+  auto path = o.path_file.empty() ? Result<fly::CatmullRomPath>(fly::defaultFlightPath(manifest, o.loop))
                                   : fly::loadFlightPath(o.path_file);
   if (!path) return std::unexpected(path.error());
 
@@ -118,7 +121,7 @@ Result<void> runFly(const FlyCliOptions& o) {
     // (the sweep) then builds its sectors' state as the streamer brings them in, on its workers
     // (deterministic with --io-threads 0, as the streamer's I/O); any other updates itself per frame.
     raytrace::SectorRange block{INT32_MAX, INT32_MIN, INT32_MAX, INT32_MIN};
-    for (const SectorEntry& e : reader->manifest().sectors) {
+    for (const SectorEntry& e : manifest.sectors) {
       block.x0 = std::min(block.x0, e.key.ix), block.x1 = std::max(block.x1, e.key.ix);
       block.y0 = std::min(block.y0, e.key.iy), block.y1 = std::max(block.y1, e.key.iy);
     }
@@ -129,7 +132,7 @@ Result<void> runFly(const FlyCliOptions& o) {
     fo.runtime = false;
     eval::Technique* t = own_technique.get();
     if (streams) {
-      auto stream = t->beginStreaming({reader->manifest(), so.residency, o.start_hour, so.io_mode == streamer::IoMode::kDeterministic});
+      auto stream = t->beginStreaming({manifest, so.residency, o.start_hour, so.io_mode == streamer::IoMode::kDeterministic});
       if (!stream) return std::unexpected(stream.error());
       eval::TechniqueStream* ts = *stream;
       fo.technique_sink = ts;
@@ -157,7 +160,7 @@ Result<void> runFly(const FlyCliOptions& o) {
     }
   } else if (world) {
     if (world->lights.empty()) return fail(o.world + ": --world gives the flight its lights, and this world has none");
-    if (!(reader->manifest().effects & kEffectLocalLights))
+    if (!(manifest.effects & kEffectLocalLights))
       return fail(o.archive + ": baked without local lights (LPRT), so the lights of " + o.world + " would not show; bake a world with lights");
     fo.lights = world->lights;
     fo.light_paths = world->light_paths;
@@ -191,6 +194,7 @@ Result<void> runFly(const FlyCliOptions& o) {
                 technique_name.c_str(), (long long)sum.technique_misses, (long long)sum.technique_frames_with_misses,
                 sum.technique_reach_max, sum.technique_held_max, double(sum.technique_bytes_max) / (1024.0 * 1024.0),
                 sum.technique_stale_max);
+  if (archive->http_stats) std::printf("http: %s\n", archive->http_stats().c_str());
   std::printf("frame CPU ms: p50 %.4f, p99 %.4f, max %.4f\n", sum.frame_ms_p50, sum.frame_ms_p99, sum.frame_ms_max);
   std::printf("report: %s/fly-report.md\n", o.outdir.c_str());
   return {};
@@ -201,7 +205,7 @@ Result<void> runFly(const FlyCliOptions& o) {
 Command registerFly(CLI::App& app) {
   auto o = std::make_shared<FlyCliOptions>();
   CLI::App* sub = app.add_subcommand("fly", "Fly a camera through a baked archive: streaming, relighting, volume updates, report");
-  sub->add_option("archive", o->archive, "Baked archive")->required();
+  sub->add_option("archive", o->archive, "Baked archive: a path or an http(s):// URL (range requests)")->required();
   auto* path = sub->add_option("--path", o->path_file, "Waypoints JSON: {\"loop\": bool, \"waypoints\": [[x,y,z], ...]} (metres)");
   sub->add_flag("--loop", o->loop, "Fly the default closed circuit instead of the default crossing")->excludes(path);
   sub->add_option("--speed", o->speed_mps, "Camera speed, metres per second")->check(finiteRange(0.0, 10000.0, /*lo_open=*/true));
@@ -223,7 +227,7 @@ Command registerFly(CLI::App& app) {
   sub->add_flag("--json", o->json, "Print fly-report.json on stdout instead of the text summary");
   sub->add_option("-o,--output", o->outdir, "Output directory (created)");
   return {sub, [o]() -> Result<void> {
-            if (!std::filesystem::exists(o->archive)) return fail(o->archive + ": no such file");
+            if (!isArchiveUrl(o->archive) && !std::filesystem::exists(o->archive)) return fail(o->archive + ": no such file");
             return runFly(*o);
           }, &o->archive};
 }

@@ -1,4 +1,4 @@
-// drtv info <world.json | file.gltf | file.glb | archive> [--json]
+// drtv info <world.json | file.gltf | file.glb | archive | http(s)://.../archive> [--json]
 #include <algorithm>
 #include <cctype>
 #include <cstdio>
@@ -7,6 +7,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "archive_source.h"
 #include "commands.h"
 #include "drtv/formats/archive.h"
 #include "drtv/worlds/load.h"
@@ -23,9 +24,9 @@ struct InfoOptions {
 nlohmann::json vec3Json(const glm::dvec3& v) { return {v.x, v.y, v.z}; }
 
 Result<void> archiveInfo(const InfoOptions& o) {
-  auto reader = ArchiveReader::open(o.path);
-  if (!reader) return std::unexpected(reader.error());
-  const Manifest& m = reader->manifest();
+  auto archive = openArchive(o.path);
+  if (!archive) return std::unexpected(archive.error());
+  const Manifest& m = archive->manifest;
   size_t probes = 0, min_probes = SIZE_MAX, max_probes = 0, raw = 0, compressed = 0, lprt_sectors = 0;
   for (const SectorEntry& e : m.sectors) {
     probes += e.probes;
@@ -131,9 +132,10 @@ Result<void> worldInfo(const InfoOptions& o) {
 Command registerInfo(CLI::App& app) {
   auto o = std::make_shared<InfoOptions>();
   CLI::App* sub = app.add_subcommand("info", "Describe a world (.json, .gltf, .glb) or a baked archive");
-  sub->add_option("path", o->path, "World file or archive")->required();
+  sub->add_option("path", o->path, "World file, archive, or an archive's http(s):// URL")->required();
   sub->add_flag("--json", o->json, "Print JSON instead of text");
   return {sub, [o]() -> Result<void> {
+            if (isArchiveUrl(o->path)) return archiveInfo(*o);  // a URL names an archive (docs/streamer.md)
             if (!std::filesystem::exists(o->path)) return fail(o->path + ": no such file");
             auto version = peekArchiveVersion(o->path);
             if (version) return archiveInfo(*o);

@@ -1,4 +1,4 @@
-// drtv query <archive> --at x,y,z --normal x,y,z --time HH:MM [--json]
+// drtv query <archive | URL> --at x,y,z --normal x,y,z --time HH:MM [--json]
 // Ambient irradiance at a point and its parts (sun bounce, sky bounce, direct sky, local lights),
 // and which path produced it (volume, distant ambient, interior), from a baked archive alone.
 #include <cmath>
@@ -8,6 +8,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "archive_source.h"
 #include "commands.h"
 #include "drtv/formats/archive.h"
 #include "drtv/runtime/runtime.h"
@@ -29,16 +30,16 @@ Result<void> runQuery(const QueryOptions& o) {
   if (!normal) return std::unexpected(normal.error());
   auto hour = parseTimeOfDay(o.time);
   if (!hour) return std::unexpected(hour.error());
-  auto reader = ArchiveReader::open(o.path);
-  if (!reader) return std::unexpected(reader.error());
-  const Manifest& m = reader->manifest();
+  auto archive = openArchive(o.path);
+  if (!archive) return std::unexpected(archive.error());
+  const Manifest& m = archive->manifest;
 
   // The sectors a streamer would hold around this camera: the 7 x 7 block around it (49 <= 51).
   const SectorKey centre = sectorAt(at->x, at->y);
   std::vector<Sector> sectors;
   for (const SectorEntry& e : m.sectors) {
     if (std::abs(int64_t(e.key.ix) - centre.ix) > 3 || std::abs(int64_t(e.key.iy) - centre.iy) > 3) continue;
-    auto s = reader->readSector(e.key);
+    auto s = readSector(*archive, e.key);
     if (!s) return std::unexpected(s.error());
     sectors.push_back(std::move(*s));
   }
@@ -148,7 +149,7 @@ Result<void> runQuery(const QueryOptions& o) {
 Command registerQuery(CLI::App& app) {
   auto o = std::make_shared<QueryOptions>();
   CLI::App* sub = app.add_subcommand("query", "Ambient irradiance and its parts at a point of a baked archive");
-  sub->add_option("archive", o->path, "Baked archive (.drtv)")->required();
+  sub->add_option("archive", o->path, "Baked archive (.drtv), a path or an http(s):// URL")->required();
   sub->add_option("--at", o->at, "World position x,y,z in metres")->required();
   sub->add_option("--normal", o->normal, "Surface normal x,y,z (normalised here; default 0,0,1)")->check(nonZeroVec3());
   sub->add_option("--time", o->time, "Time of day HH:MM (default 12:00)");

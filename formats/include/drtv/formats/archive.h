@@ -150,6 +150,26 @@ class ArchiveReader {
 
 // Archive bytes <-> manifest, for tests and tools: decode checks everything open() checks.
 Result<Manifest> decodeArchiveHeaderAndManifest(std::span<const uint8_t> file_bytes, const std::string& where);
+
+// The two halves of that, for a reader that fetches the header and then the manifest itself (a
+// sector source over HTTP range requests): ArchiveReader::open runs exactly these two checks.
+// The 64-byte header as stored.
+struct ArchiveHeader {
+  uint32_t version = 0;          // 1, 2 or 3
+  uint64_t manifest_offset = 0;  // bytes from file start
+  uint64_t manifest_bytes = 0;   // the manifest ends the file
+  uint64_t manifest_hash = 0;    // XXH3-64 of the manifest bytes
+  uint64_t file_bytes = 0;       // the whole file
+};
+// Checks the first bytes of an archive (`head`, 64 or fewer if the file is shorter) against the
+// size the file really has (`file_bytes`: from stat, or an HTTP Content-Range's total): magic,
+// version, header size, reserved bytes, the size it records and where its manifest lies. Errors
+// name `where` and the byte offset. Pure, thread-safe.
+Result<ArchiveHeader> decodeArchiveHeader(std::span<const uint8_t> head, uint64_t file_bytes, const std::string& where);
+// Checks and decodes the manifest bytes that `header` locates: their size, their XXH3 against the
+// header's and every field as ArchiveReader::open does. Errors name `where` and the file offset.
+// Pure, thread-safe.
+Result<Manifest> decodeArchiveManifest(const ArchiveHeader& header, std::span<const uint8_t> manifest_bytes, const std::string& where);
 // Reads the version of an archive file (after checking its magic).
 Result<uint32_t> peekArchiveVersion(const std::filesystem::path& path);
 

@@ -540,7 +540,15 @@ Result<Sector> bakeSector(const raytrace::WorldGeometry& geometry, const worlds:
 
   t0 = Clock::now();
   chooseGridExtent(positions, ground_min, sector.grid);
-  fillIndexGrid(*scene, positions, settings.grid, sector.grid, stats.grid);
+  {
+    // Cells outside an interior that would name its probes are tested once more for being inside
+    // geometry (index_grid.h): the boxes of every interior, indexed as PlacedProbe::interior is.
+    std::vector<raytrace::Box> boxes;
+    for (const LocalInterior& in : localInteriors(world, key, effects)) boxes.push_back(in.box);
+    std::vector<uint16_t> probe_interior;
+    for (const PlacedProbe& p : placed) probe_interior.push_back(p.interior);
+    fillIndexGrid(*scene, positions, settings.grid, sector.grid, stats.grid, {boxes, probe_interior});
+  }
   stats.grid_s = since(t0);
   stats.bytes = encodedSectorBytes(sector.probes.size(), sector.lprt.sources.size(), sector.has_ground,
                                    sector.sun ? sector.sun->samples() : 0);

@@ -34,10 +34,28 @@ void chooseGridExtent(std::span<const glm::vec3> probes, float ground_min_z, Ind
 }
 
 void fillIndexGrid(const raytrace::RayScene& scene, std::span<const glm::vec3> probes, const IndexGridSettings& settings,
-                   IndexGrid& grid, IndexGridStats& stats) {
+                   IndexGrid& grid, IndexGridStats& stats, const IndexGridInteriors& interiors) {
   DRTV_CHECK_LE(probes.size(), size_t(kMaxProbesPerSector));
+  DRTV_CHECK(interiors.probe_interior.empty() || interiors.probe_interior.size() == probes.size());
+  for (const uint16_t n : interiors.probe_interior) DRTV_CHECK_LE(size_t(n), interiors.boxes.size());
   grid.cells.fill(kNoProbe);
   if (probes.empty()) return;
+  // Whether probe i lies inside an interior whose box does not hold c (index_grid.h).
+  auto inOtherInterior = [&](const glm::vec3& c, size_t i) {
+    if (interiors.probe_interior.empty() || interiors.probe_interior[i] == 0) return false;
+    const raytrace::Box& b = interiors.boxes[interiors.probe_interior[i] - 1u];
+    return !(glm::all(glm::greaterThanEqual(c, b.min)) && glm::all(glm::lessThan(c, b.max)));
+  };
+  // Whether c is inside geometry, by one ray up in a fixed oblique direction: from a point of a
+  // regular lattice it runs through no other lattice point and along no lattice edge (the slopes
+  // are irrational to float precision), so no kernel's tie-breaking at a vertex decides it.
+  const glm::vec3 oblique = glm::normalize(glm::vec3(0.2718281f, 0.1414213f, 1.f));
+  auto insideGeometry = [&](const glm::vec3& c, uint64_t& n_rays) {
+    const raytrace::Ray ray{c, 0.f, oblique, 1e4f};
+    const raytrace::Hit h = scene.intersect(ray);
+    ++n_rays;
+    return h.hit() && !scene.frontFace(ray, h.prim);
+  };
   const size_t k = std::min(probes.size(), size_t(std::max(1, settings.visibility_candidates)));
   std::atomic<uint64_t> rays{0};
   std::atomic<size_t> nearest{0}, farther{0}, inside{0}, unseen{0}, searched{0};
@@ -77,13 +95,14 @@ void fillIndexGrid(const raytrace::RayScene& scene, std::span<const glm::vec3> p
           }
           uint32_t chosen = order[0].second;
           bool found = false, inside = false;
+          size_t* counted = nullptr;  // the counter the cell's resolution went to
           for (size_t j = 0; j < k && !found; ++j) {
             const glm::vec3 to = probes[order[j].second] - c;
             const float dist = std::sqrt(order[j].first);
             if (dist <= kProbeClearanceM) {
               chosen = order[j].second;
               found = true;
-              j == 0 ? ++n_nearest : ++n_farther;
+              ++*(counted = j == 0 ? &n_nearest : &n_farther);
               break;
             }
             const raytrace::Ray ray{c, 0.f, to / dist, dist - kProbeClearanceM};
@@ -92,7 +111,7 @@ void fillIndexGrid(const raytrace::RayScene& scene, std::span<const glm::vec3> p
             if (!h.hit()) {
               chosen = order[j].second;
               found = true;
-              j == 0 ? ++n_nearest : ++n_farther;
+              ++*(counted = j == 0 ? &n_nearest : &n_farther);
             } else if (j == 0 && !scene.frontFace(ray, h.prim)) {
               // Centre inside geometry: a resolved neighbour's choice (below), or the nearest.
               (settings.inside_from_neighbours ? inside : found) = true;
@@ -116,10 +135,17 @@ void fillIndexGrid(const raytrace::RayScene& scene, std::span<const glm::vec3> p
               if (dist <= kProbeClearanceM || !scene.intersect(ray).hit()) {
                 chosen = i;
                 found = true;
-                ++n_searched;
+                ++*(counted = &n_searched);
                 break;
               }
             }
+          }
+          if (found && settings.inside_from_neighbours && inOtherInterior(c, chosen) && insideGeometry(c, n_rays)) {
+            // A ray that reached an interior's probe from inside geometry went through a crack
+            // (index_grid.h): the cell is inside, as its first ray should have said.
+            found = false, inside = true;
+            --*counted;
+            ++n_inside;
           }
           if (inside) {
             unresolved[IndexGrid::cellIndex(x, y, z)] = kInsideCell;  // search_beyond or not: never a hidden probe

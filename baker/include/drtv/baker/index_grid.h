@@ -17,6 +17,19 @@
 // the ground outside the walls (0.095 of the floor's 0.78, tests/reference/data/room.json). A
 // sector where no cell resolves keeps the nearest; one without probes keeps 255.
 //
+// A cell whose centre is inside geometry must never see a probe (it takes the cell above). Rays
+// alone did not make sure of it: under room.json's west wall, the segment from the cell centred at
+// (-6, 2, -1.5) to the room's probe at (-2, 2, 1.5) leaves the ground exactly through a terrain
+// vertex, (-4, 2, 0), and passes under the wall; Embree's AVX2 kernels let it through that vertex
+// (its SSE and AVX kernels, and the Xeons' AVX-512, hit the ground's back face), so on AVX2 hosts
+// the cell saw the room's probe and the ground outside the wall read 22 % of the room's lamp.
+// Cell centres and probes sit on the 2 m terrain lattice often, so such segments are common. So
+// a cell that would name a probe inside an interior (the artist's volumes and the rooms found,
+// rooms.h) whose box does not hold the cell's centre is asked once more whether its centre is
+// inside geometry, by one ray in a fixed oblique direction (no lattice vertex or edge lies on it
+// from a lattice point): a back face first means inside. Cells that name no interior's probe, and
+// worlds without interiors, are as in every build before.
+//
 // Vertical extent (chooseGridExtent): from 2 m below the lower of the lowest ground sample and
 // the lowest probe, to 4 m above the highest probe, split in 16 cells, each at least
 // kMinCellHeightM tall; horizontally the cells are 4 m (64 m / 16).
@@ -28,6 +41,7 @@
 #include <glm/glm.hpp>
 
 #include "drtv/raytrace/ray_scene.h"
+#include "drtv/raytrace/world_geometry.h"
 #include "drtv/formats/sector.h"
 
 namespace drtv::baker {
@@ -59,9 +73,19 @@ struct IndexGridStats {
 // Chooses z_min_m and cell_height_m (see above). `ground_min_z` may be +inf when unknown.
 void chooseGridExtent(std::span<const glm::vec3> probes, float ground_min_z, IndexGrid& grid);
 
+// The interiors whose probes a cell outside them names only after the inside test above, in the
+// sector's local frame. `boxes[k]` is interior k + 1's box, a point inside when min <= p < max on every axis (as
+// placement.h assigns probes); `probe_interior[i]` is probe i's interior, 0 for none
+// (PlacedProbe::interior). Both empty: no interiors, and the grid is the one of every build before.
+struct IndexGridInteriors {
+  std::span<const raytrace::Box> boxes;
+  std::span<const uint16_t> probe_interior;  // empty, or one per probe, each 0..boxes.size()
+};
+
 // Fills grid.cells for `probes` (sector-relative positions; index = position in the span, at most
 // 255) using grid.z_min_m / cell_height_m. Thread-safe; uses TBB inside; deterministic.
+// Preconditions (checked): probe_interior is empty or has one entry per probe, none above boxes.size().
 void fillIndexGrid(const raytrace::RayScene& scene, std::span<const glm::vec3> probes, const IndexGridSettings& settings,
-                   IndexGrid& grid, IndexGridStats& stats);
+                   IndexGrid& grid, IndexGridStats& stats, const IndexGridInteriors& interiors = {});
 
 }  // namespace drtv::baker

@@ -79,7 +79,7 @@ Result<void> runFly(const FlyCliOptions& o) {
     technique_options = (*t)->streamingRuntime(reader->manifest());
     technique_name = (*t)->describe();
     if (!technique_options) {
-      if (!(*t)->preparesFromWorld())
+      if (!(*t)->traits().prepares_from_world)
         return fail("--technique " + technique_name + ": does not run on drtv::runtime, so it cannot be flown through a streamed archive");
       if (o.world.empty())
         return fail("--technique " + technique_name + ": bakes nothing and is set up from the world: give the world file with --world");
@@ -122,7 +122,7 @@ Result<void> runFly(const FlyCliOptions& o) {
       block.x0 = std::min(block.x0, e.key.ix), block.x1 = std::max(block.x1, e.key.ix);
       block.y0 = std::min(block.y0, e.key.iy), block.y1 = std::max(block.y1, e.key.iy);
     }
-    const bool streams = own_technique->streamsPerSector();
+    const bool streams = own_technique->traits().streams_per_sector;
     eval::PrepareInput in{*world, o.world, block, 1, 0, nullptr};
     in.streaming = streams;
     if (auto r = own_technique->prepare(in); !r) return std::unexpected(r.error());

@@ -191,6 +191,7 @@ Result<TechniqueStream*> Technique::beginStreaming(const StreamingSetup& setup) 
   if (!std::isfinite(setup.start_hour)) return fail("technique " + describe() + ": the start hour must be finite");
   auto s = onBeginStreaming(setup);
   if (!s) return std::unexpected(s.error().context("technique " + describe()));
+  stage_ = Stage::kLit;  // the stream's frames carry the lighting; ambient() reads what it holds
   return s;
 }
 

@@ -17,8 +17,8 @@
 // `--technique` name in `drtv render` and `drtv fly`. tests/technique_toy/ is the smallest one.
 //
 // Call order, checked by the base (a violation is a bug, DRTV_CHECK): prepare (or prepareBaked)
-// before setLighting, setLighting before update, ambient and evaluate; setParams after prepare
-// asks for setLighting again. Threading: prepare, setLighting and update from one thread;
+// before setLighting and beginStreaming; setLighting (or beginStreaming, whose frames carry the
+// lighting) before update, ambient and evaluate; setParams after prepare asks for setLighting again. Threading: prepare, setLighting and update from one thread;
 // ambient() is const and may run from any number of threads at once between updates.
 #pragma once
 

@@ -195,6 +195,41 @@ Result<TechniqueStream*> Technique::beginStreaming(const StreamingSetup& setup) 
   return s;
 }
 
+Result<TechniqueFlight> Technique::prepareFlight(const worlds::World& world, const std::string& where, const StreamingSetup& setup) {
+  raytrace::SectorRange block{INT32_MAX, INT32_MIN, INT32_MAX, INT32_MIN};
+  for (const SectorEntry& e : setup.manifest.sectors) {
+    block.x0 = std::min(block.x0, e.key.ix), block.x1 = std::max(block.x1, e.key.ix);
+    block.y0 = std::min(block.y0, e.key.iy), block.y1 = std::max(block.y1, e.key.iy);
+  }
+  PrepareInput in{world, where, block, 1, 0, nullptr};
+  in.streaming = traits_.streams_per_sector;
+  if (auto r = prepare(in); !r) return std::unexpected(r.error());
+  TechniqueFlight flight;
+  if (traits_.streams_per_sector) {
+    auto stream = beginStreaming(setup);
+    if (!stream) return std::unexpected(stream.error());
+    TechniqueStream* ts = *stream;
+    flight.sink = ts;
+    flight.bytes = costs_.stored_bytes;
+    flight.frame = [ts](const streamer::Camera& camera, double time_s, double hour, const std::vector<PointLight>& lights) {
+      return ts->frame(camera, time_s, hour, lights);
+    };
+    return flight;
+  }
+  flight.bytes = costs_.runtime_bytes;
+  flight.frame = [this](const streamer::Camera& camera, double, double hour,
+                        const std::vector<PointLight>& lights) -> Result<StreamingFrame> {
+    if (auto r = setLighting(hour, lights); !r) return std::unexpected(r.error());
+    if (auto r = update(camera.position_m); !r) return std::unexpected(r.error());
+    StreamingFrame f;
+    f.frame_ms = std::isnan(costs_.update_ms) ? 0.0 : costs_.update_ms;  // FrameWork::kNone: nothing runs
+    f.reach = -1;  // bytes: a streamed technique's per-sector state only
+    f.idle = true;
+    return f;
+  };
+  return flight;
+}
+
 Result<void> Technique::onPrepareBaked(const Manifest&, std::span<const Sector>) {
   return fail("technique " + describe() + " does not prepare from a drtv archive: give it the world");
 }

@@ -42,7 +42,10 @@ class ToyTechnique final : public eval::Technique {
     zenith_ = sky_->skyRadiance(glm::dvec3(0, 0, 1), hour);
     return {};
   }
-  Result<void> onUpdate(const glm::dvec3&) override { return {}; }
+  Result<void> onUpdate(const glm::dvec3&) override {
+    ++updates_;
+    return {};
+  }
   glm::vec3 onAmbient(const glm::dvec3&, const glm::vec3& n) const override {
     return float(params_.level) * (0.5f + 0.5f * n.z) * 3.14159265f * zenith_;
   }
@@ -53,7 +56,11 @@ class ToyTechnique final : public eval::Technique {
     return {};
   }
 
+ public:
+  int updates() const { return updates_; }  // update() calls that reached the toy
+
  private:
+  int updates_ = 0;
   Params params_;
   const Sky* sky_ = nullptr;
   glm::vec3 zenith_{0.f};

@@ -1,6 +1,6 @@
 // A technique added from outside eval/ (toy_technique.h) with one registration line gets, through
 // the generic paths alone, its rows in the accuracy table (its own knob rows and its "technique"
-// row) and a preview render.
+// row), a preview render and a flight.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -9,6 +9,9 @@
 #include "../reference/test_scenes.h"
 #include "drtv/eval/accuracy.h"
 #include "drtv/eval/render.h"
+#include "drtv/fly/fly.h"
+#include "drtv/streamer/streamer.h"
+#include "streamer_world.h"
 #include "toy_technique.h"
 
 namespace drtv::toy {
@@ -102,6 +105,45 @@ TEST(ToyTechnique, RendersAPreviewThroughTheRenderer) {
     ++checked;
   }
   EXPECT_GT(checked, 0u);
+}
+
+TEST(ToyTechnique, FliesThroughAStreamedArchive) {
+  ASSERT_TRUE(kRegistered);
+  ::drtv::testing::TempDir dir;
+  ::drtv::testing::WorldSpec spec;
+  spec.sectors_x = 3, spec.sectors_y = 2;
+  ::drtv::testing::writeWorld(dir.path() / "w.drtv", spec);
+  streamer::StreamerOptions so;
+  so.io_mode = streamer::IoMode::kDeterministic;
+  auto s = streamer::Streamer::open(dir.path() / "w.drtv", so);
+  ASSERT_TRUE(s.has_value()) << s.error().message;
+  auto t = eval::makeTechnique("toy");
+  ASSERT_TRUE(t.has_value());
+  ASSERT_EQ((*t)->streamingRuntime((*s)->manifest()), std::nullopt) << "the toy runs on its own";
+  const worlds::World w = plane();
+  auto flight = (*t)->prepareFlight(w, "plane", {(*s)->manifest(), so.residency, 9.0, true});
+  ASSERT_TRUE(flight.has_value()) << flight.error().message;
+  EXPECT_EQ(flight->sink, nullptr) << "the toy does not stream per sector";
+  fly::FlyOptions fo;
+  fo.frames = 12;
+  fo.warmup_frames = 0;
+  fo.snapshots = 0;
+  fo.runtime = false;
+  fo.technique = (*t)->describe();
+  fo.technique_frame = [frame = flight->frame](const streamer::Camera& cam, double time_s, double hour,
+                                               const std::vector<PointLight>& lights) -> Result<fly::TechniqueFrameCost> {
+    auto f = frame(cam, time_s, hour, lights);
+    if (!f) return std::unexpected(f.error());
+    return fly::TechniqueFrameCost{f->frame_ms, f->inline_ms, f->reach, f->missing, f->stale, f->held, f->bytes, f->idle};
+  };
+  auto r = fly::fly(**s, fly::defaultFlightPath((*s)->manifest(), false), fo, "w.drtv");
+  ASSERT_TRUE(r.has_value()) << r.error().message;
+  ASSERT_EQ(r->frames.size(), 12u);
+  EXPECT_EQ(static_cast<const ToyTechnique&>(**t).updates(), 12) << "one update a frame";
+  for (const fly::FlyFrame& f : r->frames) {
+    EXPECT_EQ(f.technique.reach, -1) << "not streamed";
+    EXPECT_EQ(f.technique_ms, 0.0) << "nothing runs per frame";
+  }
 }
 
 }  // namespace

@@ -213,6 +213,18 @@ class TechniqueStream : public streamer::SectorSink {
                                        const std::vector<PointLight>& lights) = 0;
 };
 
+// What a flight (`drtv fly --technique`) calls for a technique that runs on its own (no
+// streamingRuntime): the streamer's loads and evictions go to `sink` (null: the technique does not
+// stream per sector), and `frame` runs once per frame after the streamer's update. A frame of a
+// technique that does not stream reports reach -1, its update as frame_ms, and idle.
+struct TechniqueFlight {
+  streamer::SectorSink* sink = nullptr;
+  std::function<Result<StreamingFrame>(const streamer::Camera& camera, double time_s, double hour,
+                                       const std::vector<PointLight>& lights)>
+      frame;
+  size_t bytes = 0;  // what it holds when the flight starts
+};
+
 // A point to shade: world metres and a unit normal.
 struct SurfacePoint {
   glm::dvec3 position{0.0};
@@ -291,6 +303,11 @@ class Technique {
   // ambient() reads the finest state it holds. The stream is the technique's (valid while it
   // lives; a second call replaces it). Errors name the technique.
   Result<TechniqueStream*> beginStreaming(const StreamingSetup& setup);
+  // Sets up a flight over `setup.manifest`'s archive for a technique that runs on its own: prepare()
+  // from `world` for the block of the archive's sectors (streaming when it streams per sector),
+  // then beginStreaming or, per frame, setLighting and update. The flight calls must not outlive
+  // the technique.
+  Result<TechniqueFlight> prepareFlight(const worlds::World& world, const std::string& where, const StreamingSetup& setup);
   const TechniqueTraits& traits() const { return traits_; }
   // The registered name it was made under, and its parameters as text ("drtv fill=smooth").
   std::string describe() const;

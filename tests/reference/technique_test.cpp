@@ -109,6 +109,7 @@ TEST(Techniques, ARegisteredTechniqueIsMadeByNameAndANameIsTakenOnce) {
 
 // The call order is a contract: a caller that breaks it has a bug, and the base stops it.
 TEST(TechniquesDeathTest, UpdateOrAmbientBeforeSetLightingIsABug) {
+  GTEST_FLAG_SET(death_test_style, "threadsafe");  // the registry's and TBB's threads may be running
   auto t = makeTechnique("lpv");
   ASSERT_TRUE(t.has_value());
   EXPECT_DEATH((void)(*t)->setLighting(12.0, {}), "internal error");

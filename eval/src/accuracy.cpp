@@ -184,184 +184,8 @@ std::vector<Point> dynamicPoints(const worlds::World& world, const ReferenceScen
   return out;
 }
 
-// One row of the table: a technique with parameters, compared with the whole reference ambient
-// (part < 0) or with one of its terms (a ReferencePart).
-struct RowSpec {
-  std::string knob, value;
-  bool is_default = false;
-  std::string technique;
-  TechniqueParams params;
-  std::string note;
-  int part = -1;
-};
-
-// DRTV's knobs, one at a time around the defaults (accuracy.h lists them), in the table's order.
-std::vector<RowSpec> drtvRows(const BakeSettings& base, uint32_t effects, const worlds::World& world, int probe_samples) {
-  std::vector<RowSpec> rows;
-  for (int rays : {32, 64, 128, 256, 512}) {
-    const bool def = rays == base.transfer.probe_rays_per_basis;
-    rows.push_back({"rays_per_basis", std::to_string(rays), def, "drtv",
-                    def ? TechniqueParams{} : TechniqueParams{{"rays_per_basis", std::to_string(rays)}}, def ? "the default bake" : ""});
-  }
-  for (int bounces : {1, 2, 3, 4}) {
-    const bool def = bounces == base.transfer.bounces;
-    rows.push_back({"bounces", std::to_string(bounces), def, "drtv",
-                    def ? TechniqueParams{} : TechniqueParams{{"bounces", std::to_string(bounces)}}, def ? "the default bake" : ""});
-  }
-  // Jacobi sweeps over the surface cache (transfer.h): further bounces around its closed links.
-  const int default_sweeps = baker::sweepCount(base.transfer);
-  for (int sweeps : {default_sweeps, 4, 16, 64}) {
-    const bool def = sweeps == default_sweeps;
-    if (def && rows.back().knob == "sweeps") continue;  // the default is also one of the others: once
-    rows.push_back({"sweeps", std::to_string(sweeps), def, "drtv",
-                    def ? TechniqueParams{} : TechniqueParams{{"sweeps", std::to_string(sweeps)}}, def ? "the default bake" : ""});
-  }
-  // Probes under roofs (placement.h): the column lattice there / the least distance between them.
-  for (const auto& [spacing, min_h] : {std::pair{4.0, 8.0}, std::pair{4.0, 4.0}, std::pair{2.0, 2.0}, std::pair{2.0, 1.4}, std::pair{1.0, 1.0}}) {
-    const bool def = spacing == base.placement.covered_column_spacing_m && min_h == base.placement.covered_min_horizontal_m;
-    rows.push_back({"placement_under_roofs", fmt(spacing) + " m / " + fmt(min_h) + " m", def, "drtv",
-                    def ? TechniqueParams{} : TechniqueParams{{"covered_spacing", fmt(spacing)}, {"covered_min_h", fmt(min_h)}},
-                    def ? "the default bake: columns / least distance under roofs" : "columns / least distance under roofs"});
-  }
-  // Closed rooms found at bake time and given interiors (rooms.h), against the artist's alone.
-  rows.push_back({"rooms", "auto", base.rooms.enabled, "drtv", base.rooms.enabled ? TechniqueParams{} : TechniqueParams{{"rooms", "auto"}},
-                  base.rooms.enabled ? "the default bake: closed rooms get interiors" : "closed rooms get interiors"});
-  rows.push_back({"rooms", "off", !base.rooms.enabled, "drtv", !base.rooms.enabled ? TechniqueParams{} : TechniqueParams{{"rooms", "off"}},
-                  "the artist's interiors only"});
-  // Surface cache cells split by the walls that cross them (transfer.h), against shared ones.
-  rows.push_back({"cache_cells", "sides", base.transfer.cell_sides, "drtv",
-                  base.transfer.cell_sides ? TechniqueParams{} : TechniqueParams{{"cache_cells", "sides"}},
-                  base.transfer.cell_sides ? "the default bake: a cell splits where a wall crosses it" : "a cell splits where a wall crosses it"});
-  rows.push_back({"cache_cells", "shared", !base.transfer.cell_sides, "drtv",
-                  !base.transfer.cell_sides ? TechniqueParams{} : TechniqueParams{{"cache_cells", "shared"}}, "one cell per cube and facing"});
-  const uint32_t components = runtime::componentsFromEffects(effects);
-  const std::array<std::pair<const char*, uint32_t>, 4> parts = {
-      std::pair{"sun_bounce", uint32_t(runtime::kComponentSunBounce)}, std::pair{"sky_bounce", uint32_t(runtime::kComponentSkyBounce)},
-      std::pair{"direct_sky", uint32_t(runtime::kComponentDirectSky)}, std::pair{"local_lights", uint32_t(runtime::kComponentLocalLights)}};
-  for (size_t k = 0; k < parts.size(); ++k)
-    if (components & parts[k].second) rows.push_back({"part", parts[k].first, false, "drtv", {{"part", parts[k].first}}, "", int(k)});
-  // The same terms baked in fc3 (the talk's bases), so that its bias can be traced to a term too.
-  for (size_t k = 0; k < parts.size(); ++k)
-    if (components & parts[k].second)
-      rows.push_back({"part fc3", parts[k].first, false, "drtv", {{"part", parts[k].first}, {"representation", "fc3"}}, "", int(k)});
-  // The sun's SH lobe, fc3's knob: sh-l1 takes its linear lobe and corrects it with the sun
-  // transfer (representation.h), which another window would no longer match.
-  for (const auto& [name, w] : {std::pair{"hanning", runtime::kHanningBand1}, std::pair{"lanczos", runtime::kLanczosBand1},
-                                std::pair{"none", runtime::kNoWindowBand1}})
-    rows.push_back({"sun_window fc3", name, false, "drtv", {{"representation", "fc3"}, {"sun_window", name}},
-                    "band-1 factor " + fmt(w) + (w == runtime::kHanningBand1 ? ", fc3's own" : "")});
-  // The directional representation, each a real bake -> relight -> volume -> ambient
-  // (representation.h); sh-l1 (the default) with its own sun (linear lobe and sun transfer) and
-  // with fc3's Hanning lobe in place of the linear one.
-  rows.push_back({"representation", "sh-l1", true, "drtv", {}, "the default bake: band-1 SH irradiance, fitted sky, traced sun"});
-  rows.push_back({"representation", "fc3", false, "drtv", {{"representation", "fc3"}}, "the talk's 4 bases, Hanning sun"});
-  rows.push_back({"representation", "sh-l1+hanning", false, "drtv", {{"representation", "sh-l1"}, {"sun_window", "hanning"}},
-                  "band-1 SH irradiance, fc3's windowed sun"});
-  for (const char* basis : {"4-basis", "ambient-cube", "sh-l1"})
-    rows.push_back({"basis", basis, std::string(basis) == "sh-l1", "probe-reference",
-                    {{"basis", basis}, {"probe_samples", std::to_string(probe_samples)}}, "path-traced probe values, nearest probe, no volume"});
-  // Each term read from path-traced probe values: what the probes and the index grid alone allow
-  // that term, beside its `part` row (the bake, the relight and the volume on top).
-  for (size_t k = 0; k < parts.size(); ++k)
-    if (components & parts[k].second)
-      rows.push_back({"part probe-reference", parts[k].first, false, "probe-reference",
-                      {{"part", parts[k].first}, {"probe_samples", std::to_string(probe_samples)}},
-                      "this term from path-traced probe values (sh-l1), nearest probe, no volume: the probes' floor for it", int(k)});
-  rows.push_back({"fill", "nearest", true, "drtv", {{"fill", "nearest"}}, "the default bake"});
-  rows.push_back({"fill", "smooth", false, "drtv", {{"fill", "smooth"}}, "trilinear over index-grid cells"});
-  rows.push_back({"lookup", "trilinear", true, "drtv", {{"lookup", "trilinear"}}, "the shaders' filter"});
-  rows.push_back({"lookup", "facing", false, "drtv", {{"lookup", "facing"}}, "texels behind the surface left out (CPU only)"});
-  for (float t : {1.f, 2.f, 4.f})
-    rows.push_back({"texel_m", fmt(t), glm::vec3(t, t, 2.f * t) == runtime::VolumeOptions{}.texel_size_m, "drtv", {{"texel_m", fmt(t)}},
-                    "96x96x16 texels cover +-" + fmt(47.5 * t) + " m"});
-  // The volume's precision (sh-l1: e0 unsigned, e1..3 signed about the mid code; snorm8 spends
-  // e0's top bit on a sign, as a signed texture format would).
-  for (const char* k : {"8-bit", "snorm8", "16-bit", "float"})
-    rows.push_back({"storage", k, std::string(k) == "8-bit", "drtv", {{"storage", k}}, "emulated: nearest fill, no blur"});
-  // LPRT sources, and how many of them one light is spread onto (probe_cache.h). Their rows give
-  // the local-light term's error (as the part rows do): the total hides it under the sky's.
-  if ((effects & kEffectLocalLights) && !world.lights.empty()) {
-    const runtime::ProbeCacheOptions cache;
-    for (int n : {1, 2, 4, 8, 16})
-      rows.push_back({"sources_per_light", std::to_string(n), n == cache.sources_per_light, "drtv",
-                      {{"part", "local_lights"}, {"sources_per_light", std::to_string(n)}},
-                      "local_lights term alone vs the reference's, as a share of the total ambient", kRefLocalLights});
-    for (const auto& [name, mode] : {std::pair{"visible", runtime::LightSources::kVisibleFromLight},
-                                     std::pair{"nearest", runtime::LightSources::kNearest}})
-      rows.push_back({"light_sources", name, mode == cache.light_sources, "drtv", {{"part", "local_lights"}, {"light_sources", name}},
-                      mode == runtime::LightSources::kNearest ? "the talk's rule: the nearest source probes"
-                                                              : "the probes the index grid names around the light",
-                      kRefLocalLights});
-    // The local-light term with the probes under roofs denser (the placement rows above).
-    for (const auto& [spacing, min_h] : {std::pair{2.0, 2.0}, std::pair{1.0, 1.0}})
-      rows.push_back({"placement_under_roofs local_lights", fmt(spacing) + " m / " + fmt(min_h) + " m", false, "drtv",
-                      {{"part", "local_lights"}, {"covered_spacing", fmt(spacing)}, {"covered_min_h", fmt(min_h)}},
-                      "local_lights term alone vs the reference's, as a share of the total ambient", kRefLocalLights});
-    for (size_t keep : {size_t(8), size_t(32), size_t(64), size_t(kMaxLprtSources)}) {
-      const bool all = keep == size_t(kMaxLprtSources);
-      TechniqueParams p{{"part", "local_lights"}};
-      if (!all) p["lprt_sources"] = std::to_string(keep);
-      rows.push_back({"lprt_sources", std::to_string(keep), all, "drtv", p,
-                      std::string(all ? "the default bake" : "the first sources of the default bake") +
-                          "; local_lights term alone vs the reference's, as a share of the total ambient",
-                      kRefLocalLights});
-    }
-  }
-  return rows;
-}
-
-// The ambient cube's rows (eval/techniques/ambient_cube; AccuracyOptions::cube_knobs): each term
-// alone against the reference's (as the `part sh-l1` rows), and the sun transfer off.
-std::vector<RowSpec> cubeRows(uint32_t effects) {
-  std::vector<RowSpec> rows;
-  const uint32_t components = runtime::componentsFromEffects(effects);
-  const std::array<std::pair<const char*, uint32_t>, 4> parts = {
-      std::pair{"sun_bounce", uint32_t(runtime::kComponentSunBounce)}, std::pair{"sky_bounce", uint32_t(runtime::kComponentSkyBounce)},
-      std::pair{"direct_sky", uint32_t(runtime::kComponentDirectSky)}, std::pair{"local_lights", uint32_t(runtime::kComponentLocalLights)}};
-  for (size_t k = 0; k < parts.size(); ++k)
-    if (components & parts[k].second)
-      rows.push_back({"part ambient-cube", parts[k].first, false, "ambient-cube", {{"part", parts[k].first}}, "", int(k)});
-  if (components & runtime::kComponentSunBounce)
-    rows.push_back({"cube sun_transfer", "off", false, "ambient-cube", {{"sun_transfer", "off"}},
-                    "the ambient cube with the linear sun lobe alone (no exact first bounce)"});
-  return rows;
-}
-
-// LPV's knobs (eval/techniques/lpv), one at a time around its defaults (AccuracyOptions::lpv_knobs).
-std::vector<RowSpec> lpvRows() {
-  std::vector<RowSpec> rows;
-  auto add = [&](const char* knob, const char* param, std::vector<std::string> values, const std::string& def, const std::string& note) {
-    for (const std::string& v : values)
-      rows.push_back({std::string("lpv_") + knob, v, v == def, "lpv", v == def ? TechniqueParams{} : TechniqueParams{{param, v}}, note});
-  };
-  add("cells", "cells", {"16", "32", "64"}, "32", "cells per axis of each cascade");
-  add("cascades", "cascades", {"1", "2", "3", "4"}, "3", "nested grids, cell 1 m x 2^c");
-  add("iterations", "iterations", {"4", "8", "16"}, "8", "propagation steps");
-  add("rsm", "rsm", {"128", "256", "512"}, "256", "sun and sky RSM side, texels");
-  add("occlusion", "occlusion", {"geometry", "rsm", "off"}, "geometry", "the geometry volume's source");
-  add("sky_bounce", "sky_bounce", {"0", "1"}, "1", "the top-down sky-lit RSM");
-  add("lookup_offset", "lookup_offset", {"0", "0.25", "0.5", "1"}, "0.5", "the lookup's shift along the normal, cells");
-  add("damping", "damping", {"0", "1"}, "1", "self-bleeding damped by the light's direction against the normal");
-  return rows;
-}
-
-// The sweep's knobs (eval/techniques/sweep, docs/sweep.md), one at a time around its defaults
-// (AccuracyOptions::sweep_knobs).
-std::vector<RowSpec> sweepRows() {
-  std::vector<RowSpec> rows;
-  auto add = [&](const char* knob, std::vector<std::string> values, const std::string& def, const std::string& note) {
-    for (const std::string& v : values)
-      rows.push_back({std::string("sweep_") + knob, v, v == def, "sweep", v == def ? TechniqueParams{} : TechniqueParams{{knob, v}}, note});
-  };
-  add("ground_blend", {"0", "1", "2", "4"}, "2", "the seed's ground-proximity blend over this many cells above the terrain (0: off)");
-  add("material", {"raycast", "models"}, "raycast", "the fine grids' material: ray cast, or per-model grids (OpenVDB) resampled");
-  add("storage", {"r11g11b10", "float"}, "r11g11b10",
-      "the light grids' values as stored (R11G11B10), or as swept before packing (float: what the stored form costs)");
-  for (const char* v : {"0.25", "0.5"})
-    rows.push_back({"sweep_model_voxel_m", v, false, "sweep", TechniqueParams{{"material", "models"}, {"model_voxel_m", v}},
-                    "material=models with model voxels of this many metres (0.125: the sweep_material models row)"});
-  return rows;
-}
+// One row of the table: a technique with parameters (technique.h, KnobRow).
+using RowSpec = KnobRow;
 
 // Rays of the category tests (SurfaceCategory): upper-hemisphere sky and the horizontal wall search.
 constexpr int kCategorySkyRays = 32, kCategoryWallRays = 8;
@@ -623,6 +447,19 @@ class RowEvaluator {
 
 }  // namespace
 
+Result<void> checkKnobs(const std::vector<std::string>& names) {
+  std::string with;
+  const std::vector<TechniqueInfo> techniques = registeredTechniques();
+  for (const TechniqueInfo& info : techniques)
+    if (info.knobs) with += (with.empty() ? "" : ", ") + info.name;
+  for (const std::string& name : names) {
+    const auto it = std::find_if(techniques.begin(), techniques.end(), [&](const TechniqueInfo& t) { return t.name == name; });
+    if (it == techniques.end()) return fail("--knobs: unknown technique '" + name + "' (with knob rows: " + with + ")");
+    if (!it->knobs) return fail("--knobs: technique '" + name + "' declares no knob rows (with knob rows: " + with + ")");
+  }
+  return {};
+}
+
 Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::string& where, const AccuracyOptions& options) {
   const auto t_start = Clock::now();
   if (options.hours.empty()) return fail("accuracy: no hours to evaluate");
@@ -630,6 +467,7 @@ Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::st
     if (!std::isfinite(h)) return fail("accuracy: hour " + fmt(h) + " is not finite");
   if (options.points < 1) return fail("accuracy: --points must be >= 1");
   if (options.reference_samples < 2 || options.probe_samples < 2) return fail("accuracy: --samples must be >= 2");
+  if (auto k = checkKnobs(options.knobs); !k) return std::unexpected(k.error());
   // Per point and hour: the reference's answer (mean, error and four parts, ~140 B as it is
   // returned, 72 B kept), each configuration's values (12 B, a few held at once) and the queries.
   {
@@ -702,7 +540,16 @@ Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::st
   for (const SurfaceCategory c : categories) ++report.category_points[size_t(c)];
   RowEvaluator rows(world, where, *block, options, *base, points, truth, std::move(categories), report);
   Values default_values;  // the default DRTV row's, for the storage emulation check
-  const std::vector<RowSpec> specs = drtvRows(base_settings, base->manifest.effects, world, options.probe_samples);
+  // DRTV's knob rows always (the table's subject: the default bake, the storage emulation check),
+  // then those of the techniques asked for (AccuracyOptions::knobs), in registration order.
+  const KnobContext knob_context{base_settings, base->manifest.effects, world, options.probe_samples};
+  const std::vector<TechniqueInfo> techniques = registeredTechniques();
+  auto rowsOf = [&](const std::string& name) {
+    for (const TechniqueInfo& info : techniques)
+      if (info.name == name && info.knobs) return info.knobs(knob_context);
+    return std::vector<RowSpec>{};
+  };
+  const std::vector<RowSpec> specs = rowsOf("drtv");
   for (const RowSpec& spec : specs) {
     auto v = rows.evaluate(spec);
     if (!v) return std::unexpected(v.error());
@@ -717,22 +564,18 @@ Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::st
   if (!((base->manifest.effects & kEffectLocalLights) && !world.lights.empty()))
     report.skipped.push_back("lprt_sources: the world has no point lights (no LPRT baked)");
 
-  if (options.lpv_knobs)
-    for (const RowSpec& spec : lpvRows())
+  for (const TechniqueInfo& info : techniques) {
+    if (info.name == "drtv" || std::find(options.knobs.begin(), options.knobs.end(), info.name) == options.knobs.end()) continue;
+    for (const RowSpec& spec : rowsOf(info.name))
       if (auto v = rows.evaluate(spec); !v) return std::unexpected(v.error());
-  if (options.sweep_knobs)
-    for (const RowSpec& spec : sweepRows())
-      if (auto v = rows.evaluate(spec); !v) return std::unexpected(v.error());
-  if (options.cube_knobs)
-    for (const RowSpec& spec : cubeRows(base->manifest.effects))
-      if (auto v = rows.evaluate(spec); !v) return std::unexpected(v.error());
+  }
 
   // technique: each registered technique (or those asked for) at its own defaults.
-  for (const TechniqueInfo& info : registeredTechniques()) {
+  for (const TechniqueInfo& info : techniques) {
     if (!options.techniques.empty() &&
         std::find(options.techniques.begin(), options.techniques.end(), info.name) == options.techniques.end())
       continue;
-    if (auto v = rows.evaluate({"technique", info.name, info.name == "drtv", info.name, {}, info.description}); !v)
+    if (auto v = rows.evaluate({"technique", info.name, info.name == "drtv", info.name, {}, info.description, -1}); !v)
       return std::unexpected(v.error());
   }
   report.wall_s = since(t_start);

@@ -146,13 +146,10 @@ Result<RenderResult> render(const worlds::World& world, const std::string& where
   std::vector<Sector> held;
   for (const Sector& s : sectors)
     if (detail::inStreamingBlock(s.key, cam.position) && held.size() < size_t(runtime::kMaxResidentSectors)) held.push_back(s);
-  if ((*technique)->preparesFromWorld()) {
-    const SectorKey c = sectorAt(cam.position.x, cam.position.y);
-    const raytrace::SectorRange block{c.ix - 3, c.ix + 3, c.iy - 3, c.iy + 3};  // detail::inStreamingBlock's
-    if (auto r = (*technique)->prepare({world, where, block, options.seed, options.threads}); !r) return std::unexpected(r.error());
-  } else if (auto r = (*technique)->prepareBaked(baked, held); !r) {
+  const SectorKey centre = sectorAt(cam.position.x, cam.position.y);
+  const raytrace::SectorRange block{centre.ix - 3, centre.ix + 3, centre.iy - 3, centre.iy + 3};  // detail::inStreamingBlock's
+  if (auto r = (*technique)->prepareForArchive(baked, held, {world, where, block, options.seed, options.threads}); !r)
     return std::unexpected(r.error().context(archive));
-  }
   if (auto r = (*technique)->setLighting(options.hour, baked.lights); !r) return std::unexpected(r.error().context(archive));
   if (auto r = (*technique)->update(cam.position); !r) return std::unexpected(r.error().context(archive));
   const Technique& gi = **technique;

@@ -1,45 +1,41 @@
 // The built-in techniques' registrations, one function per folder under eval/techniques/
-// (technique.cpp calls each on first use of the registry).
+// (technique.cpp calls each once, on first use of the registry), and what several of them share.
 #pragma once
 
-#include <charconv>
-#include <string>
+#include <array>
+#include <cstdint>
 #include <utility>
-#include <vector>
 
 #include "drtv/eval/technique.h"
+#include "drtv/runtime/runtime.h"
 
 namespace drtv::eval {
 
-using TechniqueRegistration = std::pair<TechniqueInfo, TechniqueFactory>;
-
-// What Technique::describe() returns: the registered name, then the given parameters as
-// "name k=v,k=v" (none: the name alone).
-inline std::string describeTechnique(const std::string& name, const TechniqueParams& given) {
-  std::string s = name;
-  char sep = ' ';
-  for (const auto& [k, v] : given) s += sep + k + "=" + v, sep = ',';
-  return s;
-}
-
-// A technique parameter `key`=`v` read as an integer in [lo, hi], or an error naming both.
-inline Result<int> intIn(const std::string& key, const std::string& v, int lo, int hi) {
-  int x = 0;
-  const auto [end, ec] = std::from_chars(v.data(), v.data() + v.size(), x);
-  if (ec != std::errc() || end != v.data() + v.size() || x < lo || x > hi)
-    return fail(key + "=" + v + ": expected an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
-  return x;
-}
-
 // eval/techniques/drtv: Deferred Radiance Transfer Volumes (the talk's), nearest and smooth fills.
-std::vector<TechniqueRegistration> drtvTechniques();
+Result<void> registerDrtvTechniques();
 // eval/techniques/probe_reference: DRTV's probes with path-traced values, no volume (basis rows).
-std::vector<TechniqueRegistration> probeReferenceTechniques();
+Result<void> registerProbeReferenceTechnique();
 // eval/techniques/ambient_cube: DRTV's probes with a six-axis ambient cube, baked, relit, a volume (in memory).
-std::vector<TechniqueRegistration> ambientCubeTechniques();
+Result<void> registerAmbientCubeTechnique();
 // eval/techniques/lpv: cascaded light propagation volumes over ray-cast RSMs (drtv/lpv/lpv.h).
-std::vector<TechniqueRegistration> lpvTechniques();
+Result<void> registerLpvTechnique();
 // eval/techniques/sweep: the top-down sweep light grid (seed 001), no bake.
-std::vector<TechniqueRegistration> sweepTechniques();
+Result<void> registerSweepTechniques();
+
+// The runtime's relighting terms by the names of the reference's parts (the `part` parameter and
+// rows), in the reference's order (reference::ReferencePart).
+inline constexpr std::array<std::pair<const char*, uint32_t>, 4> kRuntimeParts = {
+    std::pair{"sun_bounce", uint32_t(runtime::kComponentSunBounce)}, std::pair{"sky_bounce", uint32_t(runtime::kComponentSkyBounce)},
+    std::pair{"direct_sky", uint32_t(runtime::kComponentDirectSky)}, std::pair{"local_lights", uint32_t(runtime::kComponentLocalLights)}};
+
+// The `part` parameter of the techniques on drtv's runtime terms: all (nothing) or one component.
+inline void readPart(ParamReader& r, std::optional<uint32_t>& part) {
+  std::optional<uint32_t> none;
+  r.oneOf(std::string("part"), part,
+          {{"all", none}, {"sun_bounce", std::optional<uint32_t>(runtime::kComponentSunBounce)},
+           {"sky_bounce", std::optional<uint32_t>(runtime::kComponentSkyBounce)},
+           {"direct_sky", std::optional<uint32_t>(runtime::kComponentDirectSky)},
+           {"local_lights", std::optional<uint32_t>(runtime::kComponentLocalLights)}});
+}
 
 }  // namespace drtv::eval

@@ -49,7 +49,7 @@ TEST(Techniques, AnUnknownNameOrParameterIsAnErrorNamingIt) {
            {{{"bounces", "2x"}}, "bounces=2x"},
            {{{"texel_m", "-1"}}, "texel_m=-1"},
            {{{"quality", "ultra"}}, "quality=ultra"},
-           {{{"colour", "red"}}, "no parameter 'colour'"}}) {
+           {{{"colour", "red"}}, "technique drtv: unknown parameter 'colour' (takes: quality, rays_per_basis, "}}) {
     auto t = makeTechnique("drtv", params);
     ASSERT_FALSE(t.has_value()) << what;
     EXPECT_NE(t.error().message.find(what), std::string::npos) << t.error().message;
@@ -66,26 +66,76 @@ TEST(Techniques, AnUnknownNameOrParameterIsAnErrorNamingIt) {
 // A technique of its own, registered from outside the library: adding one is a registration.
 class ConstantTechnique final : public Technique {
  public:
-  Result<void> prepare(const PrepareInput&) override { return {}; }
-  Result<void> setLighting(double, const std::vector<PointLight>&) override { return {}; }
-  Result<void> update(const glm::dvec3&) override { return {}; }
-  glm::vec3 ambient(const glm::dvec3&, const glm::vec3&) const override { return glm::vec3(1.f); }
-  TechniqueCosts costs() const override { return {}; }
-  std::string describe() const override { return "constant"; }
+  struct Params {};
+  ConstantTechnique(TechniqueMade made, Params) : Technique(std::move(made), {}) {}
+  static Params read(ParamReader&) { return {}; }
+  static std::vector<TechniqueInfo> variants() { return {{"test-constant", "ambient 1 everywhere", {}, {}}}; }
+
+ protected:
+  Result<void> onPrepare(const PrepareInput&) override { return {}; }
+  Result<void> onSetLighting(double, const std::vector<PointLight>&) override { return {}; }
+  Result<void> onUpdate(const glm::dvec3&) override { return {}; }
+  glm::vec3 onAmbient(const glm::dvec3&, const glm::vec3&) const override { return glm::vec3(1.f); }
 };
 
 TEST(Techniques, ARegisteredTechniqueIsMadeByNameAndANameIsTakenOnce) {
-  auto factory = [](const TechniqueParams&) -> Result<std::unique_ptr<Technique>> { return std::make_unique<ConstantTechnique>(); };
-  ASSERT_TRUE(registerTechnique({"test-constant", "ambient 1 everywhere", {}}, factory).has_value());
-  EXPECT_FALSE(registerTechnique({"test-constant", "again", {}}, factory).has_value());
-  EXPECT_FALSE(registerTechnique({"drtv", "a second drtv", {}}, factory).has_value());
+  ASSERT_TRUE(registerTechnique<ConstantTechnique>().has_value());
+  EXPECT_FALSE(registerTechnique<ConstantTechnique>().has_value());
+  auto factory = [](const TechniqueMade& made) -> Result<std::unique_ptr<Technique>> {
+    return std::make_unique<ConstantTechnique>(made, ConstantTechnique::Params{});
+  };
+  EXPECT_FALSE(registerTechnique({"drtv", "a second drtv", {}, {}}, factory).has_value());
   auto t = makeTechnique("test-constant");
   ASSERT_TRUE(t.has_value());
-  EXPECT_EQ((*t)->ambient(glm::dvec3(0.0), glm::vec3(0, 0, 1)), glm::vec3(1.f));
+  // A technique that takes no parameters names the one given.
+  auto p = makeTechnique("test-constant", {{"shade", "1"}});
+  ASSERT_FALSE(p.has_value());
+  EXPECT_NE(p.error().message.find("technique test-constant: unknown parameter 'shade' (takes: none)"), std::string::npos)
+      << p.error().message;
   // A technique that does not bake into drtv archives says so.
   auto baked = (*t)->prepareBaked(Manifest{}, {});
   ASSERT_FALSE(baked.has_value());
   EXPECT_NE(baked.error().message.find("constant"), std::string::npos);
+  worlds::World w;
+  ASSERT_TRUE((*t)->prepare({w, "w", {0, 0, 0, 0}}).has_value());
+  ASSERT_TRUE((*t)->setLighting(12.0, {}).has_value());
+  EXPECT_EQ((*t)->ambient(glm::dvec3(0.0), glm::vec3(0, 0, 1)), glm::vec3(1.f));
+  // Bad input at the interface is an error, not a bug, and names the technique.
+  auto hour = (*t)->setLighting(std::nan(""), {});
+  ASSERT_FALSE(hour.has_value());
+  EXPECT_NE(hour.error().message.find("technique test-constant: hour"), std::string::npos) << hour.error().message;
+  EXPECT_FALSE((*t)->update(glm::dvec3(std::nan(""), 0, 0)).has_value());
+}
+
+// The call order is a contract: a caller that breaks it has a bug, and the base stops it.
+TEST(TechniquesDeathTest, UpdateOrAmbientBeforeSetLightingIsABug) {
+  GTEST_FLAG_SET(death_test_style, "threadsafe");  // the registry's and TBB's threads may be running
+  auto t = makeTechnique("lpv");
+  ASSERT_TRUE(t.has_value());
+  EXPECT_DEATH((void)(*t)->setLighting(12.0, {}), "internal error");
+  EXPECT_DEATH((void)(*t)->update(glm::dvec3(0.0)), "internal error");
+  EXPECT_DEATH((void)(*t)->ambient(glm::dvec3(0.0), glm::vec3(0, 0, 1)), "internal error");
+}
+
+// Every technique's parameters are read by one reader: an unknown key is named with the keys the
+// technique takes, a malformed value with what was expected, and the technique is named once.
+TEST(Techniques, EveryTechniqueNamesAnUnknownParameterAndWhatItTakes) {
+  for (const TechniqueInfo& info : registeredTechniques()) {
+    auto t = makeTechnique(info.name, {{"foo", "1"}});
+    ASSERT_FALSE(t.has_value()) << info.name;
+    const std::string& m = t.error().message;
+    EXPECT_EQ(m.rfind("technique " + info.name + ": unknown parameter 'foo' (takes: ", 0), 0u) << m;
+    EXPECT_EQ(m.find("technique", 1), std::string::npos) << "named once: " << m;
+  }
+  auto lpv = makeTechnique("lpv", {{"cells", "many"}});
+  ASSERT_FALSE(lpv.has_value());
+  EXPECT_EQ(lpv.error().message, "technique lpv: cells=many: expected an integer in [4, 128]");
+  auto sweep = makeTechnique("sweep", {{"cell_m", "3"}});
+  ASSERT_FALSE(sweep.has_value());
+  EXPECT_EQ(sweep.error().message, "technique sweep: cell_m=3: must divide 64 (or be 0: no fine grids)");
+  auto cube = makeTechnique("ambient-cube", {{"sun_transfer", "maybe"}});
+  ASSERT_FALSE(cube.has_value());
+  EXPECT_EQ(cube.error().message, "technique ambient-cube: sun_transfer=maybe: expected on or off");
 }
 
 // A white plane under a uniform sky of radiance L: the ground reflects L (rho E / pi with E = pi L),

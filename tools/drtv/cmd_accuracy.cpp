@@ -1,5 +1,5 @@
 // drtv accuracy <world.json> -o <dir> [--stratify] [--points N] [--samples N] [--time HH:MM,HH:MM]
-//               [--sectors x0:x1,y0:y1] [--seed S] [--threads N]
+//               [--sectors x0:x1,y0:y1] [--seed S] [--threads N] [--techniques a,b] [--knobs lpv,sweep]
 // Bakes the world in memory and sweeps each knob around the default against the path-traced
 // reference (accuracy.h); writes accuracy.csv, .json, .md and .png into the directory.
 #include <cstdio>
@@ -19,9 +19,7 @@ struct AccuracyCliOptions {
   int points = 240, samples = 512, probe_samples = 256, threads = 0;
   uint64_t seed = 1;
   std::vector<std::string> techniques;
-  bool lpv_knobs = false;
-  bool cube_knobs = false;
-  bool sweep_knobs = false;
+  std::vector<std::string> knobs;
   bool stratify = false;
 };
 
@@ -58,17 +56,17 @@ Command registerAccuracy(CLI::App& app) {
   const std::string names = eval::registeredTechniqueNames();
   sub->add_option("--techniques", o->techniques, "The techniques of the \"technique\" rows, comma-separated (default all: " + names + ")")
       ->delimiter(',');
-  sub->add_flag("--lpv-knobs", o->lpv_knobs, "Also LPV's knob rows (cells, cascades, iterations, RSM size, occlusion, ...): minutes each");
-  sub->add_flag("--cube-knobs", o->cube_knobs, "Also the ambient cube's rows (each term alone, the sun transfer off): seconds each");
-  sub->add_flag("--sweep-knobs", o->sweep_knobs, "Also the sweep's knob rows (ground-proximity blend, material from models): seconds each");
+  sub->add_option("--knobs", o->knobs,
+                  "Also these techniques' own knob rows, comma-separated (lpv: minutes each; sweep, ambient-cube: seconds each); "
+                  "DRTV's are always there")
+      ->delimiter(',');
   sub->add_flag("--stratify", o->stratify,
                 "Give each surface category found (open ground, walls, enclosed) an equal share of the static points; the totals then "
                 "weigh the categories equally");
   return {sub, [o]() -> Result<void> {
             eval::AccuracyOptions opts;
-            opts.lpv_knobs = o->lpv_knobs;
-            opts.cube_knobs = o->cube_knobs;
-            opts.sweep_knobs = o->sweep_knobs;
+            if (auto k = eval::checkKnobs(o->knobs); !k) return k;
+            opts.knobs = o->knobs;
             opts.stratify = o->stratify;
             auto hours = parseHours(o->times);
             if (!hours) return std::unexpected(hours.error());

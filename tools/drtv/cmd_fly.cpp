@@ -80,7 +80,7 @@ Result<void> runFly(const FlyCliOptions& o) {
     technique_options = (*t)->streamingRuntime(manifest);
     technique_name = (*t)->describe();
     if (!technique_options) {
-      if (!(*t)->preparesFromWorld())
+      if (!(*t)->traits().prepares_from_world)
         return fail("--technique " + technique_name + ": does not run on drtv::runtime, so it cannot be flown through a streamed archive");
       if (o.world.empty())
         return fail("--technique " + technique_name + ": bakes nothing and is set up from the world: give the world file with --world");
@@ -120,40 +120,18 @@ Result<void> runFly(const FlyCliOptions& o) {
     // Set up from the world for the sectors the archive holds. A technique that streams per sector
     // (the sweep) then builds its sectors' state as the streamer brings them in, on its workers
     // (deterministic with --io-threads 0, as the streamer's I/O); any other updates itself per frame.
-    raytrace::SectorRange block{INT32_MAX, INT32_MIN, INT32_MAX, INT32_MIN};
-    for (const SectorEntry& e : manifest.sectors) {
-      block.x0 = std::min(block.x0, e.key.ix), block.x1 = std::max(block.x1, e.key.ix);
-      block.y0 = std::min(block.y0, e.key.iy), block.y1 = std::max(block.y1, e.key.iy);
-    }
-    const bool streams = own_technique->streamsPerSector();
-    eval::PrepareInput in{*world, o.world, block, 1, 0, nullptr};
-    in.streaming = streams;
-    if (auto r = own_technique->prepare(in); !r) return std::unexpected(r.error());
+    auto flight = own_technique->prepareFlight(
+        *world, o.world, {manifest, so.residency, o.start_hour, so.io_mode == streamer::IoMode::kDeterministic});
+    if (!flight) return std::unexpected(flight.error());
     fo.runtime = false;
-    eval::Technique* t = own_technique.get();
-    if (streams) {
-      auto stream = t->beginStreaming({manifest, so.residency, o.start_hour, so.io_mode == streamer::IoMode::kDeterministic});
-      if (!stream) return std::unexpected(stream.error());
-      eval::TechniqueStream* ts = *stream;
-      fo.technique_sink = ts;
-      fo.technique_bytes = t->costs().stored_bytes;
-      fo.technique_frame = [ts](const streamer::Camera& cam, double time_s, double hour,
-                                const std::vector<PointLight>& lights) -> Result<fly::TechniqueFrameCost> {
-        auto f = ts->frame(cam, time_s, hour, lights);
-        if (!f) return std::unexpected(f.error());
-        return fly::TechniqueFrameCost{f->frame_ms, f->inline_ms, f->reach, f->missing, f->stale, f->held, f->bytes, f->idle};
-      };
-    } else {
-      fo.technique_bytes = t->costs().runtime_bytes;
-      fo.technique_frame = [t](const streamer::Camera& cam, double, double hour,
-                               const std::vector<PointLight>& lights) -> Result<fly::TechniqueFrameCost> {
-        if (auto r = t->setLighting(hour, lights); !r) return std::unexpected(r.error());
-        if (auto r = t->update(cam.position_m); !r) return std::unexpected(r.error());
-        fly::TechniqueFrameCost c;
-        c.ms = t->costs().update_ms;
-        return c;
-      };
-    }
+    fo.technique_sink = flight->sink;
+    fo.technique_bytes = flight->bytes;
+    fo.technique_frame = [frame = std::move(flight->frame)](const streamer::Camera& cam, double time_s, double hour,
+                                                           const std::vector<PointLight>& lights) -> Result<fly::TechniqueFrameCost> {
+      auto f = frame(cam, time_s, hour, lights);
+      if (!f) return std::unexpected(f.error());
+      return fly::TechniqueFrameCost{f->frame_ms, f->inline_ms, f->reach, f->missing, f->stale, f->held, f->bytes, f->idle};
+    };
     if (!world->lights.empty()) {
       fo.lights = world->lights;
       fo.light_paths = world->light_paths;

@@ -79,41 +79,19 @@ struct Params {
   std::optional<float> texel_m;
   std::optional<uint32_t> part;
   bool sun_transfer = true;
-  TechniqueParams given;
 };
 
-Result<Params> parseParams(const TechniqueParams& p) {
+Params readCube(ParamReader& r) {
   Params out;
-  out.given = p;
-  for (const auto& [k, v] : p) {
-    if (k == "quality") {
-      auto q = baker::parseQuality(v);
-      if (!q) return fail("quality=" + v + ": expected draft, default or high");
-      out.quality = *q;
-    } else if (k == "rays_per_basis" || k == "bounces") {
-      auto x = intIn(k, v, 1, 1 << 20);
-      if (!x) return std::unexpected(x.error());
-      (k == "bounces" ? out.bounces : out.rays_per_basis) = *x;
-    } else if (k == "texel_m") {
-      char* end = nullptr;
-      const double x = std::strtod(v.c_str(), &end);
-      if (end != v.c_str() + v.size() || !(x > 0.0) || !std::isfinite(x) || x > 1e4) return fail("texel_m=" + v + ": expected metres in (0, 1e4]");
-      out.texel_m = float(x);
-    } else if (k == "part") {
-      if (v == "all") out.part.reset();
-      else if (v == "sun_bounce") out.part = runtime::kComponentSunBounce;
-      else if (v == "sky_bounce") out.part = runtime::kComponentSkyBounce;
-      else if (v == "direct_sky") out.part = runtime::kComponentDirectSky;
-      else if (v == "local_lights") out.part = runtime::kComponentLocalLights;
-      else return fail("part=" + v + ": expected all, sun_bounce, sky_bounce, direct_sky or local_lights");
-    } else if (k == "sun_transfer") {
-      if (v == "on") out.sun_transfer = true;
-      else if (v == "off") out.sun_transfer = false;
-      else return fail("sun_transfer=" + v + ": expected on or off");
-    } else {
-      return fail("no parameter '" + k + "' (ambient-cube takes quality, rays_per_basis, bounces, texel_m, part, sun_transfer)");
-    }
+  if (const std::string* v = r.text("quality")) {
+    if (auto q = baker::parseQuality(*v)) out.quality = *q;
+    else r.reject("quality=" + *v + ": expected draft, default or high");
   }
+  r.integer("rays_per_basis", out.rays_per_basis, 1, 1 << 20)
+      .integer("bounces", out.bounces, 1, 1 << 20)
+      .real("texel_m", out.texel_m, 0, 1e4, true);
+  readPart(r, out.part);
+  r.oneOf("sun_transfer", out.sun_transfer, {{"on", true}, {"off", false}});
   return out;
 }
 
@@ -135,9 +113,33 @@ int64_t wrap(int64_t a, int64_t n) { return a - floorDiv(a, n) * n; }
 
 class AmbientCube final : public Technique {
  public:
-  explicit AmbientCube(Params p) : params_(std::move(p)) {}
+  using Params = drtv::eval::Params;
+  AmbientCube(TechniqueMade made, Params p) : Technique(std::move(made), {}), params_(std::move(p)) {}
 
-  Result<void> prepare(const PrepareInput& in) override {
+  static Params read(ParamReader& r) { return readCube(r); }
+  static std::vector<TechniqueInfo> variants() {
+    return {{"ambient-cube",
+             "DRTV with a six-axis ambient cube per probe (in memory only): baked on the drtv bake's rays, relit, "
+             "a 96x96x16 volume of 18 bytes a texel",
+             {},
+             &knobs}};
+  }
+  // Each term alone against the reference's (as the `part` rows of sh-l1), and the sun transfer
+  // off: the technique baked once per row, seconds each (docs/accuracy.md).
+  static std::vector<KnobRow> knobs(const KnobContext& c) {
+    std::vector<KnobRow> rows;
+    const uint32_t components = runtime::componentsFromEffects(c.effects);
+    for (size_t k = 0; k < kRuntimeParts.size(); ++k)
+      if (components & kRuntimeParts[k].second)
+        rows.push_back({"part ambient-cube", kRuntimeParts[k].first, false, "ambient-cube", {{"part", kRuntimeParts[k].first}}, "", int(k)});
+    if ((components & runtime::kComponentSunBounce) && Params{}.sun_transfer)
+      rows.push_back({"cube sun_transfer", "off", false, "ambient-cube", {{"sun_transfer", "off"}},
+                      "the ambient cube with the linear sun lobe alone (no exact first bounce)"});
+    return rows;
+  }
+
+ protected:
+  Result<void> onPrepare(const PrepareInput& in) override {
     baker::BakeSettings s = baker::BakeSettings::forQuality(params_.quality, in.seed);
     if (params_.rays_per_basis) s.transfer.probe_rays_per_basis = *params_.rays_per_basis;
     if (params_.bounces) s.transfer.bounces = *params_.bounces;
@@ -176,8 +178,7 @@ class AmbientCube final : public Technique {
     packed_.assign(cube_.sectors.size(), {});
     components_ = runtime::componentsFromEffects(manifest_.effects);
     if (params_.part) components_ &= *params_.part;
-    costs_ = {};
-    costs_.prepare_s = bake->bake_s + cube_.bake_s;
+    reportPrepareSeconds(bake->bake_s + cube_.bake_s);
     costs_.stored_bytes = storedBytes(bake->sectors);
     const glm::ivec3 n = options_.volume.size;
     size_ = n;
@@ -190,9 +191,7 @@ class AmbientCube final : public Technique {
     return {};
   }
 
-  Result<void> setLighting(double hour, const std::vector<PointLight>& lights) override {
-    if (!rt_) return fail("technique " + describe() + ": setLighting before prepare");
-    if (!std::isfinite(hour)) return fail("hour " + std::to_string(hour) + ": not finite");
+  Result<void> onSetLighting(double hour, const std::vector<PointLight>& lights) override {
     if (std::string why = validateLighting(manifest_.sky, lights, manifest_.interiors); !why.empty()) return fail(why);
     lighting_ = runtime::evaluateSky(manifest_.sky, hour, runtime::kLinearSunBand1, 0.f);
     lights_ = lights;
@@ -201,18 +200,14 @@ class AmbientCube final : public Technique {
     return {};
   }
 
-  Result<void> update(const glm::dvec3& camera) override {
-    if (!rt_ || !lit_) return fail("technique " + describe() + ": update before setLighting");
-    const auto t0 = Clock::now();
+  Result<void> onUpdate(const glm::dvec3& camera) override {
     const bool relit = dirty_;
     if (dirty_) relight(), dirty_ = false;
     scroll(originFor(camera), relit);
-    costs_.update_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
     return {};
   }
 
-  glm::vec3 ambient(const glm::dvec3& position, const glm::vec3& normal) const override {
-    if (!rt_) return glm::vec3(0.f);
+  glm::vec3 onAmbient(const glm::dvec3& position, const glm::vec3& normal) const override {
     const glm::vec3 n = unitNormal(normal);
     static const runtime::OcclusionMap kOpenSky;
     const sh::Sh4Rgb sky = components_ & runtime::kComponentDirectSky ? lighting_.sky_sh : sh::Sh4Rgb{};
@@ -246,10 +241,6 @@ class AmbientCube final : public Technique {
     if (manifest_.effects & kEffectInteriors) out = interiorBlend(position, n, out);
     return out;
   }
-
-  TechniqueCosts costs() const override { return costs_; }
-
-  std::string describe() const override { return describeTechnique("ambient-cube", params_.given); }
 
  private:
   // What an archive of the cube would hold: the sh-l1 sector (its record, index grid, ground map,
@@ -521,23 +512,10 @@ class AmbientCube final : public Technique {
   std::vector<int32_t> texel_probe_;  // per stored texel: probeIndexAt of the world texel it holds
   std::vector<uint16_t> blur_a_, blur_b_;  // the blur's scratch, 18 sums a texel, kept between fills
   bool built_ = false, dirty_ = true, lit_ = false;
-  TechniqueCosts costs_;
 };
 
 }  // namespace
 
-std::vector<TechniqueRegistration> ambientCubeTechniques() {
-  std::vector<TechniqueRegistration> out;
-  out.push_back({{"ambient-cube",
-                  "DRTV with a six-axis ambient cube per probe (in memory only): baked on the drtv bake's rays, relit, "
-                  "a 96x96x16 volume of 18 bytes a texel",
-                  {}},
-                 [](const TechniqueParams& p) -> Result<std::unique_ptr<Technique>> {
-                   auto parsed = parseParams(p);
-                   if (!parsed) return std::unexpected(parsed.error());
-                   return std::make_unique<AmbientCube>(std::move(*parsed));
-                 }});
-  return out;
-}
+Result<void> registerAmbientCubeTechnique() { return registerTechnique<AmbientCube>(); }
 
 }  // namespace drtv::eval

@@ -45,8 +45,11 @@
 #include <chrono>
 #include <cmath>
 #include <optional>
+#include <sstream>
 
 #include "drtv/baker/bake.h"
+#include "drtv/baker/placement.h"
+#include "drtv/reference/reference.h"
 #include "drtv/formats/sh.h"
 #include "drtv/runtime/runtime.h"
 #include "techniques.h"
@@ -84,95 +87,53 @@ struct RuntimeParams {
 struct Params {
   BakeParams bake;
   RuntimeParams runtime;
-  TechniqueParams given;
 };
 
-Result<Params> parseParams(const TechniqueParams& p) {
+// storage=...: steps per HDR unit (< 0 the runtime's volume, 0 float), e0 signed, bytes per texel.
+struct Storage {
+  double levels = -1;
+  bool signed_e0 = false;
+  double bytes = 12;
+};
+
+Params readDrtv(ParamReader& r) {
   Params out;
-  out.given = p;
-  for (const auto& [k, v] : p) {
-    if (k == "quality") {
-      auto q = baker::parseQuality(v);
-      if (!q) return fail("quality=" + v + ": expected draft, default or high");
-      out.bake.quality = *q;
-    } else if (k == "rays_per_basis" || k == "bounces") {
-      auto x = intIn(k, v, 1, 1 << 20);
-      if (!x) return std::unexpected(x.error());
-      (k == "bounces" ? out.bake.bounces : out.bake.rays_per_basis) = *x;
-    } else if (k == "sweeps") {
-      auto x = intIn(k, v, 1, 256);
-      if (!x) return std::unexpected(x.error());
-      out.bake.sweeps = *x;
-    } else if (k == "covered_spacing" || k == "covered_min_h") {
-      double x = 0;
-      const auto [end, ec] = std::from_chars(v.data(), v.data() + v.size(), x);
-      if (ec != std::errc() || end != v.data() + v.size() || !(x > 0 && x <= 64)) return fail(k + "=" + v + ": expected metres in (0, 64]");
-      (k == "covered_spacing" ? out.bake.covered_spacing : out.bake.covered_min_h) = x;
-    } else if (k == "rooms") {
-      if (v == "auto") out.bake.rooms = true;
-      else if (v == "off") out.bake.rooms = false;
-      else return fail("rooms=" + v + ": expected auto or off");
-    } else if (k == "cache_cells") {
-      if (v == "sides") out.bake.cell_sides = true;
-      else if (v == "shared") out.bake.cell_sides = false;
-      else return fail("cache_cells=" + v + ": expected sides or shared");
-    } else if (k == "fill") {
-      if (v == "nearest") out.runtime.fill = runtime::FillMode::kNearest;
-      else if (v == "smooth") out.runtime.fill = runtime::FillMode::kSmooth;
-      else return fail("fill=" + v + ": expected nearest or smooth");
-    } else if (k == "lookup") {
-      if (v == "trilinear") out.runtime.lookup = runtime::RuntimeOptions::VolumeLookup::kTrilinear;
-      else if (v == "facing") out.runtime.lookup = runtime::RuntimeOptions::VolumeLookup::kFacing;
-      else return fail("lookup=" + v + ": expected trilinear or facing");
-    } else if (k == "texel_m") {
-      char* end = nullptr;
-      const double x = std::strtod(v.c_str(), &end);
-      if (end != v.c_str() + v.size() || !(x > 0.0) || !std::isfinite(x) || x > 1e4) return fail("texel_m=" + v + ": expected metres in (0, 1e4]");
-      out.runtime.texel_m = float(x);
-    } else if (k == "sun_window") {
-      if (v == "hanning") out.runtime.sun_window = runtime::kHanningBand1;
-      else if (v == "lanczos") out.runtime.sun_window = runtime::kLanczosBand1;
-      else if (v == "none") out.runtime.sun_window = runtime::kNoWindowBand1;
-      else if (v == "linear") out.runtime.sun_window = runtime::kLinearSunBand1, out.runtime.sun_band0 = 0.f;
-      else return fail("sun_window=" + v + ": expected hanning, lanczos, none or linear");
-    } else if (k == "representation") {
-      auto r = parseRepresentation(v);
-      if (!r) return fail("representation=" + v + ": expected one of " + representationNames());
-      out.bake.representation = *r;
-    } else if (k == "part") {
-      if (v == "all") out.runtime.part.reset();
-      else if (v == "sun_bounce") out.runtime.part = runtime::kComponentSunBounce;
-      else if (v == "sky_bounce") out.runtime.part = runtime::kComponentSkyBounce;
-      else if (v == "direct_sky") out.runtime.part = runtime::kComponentDirectSky;
-      else if (v == "local_lights") out.runtime.part = runtime::kComponentLocalLights;
-      else return fail("part=" + v + ": expected all, sun_bounce, sky_bounce, direct_sky or local_lights");
-    } else if (k == "sources_per_light") {
-      auto x = intIn(k, v, 1, 64);
-      if (!x) return std::unexpected(x.error());
-      out.runtime.sources_per_light = *x;
-    } else if (k == "light_sources") {
-      if (v == "visible") out.runtime.light_sources = runtime::LightSources::kVisibleFromLight;
-      else if (v == "nearest") out.runtime.light_sources = runtime::LightSources::kNearest;
-      else return fail("light_sources=" + v + ": expected visible or nearest");
-    } else if (k == "lprt_sources") {
-      auto x = intIn(k, v, 1, 1 << 16);
-      if (!x) return std::unexpected(x.error());
-      out.runtime.lprt_sources = size_t(*x);
-    } else if (k == "storage") {
-      out.runtime.storage_signed_e0 = v == "snorm8";
-      if (v == "runtime") out.runtime.storage_levels = -1, out.runtime.storage_bytes = 12;
-      else if (v == "8-bit" || v == "snorm8") out.runtime.storage_levels = 255.0, out.runtime.storage_bytes = 12;
-      else if (v == "16-bit") out.runtime.storage_levels = 65535.0, out.runtime.storage_bytes = 24;
-      else if (v == "float") out.runtime.storage_levels = 0.0, out.runtime.storage_bytes = 48;
-      else return fail("storage=" + v + ": expected runtime, 8-bit, snorm8, 16-bit or float");
-    } else {
-      return fail("no parameter '" + k +
-                  "' (drtv takes quality, rays_per_basis, bounces, sweeps, covered_spacing, covered_min_h, rooms, cache_cells, representation, fill, lookup, texel_m, sun_window, part, "
-                  "sources_per_light, light_sources, lprt_sources, storage)");
-    }
+  if (const std::string* v = r.text("quality")) {
+    if (auto q = baker::parseQuality(*v)) out.bake.quality = *q;
+    else r.reject("quality=" + *v + ": expected draft, default or high");
   }
+  r.integer("rays_per_basis", out.bake.rays_per_basis, 1, 1 << 20)
+      .integer("bounces", out.bake.bounces, 1, 1 << 20)
+      .integer("sweeps", out.bake.sweeps, 1, 256)
+      .real("covered_spacing", out.bake.covered_spacing, 0, 64, true)
+      .real("covered_min_h", out.bake.covered_min_h, 0, 64, true)
+      .oneOf("rooms", out.bake.rooms, {{"auto", true}, {"off", false}})
+      .oneOf("cache_cells", out.bake.cell_sides, {{"sides", true}, {"shared", false}});
+  if (const std::string* v = r.text("representation")) {
+    if (auto rep = parseRepresentation(*v)) out.bake.representation = *rep;
+    else r.reject("representation=" + *v + ": expected one of " + representationNames());
+  }
+  r.oneOf("fill", out.runtime.fill, {{"nearest", runtime::FillMode::kNearest}, {"smooth", runtime::FillMode::kSmooth}})
+      .oneOf("lookup", out.runtime.lookup,
+             {{"trilinear", runtime::RuntimeOptions::VolumeLookup::kTrilinear}, {"facing", runtime::RuntimeOptions::VolumeLookup::kFacing}})
+      .real("texel_m", out.runtime.texel_m, 0, 1e4, true);
+  std::pair<std::optional<float>, float> window{std::nullopt, 1.f};  // band 1, band 0 scale
+  r.oneOf("sun_window", window,
+          {{"hanning", {runtime::kHanningBand1, 1.f}}, {"lanczos", {runtime::kLanczosBand1, 1.f}},
+           {"none", {runtime::kNoWindowBand1, 1.f}}, {"linear", {runtime::kLinearSunBand1, 0.f}}});
+  out.runtime.sun_window = window.first, out.runtime.sun_band0 = window.second;
+  readPart(r, out.runtime.part);
+  r.integer("sources_per_light", out.runtime.sources_per_light, 1, 64)
+      .oneOf("light_sources", out.runtime.light_sources,
+             {{"visible", std::optional(runtime::LightSources::kVisibleFromLight)}, {"nearest", std::optional(runtime::LightSources::kNearest)}})
+      .integer("lprt_sources", out.runtime.lprt_sources, 1, 1 << 16);
+  Storage st;
+  r.oneOf("storage", st,
+          {{"runtime", Storage{-1, false, 12}}, {"8-bit", Storage{255.0, false, 12}}, {"snorm8", Storage{255.0, true, 12}},
+           {"16-bit", Storage{65535.0, false, 24}}, {"float", Storage{0.0, false, 48}}});
+  out.runtime.storage_levels = st.levels, out.runtime.storage_signed_e0 = st.signed_e0, out.runtime.storage_bytes = st.bytes;
   if (out.runtime.storage_signed_e0 && out.bake.representation != Representation::kShL1)
-    return fail("storage=snorm8: a signed e0 is an sh-l1 encoding; it takes representation=sh-l1 only");
+    r.reject("storage=snorm8: a signed e0 is an sh-l1 encoding; it takes representation=sh-l1 only");
   return out;
 }
 
@@ -213,9 +174,19 @@ size_t storedBytes(const std::vector<Sector>& sectors) {
 
 class DrtvTechnique final : public Technique {
  public:
-  DrtvTechnique(std::string name, Params params) : name_(std::move(name)), params_(std::move(params)) {}
+  using Params = drtv::eval::Params;
+  DrtvTechnique(TechniqueMade made, Params params) : Technique(std::move(made), {}), params_(std::move(params)) {}
 
-  Result<void> prepare(const PrepareInput& in) override {
+  static Params read(ParamReader& r) { return readDrtv(r); }
+  static std::vector<TechniqueInfo> variants() {
+    return {{"drtv", "Deferred Radiance Transfer Volumes (GDC 2012): baked probe transfer, relit per frame, a camera volume", {}, &knobs},
+            {"drtv-nearest", "DRTV, each volume texel from the probe its index cell names (the talk's fill)", {{"fill", "nearest"}}, {}},
+            {"drtv-smooth", "DRTV, each volume texel trilinear over the index cells around it", {{"fill", "smooth"}}, {}}};
+  }
+  static std::vector<KnobRow> knobs(const KnobContext& c);
+
+ protected:
+  Result<void> onPrepare(const PrepareInput& in) override {
     const baker::BakeSettings s = bakeSettings(params_.bake, in.seed);
     if (in.baked && in.baked->manifest.settings == s.describe()) {
       adopt(in.baked->manifest, in.baked->sectors, in.baked->bake_s);
@@ -227,25 +198,23 @@ class DrtvTechnique final : public Technique {
     return {};
   }
 
-  Result<void> prepareBaked(const Manifest& manifest, std::span<const Sector> sectors) override {
+  Result<void> onPrepareBaked(const Manifest& manifest, std::span<const Sector> sectors) override {
     adopt(manifest, std::vector<Sector>(sectors.begin(), sectors.end()), 0.0);
     return {};
   }
 
-  Result<void> setParams(const TechniqueParams& params) override {
-    auto p = parseParams(params);
+  Result<void> onSetParams(const TechniqueParams& params) override {
+    auto p = readParams<Params>(params, &read);
     if (!p) return std::unexpected(p.error());
-    if (!(p->bake == params_.bake)) return fail("technique " + describe() + ": bake parameters change only with a new prepare");
+    if (!(p->bake == params_.bake)) return fail("bake parameters change only with a new prepare");
     const bool lprt_changed = p->runtime.lprt_sources != params_.runtime.lprt_sources;
-    TechniqueParams given = params;
     params_ = std::move(*p);
-    params_.given = std::move(given);
     if (lprt_changed) resetSectors();
     rt_.reset();
     return {};
   }
 
-  Result<void> setLighting(double hour, const std::vector<PointLight>& lights) override {
+  Result<void> onSetLighting(double hour, const std::vector<PointLight>& lights) override {
     if (!rt_) {
       options_ = runtimeOptions(manifest_.effects);
       // An evaluation reads the lighting of the hour it set: every update publishes its own
@@ -266,28 +235,20 @@ class DrtvTechnique final : public Technique {
     return rt_->setTime(hour);
   }
 
-  Result<void> update(const glm::dvec3& camera) override {
-    if (!rt_) return fail("technique " + describe() + ": update before setLighting");
-    const auto t0 = Clock::now();
+  Result<void> onUpdate(const glm::dvec3& camera) override {
     rt_->update(camera);
-    costs_.update_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
     return {};
   }
 
-  glm::vec3 ambient(const glm::dvec3& position, const glm::vec3& normal) const override {
-    if (!rt_) return glm::vec3(0.f);
+  glm::vec3 onAmbient(const glm::dvec3& position, const glm::vec3& normal) const override {
     if (params_.runtime.storage_levels >= 0) return emulated(position, normal);
     return rt_->ambient(position, normal).irradiance;
   }
 
-  TechniqueCosts costs() const override { return costs_; }
-
-  std::optional<runtime::RuntimeOptions> streamingRuntime(const Manifest& manifest) const override {
+  std::optional<runtime::RuntimeOptions> onStreamingRuntime(const Manifest& manifest) const override {
     if (params_.runtime.storage_levels >= 0 || params_.runtime.lprt_sources) return std::nullopt;  // emulations
     return runtimeOptions(manifest.effects);
   }
-
-  std::string describe() const override { return describeTechnique(name_, params_.given); }
 
  private:
   // optionsForEffects (what an engine picks for the archive) with this technique's parameters.
@@ -308,7 +269,7 @@ class DrtvTechnique final : public Technique {
   void adopt(Manifest manifest, std::vector<Sector> sectors, double bake_s) {
     manifest_ = std::move(manifest);
     baked_ = std::move(sectors);
-    costs_.prepare_s = bake_s;
+    reportPrepareSeconds(bake_s);
     resetSectors();
     rt_.reset();
   }
@@ -355,34 +316,140 @@ class DrtvTechnique final : public Technique {
     return runtime::shade(rep, colour, normal);
   }
 
-  std::string name_;
   Params params_;
   Manifest manifest_;
   std::vector<Sector> baked_, truncated_;
   runtime::RuntimeOptions options_;
   std::unique_ptr<runtime::Runtime> rt_;
-  TechniqueCosts costs_;
 };
 
-TechniqueFactory factoryFor(std::string name) {
-  return [name](const TechniqueParams& p) -> Result<std::unique_ptr<Technique>> {
-    auto parsed = parseParams(p);
-    if (!parsed) return std::unexpected(parsed.error());
-    return std::make_unique<DrtvTechnique>(name, std::move(*parsed));
-  };
+std::string fmt(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
+// DRTV's knobs, one at a time around the defaults (accuracy.h lists them), in the table's order. The
+// basis rows and the part probe-reference rows read DRTV's probes with path-traced values (the
+// probe-reference technique): what the probes and the index grid alone allow.
+std::vector<KnobRow> DrtvTechnique::knobs(const KnobContext& c) {
+  const baker::BakeSettings& base = c.base;
+  const uint32_t effects = c.effects;
+  const worlds::World& world = c.world;
+  const int probe_samples = c.probe_samples;
+  std::vector<KnobRow> rows;
+  for (int rays : {32, 64, 128, 256, 512}) {
+    const bool def = rays == base.transfer.probe_rays_per_basis;
+    rows.push_back({"rays_per_basis", std::to_string(rays), def, "drtv",
+                    def ? TechniqueParams{} : TechniqueParams{{"rays_per_basis", std::to_string(rays)}}, def ? "the default bake" : ""});
+  }
+  for (int bounces : {1, 2, 3, 4}) {
+    const bool def = bounces == base.transfer.bounces;
+    rows.push_back({"bounces", std::to_string(bounces), def, "drtv",
+                    def ? TechniqueParams{} : TechniqueParams{{"bounces", std::to_string(bounces)}}, def ? "the default bake" : ""});
+  }
+  // Jacobi sweeps over the surface cache (transfer.h): further bounces around its closed links.
+  const int default_sweeps = baker::sweepCount(base.transfer);
+  for (int sweeps : {default_sweeps, 4, 16, 64}) {
+    const bool def = sweeps == default_sweeps;
+    if (def && rows.back().knob == "sweeps") continue;  // the default is also one of the others: once
+    rows.push_back({"sweeps", std::to_string(sweeps), def, "drtv",
+                    def ? TechniqueParams{} : TechniqueParams{{"sweeps", std::to_string(sweeps)}}, def ? "the default bake" : ""});
+  }
+  // Probes under roofs (placement.h): the column lattice there / the least distance between them.
+  for (const auto& [spacing, min_h] : {std::pair{4.0, 8.0}, std::pair{4.0, 4.0}, std::pair{2.0, 2.0}, std::pair{2.0, 1.4}, std::pair{1.0, 1.0}}) {
+    const bool def = spacing == base.placement.covered_column_spacing_m && min_h == base.placement.covered_min_horizontal_m;
+    rows.push_back({"placement_under_roofs", fmt(spacing) + " m / " + fmt(min_h) + " m", def, "drtv",
+                    def ? TechniqueParams{} : TechniqueParams{{"covered_spacing", fmt(spacing)}, {"covered_min_h", fmt(min_h)}},
+                    def ? "the default bake: columns / least distance under roofs" : "columns / least distance under roofs"});
+  }
+  // Closed rooms found at bake time and given interiors (rooms.h), against the artist's alone.
+  rows.push_back({"rooms", "auto", base.rooms.enabled, "drtv", base.rooms.enabled ? TechniqueParams{} : TechniqueParams{{"rooms", "auto"}},
+                  base.rooms.enabled ? "the default bake: closed rooms get interiors" : "closed rooms get interiors"});
+  rows.push_back({"rooms", "off", !base.rooms.enabled, "drtv", !base.rooms.enabled ? TechniqueParams{} : TechniqueParams{{"rooms", "off"}},
+                  "the artist's interiors only"});
+  // Surface cache cells split by the walls that cross them (transfer.h), against shared ones.
+  rows.push_back({"cache_cells", "sides", base.transfer.cell_sides, "drtv",
+                  base.transfer.cell_sides ? TechniqueParams{} : TechniqueParams{{"cache_cells", "sides"}},
+                  base.transfer.cell_sides ? "the default bake: a cell splits where a wall crosses it" : "a cell splits where a wall crosses it"});
+  rows.push_back({"cache_cells", "shared", !base.transfer.cell_sides, "drtv",
+                  !base.transfer.cell_sides ? TechniqueParams{} : TechniqueParams{{"cache_cells", "shared"}}, "one cell per cube and facing"});
+  const uint32_t components = runtime::componentsFromEffects(effects);
+  const auto& parts = kRuntimeParts;
+  for (size_t k = 0; k < parts.size(); ++k)
+    if (components & parts[k].second) rows.push_back({"part", parts[k].first, false, "drtv", {{"part", parts[k].first}}, "", int(k)});
+  // The same terms baked in fc3 (the talk's bases), so that its bias can be traced to a term too.
+  for (size_t k = 0; k < parts.size(); ++k)
+    if (components & parts[k].second)
+      rows.push_back({"part fc3", parts[k].first, false, "drtv", {{"part", parts[k].first}, {"representation", "fc3"}}, "", int(k)});
+  // The sun's SH lobe, fc3's knob: sh-l1 takes its linear lobe and corrects it with the sun
+  // transfer (representation.h), which another window would no longer match.
+  for (const auto& [name, w] : {std::pair{"hanning", runtime::kHanningBand1}, std::pair{"lanczos", runtime::kLanczosBand1},
+                                std::pair{"none", runtime::kNoWindowBand1}})
+    rows.push_back({"sun_window fc3", name, false, "drtv", {{"representation", "fc3"}, {"sun_window", name}},
+                    "band-1 factor " + fmt(w) + (w == runtime::kHanningBand1 ? ", fc3's own" : "")});
+  // The directional representation, each a real bake -> relight -> volume -> ambient
+  // (representation.h); sh-l1 (the default) with its own sun (linear lobe and sun transfer) and
+  // with fc3's Hanning lobe in place of the linear one.
+  rows.push_back({"representation", "sh-l1", true, "drtv", {}, "the default bake: band-1 SH irradiance, fitted sky, traced sun"});
+  rows.push_back({"representation", "fc3", false, "drtv", {{"representation", "fc3"}}, "the talk's 4 bases, Hanning sun"});
+  rows.push_back({"representation", "sh-l1+hanning", false, "drtv", {{"representation", "sh-l1"}, {"sun_window", "hanning"}},
+                  "band-1 SH irradiance, fc3's windowed sun"});
+  for (const char* basis : {"4-basis", "ambient-cube", "sh-l1"})
+    rows.push_back({"basis", basis, std::string(basis) == "sh-l1", "probe-reference",
+                    {{"basis", basis}, {"probe_samples", std::to_string(probe_samples)}}, "path-traced probe values, nearest probe, no volume"});
+  // Each term read from path-traced probe values: what the probes and the index grid alone allow
+  // that term, beside its `part` row (the bake, the relight and the volume on top).
+  for (size_t k = 0; k < parts.size(); ++k)
+    if (components & parts[k].second)
+      rows.push_back({"part probe-reference", parts[k].first, false, "probe-reference",
+                      {{"part", parts[k].first}, {"probe_samples", std::to_string(probe_samples)}},
+                      "this term from path-traced probe values (sh-l1), nearest probe, no volume: the probes' floor for it", int(k)});
+  rows.push_back({"fill", "nearest", true, "drtv", {{"fill", "nearest"}}, "the default bake"});
+  rows.push_back({"fill", "smooth", false, "drtv", {{"fill", "smooth"}}, "trilinear over index-grid cells"});
+  rows.push_back({"lookup", "trilinear", true, "drtv", {{"lookup", "trilinear"}}, "the shaders' filter"});
+  rows.push_back({"lookup", "facing", false, "drtv", {{"lookup", "facing"}}, "texels behind the surface left out (CPU only)"});
+  for (float t : {1.f, 2.f, 4.f})
+    rows.push_back({"texel_m", fmt(t), glm::vec3(t, t, 2.f * t) == runtime::VolumeOptions{}.texel_size_m, "drtv", {{"texel_m", fmt(t)}},
+                    "96x96x16 texels cover +-" + fmt(47.5 * t) + " m"});
+  // The volume's precision (sh-l1: e0 unsigned, e1..3 signed about the mid code; snorm8 spends
+  // e0's top bit on a sign, as a signed texture format would).
+  for (const char* k : {"8-bit", "snorm8", "16-bit", "float"})
+    rows.push_back({"storage", k, std::string(k) == "8-bit", "drtv", {{"storage", k}}, "emulated: nearest fill, no blur"});
+  // LPRT sources, and how many of them one light is spread onto (probe_cache.h). Their rows give
+  // the local-light term's error (as the part rows do): the total hides it under the sky's.
+  if ((effects & kEffectLocalLights) && !world.lights.empty()) {
+    const runtime::ProbeCacheOptions cache;
+    for (int n : {1, 2, 4, 8, 16})
+      rows.push_back({"sources_per_light", std::to_string(n), n == cache.sources_per_light, "drtv",
+                      {{"part", "local_lights"}, {"sources_per_light", std::to_string(n)}},
+                      "local_lights term alone vs the reference's, as a share of the total ambient", reference::kRefLocalLights});
+    for (const auto& [name, mode] : {std::pair{"visible", runtime::LightSources::kVisibleFromLight},
+                                     std::pair{"nearest", runtime::LightSources::kNearest}})
+      rows.push_back({"light_sources", name, mode == cache.light_sources, "drtv", {{"part", "local_lights"}, {"light_sources", name}},
+                      mode == runtime::LightSources::kNearest ? "the talk's rule: the nearest source probes"
+                                                              : "the probes the index grid names around the light",
+                      reference::kRefLocalLights});
+    // The local-light term with the probes under roofs denser (the placement rows above).
+    for (const auto& [spacing, min_h] : {std::pair{2.0, 2.0}, std::pair{1.0, 1.0}})
+      rows.push_back({"placement_under_roofs local_lights", fmt(spacing) + " m / " + fmt(min_h) + " m", false, "drtv",
+                      {{"part", "local_lights"}, {"covered_spacing", fmt(spacing)}, {"covered_min_h", fmt(min_h)}},
+                      "local_lights term alone vs the reference's, as a share of the total ambient", reference::kRefLocalLights});
+    for (size_t keep : {size_t(8), size_t(32), size_t(64), size_t(kMaxLprtSources)}) {
+      const bool all = keep == size_t(kMaxLprtSources);
+      TechniqueParams p{{"part", "local_lights"}};
+      if (!all) p["lprt_sources"] = std::to_string(keep);
+      rows.push_back({"lprt_sources", std::to_string(keep), all, "drtv", p,
+                      std::string(all ? "the default bake" : "the first sources of the default bake") +
+                          "; local_lights term alone vs the reference's, as a share of the total ambient",
+                      reference::kRefLocalLights});
+    }
+  }
+  return rows;
 }
 
 }  // namespace
 
-std::vector<TechniqueRegistration> drtvTechniques() {
-  std::vector<TechniqueRegistration> out;
-  out.push_back({{"drtv", "Deferred Radiance Transfer Volumes (GDC 2012): baked probe transfer, relit per frame, a camera volume", {}},
-                 factoryFor("drtv")});
-  out.push_back({{"drtv-nearest", "DRTV, each volume texel from the probe its index cell names (the talk's fill)", {{"fill", "nearest"}}},
-                 factoryFor("drtv-nearest")});
-  out.push_back({{"drtv-smooth", "DRTV, each volume texel trilinear over the index cells around it", {{"fill", "smooth"}}},
-                 factoryFor("drtv-smooth")});
-  return out;
-}
+Result<void> registerDrtvTechniques() { return registerTechnique<DrtvTechnique>(); }
 
 }  // namespace drtv::eval

@@ -24,7 +24,7 @@
 // (geometry|rsm|off), rsm (sun and sky RSM side, texels), rsm_point (cube face side, texels),
 // sky_bounce (0|1). The world given to prepare() must outlive the technique.
 #include <algorithm>
-#include <charconv>
+#include <sstream>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -46,57 +46,12 @@ struct Params {
   int rsm = 256;
   int rsm_point = 32;
   bool sky_bounce = true;
-  TechniqueParams given;
 };
 
-template <class T>
-bool parseNumber(const std::string& v, T& out) {
-  const auto [end, ec] = std::from_chars(v.data(), v.data() + v.size(), out);
-  return ec == std::errc() && end == v.data() + v.size();
-}
-
-Result<Params> parseParams(const TechniqueParams& p) {
-  Params out;
-  out.given = p;
-  for (const auto& [k, v] : p) {
-    auto bad = [&](const char* expected) { return fail(k + "=" + v + ": expected " + expected); };
-    if (k == "cascades") {
-      if (!parseNumber(v, out.lpv.cascades)) return bad("an integer in [1, 8]");
-    } else if (k == "cells") {
-      if (!parseNumber(v, out.lpv.cells)) return bad("an even integer in [4, 128]");
-    } else if (k == "cell_m") {
-      if (!parseNumber(v, out.lpv.cell_m)) return bad("metres in (0, 1e4]");
-    } else if (k == "iterations") {
-      if (!parseNumber(v, out.lpv.iterations)) return bad("an integer in [0, 256]");
-    } else if (k == "damping") {
-      if (v == "0") out.lpv.damping = false;
-      else if (v == "1") out.lpv.damping = true;
-      else return bad("0 or 1");
-    } else if (k == "lookup_offset") {
-      if (!parseNumber(v, out.lpv.lookup_offset_cells)) return bad("cells in [0, 2]");
-    } else if (k == "sky_steps") {
-      if (!parseNumber(v, out.lpv.sky_steps)) return bad("an integer in [0, cells]");
-    } else if (k == "occlusion") {
-      if (v == "geometry") out.occlusion = Occlusion::kGeometry;
-      else if (v == "rsm") out.occlusion = Occlusion::kRsm;
-      else if (v == "off") out.occlusion = Occlusion::kOff;
-      else return bad("geometry, rsm or off");
-    } else if (k == "rsm") {
-      if (!parseNumber(v, out.rsm) || out.rsm < 1 || out.rsm > 4096) return bad("an integer in [1, 4096]");
-    } else if (k == "rsm_point") {
-      if (!parseNumber(v, out.rsm_point) || out.rsm_point < 1 || out.rsm_point > 1024) return bad("an integer in [1, 1024]");
-    } else if (k == "sky_bounce") {
-      if (v == "0") out.sky_bounce = false;
-      else if (v == "1") out.sky_bounce = true;
-      else return bad("0 or 1");
-    } else {
-      return fail("no parameter '" + k +
-                  "' (lpv takes cascades, cells, cell_m, iterations, sky_steps, lookup_offset, damping, occlusion, rsm, rsm_point, sky_bounce)");
-    }
-  }
-  out.lpv.occlusion = out.occlusion != Occlusion::kOff;
-  if (std::string e = lpv::validate(out.lpv); !e.empty()) return fail(e);
-  return out;
+std::string text(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
 }
 
 // An orthonormal pair perpendicular to unit `d`.
@@ -107,10 +62,57 @@ void perpendicular(const glm::vec3& d, glm::vec3& u, glm::vec3& v) {
 
 class LpvTechnique final : public Technique {
  public:
-  explicit LpvTechnique(Params p) : params_(std::move(p)) {}
+  using Params = drtv::eval::Params;
+  LpvTechnique(TechniqueMade made, Params p)
+      : Technique(std::move(made), {.prepares_from_world = true}), params_(std::move(p)) {}
 
-  Result<void> prepare(const PrepareInput& in) override {
-    const auto t0 = std::chrono::steady_clock::now();
+  // LpvOptions' ranges are lpv::validate's; the others' here.
+  static Params read(ParamReader& r) {
+    Params out;
+    r.integer("cascades", out.lpv.cascades, 1, 8)
+        .integer("cells", out.lpv.cells, 4, 128)
+        .real("cell_m", out.lpv.cell_m, 0, 1e4, true)
+        .integer("iterations", out.lpv.iterations, 0, 256)
+        .integer("sky_steps", out.lpv.sky_steps, 0, 128)
+        .real("lookup_offset", out.lpv.lookup_offset_cells, 0, 2)
+        .flag("damping", out.lpv.damping)
+        .oneOf("occlusion", out.occlusion, {{"geometry", Occlusion::kGeometry}, {"rsm", Occlusion::kRsm}, {"off", Occlusion::kOff}})
+        .integer("rsm", out.rsm, 1, 4096)
+        .integer("rsm_point", out.rsm_point, 1, 1024)
+        .flag("sky_bounce", out.sky_bounce);
+    out.lpv.occlusion = out.occlusion != Occlusion::kOff;
+    if (r.ok())
+      if (std::string e = lpv::validate(out.lpv); !e.empty()) r.reject(e);
+    return out;
+  }
+
+  static std::vector<TechniqueInfo> variants() {
+    return {{"lpv", "Cascaded Light Propagation Volumes (Kaplanyan & Dachsbacher 2010): ray-cast RSMs, no bake", {}, &knobs}};
+  }
+
+  // LPV's knobs, one at a time around its defaults: each re-renders its RSMs at every camera move,
+  // minutes per row on the island.
+  static std::vector<KnobRow> knobs(const KnobContext&) {
+    const Params d;
+    std::vector<KnobRow> rows;
+    auto add = [&](const char* knob, std::vector<std::string> values, const std::string& def, const std::string& note) {
+      for (KnobRow& row : knobAround("lpv", std::string("lpv_") + knob, knob, values, def, note)) rows.push_back(std::move(row));
+    };
+    add("cells", {"16", "32", "64"}, text(d.lpv.cells), "cells per axis of each cascade");
+    add("cascades", {"1", "2", "3", "4"}, text(d.lpv.cascades), "nested grids, cell 1 m x 2^c");
+    add("iterations", {"4", "8", "16"}, text(d.lpv.iterations), "propagation steps");
+    add("rsm", {"128", "256", "512"}, text(d.rsm), "sun and sky RSM side, texels");
+    add("occlusion", {"geometry", "rsm", "off"},
+        d.occlusion == Occlusion::kGeometry ? "geometry" : d.occlusion == Occlusion::kRsm ? "rsm" : "off",
+        "the geometry volume's source");
+    add("sky_bounce", {"0", "1"}, text(d.sky_bounce), "the top-down sky-lit RSM");
+    add("lookup_offset", {"0", "0.25", "0.5", "1"}, text(d.lpv.lookup_offset_cells), "the lookup's shift along the normal, cells");
+    add("damping", {"0", "1"}, text(d.lpv.damping), "self-bleeding damped by the light's direction against the normal");
+    return rows;
+  }
+
+ protected:
+  Result<void> onPrepare(const PrepareInput& in) override {
     auto scene = reference::ReferenceScene::build(in.world, in.where);
     if (!scene) return std::unexpected(scene.error());
     scene_ = std::make_unique<reference::ReferenceScene>(std::move(*scene));
@@ -123,17 +125,13 @@ class LpvTechnique final : public Technique {
     lpv_ = std::make_unique<lpv::CascadedLpv>(std::move(*lpv));
     placed_ = false;
     lit_ = false;
-    costs_ = {};
-    costs_.prepare_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     costs_.stored_bytes = 0;  // nothing baked
     costs_.runtime_bytes = lpv_->bytes();
     return {};
   }
 
-  bool preparesFromWorld() const override { return true; }
-
-  Result<void> setParams(const TechniqueParams& params) override {
-    auto p = parseParams(params);
+  Result<void> onSetParams(const TechniqueParams& params) override {
+    auto p = readParams<Params>(params, &read);
     if (!p) return std::unexpected(p.error());
     p->lpv.threads = params_.lpv.threads;
     if (lpv_) {
@@ -147,10 +145,8 @@ class LpvTechnique final : public Technique {
     return {};
   }
 
-  Result<void> setLighting(double hour, const std::vector<PointLight>& lights) override {
-    if (!lpv_) return fail("technique " + describe() + ": setLighting before prepare");
-    if (!std::isfinite(hour)) return fail("technique " + describe() + ": hour must be finite");
-    if (std::string e = validateLighting(world_->sky, lights, {}); !e.empty()) return fail("technique " + describe() + ": " + e);
+  Result<void> onSetLighting(double hour, const std::vector<PointLight>& lights) override {
+    if (std::string e = validateLighting(world_->sky, lights, {}); !e.empty()) return fail(e);
     const bool same = lit_ && hour == hour_ && lights.size() == lights_.size() &&
                       std::equal(lights.begin(), lights.end(), lights_.begin(), [](const PointLight& a, const PointLight& b) {
                         return a.position == b.position && a.intensity == b.intensity;
@@ -164,11 +160,7 @@ class LpvTechnique final : public Technique {
     return {};
   }
 
-  Result<void> update(const glm::dvec3& camera) override {
-    if (!lit_) return fail("technique " + describe() + ": update before setLighting");
-    if (!(std::isfinite(camera.x) && std::isfinite(camera.y) && std::isfinite(camera.z)))
-      return fail("technique " + describe() + ": camera must be finite");
-    const auto t0 = std::chrono::steady_clock::now();
+  Result<void> onUpdate(const glm::dvec3& camera) override {
     const uint32_t moved = lpv_->setCamera(camera);
     placed_ = true;
     light_dirty_ |= moved;
@@ -211,11 +203,10 @@ class LpvTechnique final : public Technique {
       lpv_->relight(lists);
     }
     light_dirty_ = sky_dirty_ = 0;
-    costs_.update_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     return {};
   }
 
-  glm::vec3 ambient(const glm::dvec3& position, const glm::vec3& normal) const override {
+  glm::vec3 onAmbient(const glm::dvec3& position, const glm::vec3& normal) const override {
     if (!placed_) return glm::vec3(0.f);
     return lpv_->indirect(position, normal) + lpv_->sky(position, normal);
   }
@@ -223,7 +214,7 @@ class LpvTechnique final : public Technique {
   // A frame shades pixels near its camera: the camera moves only when a point leaves the middle
   // half of the finest cascade (so every point is read deep inside it), and the points are
   // visited in a spatial order so that it moves rarely.
-  Result<std::vector<glm::vec3>> evaluate(std::span<const SurfacePoint> points) override {
+  Result<std::vector<glm::vec3>> onEvaluate(std::span<const SurfacePoint> points) override {
     std::vector<size_t> order(points.size());
     for (size_t i = 0; i < order.size(); ++i) order[i] = i;
     const double tile = params_.lpv.cell_m * params_.lpv.cells / 2;
@@ -247,10 +238,6 @@ class LpvTechnique final : public Technique {
     }
     return out;
   }
-
-  TechniqueCosts costs() const override { return costs_; }
-
-  std::string describe() const override { return describeTechnique("lpv", params_.given); }
 
  private:
   // The static geometry's crossings of axis-parallel rays through cascade c's box (the header).
@@ -428,23 +415,10 @@ class LpvTechnique final : public Technique {
   std::vector<PointLight> lights_;
   bool lit_ = false, placed_ = false;
   uint32_t light_dirty_ = ~0u, sky_dirty_ = ~0u;
-  TechniqueCosts costs_;
 };
-
-TechniqueFactory factory() {
-  return [](const TechniqueParams& p) -> Result<std::unique_ptr<Technique>> {
-    auto params = parseParams(p);
-    if (!params) return std::unexpected(params.error().context("technique lpv"));
-    return std::unique_ptr<Technique>(new LpvTechnique(std::move(*params)));
-  };
-}
 
 }  // namespace
 
-std::vector<TechniqueRegistration> lpvTechniques() {
-  std::vector<TechniqueRegistration> out;
-  out.push_back({{"lpv", "Cascaded Light Propagation Volumes (Kaplanyan & Dachsbacher 2010): ray-cast RSMs, no bake", {}}, factory()});
-  return out;
-}
+Result<void> registerLpvTechnique() { return registerTechnique<LpvTechnique>(); }
 
 }  // namespace drtv::eval

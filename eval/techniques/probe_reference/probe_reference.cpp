@@ -37,33 +37,15 @@ struct Params {
   Basis basis = Basis::kShL1;  // the default representation's (drtv bakes sh-l1)
   int probe_samples = 256;
   int part = -1;  // a ReferencePart up to kRefLocalLights, or -1: the whole ambient
-  TechniqueParams given;
 };
 
-Result<Params> parseParams(const TechniqueParams& p) {
+Params readProbeReference(ParamReader& r) {
   Params out;
-  out.given = p;
-  for (const auto& [k, v] : p) {
-    if (k == "basis") {
-      if (v == "4-basis") out.basis = Basis::kFour;
-      else if (v == "ambient-cube") out.basis = Basis::kCube;
-      else if (v == "sh-l1") out.basis = Basis::kShL1;
-      else return fail("basis=" + v + ": expected 4-basis, ambient-cube or sh-l1");
-    } else if (k == "probe_samples") {
-      int x = 0;
-      const auto [end, ec] = std::from_chars(v.data(), v.data() + v.size(), x);
-      if (ec != std::errc() || end != v.data() + v.size() || x < 2 || x > (1 << 20))
-        return fail("probe_samples=" + v + ": expected an integer in [2, 1048576]");
-      out.probe_samples = x;
-    } else if (k == "part") {
-      out.part = -2;
-      for (int q = 0; q <= reference::kRefLocalLights; ++q)
-        if (v == reference::referencePartName(reference::ReferencePart(q))) out.part = q;
-      if (out.part == -2) return fail("part=" + v + ": expected sun_bounce, sky_bounce, direct_sky or local_lights");
-    } else {
-      return fail("no parameter '" + k + "' (probe-reference takes basis, probe_samples, part)");
-    }
-  }
+  r.oneOf("basis", out.basis, {{"4-basis", Basis::kFour}, {"ambient-cube", Basis::kCube}, {"sh-l1", Basis::kShL1}});
+  r.integer("probe_samples", out.probe_samples, 2, 1 << 20);
+  r.oneOf("part", out.part,
+          {{"sun_bounce", int(reference::kRefSunBounce)}, {"sky_bounce", int(reference::kRefSkyBounce)},
+           {"direct_sky", int(reference::kRefDirectSky)}, {"local_lights", int(reference::kRefLocalLights)}});
   return out;
 }
 
@@ -77,9 +59,21 @@ const std::array<glm::vec3, 10>& probeNormals() {
 
 class ProbeReference final : public Technique {
  public:
-  explicit ProbeReference(Params p) : params_(std::move(p)) {}
+  using Params = drtv::eval::Params;
+  ProbeReference(TechniqueMade made, Params p)
+      : Technique(std::move(made), {.frame_work = FrameWork::kNone}), params_(std::move(p)) {}
 
-  Result<void> prepare(const PrepareInput& in) override {
+  static Params read(ParamReader& r) { return readProbeReference(r); }
+  static std::vector<TechniqueInfo> variants() {
+    return {{"probe-reference",
+             "DRTV's probes with path-traced values read through a basis (4-basis, ambient-cube, sh-l1), no volume: "
+             "the representation's error alone",
+             {},
+             {}}};
+  }
+
+ protected:
+  Result<void> onPrepare(const PrepareInput& in) override {
     const baker::BakeSettings s = baker::BakeSettings::forQuality(baker::Quality::kDefault, in.seed);
     std::optional<baker::InMemoryBake> own;
     const baker::InMemoryBake* bake = in.baked;
@@ -104,9 +98,8 @@ class ProbeReference final : public Technique {
       if (auto r = (*rt)->addSector(sec); !r) return std::unexpected(r.error().context("sector " + toString(sec.key)));
     rt_ = std::move(*rt);
     normal_offset_m_ = o.normal_offset_m;
-    costs_ = {};
+    reportPrepareSeconds(0.0);  // the probes' tracing is counted as evaluate() traces them
     costs_.stored_bytes = bake->bytes;
-    costs_.update_ms = std::numeric_limits<double>::quiet_NaN();  // nothing runs per frame
     const glm::ivec3 n = o.volume.size;
     volume_texels_ = size_t(n.x) * size_t(n.y) * size_t(n.z);
     setBytes();
@@ -115,8 +108,8 @@ class ProbeReference final : public Technique {
     return {};
   }
 
-  Result<void> setParams(const TechniqueParams& params) override {
-    auto p = parseParams(params);
+  Result<void> onSetParams(const TechniqueParams& params) override {
+    auto p = readParams<Params>(params, &read);
     if (!p) return std::unexpected(p.error());
     if (p->probe_samples != params_.probe_samples) traced_.clear();
     params_ = std::move(*p);
@@ -124,8 +117,7 @@ class ProbeReference final : public Technique {
     return {};
   }
 
-  Result<void> setLighting(double hour, const std::vector<PointLight>& lights) override {
-    if (!rt_) return fail("technique " + describe() + ": setLighting before prepare");
+  Result<void> onSetLighting(double hour, const std::vector<PointLight>& lights) override {
     // The traced values hold for one lighting: other lights (the same count or not) trace again.
     auto same = [](const PointLight& a, const PointLight& b) {
       return a.position == b.position && a.intensity == b.intensity && a.radius_m == b.radius_m;
@@ -136,10 +128,9 @@ class ProbeReference final : public Technique {
     return {};
   }
 
-  Result<void> update(const glm::dvec3&) override { return {}; }
+  Result<void> onUpdate(const glm::dvec3&) override { return {}; }
 
-  Result<std::vector<glm::vec3>> evaluate(std::span<const SurfacePoint> points) override {
-    if (!rt_) return fail("technique " + describe() + ": evaluate before prepare");
+  Result<std::vector<glm::vec3>> onEvaluate(std::span<const SurfacePoint> points) override {
     // The probes the points name, in the order the points first name them.
     std::vector<int> point_probe(points.size(), -1);
     for (size_t i = 0; i < points.size(); ++i) point_probe[i] = probeIndex(points[i]);
@@ -170,8 +161,7 @@ class ProbeReference final : public Technique {
     return out;
   }
 
-  glm::vec3 ambient(const glm::dvec3& position, const glm::vec3& normal) const override {
-    if (!rt_) return glm::vec3(0.f);
+  glm::vec3 onAmbient(const glm::dvec3& position, const glm::vec3& normal) const override {
     const runtime::ProbeRef pr = rt_->cache().probeAt(position + glm::dvec3(normal) * double(normal_offset_m_));
     const auto it = traced_.find(key());
     if (!pr.valid() || it == traced_.end()) return glm::vec3(0.f);
@@ -180,9 +170,6 @@ class ProbeReference final : public Technique {
     return glm::vec3(0.f);  // a probe no evaluate() traced
   }
 
-  TechniqueCosts costs() const override { return costs_; }
-
-  std::string describe() const override { return describeTechnique("probe-reference", params_.given); }
 
  private:
   struct Probe {
@@ -238,23 +225,10 @@ class ProbeReference final : public Technique {
   std::vector<PointLight> lights_;
   std::vector<Probe> probes_;
   std::map<double, std::vector<Traced>> traced_;
-  TechniqueCosts costs_;
 };
 
 }  // namespace
 
-std::vector<TechniqueRegistration> probeReferenceTechniques() {
-  std::vector<TechniqueRegistration> out;
-  out.push_back({{"probe-reference",
-                  "DRTV's probes with path-traced values read through a basis (4-basis, ambient-cube, sh-l1), no volume: "
-                  "the representation's error alone",
-                  {}},
-                 [](const TechniqueParams& p) -> Result<std::unique_ptr<Technique>> {
-                   auto parsed = parseParams(p);
-                   if (!parsed) return std::unexpected(parsed.error());
-                   return std::make_unique<ProbeReference>(std::move(*parsed));
-                 }});
-  return out;
-}
+Result<void> registerProbeReferenceTechnique() { return registerTechnique<ProbeReference>(); }
 
 }  // namespace drtv::eval

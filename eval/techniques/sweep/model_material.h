@@ -52,7 +52,7 @@ namespace drtv::eval {
 struct ModelVoxelOptions {
   // A model voxel's edge in the world at its largest placement scale, metres. 0.125: of 0.125,
   // 0.25 and 0.5 the closest to the ray-cast grids and the fastest to resample (the shell and the
-  // placements' boxes shrink with the voxels), `drtv accuracy --sweep-knobs` and
+  // placements' boxes shrink with the voxels), `drtv accuracy --knobs sweep` and
   // drtv_sweep_material_bench on the island (docs/sweep.md).
   double voxel_m = 0.125;
   size_t max_voxels = 1u << 24;  // per model; a model needing more gets coarser voxels (bytes: 1 each)

@@ -39,7 +39,7 @@
 // Registered as "sweep" and as the variant "sweep-bottom-up" (bottom_up=1).
 // The world given to prepare() must outlive the technique.
 #include <chrono>
-#include <charconv>
+#include <sstream>
 #include <cmath>
 #include <map>
 #include <memory>
@@ -75,7 +75,7 @@ struct Params {
   double offset_cells = 0.5;
   // 2 cells: of 0, 1, 2 and 4, the lowest error on the test box (15.4 / 13.8 / 13.0 / 13.6 %) and
   // the Cornell world (28.9 / 29.1 / 28.9 / 29.5 %); the island 9.3 / 9.2 / 9.2 / 9.1 %
-  // (`drtv accuracy --sweep-knobs`, docs/sweep.md).
+  // (`drtv accuracy --knobs sweep`, docs/sweep.md).
   double ground_blend_cells = 2.0;
   double ray_spacing_m = VoxelOptions{}.ray_spacing_m;
   bool models = false;
@@ -86,93 +86,42 @@ struct Params {
   double job_s = sweep::GridStreamerOptions{}.simulated_job_s;
   int max_grids = 40;
   double margin_m = 32.0;
-  TechniqueParams given;
 };
-
-Result<double> number(const std::string& k, const std::string& v, double lo, double hi, bool lo_open) {
-  double x = 0;
-  const auto [end, ec] = std::from_chars(v.data(), v.data() + v.size(), x);
-  if (ec != std::errc() || end != v.data() + v.size() || !std::isfinite(x) || x > hi || x < lo || (lo_open && x == lo))
-    return fail(k + "=" + v + ": expected a number in " + (lo_open ? "(" : "[") + std::to_string(lo) + ", " + std::to_string(hi) + "]");
-  return x;
-}
 
 bool dividesSector(double c) {
   const double n = kSectorSizeM / c;
   return c > 0 && std::abs(n - std::round(n)) < 1e-9;
 }
 
-Result<Params> parseParams(const TechniqueParams& p) {
+Params readSweep(ParamReader& r) {
   Params out;
-  out.given = p;
-  for (const auto& [k, v] : p) {
-    Result<double> x = fail("");
-    if (k == "cell_m") {
-      x = number(k, v, 0, 64, false);
-      if (x && *x != 0 && !dividesSector(*x)) return fail(k + "=" + v + ": must divide 64 (or be 0: no fine grids)");
-      if (x) out.cell_m = *x;
-    } else if (k == "coarse_m") {
-      x = number(k, v, 2, 64, false);
-      if (x && !dividesSector(*x)) return fail(k + "=" + v + ": must divide 64");
-      if (x) out.coarse_m = *x;
-    } else if (k == "bottom_up") {
-      if (v != "0" && v != "1") return fail(k + "=" + v + ": expected 0 or 1");
-      out.bottom_up = v == "1";
-      continue;
-    } else if (k == "storage") {
-      if (v != "r11g11b10" && v != "float") return fail(k + "=" + v + ": expected r11g11b10 or float");
-      out.unpacked = v == "float";
-      continue;
-    } else if (k == "smoothing") {
-      x = number(k, v, 0, 1, false);
-      if (x) out.smoothing = float(*x);
-    } else if (k == "sun_disc_deg") {
-      x = number(k, v, 0, 45, true);
-      if (x) out.sun_disc_deg = *x;
-    } else if (k == "offset") {
-      x = number(k, v, 0, 4, false);
-      if (x) out.offset_cells = *x;
-    } else if (k == "ground_blend") {
-      x = number(k, v, 0, 8, false);
-      if (x) out.ground_blend_cells = *x;
-    } else if (k == "material") {
-      if (v != "raycast" && v != "models") return fail(k + "=" + v + ": expected raycast or models");
-      out.models = v == "models";
-      continue;
-    } else if (k == "model_voxel_m") {
-      x = number(k, v, 0.02, 2, false);
-      if (x) out.model_voxel_m = *x;
-    } else if (k == "ray_spacing_m") {
-      x = number(k, v, 0, 64, true);
-      if (x) out.ray_spacing_m = *x;
-    } else if (k == "workers") {
-      x = number(k, v, 1, 16, false);
-      if (x && *x != std::round(*x)) return fail(k + "=" + v + ": expected a whole number");
-      if (x) out.workers = int(*x);
-    } else if (k == "lead_s") {
-      x = number(k, v, 0, 10, false);
-      if (x) out.lead_s = *x;
-    } else if (k == "resweep_h") {
-      x = number(k, v, 0, 24, true);
-      if (x) out.resweep_h = *x;
-    } else if (k == "job_s") {
-      x = number(k, v, 0, 10, false);
-      if (x) out.job_s = *x;
-    } else if (k == "margin_m") {
-      x = number(k, v, 0, 256, false);
-      if (x) out.margin_m = *x;
-    } else if (k == "max_grids") {
-      x = number(k, v, 1, 256, false);
-      if (x && *x != std::round(*x)) return fail(k + "=" + v + ": expected a whole number");
-      if (x) out.max_grids = int(*x);
-    } else {
-      return fail("no parameter '" + k + "' (sweep takes cell_m, coarse_m, bottom_up, storage, smoothing, sun_disc_deg, offset, ground_blend, "
-                  "ray_spacing_m, material, model_voxel_m, workers, lead_s, margin_m, resweep_h, job_s, max_grids)");
-    }
-    if (!x) return std::unexpected(x.error());
-  }
-  if (out.cell_m > out.coarse_m) return fail("cell_m must not exceed coarse_m");
+  r.real("cell_m", out.cell_m, 0, 64);
+  if (r.ok() && out.cell_m != 0 && !dividesSector(out.cell_m)) r.reject("cell_m=" + *r.text("cell_m") + ": must divide 64 (or be 0: no fine grids)");
+  r.real("coarse_m", out.coarse_m, 2, 64);
+  if (r.ok() && !dividesSector(out.coarse_m)) r.reject("coarse_m=" + *r.text("coarse_m") + ": must divide 64");
+  r.flag("bottom_up", out.bottom_up)
+      .oneOf("storage", out.unpacked, {{"r11g11b10", false}, {"float", true}})
+      .real("smoothing", out.smoothing, 0, 1)
+      .real("sun_disc_deg", out.sun_disc_deg, 0, 45, true)
+      .real("offset", out.offset_cells, 0, 4)
+      .real("ground_blend", out.ground_blend_cells, 0, 8)
+      .real("ray_spacing_m", out.ray_spacing_m, 0, 64, true)
+      .oneOf("material", out.models, {{"raycast", false}, {"models", true}})
+      .real("model_voxel_m", out.model_voxel_m, 0.02, 2)
+      .integer("workers", out.workers, 1, 16)
+      .real("lead_s", out.lead_s, 0, 10)
+      .real("margin_m", out.margin_m, 0, 256)
+      .real("resweep_h", out.resweep_h, 0, 24, true)
+      .real("job_s", out.job_s, 0, 10)
+      .integer("max_grids", out.max_grids, 1, 256);
+  if (r.ok() && out.cell_m > out.coarse_m) r.reject("cell_m must not exceed coarse_m");
   return out;
+}
+
+std::string text(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
 }
 
 double sunDiscRad(const Params& p) { return p.sun_disc_deg * 3.14159265358979323846 / 180.0; }
@@ -297,10 +246,43 @@ class SweepStream final : public TechniqueStream {
 
 class SweepTechnique final : public Technique {
  public:
-  SweepTechnique(std::string name, Params p) : name_(std::move(name)), params_(std::move(p)) {}
+  using Params = drtv::eval::Params;
+  SweepTechnique(TechniqueMade made, Params p) : Technique(std::move(made), traitsFor(p)), params_(std::move(p)) {}
 
-  Result<void> prepare(const PrepareInput& in) override {
-    const auto t0 = Clock::now();
+  static Params read(ParamReader& r) { return readSweep(r); }
+  static std::vector<TechniqueInfo> variants() {
+    return {{"sweep",
+             "the top-down sweep light grid (seed 001): sky and sun swept down through voxelised material grids, "
+             "a 16 m grid over the world and 1 m grids per sector",
+             {},
+             &knobs},
+            {"sweep-bottom-up", "the sweep with the bottom-up pass the seed did not implement (bottom_up=1)", {{"bottom_up", "1"}}, {}}};
+  }
+  // The sweep's knobs, one at a time around its defaults: seconds each (docs/sweep.md).
+  static std::vector<KnobRow> knobs(const KnobContext&) {
+    const Params d;
+    std::vector<KnobRow> rows;
+    auto add = [&](const char* knob, std::vector<std::string> values, const std::string& def, const std::string& note) {
+      for (KnobRow& row : knobAround("sweep", std::string("sweep_") + knob, knob, values, def, note)) rows.push_back(std::move(row));
+    };
+    add("ground_blend", {"0", "1", "2", "4"}, text(d.ground_blend_cells),
+        "the seed's ground-proximity blend over this many cells above the terrain (0: off)");
+    add("material", {"raycast", "models"}, d.models ? "models" : "raycast",
+        "the fine grids' material: ray cast, or per-model grids (OpenVDB) resampled");
+    add("storage", {"r11g11b10", "float"}, d.unpacked ? "float" : "r11g11b10",
+        "the light grids' values as stored (R11G11B10), or as swept before packing (float: what the stored form costs)");
+    for (const char* v : {"0.25", "0.5"})
+      rows.push_back({"sweep_model_voxel_m", v, false, "sweep", TechniqueParams{{"material", "models"}, {"model_voxel_m", v}},
+                      "material=models with model voxels of this many metres (0.125: the sweep_material models row)"});
+    return rows;
+  }
+
+ protected:
+  static TechniqueTraits traitsFor(const Params& p) {
+    return {.prepares_from_world = true, .streams_per_sector = p.cell_m > 0, .frame_work = FrameWork::kLighting};
+  }
+
+  Result<void> onPrepare(const PrepareInput& in) override {
     stream_.reset();
     auto geo = raytrace::WorldGeometry::build(in.world, in.where);
     if (!geo) return std::unexpected(geo.error());
@@ -389,40 +371,34 @@ class SweepTechnique final : public Technique {
         }
       }
     }
-    costs_ = {};
-    costs_.prepare_s = std::chrono::duration<double>(Clock::now() - t0).count();
     costs_.stored_bytes = materialBytes();
     streaming_ = in.streaming;
     prepared_ = true;
     return sweepAll(12.0);
   }
 
-  Result<void> setParams(const TechniqueParams& params) override {
-    auto p = parseParams(params);
+  Result<void> onSetParams(const TechniqueParams& params) override {
+    auto p = readParams<Params>(params, &read);
     if (!p) return std::unexpected(p.error());
     if (prepared_ && (p->cell_m != params_.cell_m || p->coarse_m != params_.coarse_m || p->ray_spacing_m != params_.ray_spacing_m ||
                       p->models != params_.models || p->model_voxel_m != params_.model_voxel_m))
-      return fail("sweep: cell_m, coarse_m, ray_spacing_m, material and model_voxel_m need another prepare");
-    if (stream_) return fail("sweep: parameters are fixed while streaming");
+      return fail("cell_m, coarse_m, ray_spacing_m, material and model_voxel_m need another prepare");
+    if (stream_) return fail("parameters are fixed while streaming");
     params_ = std::move(*p);
+    setTraits(traitsFor(params_));
     if (prepared_) return sweepAll(hour_);
     return {};
   }
 
-  Result<void> setLighting(double hour, const std::vector<PointLight>&) override {
-    if (!prepared_) return fail("technique " + describe() + ": setLighting before prepare");
-    if (!std::isfinite(hour)) return fail("sweep: hour must be finite");
-    if (stream_) return fail("sweep: streaming: the hour goes to TechniqueStream::frame");
+  Result<void> onSetLighting(double hour, const std::vector<PointLight>&) override {
+    if (stream_) return fail("streaming: the hour goes to TechniqueStream::frame");
     return sweepAll(hour);
   }
 
-  Result<void> update(const glm::dvec3&) override { return {}; }
-  bool preparesFromWorld() const override { return true; }
-  bool streamsPerSector() const override { return params_.cell_m > 0; }
+  Result<void> onUpdate(const glm::dvec3&) override { return {}; }
 
-  Result<TechniqueStream*> beginStreaming(const StreamingSetup& setup) override {
-    if (!prepared_ || !streaming_) return fail("technique " + describe() + ": beginStreaming needs prepare() with streaming");
-    if (!std::isfinite(setup.start_hour)) return fail("sweep: start hour must be finite");
+  Result<TechniqueStream*> onBeginStreaming(const StreamingSetup& setup) override {
+    if (!streaming_) return fail("beginStreaming needs prepare() with streaming");
     stream_.reset();
     coarse_.reset();  // the stream sweeps its own
     stream_ = std::make_unique<SweepStream>(params_, sky_, coarse_material_, fine_, setup);
@@ -430,7 +406,7 @@ class SweepTechnique final : public Technique {
     return stream_.get();
   }
 
-  glm::vec3 ambient(const glm::dvec3& position, const glm::vec3& normal) const override {
+  glm::vec3 onAmbient(const glm::dvec3& position, const glm::vec3& normal) const override {
     const SectorKey key = sectorAt(position.x, position.y);
     const auto it = fine_.find(key);
     const sweep::SweptGrid* fine = nullptr;
@@ -448,10 +424,6 @@ class SweepTechnique final : public Technique {
                              [&](const glm::vec3& n) { return lookup(fine, *coarse, params_.offset_cells, position, n); });
   }
 
-  TechniqueCosts costs() const override { return costs_; }
-
-  std::string describe() const override { return describeTechnique(name_, params_.given); }
-
  private:
   size_t materialBytes() const {
     size_t n = coarse_material_.shape.cellCount() * (sizeof(float) + sizeof(glm::vec3));
@@ -460,7 +432,6 @@ class SweepTechnique final : public Technique {
   }
 
   Result<void> sweepAll(double hour) {
-    const auto t0 = Clock::now();
     hour_ = hour;
     const sweep::SkyInput sky{sweep::skyLight(sky_, hour), sweep::sunLight(sky_, hour, sunDiscRad(params_))};
     sweep::SweepOptions o;
@@ -479,11 +450,9 @@ class SweepTechnique final : public Technique {
       bytes += f.light->bytes();
     }
     costs_.runtime_bytes = bytes;
-    costs_.update_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
     return {};
   }
 
-  std::string name_;
   Params params_;
   Sky sky_;
   bool prepared_ = false, streaming_ = false;
@@ -492,28 +461,10 @@ class SweepTechnique final : public Technique {
   std::unique_ptr<sweep::SweptGrid> coarse_;
   std::map<SectorKey, Fine> fine_;
   std::unique_ptr<SweepStream> stream_;
-  TechniqueCosts costs_;
 };
 
 }  // namespace
 
-std::vector<TechniqueRegistration> sweepTechniques() {
-  auto factory = [](std::string name) -> TechniqueFactory {
-    return [name](const TechniqueParams& p) -> Result<std::unique_ptr<Technique>> {
-      auto parsed = parseParams(p);
-      if (!parsed) return std::unexpected(parsed.error());
-      return std::make_unique<SweepTechnique>(name, std::move(*parsed));
-    };
-  };
-  std::vector<TechniqueRegistration> out;
-  out.push_back({{"sweep",
-                  "the top-down sweep light grid (seed 001): sky and sun swept down through voxelised material grids, "
-                  "a 16 m grid over the world and 1 m grids per sector",
-                  {}},
-                 factory("sweep")});
-  out.push_back({{"sweep-bottom-up", "the sweep with the bottom-up pass the seed did not implement (bottom_up=1)", {{"bottom_up", "1"}}},
-                 factory("sweep-bottom-up")});
-  return out;
-}
+Result<void> registerSweepTechniques() { return registerTechnique<SweepTechnique>(); }
 
 }  // namespace drtv::eval

@@ -88,16 +88,11 @@ struct AccuracyOptions {
   bool stratify = false;
   // The "technique" rows: these registered techniques (technique.h); empty = every one.
   std::vector<std::string> techniques;
-  // LPV's knob rows (lpv_cells, lpv_cascades, lpv_iterations, lpv_rsm, lpv_occlusion,
-  // lpv_sky_bounce, lpv_lookup_offset, lpv_damping), one at a time around its defaults: each
-  // re-renders its RSMs at every camera move, minutes per row on the island.
-  bool lpv_knobs = false;
-  // The ambient cube's rows (part ambient-cube: each term alone against the reference's; cube
-  // sun_transfer off), its technique baked once per row: seconds each (docs/accuracy.md).
-  bool cube_knobs = false;
-  // The sweep's knob rows (sweep_ground_blend, sweep_material), one at a time around its
-  // defaults: seconds each (docs/sweep.md).
-  bool sweep_knobs = false;
+  // Techniques whose own knob rows (TechniqueInfo::knobs, one knob at a time around the
+  // technique's defaults) are added after DRTV's, which are always there: "lpv" (minutes per row on
+  // the island: each re-renders its RSMs at every camera move), "sweep", "ambient-cube" (seconds
+  // each). `drtv accuracy --knobs <name>,...`.
+  std::vector<std::string> knobs;
   // Progress lines ("bake rays_per_basis=32 ...") for a terminal; may be empty.
   std::function<void(const std::string&)> progress;
 };
@@ -172,6 +167,10 @@ struct AccuracyReport {
 // Runs the sweep (see the header). `where` prefixes errors. Errors: bake errors, a block with no
 // probes, no sample point found, bad options (no hours, points < 1, samples < 2).
 Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::string& where, const AccuracyOptions& options);
+
+// Checks AccuracyOptions::knobs: each a registered technique that declares knob rows. Errors name
+// the one that is not and list those that are.
+Result<void> checkKnobs(const std::vector<std::string>& names);
 
 // Writes accuracy.csv, accuracy.json, accuracy.md (the tables) and accuracy.png (relative error
 // against bake time, relight + fill time and memory) into `dir` (created if needed).

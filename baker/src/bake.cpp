@@ -23,6 +23,7 @@
 
 #include "drtv/baker/shard.h"
 #include "drtv/raytrace/sampling.h"
+#include "atomic_file.h"
 #include "sector_journal.h"
 #include "sector_stats.h"
 #include "drtv/baker/stopwatch.h"
@@ -69,25 +70,6 @@ float groundAt(const raytrace::RayScene& scene, const raytrace::SectorGeometry& 
   return NAN;
 }
 
-
-// Shards on a farm write the same stamp at once: each through a temporary file of its own (host
-// and process), or one shard's rename would take the file another is still writing.
-Result<void> writeAtomically(const fs::path& path, const void* data, size_t size) {
-  char host[256] = {};
-  if (::gethostname(host, sizeof host - 1) != 0) std::strcpy(host, "host");
-  const fs::path tmp = path.string() + "." + host + "." + std::to_string(::getpid()) + ".tmp";
-  {
-    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-    if (!f) return fail(tmp.string() + ": cannot open for writing");
-    f.write(static_cast<const char*>(data), std::streamsize(size));
-    f.flush();
-    if (!f) return fail(tmp.string() + ": write failed");
-  }
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec) return fail(path.string() + ": rename failed: " + ec.message());
-  return {};
-}
 
 Result<std::vector<uint8_t>> readFile(const fs::path& path) {
   std::ifstream f(path, std::ios::binary);
@@ -605,7 +587,8 @@ Result<void> claimSectorDirectory(const fs::path& dir, uint64_t fingerprint, boo
       if (auto r = detail::removeJournals(dir); !r) return std::unexpected(r.error());
     }
   }
-  return writeAtomically(stamp, fp_text, std::strlen(fp_text));
+  // Shards on a farm write the same stamp at once (atomic_file.h).
+  return detail::writeFileAtomically(stamp, fp_text);
 }
 
 // Pass 1 of an LPRT bake: the placement of the sectors `todo_keys` and of their neighbours

@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "drtv/baker/bake.h"
+#include "atomic_file.h"
 #include "sector_journal.h"
 
 namespace drtv::baker {
@@ -93,12 +94,6 @@ Result<ShardSpec> fromKubernetes(const EnvLookup& env, std::optional<long long> 
     return fail("--shard " + std::string(text) + ": JOB_COMPLETION_INDEX=" + std::to_string(**index) + " is past the " +
                 std::to_string(n) + " shards");
   return checked(**index, n, std::string(text));
-}
-
-std::string hostName() {
-  char name[256] = {};
-  if (::gethostname(name, sizeof name - 1) != 0) return "unknown";
-  return name;
 }
 
 std::optional<ShardStatus::State> parseState(const std::string& s) {
@@ -189,7 +184,7 @@ Result<void> writeShardStatus(const fs::path& dir, const ShardStatus& s) {
   j["state"] = stateName(s.state);
   j["fingerprint"] = s.fingerprint;
   j["world"] = s.world;
-  j["host"] = s.host.empty() ? hostName() : s.host;
+  j["host"] = s.host.empty() ? detail::hostName() : s.host;
   j["sectors"] = s.sectors;
   j["baked"] = s.baked;
   j["wall_s"] = s.wall_s;
@@ -198,20 +193,8 @@ Result<void> writeShardStatus(const fs::path& dir, const ShardStatus& s) {
   for (const auto& [k, v] : s.settings) settings[k] = v;
   j["settings"] = settings;
   const std::string text = j.dump(2) + "\n";
-  const fs::path file = shardStatusFile(dir, s.index, s.count);
   // Two runs of one shard (a requeue overlapping a straggler) must not share a temporary file.
-  const fs::path tmp = file.string() + "." + hostName() + "." + std::to_string(::getpid()) + ".tmp";
-  {
-    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-    if (!f) return fail(tmp.string() + ": cannot open for writing");
-    f << text;
-    f.flush();
-    if (!f) return fail(tmp.string() + ": write failed");
-  }
-  std::error_code ec;
-  fs::rename(tmp, file, ec);
-  if (ec) return fail(file.string() + ": rename failed: " + ec.message());
-  return {};
+  return detail::writeFileAtomically(shardStatusFile(dir, s.index, s.count), text);
 }
 
 Result<std::vector<ShardStatus>> readShardStatuses(const fs::path& dir) {

@@ -65,12 +65,14 @@ munged --foreground --force --socket="$tmp/munge/munge.socket" --key-file="$tmp/
   --seed-file="$tmp/munged.seed" --log-file="$tmp/munged.log" &
 pids+=($!)
 
+# The daemons talk over loopback whatever the host's name resolves to (a fresh CI machine's may
+# resolve to nothing): the controller's and the node's addresses are given.
 host=$(hostname -s)
-node=$(slurmd -C | head -n 1)
+node="$(slurmd -C | head -n 1) NodeAddr=127.0.0.1"
 mkdir -p "$tmp/state" "$tmp/spool"
 cat >"$tmp/slurm.conf" <<EOF
 ClusterName=drtvtest
-SlurmctldHost=$host
+SlurmctldHost=$host(127.0.0.1)
 SlurmctldPort=$ctld_port
 SlurmdPort=$slurmd_port
 SlurmUser=root

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <numbers>
 #include <numeric>
 #include <string>
 #include <vector>
@@ -17,7 +18,6 @@
 namespace drtv::worlds {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 // A triangle is cut in four (midpoints) until it is below this share of its emitter's area, so
 // that a quad of two triangles can still be split into kMaxLightsPerEmitter patches; at most
 // kMaxSubdivision times (4^5 = 1024 pieces a triangle).
@@ -180,7 +180,7 @@ void emissiveLights(World& world) {
                        ", " + num(area_sum) + " m^2 of Le (" + num(le.r) + ", " + num(le.g) + ", " + num(le.b) + ") -> " +
                        std::to_string(lights) + " point lights of I = Le A / 2, (" + num(intensity_sum.r) + ", " +
                        num(intensity_sum.g) + ", " + num(intensity_sum.b) + ") W/sr in all (flux " +
-                       num(kPi * le.g * area_sum) + " W in green)";
+                       num(std::numbers::pi * le.g * area_sum) + " W in green)";
     if (not_converted)
       line += "; " + std::to_string(not_converted) + " instances not converted (more than " + std::to_string(kMaxEmissiveLights) +
               " emissive lights, or an intensity above " + num(kMaxColourValue) + ")";

@@ -61,14 +61,9 @@ Result<WorldGeometry> WorldGeometry::build(const worlds::World& world, const std
 
   // Which meshes contribute (used by a non-dynamic instance); only those are validated.
   std::vector<uint8_t> used(mesh_count, 0);
-  for (size_t i = 0; i < world.instances.size(); ++i) {
-    const worlds::Instance& inst = world.instances[i];
-    if (inst.cls == worlds::InstanceClass::kDynamic) continue;
-    if (inst.mesh >= mesh_count)
-      return fail(where + ": instance " + std::to_string(i) + " '" + inst.name + "': mesh index " +
-                  std::to_string(inst.mesh) + " out of range (" + std::to_string(mesh_count) + " meshes)");
-    used[inst.mesh] = 1;
-  }
+  if (auto ok = world.validate(); !ok) return fail(where + ": " + ok.error().message);
+  for (const worlds::Instance& inst : world.instances)
+    if (inst.cls != worlds::InstanceClass::kDynamic) used[inst.mesh] = 1;
 
   // Memory as an input limit (memory_limit.h): what the passes below allocate, estimated before
   // they allocate it. Here the validation's index per triangle of a used mesh (4 B) and each

@@ -208,16 +208,14 @@ struct ReferenceScene::Impl {
 namespace {
 
 // Appends every dynamic instance overlapping [lo, hi] (xy, world metres) to the camera view's
-// soup, in the local frame at `origin`; bad meshes and triangles are skipped with a note.
+// soup, in the local frame at `origin`; bad triangles are skipped with a note. The world's mesh
+// indices are sound (ReferenceScene::build has the geometry validate the world first).
 void appendDynamic(const worlds::World& world, const glm::dvec3& origin, const glm::dvec2& lo, const glm::dvec2& hi,
                    std::vector<glm::vec3>& vertices, std::vector<glm::vec3>& albedo, std::vector<uint8_t>& dynamic,
                    std::vector<std::string>& notes) {
   for (const worlds::Instance& inst : world.instances) {
     if (inst.cls != worlds::InstanceClass::kDynamic) continue;
-    if (inst.mesh >= world.meshes.size()) {
-      notes.push_back("skipped: dynamic instance '" + inst.name + "': mesh " + std::to_string(inst.mesh) + " does not exist");
-      continue;
-    }
+    DRTV_CHECK_LT(inst.mesh, world.meshes.size());
     const worlds::Mesh& mesh = world.meshes[inst.mesh];
     size_t skipped = 0;
     std::vector<glm::vec3> tri;

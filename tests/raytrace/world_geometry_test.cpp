@@ -129,7 +129,16 @@ TEST(WorldGeometry, OutOfRangeIndicesAreAnErrorNamingTheMesh) {
   EXPECT_NE(g.error().message.find("mesh 'ground'"), std::string::npos) << g.error().message;
   w = baker::test::planeWorld(64.0, glm::vec3(0.5f));
   w.instances[0].mesh = 5;
-  EXPECT_FALSE(raytrace::WorldGeometry::build(w, "w.json"));
+  g = raytrace::WorldGeometry::build(w, "w.json");
+  ASSERT_FALSE(g);
+  EXPECT_NE(g.error().message.find("w.json: instance 0"), std::string::npos) << g.error().message;
+  // A dynamic instance is not baked, but a world naming a missing mesh is bad input all the same
+  // (World::validate), not a bounds() abort later.
+  w = baker::test::planeWorld(64.0, glm::vec3(0.5f));
+  w.instances.push_back(worlds::Instance{7, glm::dmat4(1.0), worlds::InstanceClass::kDynamic, "car"});
+  g = raytrace::WorldGeometry::build(w, "w.json");
+  ASSERT_FALSE(g);
+  EXPECT_NE(g.error().message.find("instance 1 'car': mesh index 7 out of range"), std::string::npos) << g.error().message;
 }
 
 TEST(WorldGeometry, AbsurdSizesAreAnError) {

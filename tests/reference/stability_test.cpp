@@ -332,9 +332,15 @@ TEST(StabilityOfGeometry, DegenerateAndNonFiniteTrianglesAreSkippedNotFatal) {
   expectSound(referenceIrradiance(*scene, ReferenceLighting{}, {glm::dvec3(10.5, 10.2, 1.2), glm::vec3(0, 0, -1), 0}, s), "reference");
   const testing::BakedWorld b = testing::bakeWorld(w, Quality::kDraft, raytrace::SectorRange{0, 0, 0, 0});
   EXPECT_FALSE(b.sectors.empty());
-  // A dynamic instance naming a mesh that does not exist is noted, not fatal, for the view.
+  // A dynamic instance naming a mesh that does not exist is bad input, as a static one is
+  // (World::validate): an error naming the world and the instance, not a crash.
   w.instances.back().mesh = 99;
-  EXPECT_TRUE(ReferenceScene::build(w, "missing mesh", region).has_value());
+  const auto missing = ReferenceScene::build(w, "missing mesh", region);
+  ASSERT_FALSE(missing.has_value());
+  EXPECT_NE(missing.error().message.find("missing mesh: instance " + std::to_string(w.instances.size() - 1) +
+                                         " 'bad instance': mesh index 99 out of range"),
+            std::string::npos)
+      << missing.error().message;
 }
 
 TEST(StabilityOfLights, ALightExactlyOnAProbeOrOnTheQueryPointStaysFinite) {

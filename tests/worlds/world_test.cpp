@@ -138,6 +138,24 @@ TEST(World, BoundsCoverTransformedInstances) {
   EXPECT_TRUE(World{}.bounds().empty());
 }
 
+TEST(World, AnInstanceOfAMissingMeshIsAnErrorNamingItWhateverItsClass) {
+  EXPECT_TRUE(twoBoxes().validate());
+  for (InstanceClass cls : {InstanceClass::kStatic, InstanceClass::kVegetation, InstanceClass::kDynamic}) {
+    World w = twoBoxes();
+    w.instances.push_back(Instance{3, glm::dmat4(1.0), cls, "stray"});
+    const auto ok = w.validate();
+    ASSERT_FALSE(ok);
+    EXPECT_EQ(ok.error().message, "instance 2 'stray': mesh index 3 out of range (1 meshes)");
+  }
+}
+
+TEST(WorldDeathTest, BoundsOfAWorldThatValidateRefusesIsABug) {
+  World w = twoBoxes();
+  w.instances.push_back(Instance{3, glm::dmat4(1.0), InstanceClass::kDynamic, "stray"});
+  EXPECT_DEATH((void)w.bounds(), "inst.mesh");
+  EXPECT_DEATH((void)w.triangleCount(), "inst.mesh");
+}
+
 TEST(DefaultEffects, WithoutLightsOmitsLocalLights) {
   World w;
   const uint32_t e = defaultEffects(w);

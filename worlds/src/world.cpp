@@ -30,6 +30,16 @@ Bounds meshBounds(const Mesh& m) {
 }
 }  // namespace
 
+Result<void> World::validate() const {
+  for (size_t i = 0; i < instances.size(); ++i) {
+    const Instance& inst = instances[i];
+    if (inst.mesh >= meshes.size())
+      return fail("instance " + std::to_string(i) + " '" + inst.name + "': mesh index " + std::to_string(inst.mesh) +
+                  " out of range (" + std::to_string(meshes.size()) + " meshes)");
+  }
+  return {};
+}
+
 Bounds World::bounds() const {
   std::vector<Bounds> local(meshes.size());
   for (size_t i = 0; i < meshes.size(); ++i) local[i] = meshBounds(meshes[i]);

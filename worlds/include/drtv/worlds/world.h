@@ -15,6 +15,7 @@
 #include <optional>
 
 #include "drtv/formats/effects.h"
+#include "drtv/formats/error.h"
 #include "drtv/formats/representation.h"
 #include "drtv/formats/lighting.h"
 
@@ -110,9 +111,16 @@ struct World {
   std::vector<std::string> notes;
   MaterialCounts materials;
 
-  // World-space bounds of all instances (dynamic ones too).
+  // A world built in code is input like a file: an error naming the first instance whose mesh
+  // index is out of range, of any class. The loaders' worlds always pass; the functions below
+  // and the baker's geometry (raytrace::WorldGeometry) take only worlds that pass, and the
+  // geometry calls this itself.
+  Result<void> validate() const;
+
+  // World-space bounds of all instances (dynamic ones too). A world that validate() refuses is a
+  // caller's bug here (DRTV_CHECK).
   Bounds bounds() const;
-  // Sum over instances of their mesh's triangle count.
+  // Sum over instances of their mesh's triangle count (validate() first, as for bounds()).
   size_t triangleCount() const;
   // Instances per class, indexed by InstanceClass.
   std::array<size_t, 4> instancesByClass() const;

@@ -166,31 +166,31 @@ raytrace::SectorRange grownByOne(raytrace::SectorRange r) {
 
 }  // namespace
 
-std::string validateSettings(const BakeSettings& s) {
+Result<void> validateSettings(const BakeSettings& s) {
   auto in = [](double v, double lo, double hi) { return std::isfinite(v) && v >= lo && v <= hi; };
   const PlacementSettings& p = s.placement;
-  if (!in(p.column_spacing_m, 1.0 / 16, 64.0)) return "column_spacing_m must be in [1/16, 64] m";
-  if (!in(p.vegetation_spacing_m, 1.0 / 16, 64.0)) return "vegetation_spacing_m must be in [1/16, 64] m";
-  if (!in(p.lift_m, 0.0, 64.0)) return "lift_m must be in [0, 64] m";
-  if (!in(p.min_horizontal_m, 0.0, 64.0) || !in(p.min_vertical_m, 0.0, 1e4)) return "minimum probe distances must be finite and >= 0";
-  if (!in(p.covered_column_spacing_m, 1.0 / 16, 64.0)) return "covered_column_spacing_m must be in [1/16, 64] m";
-  if (!in(p.covered_min_horizontal_m, 0.0, 64.0)) return "covered_min_horizontal_m must be finite and in [0, 64] m";
-  if (p.inside_test_rays < 0 || p.inside_test_rays > (1 << 16)) return "inside_test_rays must be in [0, 65536]";
-  if (!in(p.inside_test_range_m, 0.0, 64.0)) return "inside_test_range_m must be in [0, 64] m";
+  if (!in(p.column_spacing_m, 1.0 / 16, 64.0)) return fail("column_spacing_m must be in [1/16, 64] m");
+  if (!in(p.vegetation_spacing_m, 1.0 / 16, 64.0)) return fail("vegetation_spacing_m must be in [1/16, 64] m");
+  if (!in(p.lift_m, 0.0, 64.0)) return fail("lift_m must be in [0, 64] m");
+  if (!in(p.min_horizontal_m, 0.0, 64.0) || !in(p.min_vertical_m, 0.0, 1e4)) return fail("minimum probe distances must be finite and >= 0");
+  if (!in(p.covered_column_spacing_m, 1.0 / 16, 64.0)) return fail("covered_column_spacing_m must be in [1/16, 64] m");
+  if (!in(p.covered_min_horizontal_m, 0.0, 64.0)) return fail("covered_min_horizontal_m must be finite and in [0, 64] m");
+  if (p.inside_test_rays < 0 || p.inside_test_rays > (1 << 16)) return fail("inside_test_rays must be in [0, 65536]");
+  if (!in(p.inside_test_range_m, 0.0, 64.0)) return fail("inside_test_range_m must be in [0, 64] m");
   // A clearance above the lift would refuse flat ground itself.
-  if (!in(p.clearance_m, 0.0, std::min(p.lift_m, p.inside_test_range_m))) return "clearance_m must be in [0, min(lift_m, inside_test_range_m)]";
+  if (!in(p.clearance_m, 0.0, std::min(p.lift_m, p.inside_test_range_m))) return fail("clearance_m must be in [0, min(lift_m, inside_test_range_m)]");
   const TransferSettings& t = s.transfer;
-  if (t.probe_rays_per_basis < 1 || t.probe_rays_per_basis > (1 << 16)) return "probe_rays_per_basis must be in [1, 65536]";
-  if (t.surfel_rays < 1 || t.surfel_rays > (1 << 16)) return "surfel_rays must be in [1, 65536]";
-  if (!in(t.surfel_cell_m, 0.25, 64.0)) return "surfel_cell_m must be in [0.25, 64] m (cell keys assume >= 0.25 m)";
-  if (t.bounces < 1 || t.bounces > 64) return "bounces must be in [1, 64]";
-  if (t.sweeps < 0 || t.sweeps > 256) return "sweeps must be in [0, 256] (0: bounces - 1)";
-  if (t.sun_samples != 0 && (t.sun_samples < 2 || t.sun_samples > kMaxSunSamples)) return "sun_samples must be 0 or in [2, 8]";
-  if (s.grid.visibility_candidates < 1 || s.grid.visibility_candidates > 255) return "visibility_candidates must be in [1, 255]";
-  if (!in(s.halo_m, 0.0, 1024.0) || !in(s.lprt_halo_m, 0.0, 1024.0)) return "halos must be in [0, 1024] m";
-  if (std::string why = validateRoomSettings(s.rooms); !why.empty()) return why;
+  if (t.probe_rays_per_basis < 1 || t.probe_rays_per_basis > (1 << 16)) return fail("probe_rays_per_basis must be in [1, 65536]");
+  if (t.surfel_rays < 1 || t.surfel_rays > (1 << 16)) return fail("surfel_rays must be in [1, 65536]");
+  if (!in(t.surfel_cell_m, 0.25, 64.0)) return fail("surfel_cell_m must be in [0.25, 64] m (cell keys assume >= 0.25 m)");
+  if (t.bounces < 1 || t.bounces > 64) return fail("bounces must be in [1, 64]");
+  if (t.sweeps < 0 || t.sweeps > 256) return fail("sweeps must be in [0, 256] (0: bounces - 1)");
+  if (t.sun_samples != 0 && (t.sun_samples < 2 || t.sun_samples > kMaxSunSamples)) return fail("sun_samples must be 0 or in [2, 8]");
+  if (s.grid.visibility_candidates < 1 || s.grid.visibility_candidates > 255) return fail("visibility_candidates must be in [1, 255]");
+  if (!in(s.halo_m, 0.0, 1024.0) || !in(s.lprt_halo_m, 0.0, 1024.0)) return fail("halos must be in [0, 1024] m");
+  if (auto ok = validateRoomSettings(s.rooms); !ok) return ok;
   if (s.rooms.enabled && s.rooms.max_extent_m > std::min(s.halo_m, s.lprt_halo_m))
-    return "rooms: max_extent_m must not exceed the halos (the room search gathers that far)";
+    return fail("rooms: max_extent_m must not exceed the halos (the room search gathers that far)");
   return {};
 }
 
@@ -763,14 +763,14 @@ static Result<BakeReport> bakeRecorded(const worlds::World& given, const std::st
   if (options.inside_from_neighbours) report.settings.grid.inside_from_neighbours = *options.inside_from_neighbours;
   if (options.cell_sides) report.settings.transfer.cell_sides = *options.cell_sides;
   else if (given.representation && !options.settings) report.settings.transfer.representation = *given.representation;
-  if (std::string why = validateSettings(report.settings); !why.empty()) return fail("bake settings: " + why);
+  if (auto why = validateSettings(report.settings); !why) return fail("bake settings: " + why.error().message);
   report.threads = options.threads > 0 ? options.threads : int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
   if (options.shard_count > 1) report.shard = std::to_string(options.shard_index) + "/" + std::to_string(options.shard_count);
   report.effects_asked = given.effects;
   // The halo depends on the lights alone: the rooms found below do not change it.
   const uint32_t given_effects = effectsToBake(given, nullptr);
-  if (std::string why = validateLighting(given.sky, given.lights, given.interiors); !why.empty())
-    return fail(world_name + ": " + why);
+  if (auto why = validateLighting(given.sky, given.lights, given.interiors); !why)
+    return fail(world_name + ": " + why.error().message);
 
   auto t0 = Clock::now();
   // With --sectors, only the geometry those sectors gather is binned (not a whole 8192-cell terrain);

@@ -12,10 +12,10 @@ namespace drtv::baker {
 
 Result<InMemoryBake> bakeInMemory(const worlds::World& given, const std::string& where, const BakeSettings& settings,
                                   std::optional<raytrace::SectorRange> sectors, int threads) {
-  if (std::string why = validateLighting(given.sky, given.lights, given.interiors); !why.empty())
-    return fail(where + ": " + why);
+  if (auto why = validateLighting(given.sky, given.lights, given.interiors); !why)
+    return fail(where + ": " + why.error().message);
   if (threads < 0) return fail("threads " + std::to_string(threads) + ": must be >= 0");
-  if (std::string why = validateSettings(settings); !why.empty()) return fail(where + ": bake settings: " + why);
+  if (auto why = validateSettings(settings); !why) return fail(where + ": bake settings: " + why.error().message);
   std::optional<tbb::global_control> limit;
   if (threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(threads));
   auto geometry = raytrace::WorldGeometry::build(given, where);

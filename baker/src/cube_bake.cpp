@@ -14,9 +14,9 @@ Result<CubeBake> bakeCube(const worlds::World& given, const std::string& where, 
   // The interiors the sectors were baked with (the rooms found, rooms.h), for the placements.
   std::optional<worlds::World> with_rooms;
   const worlds::World& world = interiors ? worldWithInteriors(given, *interiors, with_rooms) : given;
-  if (std::string why = validateLighting(world.sky, world.lights, world.interiors); !why.empty())
-    return fail(where + ": " + why);
-  if (std::string why = validateSettings(settings); !why.empty()) return fail(where + ": bake settings: " + why);
+  if (auto why = validateLighting(world.sky, world.lights, world.interiors); !why)
+    return fail(where + ": " + why.error().message);
+  if (auto why = validateSettings(settings); !why) return fail(where + ": bake settings: " + why.error().message);
   std::optional<tbb::global_control> limit;
   if (threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(threads));
   const auto t0 = std::chrono::steady_clock::now();

@@ -100,19 +100,19 @@ Result<ShardEstimate> estimateShard(const worlds::World& world, const std::strin
   return e;
 }
 
-std::string validatePlan(const FarmPlan& p, bool kubernetes) {
-  if (p.shards < 2) return "--shards " + std::to_string(p.shards) + ": a farm bake has at least 2 shards (one is a plain `drtv bake`)";
-  if (p.shards > 100000) return "--shards " + std::to_string(p.shards) + ": at most 100000";
-  if (p.cpus_per_task < 1) return "--cpus " + std::to_string(p.cpus_per_task) + ": must be at least 1";
-  if (!isDnsLabel(p.job_name)) return "--name '" + p.job_name + "': lower-case letters, digits and '-', 1 to 50, no '-' at either end";
-  if (p.world.empty() || p.archive.empty()) return "the world and the archive are needed";
+Result<void> validatePlan(const FarmPlan& p, bool kubernetes) {
+  if (p.shards < 2) return fail("--shards " + std::to_string(p.shards) + ": a farm bake has at least 2 shards (one is a plain `drtv bake`)");
+  if (p.shards > 100000) return fail("--shards " + std::to_string(p.shards) + ": at most 100000");
+  if (p.cpus_per_task < 1) return fail("--cpus " + std::to_string(p.cpus_per_task) + ": must be at least 1");
+  if (!isDnsLabel(p.job_name)) return fail("--name '" + p.job_name + "': lower-case letters, digits and '-', 1 to 50, no '-' at either end");
+  if (p.world.empty() || p.archive.empty()) return fail("the world and the archive are needed");
   if (kubernetes) {
-    if (p.image.empty()) return "--image: the container image with drtv is needed";
-    if (p.claim.empty()) return "--claim: the PersistentVolumeClaim holding the world and the archive is needed";
-    if (p.parallelism < 0) return "--parallelism " + std::to_string(p.parallelism) + ": must be >= 0";
-    if (p.backoff_per_index < 0) return "--backoff-per-index " + std::to_string(p.backoff_per_index) + ": must be >= 0";
+    if (p.image.empty()) return fail("--image: the container image with drtv is needed");
+    if (p.claim.empty()) return fail("--claim: the PersistentVolumeClaim holding the world and the archive is needed");
+    if (p.parallelism < 0) return fail("--parallelism " + std::to_string(p.parallelism) + ": must be >= 0");
+    if (p.backoff_per_index < 0) return fail("--backoff-per-index " + std::to_string(p.backoff_per_index) + ": must be >= 0");
   }
-  return "";
+  return {};
 }
 
 std::string slurmShardScript(const FarmPlan& p) {

@@ -289,22 +289,22 @@ SectorRooms sectorRooms(const raytrace::WorldGeometry& geometry, SectorKey key, 
 
 }  // namespace
 
-std::string validateRoomSettings(const RoomSettings& s) {
+Result<void> validateRoomSettings(const RoomSettings& s) {
   auto in = [](double v, double lo, double hi) { return v >= lo && v <= hi; };
-  if (!in(s.seed_spacing_m, 0.25, 64.0)) return "rooms: seed_spacing_m must be in [0.25, 64] m";
-  if (!in(s.min_height_m, 0.1, 100.0) || !in(s.min_width_m, 0.1, 100.0)) return "rooms: least sizes must be in [0.1, 100] m";
-  if (!in(s.seed_height_m, 0.0, 100.0)) return "rooms: seed_height_m must be in [0, 100] m";
-  if (!in(s.max_extent_m, 1.0, 1024.0)) return "rooms: max_extent_m must be in [1, 1024] m";
-  if (s.test_rays < 8 || s.test_rays > 4096) return "rooms: test_rays must be in [8, 4096]";
-  if (!in(s.max_open_fraction, 0.0, 1.0)) return "rooms: max_open_fraction must be in [0, 1]";
-  if (!in(s.wall_margin_m, 0.0, 10.0)) return "rooms: wall_margin_m must be in [0, 10] m";
+  if (!in(s.seed_spacing_m, 0.25, 64.0)) return fail("rooms: seed_spacing_m must be in [0.25, 64] m");
+  if (!in(s.min_height_m, 0.1, 100.0) || !in(s.min_width_m, 0.1, 100.0)) return fail("rooms: least sizes must be in [0.1, 100] m");
+  if (!in(s.seed_height_m, 0.0, 100.0)) return fail("rooms: seed_height_m must be in [0, 100] m");
+  if (!in(s.max_extent_m, 1.0, 1024.0)) return fail("rooms: max_extent_m must be in [1, 1024] m");
+  if (s.test_rays < 8 || s.test_rays > 4096) return fail("rooms: test_rays must be in [8, 4096]");
+  if (!in(s.max_open_fraction, 0.0, 1.0)) return fail("rooms: max_open_fraction must be in [0, 1]");
+  if (!in(s.wall_margin_m, 0.0, 10.0)) return fail("rooms: wall_margin_m must be in [0, 10] m");
   return {};
 }
 
 Result<std::vector<InteriorVolume>> findRooms(const raytrace::WorldGeometry& geometry, const raytrace::SectorRange& range,
                                               const std::vector<InteriorVolume>& artist, const RoomSettings& settings,
                                               RoomStats* stats) {
-  DRTV_CHECK(validateRoomSettings(settings).empty());
+  DRTV_CHECK(validateRoomSettings(settings).has_value());
   std::vector<SectorKey> keys;
   for (int32_t x = range.x0; x <= range.x1; ++x)
     for (int32_t y = range.y0; y <= range.y1; ++y) keys.push_back({x, y});

@@ -169,7 +169,8 @@ std::string readLighting(ByteReader& rd, Manifest& m) {
     rd.get(v.blend_distance_m);
   }
   if (!rd.ok()) return "truncated in the lighting";
-  return validateLighting(m.sky, m.lights, m.interiors);
+  if (auto ok = validateLighting(m.sky, m.lights, m.interiors); !ok) return ok.error().message;
+  return {};
 }
 
 std::vector<uint8_t> encodeManifest(const Manifest& m) {
@@ -548,8 +549,8 @@ Result<void> ArchiveWriter::finish(const Manifest& info) {
   DRTV_CHECK(!s.finished);
   Manifest m = info;
   m.version = archiveVersionFor(m.representation);
-  if (std::string what = validateLighting(m.sky, m.lights, m.interiors); !what.empty())
-    return fail(s.path.string() + ": lighting: " + what);
+  if (auto what = validateLighting(m.sky, m.lights, m.interiors); !what)
+    return fail(s.path.string() + ": lighting: " + what.error().message);
   m.sectors = s.entries;
   std::sort(m.sectors.begin(), m.sectors.end(), [](const SectorEntry& a, const SectorEntry& b) { return a.key < b.key; });
   const std::vector<uint8_t> manifest = encodeManifest(m);

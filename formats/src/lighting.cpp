@@ -101,54 +101,54 @@ bool inWorld(const glm::dvec3& v) {
 }
 }  // namespace
 
-std::string validateLighting(const Sky& sky, const std::vector<PointLight>& lights,
+Result<void> validateLighting(const Sky& sky, const std::vector<PointLight>& lights,
                              const std::vector<InteriorVolume>& interiors) {
-  if (!within(sky.latitude_rad, -kMaxLatitudeRad, kMaxLatitudeRad)) return "sky.latitude_rad: must be in [-pi/2, pi/2]";
+  if (!within(sky.latitude_rad, -kMaxLatitudeRad, kMaxLatitudeRad)) return fail("sky.latitude_rad: must be in [-pi/2, pi/2]");
   if (!within(sky.declination_rad, -kMaxDeclinationRad, kMaxDeclinationRad))
-    return "sky.declination_rad: must be in [-23.5, 23.5] degrees";
-  if (!within(sky.north_rad, -kMaxNorthRad, kMaxNorthRad)) return "sky.north_rad: must be in [-2 pi, 2 pi]";
-  if (!within(sky.ground_radiance_scale, 0.f, 1.f)) return "sky.ground_radiance_scale: must be in [0, 1]";
+    return fail("sky.declination_rad: must be in [-23.5, 23.5] degrees");
+  if (!within(sky.north_rad, -kMaxNorthRad, kMaxNorthRad)) return fail("sky.north_rad: must be in [-2 pi, 2 pi]");
+  if (!within(sky.ground_radiance_scale, 0.f, 1.f)) return fail("sky.ground_radiance_scale: must be in [0, 1]");
   for (auto [g, name] : {std::pair{&sky.sun_irradiance, "sky.sun_irradiance"}, std::pair{&sky.sky_zenith, "sky.sky_zenith"},
                          std::pair{&sky.sky_horizon, "sky.sky_horizon"}})
-    if (std::string e = checkGradient(*g, name); !e.empty()) return e;
+    if (std::string e = checkGradient(*g, name); !e.empty()) return fail(e);
   const std::string world = range(-kMaxWorldCoordinateM, kMaxWorldCoordinateM) + " m";
   for (size_t i = 0; i < lights.size(); ++i) {
     const PointLight& l = lights[i];
     const std::string at = "lights[" + std::to_string(i) + "]";
-    if (!inWorld(l.position)) return at + ".position: must be in " + world;
+    if (!inWorld(l.position)) return fail(at + ".position: must be in " + world);
     for (int c = 0; c < 3; ++c)
-      if (!within(l.intensity[c], 0.f, kMaxColourValue)) return at + ".intensity: must be in " + range(0, kMaxColourValue);
+      if (!within(l.intensity[c], 0.f, kMaxColourValue)) return fail(at + ".intensity: must be in " + range(0, kMaxColourValue));
     if (!within(l.radius_m, kMinLightRadiusM, kMaxLightRadiusM))
-      return at + ".radius_m: must be in " + range(kMinLightRadiusM, kMaxLightRadiusM) + " m";
+      return fail(at + ".radius_m: must be in " + range(kMinLightRadiusM, kMaxLightRadiusM) + " m");
   }
   for (size_t i = 0; i < interiors.size(); ++i) {
     const InteriorVolume& v = interiors[i];
     const std::string at = "interiors[" + std::to_string(i) + "]";
-    if (!inWorld(v.min)) return at + ".min: must be in " + world;
-    if (!inWorld(v.max)) return at + ".max: must be in " + world;
-    if (!inWorld(v.probe_position)) return at + ".probe: must be in " + world;
-    if (!(v.min.x < v.max.x && v.min.y < v.max.y && v.min.z < v.max.z)) return at + ": min must be < max";
+    if (!inWorld(v.min)) return fail(at + ".min: must be in " + world);
+    if (!inWorld(v.max)) return fail(at + ".max: must be in " + world);
+    if (!inWorld(v.probe_position)) return fail(at + ".probe: must be in " + world);
+    if (!(v.min.x < v.max.x && v.min.y < v.max.y && v.min.z < v.max.z)) return fail(at + ": min must be < max");
     if (glm::any(glm::lessThan(v.probe_position, v.min)) || glm::any(glm::greaterThan(v.probe_position, v.max)))
-      return at + ".probe: must lie inside the box";
+      return fail(at + ".probe: must lie inside the box");
     if (!within(v.blend_distance_m, 0.f, kMaxBlendDistanceM))
-      return at + ".blend_distance_m: must be in " + range(0, kMaxBlendDistanceM) + " m";
+      return fail(at + ".blend_distance_m: must be in " + range(0, kMaxBlendDistanceM) + " m");
   }
   return {};
 }
 
-std::string validateLightPath(const LightPath& path) {
-  if (path.keys.size() < 2) return "keys: a path needs at least 2 keys (a light that stays put needs no path)";
+Result<void> validateLightPath(const LightPath& path) {
+  if (path.keys.size() < 2) return fail("keys: a path needs at least 2 keys (a light that stays put needs no path)");
   const std::string world = range(-kMaxWorldCoordinateM, kMaxWorldCoordinateM) + " m";
   for (size_t i = 0; i < path.keys.size(); ++i) {
     const LightKey& k = path.keys[i];
     const std::string at = "keys[" + std::to_string(i) + "]";
     if (!std::isfinite(k.t_s) || (i > 0 && !(k.t_s > path.keys[i - 1].t_s)))
-      return at + ".t_s: must be finite" + (i > 0 ? " and greater than keys[" + std::to_string(i - 1) + "].t_s" : std::string());
-    if (!inWorld(k.position)) return at + ".position: must be in " + world;
+      return fail(at + ".t_s: must be finite" + (i > 0 ? " and greater than keys[" + std::to_string(i - 1) + "].t_s" : std::string()));
+    if (!inWorld(k.position)) return fail(at + ".position: must be in " + world);
     for (int c = 0; c < 3; ++c)
-      if (!within(k.intensity[c], 0.f, kMaxColourValue)) return at + ".intensity: must be in " + range(0, kMaxColourValue);
+      if (!within(k.intensity[c], 0.f, kMaxColourValue)) return fail(at + ".intensity: must be in " + range(0, kMaxColourValue));
     if (!within(k.radius_m, kMinLightRadiusM, kMaxLightRadiusM))
-      return at + ".radius_m: must be in " + range(kMinLightRadiusM, kMaxLightRadiusM) + " m";
+      return fail(at + ".radius_m: must be in " + range(kMinLightRadiusM, kMaxLightRadiusM) + " m");
   }
   return {};
 }

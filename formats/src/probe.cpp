@@ -64,41 +64,41 @@ ProbeData unpackProbe(const ProbeRecord& r) {
   return p;
 }
 
-std::string validateProbe(const ProbeRecord& r) {
+Result<void> validateProbe(const ProbeRecord& r) {
   for (int i = 0; i < 3; ++i)
-    if (!std::isfinite(r.position[i])) return "position is not finite";
+    if (!std::isfinite(r.position[i])) return fail("position is not finite");
   if (r.position[0] < 0.f || r.position[0] > 64.f || r.position[1] < 0.f || r.position[1] > 64.f)
-    return "position (" + std::to_string(r.position[0]) + ", " + std::to_string(r.position[1]) +
-           ") outside the sector's [0, 64] m square";
-  if (!(std::fabs(r.position[2]) < kMaxProbeHeightM)) return "position z " + std::to_string(r.position[2]) + " m is absurd (|z| < 1e6)";
-  if (r.flags & ~kProbeKnownFlags) return "unknown flag bits " + std::to_string(r.flags & ~kProbeKnownFlags);
+    return fail("position (" + std::to_string(r.position[0]) + ", " + std::to_string(r.position[1]) +
+           ") outside the sector's [0, 64] m square");
+  if (!(std::fabs(r.position[2]) < kMaxProbeHeightM)) return fail("position z " + std::to_string(r.position[2]) + " m is absurd (|z| < 1e6)");
+  if (r.flags & ~kProbeKnownFlags) return fail("unknown flag bits " + std::to_string(r.flags & ~kProbeKnownFlags));
   auto number = [](float v) {
     std::ostringstream s;
     s << v;
     return s.str();
   };
   if (!(r.prt_range >= kMinQuantizationRange && r.prt_range <= kMaxPrtRange))
-    return "prt_range " + number(r.prt_range) + " outside [" + number(kMinQuantizationRange) + ", " + number(kMaxPrtRange) + "]";
+    return fail("prt_range " + number(r.prt_range) + " outside [" + number(kMinQuantizationRange) + ", " + number(kMaxPrtRange) + "]");
   if (!(r.lprt_range == 0.f || (r.lprt_range >= kMinQuantizationRange && r.lprt_range <= kMaxLprtRange)))
-    return "lprt_range " + number(r.lprt_range) + " is neither 0 nor in [" + number(kMinQuantizationRange) + ", " +
-           number(kMaxLprtRange) + "]";
+    return fail("lprt_range " + number(r.lprt_range) + " is neither 0 nor in [" + number(kMinQuantizationRange) + ", " +
+           number(kMaxLprtRange) + "]");
   if (!(r.mean_hit_m >= 0.f && r.mean_hit_m <= kMaxMeanHitM))
-    return "mean_hit_m " + number(r.mean_hit_m) + " outside [0, " + number(kMaxMeanHitM) + "]";
+    return fail("mean_hit_m " + number(r.mean_hit_m) + " outside [0, " + number(kMaxMeanHitM) + "]");
   // Min and or reductions (every streamed probe passes here): they vectorise, where an early
   // exit per coefficient would not.
   int16_t min_prt = INT16_MAX, min_sh = INT16_MAX;
   const int16_t* prt = &r.prt[0][0][0];
   for (int i = 0; i < 48; ++i) min_prt = std::min(min_prt, prt[i]);
-  if (min_prt == -32768) return "prt coefficient -32768 is never written";
+  if (min_prt == -32768) return fail("prt coefficient -32768 is never written");
   for (int k = 0; k < 4; ++k) min_sh = std::min(min_sh, r.sky_vis_sh[k]);
-  if (min_sh == -32768) return "sky_vis_sh coefficient -32768 is never written";
+  if (min_sh == -32768) return fail("sky_vis_sh coefficient -32768 is never written");
   int16_t min_term = INT16_MAX, any_term = 0;
   for (int16_t v : r.sky_terms) min_term = std::min(min_term, v), any_term |= v;
-  if (min_term == -32768) return "sky_terms coefficient -32768 is never written";
+  if (min_term == -32768) return fail("sky_terms coefficient -32768 is never written");
   const bool moments = r.flags & kProbeSkyMoments, fit = r.flags & kProbeSkyFit;
-  if (moments && fit) return "both the sky-moments and the sky-fit flags are set";
-  if (any_term != 0 && !moments && !fit) return "sky_terms are not zero without the sky-moments or sky-fit flag";
-  if (moments && r.sky_terms[3] != 0) return "sky_terms[3] is not zero with the sky-moments flag";
+  if (moments && fit) return fail("both the sky-moments and the sky-fit flags are set");
+  if (any_term != 0 && !moments && !fit) return fail("sky_terms are not zero without the sky-moments or sky-fit flag");
+  if (moments && r.sky_terms[3] != 0) return fail("sky_terms[3] is not zero with the sky-moments flag");
   return {};
 }
 

@@ -250,8 +250,8 @@ Result<Sector> decodeSector(std::span<const uint8_t> bytes, const std::string& w
   }
   for (size_t i = 0; i < n_probes; ++i) {
     const size_t at = probes_at + i * sizeof(ProbeRecord);
-    const std::string what = validateProbe(s.probes[i]);
-    if (!what.empty()) return failAt(where, at, "probe " + std::to_string(i) + ": " + what);
+    if (auto ok = validateProbe(s.probes[i]); !ok)
+      return failAt(where, at, "probe " + std::to_string(i) + ": " + ok.error().message);
     if (n_sources == 0 && s.probes[i].lprt_range != 0.f)
       return failAt(where, at + 132, "probe " + std::to_string(i) + ": lprt_range set without an LPRT block");
   }

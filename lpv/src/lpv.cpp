@@ -15,17 +15,17 @@ namespace drtv::lpv {
 
 using namespace detail;
 
-std::string validate(const LpvOptions& o) {
-  if (o.cascades < 1 || o.cascades > 8) return "cascades: expected an integer in [1, 8]";
-  if (o.cells < 4 || o.cells > 128 || o.cells % 2) return "cells: expected an even integer in [4, 128]";
-  if (!(o.cell_m > 0 && o.cell_m <= 1e4)) return "cell_m: expected metres in (0, 1e4]";
-  if (!(o.ratio >= 1.5 && o.ratio <= 4)) return "ratio: expected a number in [1.5, 4]";
-  if (o.iterations < 0 || o.iterations > 256) return "iterations: expected an integer in [0, 256]";
-  if (o.sky_steps < 0 || o.sky_steps > o.cells) return "sky_steps: expected an integer in [0, cells]";
-  if (!(o.lookup_offset_cells >= 0 && o.lookup_offset_cells <= 2)) return "lookup_offset_cells: expected cells in [0, 2]";
-  if (!(o.blend_cells >= 0 && o.blend_cells <= float(o.cells) / 4)) return "blend_cells: expected cells in [0, cells / 4]";
-  if (o.threads < 1 || o.threads > 64) return "threads: expected an integer in [1, 64]";
-  return "";
+Result<void> validate(const LpvOptions& o) {
+  if (o.cascades < 1 || o.cascades > 8) return fail("cascades: expected an integer in [1, 8]");
+  if (o.cells < 4 || o.cells > 128 || o.cells % 2) return fail("cells: expected an even integer in [4, 128]");
+  if (!(o.cell_m > 0 && o.cell_m <= 1e4)) return fail("cell_m: expected metres in (0, 1e4]");
+  if (!(o.ratio >= 1.5 && o.ratio <= 4)) return fail("ratio: expected a number in [1.5, 4]");
+  if (o.iterations < 0 || o.iterations > 256) return fail("iterations: expected an integer in [0, 256]");
+  if (o.sky_steps < 0 || o.sky_steps > o.cells) return fail("sky_steps: expected an integer in [0, cells]");
+  if (!(o.lookup_offset_cells >= 0 && o.lookup_offset_cells <= 2)) return fail("lookup_offset_cells: expected cells in [0, 2]");
+  if (!(o.blend_cells >= 0 && o.blend_cells <= float(o.cells) / 4)) return fail("blend_cells: expected cells in [0, cells / 4]");
+  if (o.threads < 1 || o.threads > 64) return fail("threads: expected an integer in [1, 64]");
+  return {};
 }
 
 CascadedLpv::CascadedLpv(const LpvOptions& o) : options_(o) {
@@ -68,7 +68,7 @@ CascadedLpv& CascadedLpv::operator=(CascadedLpv&&) noexcept = default;
 CascadedLpv::~CascadedLpv() = default;
 
 Result<CascadedLpv> CascadedLpv::create(const LpvOptions& options) {
-  if (std::string e = validate(options); !e.empty()) return fail("lpv options: " + e);
+  if (auto e = validate(options); !e) return fail("lpv options: " + e.error().message);
   (void)matrices();
   return CascadedLpv(options);
 }

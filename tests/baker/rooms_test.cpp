@@ -215,12 +215,14 @@ TEST(Rooms, FindTheIslandGeneratorsRoomsWithoutItsInteriors) {
 TEST(Rooms, BadSettingsAreRefusedByTheBake) {
   BakeSettings s = BakeSettings::forQuality(Quality::kDraft, 1);
   s.rooms.test_rays = 0;
-  EXPECT_NE(validateSettings(s).find("rooms"), std::string::npos);
+  ASSERT_FALSE(validateSettings(s));
+  EXPECT_NE(validateSettings(s).error().message.find("rooms"), std::string::npos);
   s = BakeSettings::forQuality(Quality::kDraft, 1);
   s.rooms.max_extent_m = 200.0;  // beyond the halo the search gathers
-  EXPECT_NE(validateSettings(s).find("rooms"), std::string::npos);
+  ASSERT_FALSE(validateSettings(s));
+  EXPECT_NE(validateSettings(s).error().message.find("rooms"), std::string::npos);
   s.rooms.enabled = false;
-  EXPECT_EQ(validateSettings(s), "");
+  EXPECT_TRUE(validateSettings(s));
 }
 
 // The bake carries the rooms into its manifest (after the artist's interiors), places their

@@ -62,7 +62,7 @@ TEST(ProbeRecord, PackUnpackKeepsEveryQuantityWithinItsDocumentedBound) {
   p.height_m = 3.37f;
   p.mean_hit_m = 42.f;
   const ProbeRecord r = packProbe(p);
-  EXPECT_TRUE(validateProbe(r).empty()) << validateProbe(r);
+  EXPECT_TRUE(validateProbe(r)) << validateProbe(r).error().message;
   const ProbeData q = unpackProbe(r);
   EXPECT_EQ(q.position, p.position);  // positions are stored as float32: exact
   EXPECT_EQ(q.flags, p.flags);
@@ -79,8 +79,8 @@ TEST(ProbeRecord, PackUnpackKeepsEveryQuantityWithinItsDocumentedBound) {
 
 TEST(ProbeRecord, ValidateRejectsWhatPackNeverWrites) {
   ProbeRecord r = packProbe(ProbeData{});
-  ASSERT_TRUE(validateProbe(r).empty());
-  auto bad = [&](auto mutate) { ProbeRecord x = r; mutate(x); return !validateProbe(x).empty(); };
+  ASSERT_TRUE(validateProbe(r));
+  auto bad = [&](auto mutate) { ProbeRecord x = r; mutate(x); return !validateProbe(x); };
   EXPECT_TRUE(bad([](ProbeRecord& x) { x.position[0] = NAN; }));
   EXPECT_TRUE(bad([](ProbeRecord& x) { x.position[1] = 65.f; }));
   EXPECT_TRUE(bad([](ProbeRecord& x) { x.flags = 0x100; }));

@@ -299,10 +299,12 @@ TEST(ArchiveValues, TheIssuesCasesAreRefused) {
   const Baked& b = baked();
   Manifest m = b.manifest;
   m.sky.sun_irradiance.keys[1].value = glm::vec3(3e38f);
-  EXPECT_NE(validateLighting(m.sky, m.lights, m.interiors).find("sky.sun_irradiance[1].value"), std::string::npos);
+  ASSERT_FALSE(validateLighting(m.sky, m.lights, m.interiors));
+  EXPECT_NE(validateLighting(m.sky, m.lights, m.interiors).error().message.find("sky.sun_irradiance[1].value"), std::string::npos);
   ProbeRecord r = b.sectors[0].probes[0];
   r.prt_range = 3e38f;
-  EXPECT_NE(validateProbe(r).find("prt_range"), std::string::npos);
+  ASSERT_FALSE(validateProbe(r));
+  EXPECT_NE(validateProbe(r).error().message.find("prt_range"), std::string::npos);
 }
 
 void editEverySectorFloat(const Baked& b) {
@@ -375,7 +377,7 @@ TEST(ArchiveValues, TheLargestAcceptedValuesKeepTheAmbientFinite) {
     l.intensity = glm::vec3(kMaxColourValue);
     l.radius_m = kMaxLightRadiusM;
   }
-  ASSERT_EQ(validateLighting(m.sky, m.lights, m.interiors), "");
+  ASSERT_TRUE(validateLighting(m.sky, m.lights, m.interiors));
   std::vector<Sector> sectors = b.sectors;
   for (Sector& s : sectors) {
     for (size_t p = 0; p < s.probes.size(); ++p) {
@@ -385,7 +387,7 @@ TEST(ArchiveValues, TheLargestAcceptedValuesKeepTheAmbientFinite) {
         for (auto& basis : channel)
           for (int16_t& q : basis) q = (p % 2) ? 32767 : -32767;
       if (s.hasLprt()) r.lprt_range = kMaxLprtRange;
-      ASSERT_EQ(validateProbe(r), "");
+      ASSERT_TRUE(validateProbe(r));
     }
     for (int16_t& q : s.lprt.coeffs) q = 32767;
   }

@@ -224,12 +224,15 @@ TEST(WorldJson, RejectsBadLightsAndPathsNamingTheKey) {
   expectError(R"({"lights": [{"position": [0, 0, 1], "path": {"speed": 3}}]})", "key 'lights[0].path.speed': unknown key");
   // NaN cannot be written in JSON; a library caller's path is checked by validateLightPath.
   LightPath p{{{0.0, {0, 0, 1}}, {std::nan(""), {0, 0, 1}}}};
-  EXPECT_NE(validateLightPath(p).find("keys[1].t_s: must be finite"), std::string::npos) << validateLightPath(p);
+  ASSERT_FALSE(validateLightPath(p));
+  EXPECT_NE(validateLightPath(p).error().message.find("keys[1].t_s: must be finite"), std::string::npos)
+      << validateLightPath(p).error().message;
   p.keys[1].t_s = 1.0;
   p.keys[1].intensity = glm::vec3(NAN);
-  EXPECT_NE(validateLightPath(p).find("keys[1].intensity"), std::string::npos);
+  ASSERT_FALSE(validateLightPath(p));
+  EXPECT_NE(validateLightPath(p).error().message.find("keys[1].intensity"), std::string::npos);
   p.keys[1].intensity = glm::vec3(1.f);
-  EXPECT_EQ(validateLightPath(p), "");
+  EXPECT_TRUE(validateLightPath(p));
 }
 
 TEST(WorldJson, DefaultEffectsFollowContentWhenAbsent) {

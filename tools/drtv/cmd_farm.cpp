@@ -106,7 +106,7 @@ Result<baker::FarmPlan> planFor(const FarmCliOptions& o, bool kubernetes) {
     plan.partition = o.partition;
     plan.time_limit = o.time_limit;
   }
-  if (std::string why = baker::validatePlan(plan, kubernetes); !why.empty()) return fail(why);
+  if (auto why = baker::validatePlan(plan, kubernetes); !why) return fail(why.error().message);
   return plan;
 }
 

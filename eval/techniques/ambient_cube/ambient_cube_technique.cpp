@@ -192,7 +192,7 @@ class AmbientCube final : public Technique {
   }
 
   Result<void> onSetLighting(double hour, const std::vector<PointLight>& lights) override {
-    if (std::string why = validateLighting(manifest_.sky, lights, manifest_.interiors); !why.empty()) return fail(why);
+    if (auto why = validateLighting(manifest_.sky, lights, manifest_.interiors); !why) return fail(why.error().message);
     lighting_ = runtime::evaluateSky(manifest_.sky, hour, runtime::kLinearSunBand1, 0.f);
     lights_ = lights;
     dirty_ = true;

@@ -82,7 +82,7 @@ class LpvTechnique final : public Technique {
         .flag("sky_bounce", out.sky_bounce);
     out.lpv.occlusion = out.occlusion != Occlusion::kOff;
     if (r.ok())
-      if (std::string e = lpv::validate(out.lpv); !e.empty()) r.reject(e);
+      if (auto e = lpv::validate(out.lpv); !e) r.reject(e.error().message);
     return out;
   }
 
@@ -146,7 +146,7 @@ class LpvTechnique final : public Technique {
   }
 
   Result<void> onSetLighting(double hour, const std::vector<PointLight>& lights) override {
-    if (std::string e = validateLighting(world_->sky, lights, {}); !e.empty()) return fail(e);
+    if (auto e = validateLighting(world_->sky, lights, {}); !e) return fail(e.error().message);
     const bool same = lit_ && hour == hour_ && lights.size() == lights_.size() &&
                       std::equal(lights.begin(), lights.end(), lights_.begin(), [](const PointLight& a, const PointLight& b) {
                         return a.position == b.position && a.intensity == b.intensity;

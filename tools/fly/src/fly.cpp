@@ -151,8 +151,8 @@ Result<FlyResult> fly(Streamer& streamer, const CatmullRomPath& path, const FlyO
 
   for (size_t i = 0; i < o.light_paths.size(); ++i)
     if (!o.light_paths[i].keys.empty())
-      if (std::string e = validateLightPath(o.light_paths[i]); !e.empty())
-        return fail("fly: lights[" + std::to_string(i) + "].path." + e);
+      if (auto e = validateLightPath(o.light_paths[i]); !e)
+        return fail("fly: lights[" + std::to_string(i) + "].path." + e.error().message);
   if (o.light_paths.size() > o.lights.size()) return fail("fly: more light paths than lights");
   if (o.technique_frame && o.runtime) return fail("fly: a technique of its own and drtv::runtime: give one");
   if (o.technique_sink && !o.technique_frame) return fail("fly: a technique sink without its frame");

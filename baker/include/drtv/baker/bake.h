@@ -167,9 +167,10 @@ struct BakeReport {
   bool packed = false;                   // the archive was written (false for a shard)
 };
 
-// What is wrong with bake settings (they can come from a library caller), or "". The bounds keep
+// What is wrong with bake settings (they can come from a library caller), as an error; nothing
+// when they are sound. The bounds keep
 // every loop and allocation they size sane: at most 1024 columns per sector side, 1 << 16 rays.
-std::string validateSettings(const BakeSettings& settings);
+Result<void> validateSettings(const BakeSettings& settings);
 
 // The manifest of a bake of `world` (bounds, sector size, effects baked, settings and the world's
 // name, sky, lights and interiors): what bake() packs and bakeInMemory() returns.

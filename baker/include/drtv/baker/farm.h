@@ -72,9 +72,9 @@ struct FarmPlan {
   int backoff_per_index = 2;            // retries of each index before it counts as failed
 };
 
-// What is wrong with a plan (a usage error), or "": N >= 2, cpus >= 1, a job name that is a DNS
+// What is wrong with a plan (a usage error), as an error; nothing when it is sound: N >= 2, cpus >= 1, a job name that is a DNS
 // label, Kubernetes fields when `kubernetes`.
-std::string validatePlan(const FarmPlan& plan, bool kubernetes);
+Result<void> validatePlan(const FarmPlan& plan, bool kubernetes);
 
 // The files of a Slurm bake, in `folder`:
 //   shards.sbatch  the array (#SBATCH --array=0-<N-1>, --open-mode=append, <log_dir>/%A_%a.log)

@@ -45,6 +45,7 @@
 #include <string>
 #include <vector>
 
+#include "drtv/formats/error.h"
 #include "drtv/formats/lighting.h"
 #include "drtv/raytrace/world_geometry.h"
 
@@ -81,7 +82,7 @@ Result<std::vector<InteriorVolume>> findRooms(const raytrace::WorldGeometry& geo
                                               const std::vector<InteriorVolume>& artist, const RoomSettings& settings,
                                               RoomStats* stats = nullptr);
 
-// What is wrong with room settings, or "".
-std::string validateRoomSettings(const RoomSettings& settings);
+// What is wrong with room settings, as an error (nothing when they are sound).
+Result<void> validateRoomSettings(const RoomSettings& settings);
 
 }  // namespace drtv::baker

@@ -16,6 +16,8 @@
 
 #include <glm/glm.hpp>
 
+#include "drtv/formats/error.h"
+
 namespace drtv {
 
 // The range of every float a lighting description carries, on load and on write (archive
@@ -95,12 +97,12 @@ struct LightPath {
 };
 
 // The light `light` following `path` at time `t_s` (any finite seconds): clamped to the first
-// and last keys, or wrapped with `loop`. Precondition: validateLightPath(path) is "".
+// and last keys, or wrapped with `loop`. Precondition: validateLightPath(path) holds.
 PointLight lightAt(const PointLight& light, const LightPath& path, double t_s);
-// What is wrong with a path ("" if nothing): "keys: a path needs at least 2 keys", "keys[3].t_s:
+// What is wrong with a path, as an error (nothing when it is sound): "keys: a path needs at least 2 keys", "keys[3].t_s:
 // must be finite and greater than keys[2].t_s", and every key's position, intensity and radius in
 // the ranges validateLighting holds a light to.
-std::string validateLightPath(const LightPath& path);
+Result<void> validateLightPath(const LightPath& path);
 
 // An artist volume whose inside takes ambient from one designated probe (talk slide 55).
 struct InteriorVolume {
@@ -110,14 +112,14 @@ struct InteriorVolume {
   float blend_distance_m = 1.f;       // soft transition width at the box faces, >= 0
 };
 
-// What is wrong with a lighting description, or "" when it is sound: gradients non-empty with
+// What is wrong with a lighting description, as an error (nothing when it is sound): gradients non-empty with
 // sorted hours in [0, 24) and colours in [0, kMaxColourValue]; angles in their ranges above;
 // ground_radiance_scale in [0, 1]; lights with positions within kMaxWorldCoordinateM, intensity
 // in [0, kMaxColourValue] and radius in [kMinLightRadiusM, kMaxLightRadiusM]; interiors within
 // kMaxWorldCoordinateM with min < max, the probe inside and a blend distance in [0,
 // kMaxBlendDistanceM]. NaN fails every check. Names the offending item and field
 // ("sky.sun_irradiance[2].value", "lights[0].intensity").
-std::string validateLighting(const Sky& sky, const std::vector<PointLight>& lights,
+Result<void> validateLighting(const Sky& sky, const std::vector<PointLight>& lights,
                              const std::vector<InteriorVolume>& interiors);
 
 }  // namespace drtv

@@ -47,6 +47,7 @@
 
 #include <glm/glm.hpp>
 
+#include "drtv/formats/error.h"
 #include "drtv/formats/quantize.h"
 #include "drtv/formats/sh.h"
 
@@ -132,8 +133,8 @@ ProbeData unpackProbe(const ProbeRecord& r);
 // known flags, prt_range in [kMinQuantizationRange, kMaxPrtRange], lprt_range 0 or in
 // [kMinQuantizationRange, kMaxLprtRange], mean_hit_m in [0, kMaxMeanHitM], zero sky_terms
 // without kProbeSkyMoments or kProbeSkyFit (never both), sky_terms[3] zero with kProbeSkyMoments,
-// and no int16 -32768 (never written). NaN fails every range. Returns an empty string when valid,
-// else what is wrong, naming the field (the caller adds file, sector and byte offset).
-std::string validateProbe(const ProbeRecord& r);
+// and no int16 -32768 (never written). NaN fails every range. Returns nothing when valid, else an
+// error saying what is wrong, naming the field (the caller adds file, sector and byte offset).
+Result<void> validateProbe(const ProbeRecord& r);
 
 }  // namespace drtv

@@ -116,8 +116,8 @@ struct LpvOptions {
                                // (propagate: one colour channel each, at most 3; on 2, each
                                // thread about half of every channel's steps); the same bits for any count
 };
-// What is wrong with `o` ("" if nothing), naming the field.
-std::string validate(const LpvOptions& o);
+// What is wrong with `o`, as an error naming the field (nothing when it is sound).
+Result<void> validate(const LpvOptions& o);
 
 // One cascade's placement: world position of its min corner, cell side and cells per axis.
 struct CascadeBox {

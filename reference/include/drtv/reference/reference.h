@@ -148,7 +148,7 @@ struct ReferenceLighting {
   double hour = 12.0;                  // any finite real, modulo 24
   std::vector<PointLight> lights;      // world positions
 
-  // Precondition for every query: validateLighting(sky, lights, {}) is empty and hour is finite
+  // Precondition for every query: validateLighting(sky, lights, {}) holds and hour is finite
   // (a bug otherwise; the command-line tools check and return errors first).
 };
 

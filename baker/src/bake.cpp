@@ -861,6 +861,16 @@ static Result<BakeReport> bakeRecorded(const worlds::World& given, const std::st
                   missingShards(dir, keys, have, shard_statuses) + "; run the missing shards");
   }
 
+  // The journal is opened (and locked) before the status says "running": while the shard runs it
+  // holds the lock, so `drtv farm status` tells a running shard from one that was killed.
+  std::optional<detail::JournalWriter> writer;
+  if (!todo.empty()) {
+    auto w = detail::JournalWriter::open(
+        dir / ("sectors-" + std::to_string(options.shard_index) + "-of-" + std::to_string(options.shard_count) + ".log"));
+    if (!w) return std::unexpected(w.error());
+    writer.emplace(std::move(*w));
+  }
+
   ShardStatus status;
   if (!options.merge_only) {
     status.index = options.shard_index;
@@ -879,14 +889,7 @@ static Result<BakeReport> bakeRecorded(const worlds::World& given, const std::st
   if (!placements) return std::unexpected(placements.error());
 
   // Pass 2: bake, in parallel over sectors (and inside each sector over probes and surfels); each
-  // finished sector is one record of this shard's journal.
-  std::optional<detail::JournalWriter> writer;
-  if (!todo.empty()) {
-    auto w = detail::JournalWriter::open(
-        dir / ("sectors-" + std::to_string(options.shard_index) + "-of-" + std::to_string(options.shard_count) + ".log"));
-    if (!w) return std::unexpected(w.error());
-    writer.emplace(std::move(*w));
-  }
+  // finished sector is one record of this shard's journal (opened above).
   t0 = Clock::now();
   std::mutex mutex;
   size_t done = keys.size() - todo.size();

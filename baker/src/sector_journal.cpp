@@ -9,7 +9,9 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
+#include <chrono>
 #include <system_error>
+#include <thread>
 #include <utility>
 
 namespace drtv::baker::detail {
@@ -58,11 +60,16 @@ struct Fd {
   }
 };
 
-// Takes the journal's exclusive lock without waiting. Ok(true): locked; Ok(false): the file
-// system has no locks (NFS without lockd, some FUSE mounts), so the bake runs unlocked as it did
-// with per-sector files; an error when another process holds it.
+// Takes the journal's exclusive lock. Ok(true): locked; Ok(false): the file system has no locks
+// (NFS without lockd, some FUSE mounts), so the bake runs unlocked as it did with per-sector
+// files; an error when another process holds it for half a second (a `drtv farm status` looking
+// at the journal holds a shared lock for microseconds, never that long).
 Result<bool> lockJournal(int fd, const fs::path& file) {
-  if (::flock(fd, LOCK_EX | LOCK_NB) == 0) return true;
+  for (int attempt = 0;; ++attempt) {
+    if (::flock(fd, LOCK_EX | LOCK_NB) == 0) return true;
+    if (errno != EWOULDBLOCK || attempt == 25) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
   if (errno == EWOULDBLOCK) return fail(file.string() + ": another bake is writing this shard's journal");
   if (errno == ENOLCK || errno == EOPNOTSUPP || errno == ENOSYS || errno == EINVAL) return false;
   return fail(file.string() + ": cannot lock: " + errnoText());
@@ -114,6 +121,18 @@ Result<std::vector<uint8_t>> readRange(const fs::path& file, uint64_t offset, ui
 }
 
 }  // namespace
+
+Result<std::optional<bool>> journalHeld(const fs::path& file) {
+  Fd f(::open(file.c_str(), O_RDONLY | O_CLOEXEC));
+  if (f.fd < 0) {
+    if (errno == ENOENT) return false;
+    return fail(file.string() + ": cannot open: " + errnoText());
+  }
+  if (::flock(f.fd, LOCK_SH | LOCK_NB) == 0) return false;  // closing the file releases it
+  if (errno == EWOULDBLOCK) return true;
+  if (errno == ENOLCK || errno == EOPNOTSUPP || errno == ENOSYS || errno == EINVAL) return std::optional<bool>();
+  return fail(file.string() + ": cannot test its lock: " + errnoText());
+}
 
 Result<void> removeJournals(const fs::path& dir) {
   std::error_code ec;

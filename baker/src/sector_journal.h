@@ -18,6 +18,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <memory>
 #include <span>
 #include <string>
@@ -45,6 +46,12 @@ Result<std::map<SectorKey, JournalEntry>> scanJournals(const std::filesystem::pa
 // The bytes of an entry's stats or sector.
 Result<std::vector<uint8_t>> readStats(const JournalEntry& e);
 Result<std::vector<uint8_t>> readSector(const JournalEntry& e);
+
+// Whether a process holds the journal `file` open for writing (its lock): true, false (nobody,
+// or no such file), or nullopt when the file system keeps no locks and it cannot be told. The
+// test takes a shared lock for an instant: a writer opening it then waits, it is not refused.
+// Errors: a file that exists but cannot be opened.
+Result<std::optional<bool>> journalHeld(const std::filesystem::path& file);
 
 // True for the names of the files journals and the bake's older per-sector files use.
 bool isJournalFile(const std::string& filename);

@@ -278,6 +278,15 @@ Result<FarmStatus> farmStatus(const fs::path& archive) {
                              std::to_string(s.count) + " of another bake (fingerprint " + s.fingerprint + ", not " + fingerprint + ")");
     FarmShard& shard = out.shards[size_t(s.index)];
     shard.state = stateName(s.state);
+    if (s.state == ShardStatus::State::kRunning) {
+      // A running shard holds its journal's lock (bake.cpp opens the journal before it writes
+      // "running"); a status that says running over a journal nobody holds is a shard that was
+      // killed, preempted or lost with its machine. Without locks it cannot be told.
+      const fs::path journal = dir / ("sectors-" + std::to_string(s.index) + "-of-" + std::to_string(s.count) + ".log");
+      auto held = detail::journalHeld(journal);
+      if (!held) return std::unexpected(held.error());
+      if (*held == false && fs::exists(journal, ec)) shard.state = "stopped";
+    }
     shard.error = s.error;
     shard.host = s.host;
     shard.sectors = s.sectors;

@@ -178,13 +178,14 @@ Result<void> runStatus(const FarmCliOptions& o) {
   }
   std::map<std::string, int> counts;
   for (const baker::FarmShard& s : status->shards) ++counts[s.state];
-  std::printf("%s: %d shards: %d done, %d running, %d failed, %d missing\n", o.archive.c_str(), status->count, counts["done"],
-              counts["running"], counts["failed"], counts["missing"]);
+  std::printf("%s: %d shards: %d done, %d running, %d stopped, %d failed, %d missing\n", o.archive.c_str(), status->count,
+              counts["done"], counts["running"], counts["stopped"], counts["failed"], counts["missing"]);
   for (const baker::FarmShard& s : status->shards) {
     std::printf("shard %d/%d %-8s %zu/%zu sectors journaled", s.index, status->count, s.state.c_str(), s.journaled, s.sectors);
     if (s.state == "done") std::printf(", %.1f s", s.wall_s);
     if (!s.host.empty()) std::printf(", on %s", s.host.c_str());
     if (!s.error.empty()) std::printf(": %s", s.error.c_str());
+    if (s.state == "stopped") std::printf(": no process holds its journal (killed or lost); rerun it");
     std::printf("\n");
   }
   for (const std::string& p : status->problems) std::printf("problem: %s\n", p.c_str());

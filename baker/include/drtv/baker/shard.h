@@ -77,7 +77,10 @@ Result<void> recordShardFailure(const std::filesystem::path& archive, ShardSpec 
 // `drtv farm status`: every shard of the bake of `archive`.
 struct FarmShard {
   int index = 0;
-  std::string state;     // "done", "running", "failed", "missing" (no status and no journal)
+  // "done", "running", "stopped" (its status says running but no process holds its journal:
+  // killed, preempted or lost with its machine; rerun it), "failed", "missing" (no status and no
+  // journal).
+  std::string state;
   std::string error;     // a failed shard's
   std::string host;
   size_t sectors = 0;    // owned (0 when missing)

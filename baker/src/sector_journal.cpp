@@ -125,7 +125,7 @@ Result<std::vector<uint8_t>> readRange(const fs::path& file, uint64_t offset, ui
 Result<std::optional<bool>> journalHeld(const fs::path& file) {
   Fd f(::open(file.c_str(), O_RDONLY | O_CLOEXEC));
   if (f.fd < 0) {
-    if (errno == ENOENT) return false;
+    if (errno == ENOENT) return std::optional<bool>();
     return fail(file.string() + ": cannot open: " + errnoText());
   }
   if (::flock(f.fd, LOCK_SH | LOCK_NB) == 0) return false;  // closing the file releases it

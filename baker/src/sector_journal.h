@@ -47,8 +47,8 @@ Result<std::map<SectorKey, JournalEntry>> scanJournals(const std::filesystem::pa
 Result<std::vector<uint8_t>> readStats(const JournalEntry& e);
 Result<std::vector<uint8_t>> readSector(const JournalEntry& e);
 
-// Whether a process holds the journal `file` open for writing (its lock): true, false (nobody,
-// or no such file), or nullopt when the file system keeps no locks and it cannot be told. The
+// Whether a process holds the journal `file` open for writing (its lock): true, false (nobody),
+// or nullopt when it cannot be told (no such file yet, or a file system that keeps no locks). The
 // test takes a shared lock for an instant: a writer opening it then waits, it is not refused.
 // Errors: a file that exists but cannot be opened.
 Result<std::optional<bool>> journalHeld(const std::filesystem::path& file);

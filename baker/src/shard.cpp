@@ -285,7 +285,7 @@ Result<FarmStatus> farmStatus(const fs::path& archive) {
       const fs::path journal = dir / ("sectors-" + std::to_string(s.index) + "-of-" + std::to_string(s.count) + ".log");
       auto held = detail::journalHeld(journal);
       if (!held) return std::unexpected(held.error());
-      if (*held == false && fs::exists(journal, ec)) shard.state = "stopped";
+      if (*held == false) shard.state = "stopped";
     }
     shard.error = s.error;
     shard.host = s.host;

@@ -61,7 +61,7 @@ Result<WorldGeometry> WorldGeometry::build(const worlds::World& world, const std
 
   // Which meshes contribute (used by a non-dynamic instance); only those are validated.
   std::vector<uint8_t> used(mesh_count, 0);
-  if (auto ok = world.validate(); !ok) return fail(where + ": " + ok.error().message);
+  if (auto ok = world.validate(); !ok) return std::unexpected(ok.error().context(where));
   for (const worlds::Instance& inst : world.instances)
     if (inst.cls != worlds::InstanceClass::kDynamic) used[inst.mesh] = 1;
 

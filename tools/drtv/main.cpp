@@ -142,7 +142,9 @@ int main(int argc, char** argv) {
   commands.push_back(drtv::app::registerFly(app));
   commands.push_back(drtv::app::registerRender(app));
   commands.push_back(drtv::app::registerAccuracy(app));
+#ifdef DRTV_HAVE_VDB_EXPORT
   commands.push_back(drtv::app::registerExportVdb(app));
+#endif
   commands.push_back(drtv::app::registerFarm(app));
   // One line per subcommand below.
 

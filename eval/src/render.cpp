@@ -16,6 +16,7 @@
 #include "drtv/eval/accuracy.h"
 #include "drtv/reference/reference.h"
 #include "drtv/formats/memory_limit.h"
+#include "drtv/streamer/residency.h"
 #include "render_support.h"
 #include "drtv/baker/stopwatch.h"
 
@@ -143,11 +144,10 @@ Result<RenderResult> render(const worlds::World& world, const std::string& where
   auto technique = makeTechnique(options.technique.empty() ? (options.smooth_fill ? "drtv-smooth" : "drtv-nearest") : options.technique,
                                  options.technique_params);
   if (!technique) return std::unexpected(technique.error());
+  const SectorRange block = streamer::residentBlock(cam.position);
   std::vector<Sector> held;
   for (const Sector& s : sectors)
-    if (detail::inStreamingBlock(s.key, cam.position) && held.size() < size_t(runtime::kMaxResidentSectors)) held.push_back(s);
-  const SectorKey centre = sectorAt(cam.position.x, cam.position.y);
-  const raytrace::SectorRange block{centre.ix - 3, centre.ix + 3, centre.iy - 3, centre.iy + 3};  // detail::inStreamingBlock's
+    if (block.contains(s.key)) held.push_back(s);
   if (auto r = (*technique)->prepareForArchive(baked, held, {world, where, block, options.seed, options.threads}); !r)
     return std::unexpected(r.error().context(archive));
   if (auto r = (*technique)->setLighting(options.hour, baked.lights); !r) return std::unexpected(r.error().context(archive));
@@ -293,7 +293,7 @@ Result<RenderResult> render(const worlds::World& world, const std::string& where
   if (!reader) return std::unexpected(reader.error());
   std::vector<Sector> sectors;
   for (const SectorEntry& e : reader->manifest().sectors) {
-    if (!detail::inStreamingBlock(e.key, options.camera.position)) continue;
+    if (!streamer::residentBlock(options.camera.position).contains(e.key)) continue;
     auto s = reader->readSector(e.key);
     if (!s) return std::unexpected(s.error());
     sectors.push_back(std::move(*s));

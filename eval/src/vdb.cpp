@@ -34,9 +34,9 @@ Result<VdbExportStats> exportVdb(const std::filesystem::path& archive, const std
     sectors.push_back(std::move(*s));
   }
   runtime::RuntimeOptions ro = detail::runtimeOptionsFor(m.effects, false);
-  ro.cache.max_sectors = std::max<int>(1, int(sectors.size()));
-  auto rt = detail::makeRuntime(m, sectors, options.hour, ro, glm::dvec3(0.0), [](SectorKey) { return true; }, nullptr);
+  auto rt = runtime::runtimeForSectors(m, ro, options.hour, sectors);
   if (!rt) return std::unexpected(rt.error().context(archive.string()));
+  (*rt)->update(glm::dvec3(0.0));
   const runtime::ProbeCache& cache = (*rt)->cache();
 
   static std::once_flag init;

@@ -278,4 +278,15 @@ Result<std::unique_ptr<Runtime>> runtimeForArchive(const Manifest& manifest, con
   return rt;
 }
 
+Result<std::unique_ptr<Runtime>> runtimeForSectors(const Manifest& manifest, const RuntimeOptions& options, double hour,
+                                                   std::span<const Sector> sectors, const std::vector<PointLight>* lights) {
+  RuntimeOptions o = options;
+  o.cache.max_sectors = std::max<int>(o.cache.max_sectors, int(std::min<size_t>(sectors.size(), size_t(std::numeric_limits<int>::max()))));
+  auto made = runtimeForArchive(manifest, o, hour, lights);
+  if (!made) return std::unexpected(made.error());
+  for (const Sector& s : sectors)
+    if (auto r = (*made)->addSector(s); !r) return std::unexpected(r.error().context("sector " + toString(s.key)));
+  return made;
+}
+
 }  // namespace drtv::runtime

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace drtv::streamer {
 namespace {
@@ -130,6 +131,15 @@ void footprintSectors(const Manifest& manifest, const glm::dvec3& position_m, co
   for (int32_t ix = box.x0; ix <= box.x1; ++ix)
     for (int32_t iy = box.y0; iy <= box.y1; ++iy)
       if (manifest.find({ix, iy}) && overlaps({ix, iy}, f)) out.push_back({ix, iy});
+}
+
+SectorRange residentBlock(const glm::dvec3& position_m) {
+  const SectorKey c = sectorAt(position_m.x, position_m.y);
+  auto clamped = [](int64_t v) {
+    return int32_t(std::clamp<int64_t>(v, std::numeric_limits<int32_t>::min(), std::numeric_limits<int32_t>::max()));
+  };
+  return {clamped(int64_t(c.ix) - kResidentBlockRadius), clamped(int64_t(c.ix) + kResidentBlockRadius),
+          clamped(int64_t(c.iy) - kResidentBlockRadius), clamped(int64_t(c.iy) + kResidentBlockRadius)};
 }
 
 }  // namespace drtv::streamer

@@ -199,5 +199,24 @@ TEST(Runtime, AmbientVariesSmoothlyAcrossTheVolumeEdge) {
   EXPECT_LT(worst, 0.25f * glm::length(last) + 10 * quantStep(rt));
 }
 
+// A tool's runtime over a fixed set of sectors: every sector held, the cache grown past
+// options.cache.max_sectors when they are more, and a sector the cache refuses named.
+TEST(RuntimeForSectors, HoldsEverySectorGrowingTheCacheAndNamesTheOneItRefuses) {
+  Manifest m;
+  std::vector<Sector> sectors;
+  for (int x = 0; x < 4; ++x) sectors.push_back(testing::makeSector({x, 7}, {}, 1));
+  RuntimeOptions o;
+  o.cache.max_sectors = 2;
+  auto rt = runtimeForSectors(m, o, 10.0, sectors);
+  ASSERT_TRUE(rt) << rt.error().message;
+  EXPECT_EQ((*rt)->cache().maxSectors(), 4);
+  for (const Sector& s : sectors) EXPECT_GE((*rt)->cache().slotOf(s.key), 0) << toString(s.key);
+  sectors.push_back(sectors[2]);  // the same key again
+  auto twice = runtimeForSectors(m, o, 10.0, sectors);
+  ASSERT_FALSE(twice);
+  EXPECT_EQ(twice.error().message.rfind("sector (2,7): ", 0), 0u) << twice.error().message;
+  EXPECT_NE(twice.error().message.find("already resident"), std::string::npos) << twice.error().message;
+}
+
 }  // namespace
 }  // namespace drtv::runtime

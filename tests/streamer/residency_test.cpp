@@ -157,5 +157,26 @@ TEST(RankSectors, IsIdenticalForIdenticalInputs) {
   for (size_t i = 0; i < a.size(); ++i) EXPECT_EQ(a[i].key, b[i].key);
 }
 
+// The block the tools hold about a camera: the 7 x 7 sectors centred on the camera's, within
+// the 51 resident sectors, and clamped (never wrapped) at the ends of the key range.
+TEST(ResidentBlock, IsTheSevenBySevenSectorsCentredOnTheCamerasWithinTheResidentCount) {
+  const SectorRange b = residentBlock({100.0, -10.0, 5.0});  // sector (1,-1)
+  EXPECT_EQ(b.x0, -2);
+  EXPECT_EQ(b.x1, 4);
+  EXPECT_EQ(b.y0, -4);
+  EXPECT_EQ(b.y1, 2);
+  EXPECT_EQ(b.count(), 49u);
+  EXPECT_LE(b.count(), size_t(runtime::kMaxResidentSectors));
+  EXPECT_TRUE(b.contains({1, -1}));
+  EXPECT_TRUE(b.contains({4, 2}));
+  EXPECT_FALSE(b.contains({5, 0}));
+  EXPECT_FALSE(b.contains({0, -5}));
+  const SectorRange far = residentBlock({1e300, -1e300, 0.0});
+  EXPECT_EQ(far.x1, std::numeric_limits<int32_t>::max());
+  EXPECT_EQ(far.x0, std::numeric_limits<int32_t>::max() - 3);
+  EXPECT_EQ(far.y0, std::numeric_limits<int32_t>::min());
+  EXPECT_EQ(far.y1, std::numeric_limits<int32_t>::min() + 3);
+}
+
 }  // namespace
 }  // namespace drtv::streamer

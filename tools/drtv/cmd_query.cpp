@@ -12,6 +12,7 @@
 #include "commands.h"
 #include "drtv/formats/archive.h"
 #include "drtv/runtime/runtime.h"
+#include "drtv/streamer/residency.h"
 
 namespace drtv::app {
 namespace {
@@ -34,11 +35,11 @@ Result<void> runQuery(const QueryOptions& o) {
   if (!archive) return std::unexpected(archive.error());
   const Manifest& m = archive->manifest;
 
-  // The sectors a streamer would hold around this camera: the 7 x 7 block around it (49 <= 51).
-  const SectorKey centre = sectorAt(at->x, at->y);
+  // The sectors a streamer would hold around this camera (streamer::residentBlock).
+  const SectorRange block = streamer::residentBlock(*at);
   std::vector<Sector> sectors;
   for (const SectorEntry& e : m.sectors) {
-    if (std::abs(int64_t(e.key.ix) - centre.ix) > 3 || std::abs(int64_t(e.key.iy) - centre.iy) > 3) continue;
+    if (!block.contains(e.key)) continue;
     auto s = readSector(*archive, e.key);
     if (!s) return std::unexpected(s.error());
     sectors.push_back(std::move(*s));
@@ -56,11 +57,9 @@ Result<void> runQuery(const QueryOptions& o) {
   auto evaluate = [&](uint32_t components) -> Result<runtime::AmbientSample> {
     runtime::RuntimeOptions options = runtime::optionsForEffects(m.effects);
     options.components = components;
-    auto made = runtime::runtimeForArchive(m, options, *hour);
+    auto made = runtime::runtimeForSectors(m, options, *hour, sectors);
     if (!made) return std::unexpected(made.error().context(o.path));
     std::unique_ptr<runtime::Runtime> rt = std::move(*made);
-    for (const Sector& s : sectors)
-      if (auto r = rt->addSector(s); !r) return std::unexpected(r.error().context(o.path));
     rt->update(*at);
     if (components == baked) {
       const runtime::ProbeRef ref = rt->cache().probeAt(*at);

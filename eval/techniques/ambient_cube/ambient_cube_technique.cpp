@@ -159,11 +159,8 @@ class AmbientCube final : public Technique {
     // occlusion tiles of the distant ambient, the interiors' designated probes, the light shares.
     options_ = runtime::optionsForEffects(manifest_.effects);
     if (params_.texel_m) options_.volume.texel_size_m = glm::vec3(*params_.texel_m, *params_.texel_m, 2.f * *params_.texel_m);
-    options_.cache.max_sectors = std::max<int>(options_.cache.max_sectors, int(bake->sectors.size()));
-    auto rt = runtime::runtimeForArchive(manifest_, options_, 12.0);
+    auto rt = runtime::runtimeForSectors(manifest_, options_, 12.0, bake->sectors);
     if (!rt) return std::unexpected(rt.error());
-    for (const Sector& sec : bake->sectors)
-      if (auto r = (*rt)->addSector(sec); !r) return std::unexpected(r.error().context("sector " + toString(sec.key)));
     rt_ = std::move(*rt);
     slot_sector_.assign(size_t(rt_->cache().maxSectors()), -1);
     sources_.clear();

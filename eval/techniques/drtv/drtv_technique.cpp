@@ -221,11 +221,8 @@ class DrtvTechnique final : public Technique {
       // refill (an engine's blurred refill takes two frames, publish.h; the fly keeps that).
       options_.volume_rebuild_updates = 1;
       const RuntimeParams& p = params_.runtime;
-      options_.cache.max_sectors = std::max<int>(options_.cache.max_sectors, int(active().size()));
-      auto rt = runtime::runtimeForArchive(manifest_, options_, hour, &lights);
+      auto rt = runtime::runtimeForSectors(manifest_, options_, hour, active(), &lights);
       if (!rt) return std::unexpected(rt.error());
-      for (const Sector& s : active())
-        if (auto r = (*rt)->addSector(s); !r) return std::unexpected(r.error().context("sector " + toString(s.key)));
       rt_ = std::move(*rt);
       const glm::ivec3 n = options_.volume.size;
       costs_.runtime_bytes = size_t(double(n.x) * n.y * n.z * p.storage_bytes);

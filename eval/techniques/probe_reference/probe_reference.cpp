@@ -91,11 +91,8 @@ class ProbeReference final : public Technique {
     threads_ = in.threads;
     // A runtime only for its index grid: which probe a point reads (ProbeCache::probeAt).
     runtime::RuntimeOptions o = runtime::optionsForEffects(bake->manifest.effects);
-    o.cache.max_sectors = std::max<int>(o.cache.max_sectors, int(bake->sectors.size()));
-    auto rt = runtime::runtimeForArchive(bake->manifest, o, 12.0);
+    auto rt = runtime::runtimeForSectors(bake->manifest, o, 12.0, bake->sectors);
     if (!rt) return std::unexpected(rt.error());
-    for (const Sector& sec : bake->sectors)
-      if (auto r = (*rt)->addSector(sec); !r) return std::unexpected(r.error().context("sector " + toString(sec.key)));
     rt_ = std::move(*rt);
     normal_offset_m_ = o.normal_offset_m;
     reportPrepareSeconds(0.0);  // the probes' tracing is counted as evaluate() traces them

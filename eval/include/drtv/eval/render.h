@@ -16,7 +16,7 @@
 //   E_sun, E_lights: reference.h's directIrradiance against the camera view, so dynamic objects
 //   cast direct shadows (the engine's shadow maps would), identically in both images.
 //   preview ambient:   runtime::Runtime::ambient() with the sectors a streamer would hold around
-//                      the camera (the 7 x 7 block, 49 <= 51) and the volume centred on it;
+//                      the camera (streamer::residentBlock, 49 <= 51) and the volume centred on it;
 //   reference ambient: reference.h's path-traced ambient (sun and sky bounce, direct sky, local
 //                      lights) with `reference_samples` paths per pixel, keyed by pixel index.
 // Error image: the relative error of the ambient's luminance, (preview - reference) / reference,
@@ -99,7 +99,7 @@ struct RenderResult {
 
 // Renders `world` (geometry) lit as `baked` says (sky, lights, interiors, effects: the archive's
 // manifest; its sector list is ignored) with probes from `sectors` (all of a bake, or those near
-// the camera: the 7 x 7 block around the camera is made resident). `where` prefixes errors.
+// the camera: streamer::residentBlock, the 7 x 7 block around it, is made resident). `where` prefixes errors.
 // Errors: bad camera (non-finite, position == target, looking straight up or down is fine),
 // bad size, unsound lighting, geometry errors (reference.h), runtime errors (a sector rejected).
 // Errors in the baked data (lighting, sectors) name `baked_where` (the archive), or `where` when

@@ -86,6 +86,15 @@ std::string toString(SectorKey key);
 // int32 range (NaN gives 0): total for any input.
 SectorKey sectorAt(double x, double y);
 
+// An inclusive range of sector keys, [x0, x1] x [y0, y1]; empty when either end is below the
+// other.
+struct SectorRange {
+  int32_t x0 = 0, x1 = -1, y0 = 0, y1 = -1;
+  bool empty() const { return x1 < x0 || y1 < y0; }
+  size_t count() const { return empty() ? 0 : size_t(x1 - x0 + 1) * size_t(y1 - y0 + 1); }
+  bool contains(SectorKey k) const { return k.ix >= x0 && k.ix <= x1 && k.iy >= y0 && k.iy <= y1; }
+};
+
 // Per-sector 16x16x16 nearest-probe grid [1, slide 17]. Cell (x, y, z) covers sector-relative
 // [4x, 4x+4) x [4y, 4y+4) and world height [z_min_m + z h, z_min_m + (z+1) h), h = cell_height_m.
 struct IndexGrid {

@@ -64,13 +64,8 @@ struct SectorGeometry {
   std::vector<uint8_t> twoSided() const;
 };
 
-// Inclusive range of sector keys.
-struct SectorRange {
-  int32_t x0 = 0, x1 = -1, y0 = 0, y1 = -1;
-  bool empty() const { return x1 < x0 || y1 < y0; }
-  size_t count() const { return empty() ? 0 : size_t(x1 - x0 + 1) * size_t(y1 - y0 + 1); }
-  bool contains(SectorKey k) const { return k.ix >= x0 && k.ix <= x1 && k.iy >= y0 && k.iy <= y1; }
-};
+// Inclusive range of sector keys (formats/sector.h).
+using SectorRange = drtv::SectorRange;
 
 class WorldGeometry {
  public:

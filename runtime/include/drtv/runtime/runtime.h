@@ -189,4 +189,13 @@ class Runtime {
 Result<std::unique_ptr<Runtime>> runtimeForArchive(const Manifest& manifest, const RuntimeOptions& options, double hour,
                                                    const std::vector<PointLight>* lights = nullptr);
 
+// runtimeForArchive holding `sectors`, each added in order (copied), its cache grown to hold them
+// all when options.cache.max_sectors is smaller: what a tool that holds a fixed set of sectors
+// without streaming sets up (drtv query, the preview renders, the techniques of the accuracy
+// table, the OpenVDB export). Errors: runtimeForArchive's, and a sector the cache refuses
+// (ProbeCache::addSector), prefixed "sector (x,y): ".
+Result<std::unique_ptr<Runtime>> runtimeForSectors(const Manifest& manifest, const RuntimeOptions& options, double hour,
+                                                   std::span<const Sector> sectors,
+                                                   const std::vector<PointLight>* lights = nullptr);
+
 }  // namespace drtv::runtime

@@ -88,6 +88,13 @@ void rankSectors(const Manifest& manifest, const Camera& camera, const Residency
 void footprintSectors(const Manifest& manifest, const glm::dvec3& position_m, const ResidencyOptions& options,
                       std::vector<SectorKey>& out);
 
+// The 7 x 7 block of sectors centred on the sector under `position_m` (x and y): 49 sectors,
+// within the 51 a streamer keeps resident (DESIGN.md). What the tools that hold sectors as a
+// streamer would, without streaming, load about a camera (drtv query, drtv render). Total: the
+// block is clamped to the key range.
+inline constexpr int32_t kResidentBlockRadius = 3;
+SectorRange residentBlock(const glm::dvec3& position_m);
+
 // Horizontal distance from sector `key`'s square to the segment [a, b] (x and y only), metres;
 // 0 when they touch. Pure.
 double distanceToSegment(SectorKey key, const glm::dvec2& a, const glm::dvec2& b);

@@ -629,14 +629,14 @@ static Result<BakeReport> bakeRecorded(const worlds::World& given, const std::st
   if (options.inside_from_neighbours) report.settings.grid.inside_from_neighbours = *options.inside_from_neighbours;
   if (options.cell_sides) report.settings.transfer.cell_sides = *options.cell_sides;
   else if (given.representation && !options.settings) report.settings.transfer.representation = *given.representation;
-  if (auto why = validateSettings(report.settings); !why) return fail("bake settings: " + why.error().message);
+  if (auto why = validateSettings(report.settings); !why) return std::unexpected(why.error().context("bake settings"));
   report.threads = options.threads > 0 ? options.threads : int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
   if (options.shard_count > 1) report.shard = std::to_string(options.shard_index) + "/" + std::to_string(options.shard_count);
   report.effects_asked = given.effects;
   // The halo depends on the lights alone: the rooms found below do not change it.
   const uint32_t given_effects = effectsToBake(given, nullptr);
   if (auto why = validateLighting(given.sky, given.lights, given.interiors); !why)
-    return fail(world_name + ": " + why.error().message);
+    return std::unexpected(why.error().context(world_name));
 
   auto t0 = Clock::now();
   // With --sectors, only the geometry those sectors gather is binned (not a whole 8192-cell terrain);

@@ -13,9 +13,9 @@ namespace drtv::baker {
 Result<InMemoryBake> bakeInMemory(const worlds::World& given, const std::string& where, const BakeSettings& settings,
                                   std::optional<raytrace::SectorRange> sectors, int threads) {
   if (auto why = validateLighting(given.sky, given.lights, given.interiors); !why)
-    return fail(where + ": " + why.error().message);
+    return std::unexpected(why.error().context(where));
   if (threads < 0) return fail("threads " + std::to_string(threads) + ": must be >= 0");
-  if (auto why = validateSettings(settings); !why) return fail(where + ": bake settings: " + why.error().message);
+  if (auto why = validateSettings(settings); !why) return std::unexpected(why.error().context(where + ": bake settings"));
   std::optional<tbb::global_control> limit;
   if (threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(threads));
   auto geometry = raytrace::WorldGeometry::build(given, where);

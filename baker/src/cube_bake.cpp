@@ -15,8 +15,8 @@ Result<CubeBake> bakeCube(const worlds::World& given, const std::string& where, 
   std::optional<worlds::World> with_rooms;
   const worlds::World& world = interiors ? worldWithInteriors(given, *interiors, with_rooms) : given;
   if (auto why = validateLighting(world.sky, world.lights, world.interiors); !why)
-    return fail(where + ": " + why.error().message);
-  if (auto why = validateSettings(settings); !why) return fail(where + ": bake settings: " + why.error().message);
+    return std::unexpected(why.error().context(where));
+  if (auto why = validateSettings(settings); !why) return std::unexpected(why.error().context(where + ": bake settings"));
   std::optional<tbb::global_control> limit;
   if (threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(threads));
   const auto t0 = std::chrono::steady_clock::now();

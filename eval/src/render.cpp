@@ -116,7 +116,7 @@ Result<RenderResult> render(const worlds::World& world, const std::string& where
   if (!std::isfinite(options.hour)) return fail("--time: not a finite hour");
   if (options.reference_samples < 2) return fail("--samples " + std::to_string(options.reference_samples) + ": must be >= 2");
   if (auto why = validateLighting(baked.sky, baked.lights, baked.interiors); !why)
-    return fail(archive + ": lighting: " + why.error().message);
+    return std::unexpected(why.error().context(archive + ": lighting"));
   {
     // Per pixel: the preview's buffers and images (~110 B); with the reference also its queries,
     // answers, error statistics and two more images (~400 B in all). 8192 x 8192 with the

@@ -550,7 +550,7 @@ Result<void> ArchiveWriter::finish(const Manifest& info) {
   Manifest m = info;
   m.version = archiveVersionFor(m.representation);
   if (auto what = validateLighting(m.sky, m.lights, m.interiors); !what)
-    return fail(s.path.string() + ": lighting: " + what.error().message);
+    return std::unexpected(what.error().context(s.path.string() + ": lighting"));
   m.sectors = s.entries;
   std::sort(m.sectors.begin(), m.sectors.end(), [](const SectorEntry& a, const SectorEntry& b) { return a.key < b.key; });
   const std::vector<uint8_t> manifest = encodeManifest(m);

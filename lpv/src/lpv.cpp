@@ -68,7 +68,7 @@ CascadedLpv& CascadedLpv::operator=(CascadedLpv&&) noexcept = default;
 CascadedLpv::~CascadedLpv() = default;
 
 Result<CascadedLpv> CascadedLpv::create(const LpvOptions& options) {
-  if (auto e = validate(options); !e) return fail("lpv options: " + e.error().message);
+  if (auto e = validate(options); !e) return std::unexpected(e.error().context("lpv options"));
   (void)matrices();
   return CascadedLpv(options);
 }

@@ -48,7 +48,7 @@ Result<void> ProbeCache::addSector(const Sector& sector, SectorBlock keep) {
   if (sources > size_t(kMaxLprtSources) || sector.lprt.coeffs.size() != size_t(n) * sources * 12)
     return fail(where + ": LPRT block size does not match its probes and sources");
   for (int i = 0; i < n; ++i)
-    if (auto e = validateProbe(sector.probes[i]); !e) return fail(where + ": probe " + std::to_string(i) + ": " + e.error().message);
+    if (auto e = validateProbe(sector.probes[i]); !e) return std::unexpected(e.error().context(where + ": probe " + std::to_string(i)));
   const Representation want = m.opt.representation;
   for (int i = 0; i < n; ++i) {
     const Representation got =

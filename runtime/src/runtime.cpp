@@ -64,7 +64,7 @@ Runtime::Runtime(RuntimeOptions options)
 }
 
 Result<void> Runtime::setLighting(const Sky& sky, std::vector<PointLight> lights, std::vector<InteriorVolume> interiors) {
-  if (auto e = validateLighting(sky, lights, interiors); !e) return fail("lighting: " + e.error().message);
+  if (auto e = validateLighting(sky, lights, interiors); !e) return std::unexpected(e.error().context("lighting"));
   sky_ = sky;
   lights_ = std::move(lights);
   interiors_ = std::move(interiors);
@@ -88,7 +88,7 @@ Result<void> Runtime::setTime(double hour) {
 }
 
 Result<void> Runtime::setLights(std::vector<PointLight> lights) {
-  if (auto e = validateLighting(sky_, lights, {}); !e) return fail("lighting: " + e.error().message);
+  if (auto e = validateLighting(sky_, lights, {}); !e) return std::unexpected(e.error().context("lighting"));
   lights_ = std::move(lights);
   lights_changed_ = true;
   return {};

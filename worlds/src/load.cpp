@@ -318,7 +318,7 @@ Ok Parser::island(const json& j) {
   o.interior_fraction = interior;
   Ground g;
   auto w = generateIslandWithHeightfield(o, &g.hf);
-  if (!w) return fail(file_ + ": " + w.error().message);
+  if (!w) return std::unexpected(w.error().context(file_));
   const std::string name = world_.name;
   world_ = std::move(*w);
   world_.name = name;
@@ -351,7 +351,7 @@ Ok Parser::primitives(const json& j) {
 Result<std::vector<Instance>> Parser::importGltf(const std::string& rel, const std::string& path, InstanceClass cls) {
   // Emission stays on the meshes: parse() makes the lights once every instance is placed.
   auto w = loadGltfMeshes(resolve(rel), cls);
-  if (!w) return fail(file_ + ": key '" + path + "': " + w.error().message);
+  if (!w) return std::unexpected(w.error().context(file_ + ": key '" + path + "'"));
   world_.materials += w->materials;
   const auto offset = uint32_t(world_.meshes.size());
   for (Mesh& m : w->meshes) world_.meshes.push_back(std::move(m));

@@ -208,6 +208,25 @@ double haloFor(const BakeSettings& settings, uint32_t effects) {
   return (effects & kEffectLocalLights) ? settings.lprt_halo_m : settings.halo_m;
 }
 
+std::vector<SectorKey> bakeKeys(const raytrace::SectorRange& range) {
+  std::vector<SectorKey> keys;
+  keys.reserve(range.count());
+  for (int32_t x = range.x0; !range.empty() && x <= range.x1; ++x) {
+    for (int32_t y = range.y0; y <= range.y1; ++y) {
+      keys.push_back({x, y});
+      if (y == range.y1) break;  // y1 may be INT32_MAX
+    }
+    if (x == range.x1) break;
+  }
+  return keys;
+}
+
+std::vector<uint64_t> sectorCosts(const raytrace::WorldGeometry& geometry, std::span<const SectorKey> keys, double halo_m) {
+  std::vector<uint64_t> costs(keys.size());
+  for (size_t i = 0; i < keys.size(); ++i) costs[i] = 1 + geometry.gatherEstimate(keys[i], halo_m);
+  return costs;
+}
+
 Result<SectorPlacement> placeSector(const raytrace::WorldGeometry& geometry, const worlds::World& world, SectorKey key,
                                     const BakeSettings& settings, uint32_t effects) {
   const auto t0 = Clock::now();
@@ -565,17 +584,18 @@ Result<std::vector<ShardStatus>> shardsOfThisBake(const fs::path& dir, const std
 // Why the sectors `keys[i]` with !have[i] are missing, shard by shard, as the shards' status files
 // tell it: which shard of each split owns them, and whether it failed (its error), is running or
 // was killed, says it is done (its journal lost them), or never ran.
-std::string missingShards(const fs::path& dir, const std::vector<SectorKey>& keys, const std::vector<uint8_t>& have,
-                          const std::vector<ShardStatus>& statuses) {
+std::string missingShards(const fs::path& dir, const std::vector<SectorKey>& keys, const std::vector<uint64_t>& costs,
+                          const std::vector<uint8_t>& have, const std::vector<ShardStatus>& statuses) {
   std::set<int> splits;
   for (const ShardStatus& s : statuses) splits.insert(s.count);
   if (splits.empty()) return "; no shard has written a status in " + dir.string();
   std::string out;
   for (const int n : splits) {
     std::map<int, std::pair<SectorKey, size_t>> owners;  // shard -> (first missing sector, count)
+    const std::vector<int> owner = shardOwners(costs, n);
     for (size_t i = 0; i < keys.size(); ++i)
       if (!have[i]) {
-        const auto it = owners.try_emplace(int(i % size_t(n)), keys[i], 0).first;
+        const auto it = owners.try_emplace(owner[i], keys[i], 0).first;
         ++it->second.second;
       }
     for (const auto& [k, first] : owners) {
@@ -683,9 +703,10 @@ static Result<BakeReport> bakeRecorded(const worlds::World& given, const std::st
   if (!options.merge_only)
     if (auto ok = geometry->checkBakeMemory(range, haloFor(report.settings, effects), report.threads, world_name); !ok)
       return std::unexpected(ok.error());
-  std::vector<SectorKey> keys;
-  for (int32_t x = range.x0; x <= range.x1; ++x)
-    for (int32_t y = range.y0; y <= range.y1; ++y) keys.push_back({x, y});
+  const std::vector<SectorKey> keys = bakeKeys(range);
+  // What each sector costs to bake, and so which shard bakes it (shard.h, shardOwners).
+  const std::vector<uint64_t> costs = sectorCosts(*geometry, keys, haloFor(report.settings, effects));
+  const std::vector<int> owner = shardOwners(costs, options.shard_count);
 
   // The sector directory, stamped with the bake's fingerprint: a resumed bake must be the same bake.
   const fs::path dir = sectorDirectory(archive);
@@ -715,7 +736,7 @@ static Result<BakeReport> bakeRecorded(const worlds::World& given, const std::st
       continue;
     }
     if (options.merge_only) continue;
-    if (i % size_t(options.shard_count) == size_t(options.shard_index)) todo.push_back(i);
+    if (owner[i] == options.shard_index) todo.push_back(i);
   }
   if (options.merge_only) {
     size_t missing = 0;
@@ -724,7 +745,7 @@ static Result<BakeReport> bakeRecorded(const worlds::World& given, const std::st
       if (!have[i] && missing++ == 0) first = toString(keys[i]);
     if (missing)
       return fail(dir.string() + ": " + std::to_string(missing) + " sectors not baked yet (first " + first + ")" +
-                  missingShards(dir, keys, have, shard_statuses) + "; run the missing shards");
+                  missingShards(dir, keys, costs, have, shard_statuses) + "; run the missing shards");
   }
 
   // The journal is opened (and locked) before the status says "running": while the shard runs it
@@ -744,7 +765,8 @@ static Result<BakeReport> bakeRecorded(const worlds::World& given, const std::st
     status.fingerprint = fingerprintText(fingerprint);
     status.world = world_name;
     status.settings = report.settings.describe();
-    for (size_t i = size_t(options.shard_index); i < keys.size(); i += size_t(options.shard_count)) ++status.sectors;
+    for (size_t i = 0; i < keys.size(); ++i)
+      if (owner[i] == options.shard_index) ++status.sectors, status.cost += costs[i];
     if (auto w = writeShardStatus(dir, status); !w) return std::unexpected(w.error());
   }
 

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "drtv/baker/bake.h"
+#include "drtv/baker/shard.h"
 #include "drtv/raytrace/world_geometry.h"
 
 namespace drtv::baker {
@@ -89,7 +90,11 @@ Result<ShardEstimate> estimateShard(const worlds::World& world, const std::strin
   const double halo_m = haloFor(settings, effectsToBake(world, nullptr));
   ShardEstimate e;
   e.sectors = geometry->sectors().count();
-  e.sectors_per_shard = (e.sectors + size_t(shards) - 1) / size_t(shards);
+  // The bake's own split (bake.cpp): the most sectors any shard owns.
+  const std::vector<SectorKey> keys = bakeKeys(geometry->sectors());
+  std::vector<size_t> owned(size_t(shards), 0);
+  for (const int k : shardOwners(sectorCosts(*geometry, keys, halo_m), shards)) ++owned[size_t(k)];
+  e.sectors_per_shard = *std::max_element(owned.begin(), owned.end());
   e.largest_gather = geometry->largestGather(geometry->sectors(), halo_m, &e.largest_at);
   for (const worlds::Mesh& m : world.meshes) e.world_bytes += m.positions.size() * sizeof(glm::vec3) + m.indices.size() * sizeof(uint32_t);
   e.cpus = int(std::clamp<size_t>(e.sectors_per_shard, 1, size_t(max_cpus)));

@@ -8,8 +8,10 @@
 #include <charconv>
 #include <fstream>
 #include <map>
+#include <queue>
 #include <sstream>
 #include <system_error>
+#include <utility>
 
 #include <nlohmann/json.hpp>
 
@@ -135,6 +137,7 @@ Result<ShardStatus> readStatus(const fs::path& file) {
       if (value.is_string()) s.settings.emplace_back(key, value.get<std::string>());
   s.sectors = size_t(number("sectors", 0, 1ll << 40).value_or(0));
   s.baked = size_t(number("baked", 0, 1ll << 40).value_or(0));
+  s.cost = uint64_t(number("cost", 0, 1ll << 62).value_or(0));
   if (j.contains("wall_s") && j["wall_s"].is_number()) s.wall_s = j["wall_s"].get<double>();
   return s;
 }
@@ -187,6 +190,7 @@ Result<void> writeShardStatus(const fs::path& dir, const ShardStatus& s) {
   j["host"] = s.host.empty() ? detail::hostName() : s.host;
   j["sectors"] = s.sectors;
   j["baked"] = s.baked;
+  j["cost"] = s.cost;
   j["wall_s"] = s.wall_s;
   if (!s.error.empty()) j["error"] = s.error;
   nlohmann::ordered_json settings = nlohmann::ordered_json::object();
@@ -290,9 +294,30 @@ Result<FarmStatus> farmStatus(const fs::path& archive) {
     shard.error = s.error;
     shard.host = s.host;
     shard.sectors = s.sectors;
+    shard.cost = s.cost;
     shard.wall_s = s.wall_s;
   }
   return out;
+}
+
+std::vector<int> shardOwners(std::span<const uint64_t> costs, int count) {
+  DRTV_CHECK(count >= 1);
+  std::vector<size_t> order(costs.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return costs[a] > costs[b]; });
+  // The least-loaded shard, lowest index first: a heap of (load, index).
+  using Load = std::pair<uint64_t, int>;
+  std::priority_queue<Load, std::vector<Load>, std::greater<Load>> loads;
+  for (int k = 0; k < count; ++k) loads.push({0, k});
+  std::vector<int> owner(costs.size(), 0);
+  for (const size_t i : order) {
+    auto [load, k] = loads.top();
+    loads.pop();
+    owner[i] = k;
+    const uint64_t add = costs[i];
+    loads.push({load > UINT64_MAX - add ? UINT64_MAX : load + add, k});
+  }
+  return owner;
 }
 
 }  // namespace drtv::baker

@@ -303,6 +303,16 @@ const WorldGeometry::Bin* WorldGeometry::bin(int32_t ix, int32_t iy) const {
   return &bins_[size_t(iy - bin_y0_) * bin_nx_ + (ix - bin_x0_)];
 }
 
+uint64_t WorldGeometry::gatherEstimate(SectorKey key, double halo_m) const {
+  const int64_t reach = int64_t(std::ceil(halo_m / kSectorSizeM));
+  const int64_t x0 = std::max<int64_t>(int64_t(key.ix) - reach, bin_x0_), x1 = std::min<int64_t>(int64_t(key.ix) + reach, int64_t(bin_x0_) + bin_nx_ - 1);
+  const int64_t y0 = std::max<int64_t>(int64_t(key.iy) - reach, bin_y0_), y1 = std::min<int64_t>(int64_t(key.iy) + reach, int64_t(bin_y0_) + bin_ny_ - 1);
+  uint64_t tris = 0;
+  for (int64_t y = y0; y <= y1; ++y)
+    for (int64_t x = x0; x <= x1; ++x) tris += bin(int32_t(x), int32_t(y))->triangles;
+  return tris;
+}
+
 uint64_t WorldGeometry::largestGather(const SectorRange& range, double halo_m, SectorKey* at) const {
   uint64_t largest = 0;
   SectorKey where{};

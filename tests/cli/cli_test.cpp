@@ -867,7 +867,14 @@ TEST(Farm, TheStatusTellsAShardThatIsRunningFromOneThatWasKilled) {
 
   // Rerun, the shard completes the set and the merge packs it.
   ASSERT_EQ(bakeShard(archive, "1/2").status, 0);
-  EXPECT_NE(drtv("farm status " + archive, kNoScheduler).out.find("2 done, 0 running, 0 stopped"), std::string::npos);
+  const Outcome done = drtv("farm status " + archive, kNoScheduler);
+  EXPECT_NE(done.out.find("2 done, 0 running, 0 stopped"), std::string::npos) << done.out;
+  // Two done: the slowest against their mean (>= 1x), and each shard's share of the split's cost.
+  EXPECT_NE(done.out.find("balance: the slowest of 2 done shards, "), std::string::npos) << done.out;
+  const nlohmann::json b = nlohmann::json::parse(drtv("farm status --json " + archive, kNoScheduler).out);
+  EXPECT_GE(b["balance"]["slowest_over_mean"].get<double>(), 1.0) << b.dump();
+  EXPECT_GT(b["list"][0]["cost"].get<uint64_t>(), 0u) << b.dump();
+  EXPECT_GT(b["list"][1]["cost"].get<uint64_t>(), 0u) << b.dump();
   ASSERT_EQ(merge(archive).status, 0);
 }
 

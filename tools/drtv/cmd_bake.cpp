@@ -132,7 +132,7 @@ Command registerBake(CLI::App& app) {
   sub->add_option("--quality", o->quality, "draft | default | high")->check(CLI::IsMember({"draft", "default", "high"}));
   sub->add_option("--sectors", o->sectors, "Only sectors x0:x1,y0:y1 (inclusive sector keys)");
   sub->add_option("--shard", o->shard,
-                  "Bake shard k of N (sectors i with i % N == k); pack later with --merge. k/N, or from the scheduler: "
+                  "Bake shard k of N (the sectors balanced by estimated cost, the same split in every shard); pack later with --merge. k/N, or from the scheduler: "
                   "slurm (SLURM_ARRAY_TASK_ID - SLURM_ARRAY_TASK_MIN of SLURM_ARRAY_TASK_COUNT), k8s[/N] "
                   "(JOB_COMPLETION_INDEX of N, else of DRTV_SHARD_COUNT), auto[/N] (whichever is set)")
       ->check(CLI::Validator(

@@ -9,6 +9,7 @@
 #include <fstream>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -152,6 +153,26 @@ Result<void> runKubernetes(const FarmCliOptions& o) {
   return {};
 }
 
+// The slowest done shard against the mean of the done shards' wall times (issue 36: shards
+// balanced by cost); nothing until two are done.
+struct Balance {
+  int done = 0, slowest = 0;
+  double slowest_s = 0, mean_s = 0;
+};
+std::optional<Balance> balance(const baker::FarmStatus& status) {
+  Balance b;
+  double sum = 0;
+  for (const baker::FarmShard& s : status.shards) {
+    if (s.state != "done") continue;
+    ++b.done;
+    sum += s.wall_s;
+    if (b.done == 1 || s.wall_s > b.slowest_s) b.slowest = s.index, b.slowest_s = s.wall_s;
+  }
+  if (b.done < 2 || !(sum > 0)) return std::nullopt;
+  b.mean_s = sum / b.done;
+  return b;
+}
+
 Result<void> runStatus(const FarmCliOptions& o) {
   auto status = baker::farmStatus(o.archive);
   if (!status) return std::unexpected(status.error());
@@ -163,11 +184,13 @@ Result<void> runStatus(const FarmCliOptions& o) {
     nlohmann::ordered_json list = nlohmann::ordered_json::array();
     for (const baker::FarmShard& s : status->shards) {
       nlohmann::ordered_json e{{"shard", s.index}, {"state", s.state}, {"sectors", s.sectors}, {"journaled", s.journaled},
-                               {"wall_s", s.wall_s}, {"host", s.host}};
+                               {"cost", s.cost}, {"wall_s", s.wall_s}, {"host", s.host}};
       if (!s.error.empty()) e["error"] = s.error;
       list.push_back(e);
     }
     j["list"] = list;
+    if (const auto b = balance(*status)) j["balance"] = {{"slowest", b->slowest}, {"slowest_s", b->slowest_s}, {"mean_s", b->mean_s},
+                                                          {"slowest_over_mean", b->slowest_s / b->mean_s}, {"done", b->done}};
     j["problems"] = status->problems;
     std::printf("%s\n", j.dump(2).c_str());
     return {};
@@ -188,6 +211,9 @@ Result<void> runStatus(const FarmCliOptions& o) {
     if (s.state == "stopped") std::printf(": no process holds its journal (killed or lost); rerun it");
     std::printf("\n");
   }
+  if (const auto b = balance(*status))
+    std::printf("balance: the slowest of %d done shards, %d, took %.1f s: %.2fx their mean %.1f s\n", b->done, b->slowest,
+                b->slowest_s, b->slowest_s / b->mean_s, b->mean_s);
   for (const std::string& p : status->problems) std::printf("problem: %s\n", p.c_str());
   return {};
 }

@@ -199,6 +199,12 @@ Result<const worlds::World*> worldWithRooms(const worlds::World& world, const ra
 // sources sit in the neighbours), else halo_m.
 double haloFor(const BakeSettings& settings, uint32_t effects);
 
+// The sectors of `range` in the order a bake numbers them (x, then y).
+std::vector<SectorKey> bakeKeys(const raytrace::SectorRange& range);
+// What each of `keys` costs to bake, in shardOwners' units (shard.h): 1 + the triangles it
+// gathers within `halo_m` (raytrace::WorldGeometry::gatherEstimate).
+std::vector<uint64_t> sectorCosts(const raytrace::WorldGeometry& geometry, std::span<const SectorKey> keys, double halo_m);
+
 // Places the probes of sector `key` in its own scene (the gather with haloFor's halo): what the
 // sector bakes and what its neighbours' LPRT sources name. Deterministic: the same world, key and
 // settings give the same bits in any process. Thread-safe; uses TBB. Errors: the scene cannot be

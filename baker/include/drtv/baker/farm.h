@@ -26,7 +26,7 @@ namespace drtv::baker {
 // What one shard needs, estimated from the world before any shard runs.
 struct ShardEstimate {
   size_t sectors = 0;            // of the whole bake
-  size_t sectors_per_shard = 0;  // the most any shard owns (ceil(sectors / N))
+  size_t sectors_per_shard = 0;  // the most any shard owns (shardOwners)
   uint64_t largest_gather = 0;   // triangles the largest sector gathers with its halo
   SectorKey largest_at{};        // which sector that is
   uint64_t world_bytes = 0;      // the world's meshes as loaded (positions and indices)

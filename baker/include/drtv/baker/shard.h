@@ -2,7 +2,8 @@
 // (from the command line or the scheduler's environment), and what each shard left in the sector
 // folder for the merge and for `drtv farm status` to read.
 //
-// A shard k of N bakes the sectors i (in key order) with i % N == k (bake.h). Each shard writes
+// A shard k of N bakes the sectors that shardOwners gives it: the N shards balanced by each
+// sector's estimated cost, the same split in every process of the bake (bake.h). Each shard writes
 // only files named by its own k and N in "<archive>.sectors/":
 //   sectors-<k>-of-<N>.log     its sector journal (sector_journal.h), resumed when it reruns
 //   placement-<k>-of-<N>.log   its placement journal (LPRT bakes only)
@@ -20,6 +21,8 @@
 #include <cstddef>
 #include <filesystem>
 #include <functional>
+#include <span>
+#include <cstdint>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -33,6 +36,17 @@ struct ShardSpec {
   int index = 0;  // k, 0 <= k < count
   int count = 1;  // N
 };
+
+// Which of `count` shards bakes each sector, from the sectors' estimated costs (in key order):
+// the longest-processing-time-first rule, each sector from the costliest down (ties: key order)
+// to the shard with the least cost so far (ties: the lowest index). A pure function: every shard
+// of a bake computes the same split. The bake's cost of a sector is 1 + the triangles it gathers
+// (raytrace::WorldGeometry::gatherEstimate), which its bake time follows (correlation 0.97 over
+// the island's 256 sectors). The island in 16 shards, each sector's time as measured in that
+// run: the costliest shard's sectors took 1.19x the mean split so, and would have taken 1.35x
+// split round-robin (i % N, the split before).
+// Precondition: count >= 1 (checked).
+std::vector<int> shardOwners(std::span<const uint64_t> costs, int count);
 
 // The environment as the shard parser sees it: the value of a variable, or null when unset.
 using EnvLookup = std::function<const char*(const char*)>;
@@ -53,7 +67,8 @@ struct ShardStatus {
   std::string fingerprint;  // the bake's (16 hex digits), "" when the shard failed before knowing it
   std::string world;        // the world's name or file
   std::vector<std::pair<std::string, std::string>> settings;  // BakeSettings::describe()
-  size_t sectors = 0;       // sectors this shard owns (i % N == k)
+  size_t sectors = 0;       // sectors this shard owns (shardOwners)
+  uint64_t cost = 0;        // their estimated cost, summed (shardOwners' units)
   size_t baked = 0;         // of which baked by its last run (the rest were resumed)
   double wall_s = 0;        // its last run, wall seconds (0 while running)
   std::string host;         // where it ran (gethostname)
@@ -85,6 +100,7 @@ struct FarmShard {
   std::string host;
   size_t sectors = 0;    // owned (0 when missing)
   size_t journaled = 0;  // whole records in its journal
+  uint64_t cost = 0;     // its sectors' estimated cost (ShardStatus::cost)
   double wall_s = 0;
 };
 struct FarmStatus {

@@ -112,6 +112,10 @@ class WorldGeometry {
   // checkBakeMemory counts them (it errs high), and which sector that is (`at`, may be null).
   // What a farm sizes a shard's memory by (drtv/baker/farm.h). O(sectors * halo bins).
   uint64_t largestGather(const SectorRange& range, double halo_m, SectorKey* at = nullptr) const;
+  // The triangles sector `key` gathers with `halo_m`, counted as largestGather counts them. A
+  // sector's bake time follows it (the island: correlation 0.96 over its 256 sectors); what the
+  // shards are balanced by (drtv/baker/shard.h). O(halo bins).
+  uint64_t gatherEstimate(SectorKey key, double halo_m) const;
 
  private:
   struct SmallInstance {

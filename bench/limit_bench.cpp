@@ -1,0 +1,163 @@
+// drtv_limit_bench — the relight against the least work its formula allows, on the same probes
+// and the same lighting, one core, in one run (issue 38): so that every CPU the project meets is
+// measured the same way, and the ratio, not a figure typed in, says how far the runtime is from
+// the machine's limit.
+//
+// The limit kernel (fc3, no LPRT), written from the formula alone (representation.h, kFc3):
+//   colour[c][b][i] = clamp(sum_k L[c][k] T[c][b][k][i] + D[c][b] v[b][i]),
+// with L = sky + sun SH summed and D[c][b] = dot(cosineLobe(B_b), SkySH_direct[c]) computed once
+// per frame (not per probe, nor per sector); the transfer in float, structure of arrays,
+// coefficient-major over all 3,570 resident probes in one run (51 sectors of 70, no per-sector
+// padding or bookkeeping); the largest clamped colour kept in the same pass; compiled for the
+// same instruction sets as the runtime's kernels (DRTV_SIMD_CLONES) and auto-vectorised across
+// probes. 4 x 3 x 5 multiply-adds, ~108 FLOP a probe with the clamp.
+//
+// The runtime's path is ProbeCache::relightAll on the same synthetic sectors
+// (bench/common/runtime_world.h) that drtv_runtime_bench's BM_RelightWithoutLprt/0 relights. At
+// exit the ratio runtime / limit is printed, of real time and of CPU time (the steadier of the two
+// on a shared host; both paths run on the calling thread). Run a Release build:
+//   drtv_limit_bench --benchmark_min_time=0.5 --benchmark_repetitions=5
+#include <benchmark/benchmark.h>
+
+#include <algorithm>
+#include <bit>
+#include <cstdio>
+#include <map>
+#include <random>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "drtv/formats/sh.h"
+#include "drtv/runtime/lighting_sh.h"
+#include "drtv/runtime/runtime.h"
+#include "runtime_world.h"
+#include "simd_clones.h"
+
+namespace drtv::runtime {
+namespace {
+
+constexpr int kSectors = kMaxResidentSectors;  // 51
+constexpr int kProbesPerSector = 70;
+constexpr int kProbes = kSectors * kProbesPerSector;  // 3,570
+constexpr int kN = (kProbes + 15) & ~15;              // one run of planes, padded once
+
+RelightInput noonInput() {
+  const SkyLighting s = evaluateSky(Sky::tropicalDefault(), 12.0);
+  RelightInput in{s.sky_sh, s.sun_sh, s.sky_direct_sh, {}, kAllComponents};
+  in.sun_direction = s.sun_direction;
+  in.sun_irradiance = s.sun_irradiance;
+  return in;
+}
+
+// The limit kernel: 48 transfer planes [c][b][k] and 4 visibility planes [b] of kN floats in,
+// 12 colour planes [c][b] out; returns the largest clamped colour.
+DRTV_SIMD_CLONES float limitRelightFc3(const float* __restrict t, const float* __restrict v, float* __restrict out,
+                                       const float (&l)[3][4], const float (&d)[3][4]) {
+  int32_t m = 0;
+  for (int c = 0; c < 3; ++c)
+    for (int b = 0; b < 4; ++b) {
+      const float* __restrict t0 = t + size_t((c * 4 + b) * 4) * kN;
+      const float* __restrict t1 = t0 + kN;
+      const float* __restrict t2 = t1 + kN;
+      const float* __restrict t3 = t2 + kN;
+      const float* __restrict vb = v + size_t(b) * kN;
+      float* __restrict o = out + size_t(c * 4 + b) * kN;
+      const float l0 = l[c][0], l1 = l[c][1], l2 = l[c][2], l3 = l[c][3], db = d[c][b];
+      for (int i = 0; i < kN; ++i) {
+        const float x = l0 * t0[i] + l1 * t1[i] + l2 * t2[i] + l3 * t3[i] + db * vb[i];
+        const float y = x > 0.f ? x : 0.f;
+        const float z = y < kMaxColour ? y : kMaxColour;
+        o[i] = z;
+        m = std::max(m, std::bit_cast<int32_t>(z));  // z >= 0: bit patterns order like the floats
+      }
+    }
+  return std::bit_cast<float>(m);
+}
+
+void BM_LimitRelightFc3(benchmark::State& state) {
+  std::vector<float> t(size_t(48) * kN, 0.f), v(size_t(4) * kN, 0.f), out(size_t(12) * kN);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(0.f, 0.3f);
+  for (int p = 0; p < 48; ++p)
+    for (int i = 0; i < kProbes; ++i) t[size_t(p) * kN + size_t(i)] = u(rng);
+  for (int p = 0; p < 4; ++p)
+    for (int i = 0; i < kProbes; ++i) v[size_t(p) * kN + size_t(i)] = 3.f * u(rng);
+  const RelightInput in = noonInput();
+  for (auto _ : state) {
+    // Once per frame: the bounce lighting and each basis's direct-sky colour.
+    float l[3][4], d[3][4];
+    for (int c = 0; c < 3; ++c) {
+      const sh::Sh4 bounce = in.sky_sh[c] + in.sun_sh[c];
+      for (int k = 0; k < 4; ++k) l[c][k] = bounce[k];
+      for (int b = 0; b < 4; ++b) d[c][b] = glm::dot(sh::cosineLobe(sh::kBasis[b]), in.sky_direct_sh[c]);
+    }
+    benchmark::DoNotOptimize(limitRelightFc3(t.data(), v.data(), out.data(), l, d));
+    benchmark::ClobberMemory();
+  }
+  state.SetItemsProcessed(state.iterations() * kProbes);
+}
+BENCHMARK(BM_LimitRelightFc3)->Unit(benchmark::kMicrosecond);
+
+void BM_RuntimeRelightFc3(benchmark::State& state) {
+  ProbeCache cache({.max_sectors = kSectors, .representation = Representation::kFc3});
+  // drtv_runtime_bench's 51 keys and sectors (its makeCache(0)): the 7 x 7 block and two more.
+  std::vector<SectorKey> keys;
+  for (int y = -3; y <= 3; ++y)
+    for (int x = -3; x <= 3; ++x) keys.push_back({x, y});
+  keys.push_back({4, 0});
+  keys.push_back({-4, 0});
+  for (SectorKey k : keys)
+    if (!cache.addSector(testing::makeSector(k, {.probes = kProbesPerSector, .sources = 0, .lprt_on_bases = true}, 1))) std::abort();
+  const RelightInput in = noonInput();
+  for (auto _ : state) {
+    cache.relightAll(in);
+    benchmark::ClobberMemory();
+  }
+  state.SetItemsProcessed(state.iterations() * cache.probeCount());
+  state.counters["probes"] = double(cache.probeCount());
+}
+BENCHMARK(BM_RuntimeRelightFc3)->Unit(benchmark::kMicrosecond);
+
+// Prints the runs as the console does and, at the end, each runtime path against its limit
+// (the medians when repeated, else the last run of each).
+class RatioReporter : public benchmark::ConsoleReporter {
+ public:
+  void ReportRuns(const std::vector<Run>& runs) override {
+    ConsoleReporter::ReportRuns(runs);
+    for (const Run& r : runs) {
+      const std::string name = r.benchmark_name();
+      if (r.run_type == Run::RT_Aggregate && r.aggregate_name != "median") continue;
+      const std::string base = name.substr(0, name.find("_median"));
+      if (r.run_type == Run::RT_Iteration && repeated_.count(base)) continue;
+      if (r.run_type == Run::RT_Aggregate) repeated_[base] = true;
+      time_[base] = {r.GetAdjustedRealTime(), r.GetAdjustedCPUTime()};
+    }
+  }
+  void Finalize() override {
+    ConsoleReporter::Finalize();
+    auto ratio = [&](const char* what, const char* runtime_path, const char* limit) {
+      if (!time_.count(runtime_path) || !time_.count(limit)) return;
+      const auto [rt, rc] = time_[runtime_path];
+      const auto [lt, lc] = time_[limit];
+      std::printf("%s: runtime %.2f us, limit %.2f us: %.2fx (CPU time: %.2fx)\n", what, rt, lt, rt / lt, rc / lc);
+    };
+    ratio("relight fc3, 3,570 probes, no LPRT", "BM_RuntimeRelightFc3", "BM_LimitRelightFc3");
+  }
+
+ private:
+  std::map<std::string, std::pair<double, double>> time_;  // real, CPU
+  std::map<std::string, bool> repeated_;
+};
+
+}  // namespace
+}  // namespace drtv::runtime
+
+int main(int argc, char** argv) {
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  drtv::runtime::RatioReporter reporter;
+  benchmark::RunSpecifiedBenchmarks(&reporter);
+  benchmark::Shutdown();
+  return 0;
+}

@@ -11,45 +11,6 @@
 namespace drtv::runtime::detail {
 namespace {
 
-// The bit pattern of the largest |value| over the 12 colour planes (n values each) once clamped:
-// with the sign bit cleared, floats order as their bit patterns. A reduction after the planes are
-// written, not a running maximum inside their loops: GCC kept that one in memory, and each loop
-// then waited on its own store (fc3's relight took 1.18x as long).
-[[gnu::always_inline]] inline int32_t maxMagnitudeBits(const float* out, int n, int stride) {
-  int32_t m = 0;
-  for (int p = 0; p < kColourPlanes; ++p) {
-    const float* __restrict o = out + p * stride;
-    for (int k = 0; k < n; ++k) m = std::max(m, std::bit_cast<int32_t>(o[k]) & 0x7fffffff);
-  }
-  return m;
-}
-
-}  // namespace
-
-DRTV_SIMD_CLONES int32_t relightPlanes(const float* in, float* out, int n, int stride, const float (&lc)[3][4],
-                                      const float (&direct)[3][4], const float* local) {
-  for (int c = 0; c < 3; ++c)
-    for (int b = 0; b < 4; ++b) {
-      const float* __restrict t0 = in + ((c * 4 + b) * 4 + 0) * stride;
-      const float* __restrict t1 = t0 + stride;
-      const float* __restrict t2 = t1 + stride;
-      const float* __restrict t3 = t2 + stride;
-      const float* __restrict v = in + (kTransferPlanes + b) * stride;
-      float* __restrict o = out + (c * 4 + b) * stride;
-      const float l0 = lc[c][0], l1 = lc[c][1], l2 = lc[c][2], l3 = lc[c][3], d = direct[c][b];
-      // n is a multiple of 16 (the padding lanes hold zero inputs): no scalar epilogue.
-      if (local) {
-        const float* __restrict x = local + (c * 4 + b) * stride;
-        for (int i = 0; i < n; ++i) o[i] = clampColour(l0 * t0[i] + l1 * t1[i] + l2 * t2[i] + l3 * t3[i] + d * v[i] + x[i]);
-      } else {
-        for (int i = 0; i < n; ++i) o[i] = clampColour(l0 * t0[i] + l1 * t1[i] + l2 * t2[i] + l3 * t3[i] + d * v[i]);
-      }
-    }
-  return maxMagnitudeBits(out, n, stride);
-}
-
-namespace {
-
 // GCC's vector extensions, L lanes: 16 (one register) in the AVX-512 version, 8 in the AVX2 and
 // baseline ones (where 16 lanes spilled: a block is then two halves). The helpers are always
 // inlined into the kernels below, so no vector crosses a call, and GCC's -Wpsabi note on how one
@@ -137,6 +98,65 @@ template <int L>
   return local ? shL1Blocks<L, false, true>(in, out, n, stride, w, in, in, local) : shL1Blocks<L, false, false>(in, out, n, stride, w, in, in, in);
 }
 
+// fc3's relight (relightPlanes) L probes at a time through all 12 (channel, basis) outputs, each
+// input at a fixed offset from one pointer: one loop per slot instead of twelve, whose 5 to 10
+// iterations (70 probes) paid the loop's set-up twelve times (issue 38: 2.65x the limit kernel of
+// drtv_limit_bench, planes one after another). The same terms in the same order as before, so
+// the same results, bit for bit, on every target.
+template <int L, bool kLocal>
+[[gnu::always_inline]] inline int32_t fc3Blocks(const float* __restrict in, float* __restrict out, int n, int stride,
+                                                const float (&lc_)[3][4], const float (&direct_)[3][4],
+                                                const float* __restrict local) {
+  using F = typename Lanes<L>::F;
+  using I = typename Lanes<L>::I;
+  float lc[3][4], direct[3][4];
+  std::memcpy(lc, lc_, sizeof lc);
+  std::memcpy(direct, direct_, sizeof direct);
+  I mx{};
+  for (int k = 0; k < n; k += L) {
+#pragma GCC unroll 12
+    for (int q = 0; q < 12; ++q) {
+      const int c = q / 4, b = q % 4;
+      const float* t = in + size_t(q * 4) * stride + k;
+      F v = lc[c][0] * loadLanes<F>(t) + lc[c][1] * loadLanes<F>(t + stride) + lc[c][2] * loadLanes<F>(t + 2 * stride) +
+            lc[c][3] * loadLanes<F>(t + 3 * stride) + direct[c][b] * loadLanes<F>(in + size_t(kTransferPlanes + b) * stride + k);
+      if constexpr (kLocal) v = v + loadLanes<F>(local + size_t(q) * stride + k);
+      v = clampColourLanes(v);
+      I bits;
+      std::memcpy(&bits, &v, sizeof bits);  // >= 0 once clamped: ordered like the floats
+      mx = bits > mx ? bits : mx;
+      storeLanes(out + size_t(q) * stride + k, v);
+    }
+  }
+  int32_t m = 0;
+  for (int l = 0; l < L; ++l) m = std::max(m, mx[l]);
+  return m;
+}
+
+template <int L>
+[[gnu::always_inline]] inline int32_t fc3Relight(const float* in, float* out, int n, int stride, const float (&lc)[3][4],
+                                                 const float (&direct)[3][4], const float* local) {
+  return local ? fc3Blocks<L, true>(in, out, n, stride, lc, direct, local) : fc3Blocks<L, false>(in, out, n, stride, lc, direct, in);
+}
+
+#if DRTV_SIMD_MULTIVERSION
+__attribute__((target("arch=x86-64-v4"))) int32_t relightPlanesTarget(const float* in, float* out, int n, int stride,
+                                                                const float (&lc)[3][4], const float (&direct)[3][4],
+                                                                const float* local) {
+  return fc3Relight<16>(in, out, n, stride, lc, direct, local);
+}
+__attribute__((target("arch=x86-64-v3"))) int32_t relightPlanesTarget(const float* in, float* out, int n, int stride,
+                                                                const float (&lc)[3][4], const float (&direct)[3][4],
+                                                                const float* local) {
+  return fc3Relight<8>(in, out, n, stride, lc, direct, local);
+}
+__attribute__((target("default")))
+#endif
+int32_t relightPlanesTarget(const float* in, float* out, int n, int stride, const float (&lc)[3][4], const float (&direct)[3][4],
+                            const float* local) {
+  return fc3Relight<8>(in, out, n, stride, lc, direct, local);
+}
+
 // One version per target (GCC's function multiversioning, as DRTV_SIMD_CLONES but with the lanes
 // each target wants), dispatched here: a caller in another file that saw only one declaration
 // would call the default version.
@@ -163,6 +183,11 @@ int32_t relightBlocksShL1Target(const float* in, float* out, int n, int stride, 
 int32_t relightBlocksShL1(const float* in, float* out, int n, int stride, const ShL1Weights& w, const float* sx, const float* sy,
                           const float* local) {
   return relightBlocksShL1Target(in, out, n, stride, w, sx, sy, local);
+}
+
+int32_t relightPlanes(const float* in, float* out, int n, int stride, const float (&lc)[3][4], const float (&direct)[3][4],
+                      const float* local) {
+  return relightPlanesTarget(in, out, n, stride, lc, direct, local);
 }
 
 DRTV_SIMD_CLONES void accumulateSource(float* acc, const int16_t* q, const float* scale, int n, int stride,

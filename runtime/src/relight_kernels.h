@@ -45,7 +45,7 @@ constexpr size_t blockOffset(int i, int p, int planes) {
 
 // colour[c][b][i] = dot(L[c], T[c][b][i]) + direct[c][b] v[b][i] (+ local[c][b][i], the local
 // lights' term, unless `local` is null) for i < n, clamped. Returns the bit pattern of the largest
-// clamped value.
+// clamped value. `n` a multiple of 16 (the padding lanes hold zero inputs).
 int32_t relightPlanes(const float* in, float* out, int n, int stride, const float (&lc)[3][4], const float (&direct)[3][4],
                       const float* local);
 

@@ -1,5 +1,5 @@
-// drtv_limit_bench — the relight against the least work its formula allows, on the same probes
-// and the same lighting, one core, in one run (issue 38): so that every CPU the project meets is
+// drtv_limit_bench — the relight (fc3, and sh-l1 with its sun transfer) against the least work
+// its formula allows, on the same probes and the same lighting, one core, in one run (issue 38): so that every CPU the project meets is
 // measured the same way, and the ratio, not a figure typed in, says how far the runtime is from
 // the machine's limit.
 //
@@ -11,6 +11,13 @@
 // padding or bookkeeping); the largest clamped colour kept in the same pass; compiled for the
 // same instruction sets as the runtime's kernels (DRTV_SIMD_CLONES) and auto-vectorised across
 // probes. 4 x 3 x 5 multiply-adds, ~108 FLOP a probe with the clamp.
+//
+// The limit kernel of sh-l1 with its sun transfer (representation.h, kShL1, archive version 3,
+// what new worlds bake), per channel c and coefficient i (q = 4 c + i):
+//   e[q] = sum_j L[c][j] M[c][i][j] + d0[c] P0_i + d2[c] P2_i + a[q] S_k0[q] + b[q] S_k1[q],
+// e0 clamped to [0, kMaxColour] and e1..3 to +-kMaxColour; L, d0, d2, the sun samples' weights
+// and a, b once per frame; M, P0, P2 and the two sun samples read in float (the runtime keeps
+// the sun transfer dequantised too). 12 x 8 multiply-adds a probe.
 //
 // The runtime's path is ProbeCache::relightAll on the same synthetic sectors
 // (bench/common/runtime_world.h) that drtv_runtime_bench's BM_RelightWithoutLprt/0 relights. At
@@ -41,6 +48,16 @@ constexpr int kSectors = kMaxResidentSectors;  // 51
 constexpr int kProbesPerSector = 70;
 constexpr int kProbes = kSectors * kProbesPerSector;  // 3,570
 constexpr int kN = (kProbes + 15) & ~15;              // one run of planes, padded once
+
+// drtv_runtime_bench's 51 keys (its makeCache): the 7 x 7 block and two more.
+std::vector<SectorKey> residentKeys() {
+  std::vector<SectorKey> keys;
+  for (int y = -3; y <= 3; ++y)
+    for (int x = -3; x <= 3; ++x) keys.push_back({x, y});
+  keys.push_back({4, 0});
+  keys.push_back({-4, 0});
+  return keys;
+}
 
 RelightInput noonInput() {
   const SkyLighting s = evaluateSky(Sky::tropicalDefault(), 12.0);
@@ -101,13 +118,7 @@ BENCHMARK(BM_LimitRelightFc3)->Unit(benchmark::kMicrosecond);
 
 void BM_RuntimeRelightFc3(benchmark::State& state) {
   ProbeCache cache({.max_sectors = kSectors, .representation = Representation::kFc3});
-  // drtv_runtime_bench's 51 keys and sectors (its makeCache(0)): the 7 x 7 block and two more.
-  std::vector<SectorKey> keys;
-  for (int y = -3; y <= 3; ++y)
-    for (int x = -3; x <= 3; ++x) keys.push_back({x, y});
-  keys.push_back({4, 0});
-  keys.push_back({-4, 0});
-  for (SectorKey k : keys)
+  for (SectorKey k : residentKeys())
     if (!cache.addSector(testing::makeSector(k, {.probes = kProbesPerSector, .sources = 0, .lprt_on_bases = true}, 1))) std::abort();
   const RelightInput in = noonInput();
   for (auto _ : state) {
@@ -118,6 +129,93 @@ void BM_RuntimeRelightFc3(benchmark::State& state) {
   state.counters["probes"] = double(cache.probeCount());
 }
 BENCHMARK(BM_RuntimeRelightFc3)->Unit(benchmark::kMicrosecond);
+
+DRTV_SIMD_CLONES float limitRelightShL1(const float* __restrict m, const float* __restrict p, const float* __restrict s0,
+                                        const float* __restrict s1, float* __restrict out, const float (&l)[3][4],
+                                        const float (&d0)[3], const float (&d2)[3], const float (&a)[12], const float (&b)[12]) {
+  int32_t mx = 0;
+  for (int q = 0; q < 12; ++q) {
+    const int c = q / 4, i = q % 4;
+    const float* __restrict m0 = m + size_t(q * 4) * kN;
+    const float* __restrict m1 = m0 + kN;
+    const float* __restrict m2 = m1 + kN;
+    const float* __restrict m3 = m2 + kN;
+    const float* __restrict p0 = p + size_t(i) * kN;
+    const float* __restrict p2 = p + size_t(4 + i) * kN;
+    const float* __restrict x = s0 + size_t(q) * kN;
+    const float* __restrict y = s1 + size_t(q) * kN;
+    float* __restrict o = out + size_t(q) * kN;
+    const float l0 = l[c][0], l1 = l[c][1], l2 = l[c][2], l3 = l[c][3], e0 = d0[c], e2 = d2[c], aq = a[q], bq = b[q];
+    const float lo = i == 0 ? 0.f : -kMaxColour;
+    for (int k = 0; k < kN; ++k) {
+      const float v = l0 * m0[k] + l1 * m1[k] + l2 * m2[k] + l3 * m3[k] + e0 * p0[k] + e2 * p2[k] + aq * x[k] + bq * y[k];
+      const float w = v > lo ? v : lo;  // NaN -> lo here, 0 below
+      const float z = v == v ? (w < kMaxColour ? w : kMaxColour) : 0.f;
+      o[k] = z;
+      mx = std::max(mx, std::bit_cast<int32_t>(z) & 0x7fffffff);
+    }
+  }
+  return std::bit_cast<float>(mx);
+}
+
+void BM_LimitRelightShL1(benchmark::State& state) {
+  std::vector<float> m(size_t(48) * kN, 0.f), p(size_t(8) * kN, 0.f), s0(size_t(12) * kN, 0.f), s1(size_t(12) * kN, 0.f),
+      out(size_t(12) * kN);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(-0.1f, 0.3f);
+  for (std::vector<float>* v : {&m, &p, &s0, &s1})
+    for (size_t j = 0; j < v->size(); ++j)
+      if (int(j % size_t(kN)) < kProbes) (*v)[j] = u(rng);
+  // The synthetic sectors' sun path (bench/common/runtime_world.h): 6 samples east, over the top, west.
+  std::vector<glm::vec3> path;
+  for (int k = 0; k < 6; ++k) {
+    const float ang = 3.14159265f * float(k) / 5.f;
+    path.push_back(glm::normalize(glm::vec3(std::cos(ang), -0.3f * std::sin(ang), std::sin(ang))));
+  }
+  const RelightInput in = noonInput();
+  std::vector<float> w(path.size());
+  for (auto _ : state) {
+    // Once per frame: the bounce lighting, the direct sky's d0 and d2, the sun samples' weights.
+    float l[3][4], d0[3], d2[3], a[12], b[12];
+    for (int c = 0; c < 3; ++c) {
+      const sh::Sh4 bounce = in.sky_sh[c] + in.sun_sh[c];
+      for (int k = 0; k < 4; ++k) l[c][k] = bounce[k];
+      d0[c] = in.sky_direct_sh[c][0];
+      d2[c] = in.sky_direct_sh[c][2];
+    }
+    sunTransferWeights(path, in.sun_direction, w);
+    size_t k0 = w.size(), k1 = w.size();
+    for (size_t k = 0; k < w.size(); ++k)
+      if (w[k] != 0.f) (k0 == w.size() ? k0 : k1) = k;
+    if (k0 == w.size()) k0 = 0;
+    if (k1 == w.size()) k1 = k0;
+    for (int q = 0; q < 12; ++q) {
+      const float e = in.sun_irradiance[q / 4] * (q % 4 == 0 ? sh::kCosineLobe0 : sh::kCosineLobe1);
+      a[q] = w[k0] * e;
+      b[q] = k1 == k0 ? 0.f : w[k1] * e;
+    }
+    benchmark::DoNotOptimize(limitRelightShL1(m.data(), p.data(), s0.data(), s1.data(), out.data(), l, d0, d2, a, b));
+    benchmark::ClobberMemory();
+  }
+  state.SetItemsProcessed(state.iterations() * kProbes);
+}
+BENCHMARK(BM_LimitRelightShL1)->Unit(benchmark::kMicrosecond);
+
+void BM_RuntimeRelightShL1(benchmark::State& state) {
+  ProbeCache cache({.max_sectors = kSectors, .representation = Representation::kShL1});
+  for (SectorKey k : residentKeys())
+    if (!cache.addSector(testing::makeSector(k, {.probes = kProbesPerSector, .sources = 0, .sky_fit = true, .sun_samples = 6}, 1)))
+      std::abort();
+  RelightInput in = noonInput();
+  in.sun_transfer = true;
+  for (auto _ : state) {
+    cache.relightAll(in);
+    benchmark::ClobberMemory();
+  }
+  state.SetItemsProcessed(state.iterations() * cache.probeCount());
+  state.counters["probes"] = double(cache.probeCount());
+}
+BENCHMARK(BM_RuntimeRelightShL1)->Unit(benchmark::kMicrosecond);
 
 // Prints the runs as the console does and, at the end, each runtime path against its limit
 // (the medians when repeated, else the last run of each).
@@ -143,6 +241,7 @@ class RatioReporter : public benchmark::ConsoleReporter {
       std::printf("%s: runtime %.2f us, limit %.2f us: %.2fx (CPU time: %.2fx)\n", what, rt, lt, rt / lt, rc / lc);
     };
     ratio("relight fc3, 3,570 probes, no LPRT", "BM_RuntimeRelightFc3", "BM_LimitRelightFc3");
+    ratio("relight sh-l1 with its sun transfer, 3,570 probes, no LPRT", "BM_RuntimeRelightShL1", "BM_LimitRelightShL1");
   }
 
  private:

@@ -1,7 +1,7 @@
 // drtv_limit_bench — the relight (fc3, and sh-l1 with its sun transfer) against the least work
-// its formula allows, on the same probes and the same lighting, one core, in one run (issue 38): so that every CPU the project meets is
-// measured the same way, and the ratio, not a figure typed in, says how far the runtime is from
-// the machine's limit.
+// its formula allows, on the same probes and the same lighting, one core, in one run (issue 38):
+// so that every CPU the project meets is measured the same way, and the ratio, not a figure
+// typed in, says how far the runtime is from the machine's limit.
 //
 // The limit kernel (fc3, no LPRT), written from the formula alone (representation.h, kFc3):
 //   colour[c][b][i] = clamp(sum_k L[c][k] T[c][b][k][i] + D[c][b] v[b][i]),

@@ -41,7 +41,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     DRTV_CHECK_EQ(again.size(), size);
     DRTV_CHECK(std::memcmp(again.data(), data, size) == 0);
     DRTV_CHECK_EQ(again.size(), drtv::encodedSectorBytes(sector->probes.size(), sector->lprt.sources.size(), sector->has_ground,
-                                                             sector->sun ? sector->sun->samples() : 0));
+                                                             sector->sun ? sector->sun->samples() : 0, drtv::coveredProbes(*sector)));
   }
 
   // The archive path: compress, describe it as the manifest would, decode the payload.
@@ -57,6 +57,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     entry.key = {readLe<int32_t>(data + 8), readLe<int32_t>(data + 12)};
     entry.probes = readLe<uint16_t>(data + 16);
     entry.lprt_sources = readLe<uint16_t>(data + 18);
+    entry.covered = readLe<uint16_t>(data + 42);
   }
   entry.offset = drtv::kArchiveHeaderBytes;
   entry.compressed_bytes = uint32_t(frame.size());

@@ -1,6 +1,7 @@
 // The bake orchestration: per-sector pipeline, sector files, resumption, shards, packing.
 // See bake.h for the overview and references.
 #include "drtv/baker/bake.h"
+#include "visibility_bake.h"
 
 #include <unistd.h>
 #include <tbb/global_control.h>
@@ -295,6 +296,9 @@ Result<Sector> bakeSector(const raytrace::WorldGeometry& geometry, const worlds:
     stats.placement_s = since(t0);
   }
 
+  if (!settings.covered_visibility)
+    for (PlacedProbe& p : placed) p.flags &= uint16_t(~kProbeCovered);
+
   Sector sector;
   sector.key = key;
   // Ground map: 8 x 8 samples at 8 m cell centres (also bounds the grid from below).
@@ -405,6 +409,19 @@ Result<Sector> bakeSector(const raytrace::WorldGeometry& geometry, const worlds:
     sector.sun = std::move(sun);
   }
 
+  {
+    // The covered probes' visibility maps (visibility.h): the fine level's test of which probes
+    // see a point.
+    std::vector<glm::vec3> covered;
+    for (const PlacedProbe& p : placed)
+      if (p.flags & kProbeCovered) covered.push_back(p.position);
+    if (!covered.empty()) {
+      auto vis = std::make_unique<VisibilityBlock>();
+      vis->values = bakeVisibility(*scene, g, covered, stats.other_rays);
+      sector.visibility = std::move(vis);
+    }
+  }
+
   t0 = Clock::now();
   chooseGridExtent(positions, ground_min, sector.grid);
   {
@@ -418,8 +435,9 @@ Result<Sector> bakeSector(const raytrace::WorldGeometry& geometry, const worlds:
   }
   stats.grid_s = since(t0);
   stats.bytes = encodedSectorBytes(sector.probes.size(), sector.lprt.sources.size(), sector.has_ground,
-                                   sector.sun ? sector.sun->samples() : 0);
-  stats.bytes_without_lprt = encodedSectorBytes(sector.probes.size(), 0, sector.has_ground, sector.sun ? sector.sun->samples() : 0);
+                                   sector.sun ? sector.sun->samples() : 0, coveredProbes(sector));
+  stats.bytes_without_lprt = encodedSectorBytes(sector.probes.size(), 0, sector.has_ground, sector.sun ? sector.sun->samples() : 0,
+                                                coveredProbes(sector));
   stats.total_s = since(t_start);
   return sector;
 }
@@ -549,7 +567,8 @@ Result<void> packArchive(const raytrace::WorldGeometry& geometry, const worlds::
     st.probes = decoded->probes.size();
     st.lprt_sources = decoded->lprt.sources.size();
     st.bytes = bytes->size();
-    st.bytes_without_lprt = encodedSectorBytes(st.probes, 0, decoded->has_ground, decoded->sun ? decoded->sun->samples() : 0);
+    st.bytes_without_lprt = encodedSectorBytes(st.probes, 0, decoded->has_ground, decoded->sun ? decoded->sun->samples() : 0,
+                                               coveredProbes(*decoded));
     if (auto a = out->addEncodedSector(*bytes); !a) return std::unexpected(a.error());
   }
   if (auto f = out->finish(manifestFor(geometry, world, world_name, report.settings, effects)); !f) return std::unexpected(f.error());
@@ -648,6 +667,7 @@ static Result<BakeReport> bakeRecorded(const worlds::World& given, const std::st
   if (options.find_rooms) report.settings.rooms.enabled = *options.find_rooms;
   if (options.inside_from_neighbours) report.settings.grid.inside_from_neighbours = *options.inside_from_neighbours;
   if (options.cell_sides) report.settings.transfer.cell_sides = *options.cell_sides;
+  if (options.covered_visibility) report.settings.covered_visibility = *options.covered_visibility;
   else if (given.representation && !options.settings) report.settings.transfer.representation = *given.representation;
   if (auto why = validateSettings(report.settings); !why) return std::unexpected(why.error().context("bake settings"));
   report.threads = options.threads > 0 ? options.threads : int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));

@@ -60,7 +60,7 @@ Result<InMemoryBake> bakeInMemory(const worlds::World& given, const std::string&
     out.rays += out.stats[i].rays();
     if (s.probes.empty()) continue;
     out.probes += s.probes.size();
-    out.bytes += encodedSectorBytes(s.probes.size(), s.lprt.sources.size(), s.has_ground, s.sun ? s.sun->samples() : 0);
+    out.bytes += encodedSectorBytes(s.probes.size(), s.lprt.sources.size(), s.has_ground, s.sun ? s.sun->samples() : 0, coveredProbes(s));
     out.sectors.push_back(std::move(s));
   }
   out.manifest = manifestFor(*geometry, world, where, settings, effects);

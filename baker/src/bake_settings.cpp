@@ -121,6 +121,8 @@ std::vector<std::pair<std::string, std::string>> BakeSettings::describe() const 
   if (placement.covered_min_horizontal_m < placement.min_horizontal_m)
     d.emplace_back("covered_min_horizontal_m", fmt(placement.covered_min_horizontal_m));
   if (transfer.sweeps != 0) d.emplace_back("sweeps", std::to_string(transfer.sweeps));
+  // Only when on: a bake without visibility maps describes itself (and hashes, and packs) as before.
+  if (covered_visibility) d.emplace_back("covered_visibility", "1");
   // Only when off: a bake that finds no room describes itself (and hashes, and packs) as before.
   if (!rooms.enabled) d.emplace_back("rooms", "off");
   if (transfer.representation != Representation::kFc3) d.emplace_back("representation", representationName(transfer.representation));

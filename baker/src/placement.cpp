@@ -251,6 +251,7 @@ std::vector<PlacedProbe> placeProbes(const raytrace::RayScene& scene, const rayt
   out.reserve(accepted.size());
   for (const Candidate& c : accepted) {
     PlacedProbe p{c.position, c.flags, c.interior};
+    if (c.priority == kCovered || c.priority == kDesignated) p.flags |= kProbeCovered;
     if (p.interior == 0)
       for (const LocalInterior& in : interiors)
         if (glm::all(glm::greaterThanEqual(p.position, in.box.min)) && glm::all(glm::lessThan(p.position, in.box.max))) {

@@ -1,6 +1,7 @@
 // Deterministic sectors for the formats tests.
 #pragma once
 
+#include <memory>
 #include <random>
 
 #include "drtv/formats/sector.h"
@@ -73,6 +74,25 @@ inline Sector makeGoldenSector() {
   s.lprt.coeffs.resize(2 * 2 * 12);
   for (size_t i = 0; i < s.lprt.coeffs.size(); ++i) s.lprt.coeffs[i] = int16_t(i * 1300 - 20000);
   return s;
+}
+
+// Flags every `every`-th probe of `s` kProbeCovered and gives those visibility maps of
+// pseudo-random bytes (any two bytes are a texel, visibility.h).
+inline void coverProbes(Sector& s, int every, uint32_t seed) {
+  size_t covered = 0;
+  for (size_t i = 0; i < s.probes.size(); i += size_t(every)) {
+    s.probes[i].flags |= kProbeCovered;
+    ++covered;
+  }
+  if (covered == 0) return;
+  auto vis = std::make_unique<VisibilityBlock>();
+  vis->values.resize(covered * kVisBytesPerProbe);
+  uint32_t x = seed * 2654435761u + 1u;
+  for (uint8_t& b : vis->values) {
+    x = x * 1664525u + 1013904223u;
+    b = uint8_t(x >> 24);
+  }
+  s.visibility = std::move(vis);
 }
 
 inline constexpr uint64_t kGoldenSectorHash = 0xade51ce8991b1dc6ull;

@@ -200,7 +200,8 @@ std::vector<uint8_t> encodeManifest(const Manifest& m) {
     w.put(e.hash);
     w.put(e.probes);
     w.put(e.lprt_sources);
-    w.put<uint32_t>(0);
+    w.put(e.covered);
+    w.put<uint16_t>(0);
   }
   return out;
 }
@@ -273,7 +274,7 @@ Result<Manifest> parseManifest(std::span<const uint8_t> bytes, uint32_t version,
   for (uint32_t i = 0; i < n_sectors; ++i) {
     const uint64_t entry_at = at();
     SectorEntry& e = m.sectors[i];
-    uint32_t zero = 0;
+    uint16_t zero = 0;
     rd.get(e.key.ix);
     rd.get(e.key.iy);
     rd.get(e.offset);
@@ -282,6 +283,7 @@ Result<Manifest> parseManifest(std::span<const uint8_t> bytes, uint32_t version,
     rd.get(e.hash);
     rd.get(e.probes);
     rd.get(e.lprt_sources);
+    rd.get(e.covered);
     rd.get(zero);
     const std::string name = "sector " + toString(e.key) + " entry: ";
     if (i > 0 && !(m.sectors[i - 1].key < e.key)) return failAt(where, entry_at, name + "keys are not sorted and unique");
@@ -291,13 +293,14 @@ Result<Manifest> parseManifest(std::span<const uint8_t> bytes, uint32_t version,
     if (e.compressed_bytes == 0) return failAt(where, entry_at + 16, name + "empty payload");
     if (e.probes > kMaxProbesPerSector || e.lprt_sources > kMaxLprtSources)
       return failAt(where, entry_at + 32, name + "probe or LPRT source count out of range");
+    if (e.covered > e.probes) return failAt(where, entry_at + 36, name + "more covered probes than probes");
     // One of the sizes a sector of these counts can have: with or without its ground map, and
     // with a sun-transfer block of 2..8 samples or none.
-    const bool fits = sunSamplesOfEncodedSize(e.raw_bytes, e.probes, e.lprt_sources).has_value();
+    const bool fits = sunSamplesOfEncodedSize(e.raw_bytes, e.probes, e.lprt_sources, e.covered).has_value();
     if (!fits || e.raw_bytes > max_raw)
       return failAt(where, entry_at + 20, name + "raw size " + std::to_string(e.raw_bytes) + " does not fit " +
                                               std::to_string(e.probes) + " probes");
-    if (zero != 0) return failAt(where, entry_at + 36, name + "reserved field is not zero");
+    if (zero != 0) return failAt(where, entry_at + 38, name + "reserved field is not zero");
   }
   DRTV_CHECK(rd.ok() && rd.remaining() == 0);
   return m;
@@ -437,7 +440,7 @@ Result<Sector> decodeSectorPayload(const SectorEntry& e, std::span<const uint8_t
   auto sector = decodeSector(*raw, where);
   if (!sector) return sector;
   if (sector->key != e.key) return fail(where + ": byte 8: payload holds sector " + toString(sector->key));
-  if (sector->probes.size() != e.probes || sector->lprt.sources.size() != e.lprt_sources)
+  if (sector->probes.size() != e.probes || sector->lprt.sources.size() != e.lprt_sources || coveredProbes(*sector) != e.covered)
     return fail(where + ": payload counts differ from the manifest's");
   return sector;
 }
@@ -539,6 +542,7 @@ Result<void> ArchiveWriter::addEncodedSector(std::span<const uint8_t> encoded) {
   e.hash = hash64(frame);
   e.probes = static_cast<uint16_t>(decoded->probes.size());
   e.lprt_sources = static_cast<uint16_t>(decoded->lprt.sources.size());
+  e.covered = static_cast<uint16_t>(coveredProbes(*decoded));
   s.entries.push_back(e);
   s.offset += frame.size();
   return {};

@@ -81,7 +81,8 @@ size_t Sector::memoryBytes() const {
          lprt.coeffs.capacity() * sizeof(int16_t) +
          (sun ? sizeof(SunBlock) + sun->directions.capacity() * sizeof(glm::vec3) +
                     sun->ranges.capacity() * sizeof(float) + sun->coeffs.capacity()
-              : 0);
+              : 0) +
+         (visibility ? sizeof(VisibilityBlock) + visibility->values.capacity() : 0);
 }
 
 float Sector::groundHeight(int x, int y) const {
@@ -89,20 +90,29 @@ float Sector::groundHeight(int x, int y) const {
   return ground_z_min_m + dequantizeUnorm16(q) * (ground_z_max_m - ground_z_min_m);
 }
 
-size_t encodedSectorBytes(size_t probes, size_t sources, bool has_ground, size_t sun_samples) {
-  size_t n = kSectorHeaderBytes + probes * kProbeBytes + kGridCells;
+size_t coveredProbes(const Sector& s) {
+  size_t n = 0;
+  for (const ProbeRecord& r : s.probes) n += (r.flags & kProbeCovered) != 0;
+  return n;
+}
+
+size_t encodedSectorBytes(size_t probes, size_t sources, bool has_ground, size_t sun_samples, size_t covered) {
+  size_t n = kSectorHeaderBytes + probes * kProbeBytes + kGridCells + covered * kVisBytesPerProbe;
   if (has_ground) n += kGroundBytes;
   if (sources > 0) n += sources * kLprtSourceBytes + probes * sources * 3 * 4 * sizeof(int16_t);
   if (sun_samples > 0) n += sun_samples * 12 + probes * (4 + sun_samples * 12);
   return n;
 }
 
-size_t maxEncodedSectorBytes() { return encodedSectorBytes(kMaxProbesPerSector, kMaxLprtSources, true, kMaxSunSamples); }
+size_t maxEncodedSectorBytes() {
+  return encodedSectorBytes(kMaxProbesPerSector, kMaxLprtSources, true, kMaxSunSamples, kMaxProbesPerSector);
+}
 
-std::optional<size_t> sunSamplesOfEncodedSize(size_t raw_bytes, size_t probes, size_t sources) {
+std::optional<size_t> sunSamplesOfEncodedSize(size_t raw_bytes, size_t probes, size_t sources, size_t covered) {
   // A bake writes a sun block of 2..8 samples (validate in bake.cpp), or none.
   for (size_t sun = 0; sun <= size_t(kMaxSunSamples); sun += sun == 0 ? 2 : 1)
-    if (raw_bytes == encodedSectorBytes(probes, sources, false, sun) || raw_bytes == encodedSectorBytes(probes, sources, true, sun))
+    if (raw_bytes == encodedSectorBytes(probes, sources, false, sun, covered) ||
+        raw_bytes == encodedSectorBytes(probes, sources, true, sun, covered))
       return sun;
   return std::nullopt;
 }
@@ -123,9 +133,12 @@ std::vector<uint8_t> encodeSector(const Sector& s) {
     DRTV_CHECK_EQ(s.sun->coeffs.size(), n_probes * n_sun * 12);
   }
   for (uint8_t c : s.grid.cells) DRTV_CHECK(c == kNoProbe || c < n_probes);
+  const size_t n_covered = coveredProbes(s);
+  DRTV_CHECK_EQ(s.visibility ? s.visibility->values.size() : 0, n_covered * kVisValuesPerProbe);
+  DRTV_CHECK(!s.visibility || n_covered > 0);
 
   std::vector<uint8_t> out;
-  out.reserve(encodedSectorBytes(n_probes, n_sources, s.has_ground, n_sun));
+  out.reserve(encodedSectorBytes(n_probes, n_sources, s.has_ground, n_sun, n_covered));
   ByteWriter w(out);
   w.bytes(kSectorMagic, 4);
   w.put<uint16_t>(kSectorVersion);
@@ -143,6 +156,8 @@ std::vector<uint8_t> encodeSector(const Sector& s) {
   w.put<float>(s.ground_z_min_m);
   w.put<float>(s.ground_z_max_m);
   w.put<uint8_t>(static_cast<uint8_t>(n_sun));
+  w.put<uint8_t>(0);
+  w.put<uint16_t>(static_cast<uint16_t>(n_covered));
   w.zeros(kSectorHeaderBytes - w.size());
   for (const ProbeRecord& r : s.probes) {
     DRTV_CHECK(n_sources > 0 || r.lprt_range == 0.f);
@@ -169,7 +184,8 @@ std::vector<uint8_t> encodeSector(const Sector& s) {
     for (float r : s.sun->ranges) w.put(r);
     for (int8_t v : s.sun->coeffs) w.put(v);
   }
-  DRTV_CHECK_EQ(out.size(), encodedSectorBytes(n_probes, n_sources, s.has_ground, n_sun));
+  if (s.visibility) w.bytes(s.visibility->values.data(), s.visibility->values.size());
+  DRTV_CHECK_EQ(out.size(), encodedSectorBytes(n_probes, n_sources, s.has_ground, n_sun, n_covered));
   return out;
 }
 
@@ -226,11 +242,14 @@ Result<Sector> decodeSector(std::span<const uint8_t> bytes, const std::string& w
   const size_t n_sun = bytes[40];
   if (n_sun > kMaxSunSamples)
     return failAt(where, 40, "sun sample count " + std::to_string(n_sun) + " exceeds " + std::to_string(kMaxSunSamples));
+  const size_t n_covered = size_t(bytes[42]) | size_t(bytes[43]) << 8;
+  if (n_covered > n_probes)
+    return failAt(where, 42, "covered probe count " + std::to_string(n_covered) + " exceeds the probe count " + std::to_string(n_probes));
   for (size_t i = 41; i < kSectorHeaderBytes; ++i)
-    if (bytes[i] != 0) return failAt(where, i, "reserved header byte is not zero");
+    if (bytes[i] != 0 && i != 42 && i != 43) return failAt(where, i, "reserved header byte is not zero");
 
   // The counts are now bounded, so the expected size is too: compare before any allocation.
-  const size_t expected = encodedSectorBytes(n_probes, n_sources, s.has_ground, n_sun);
+  const size_t expected = encodedSectorBytes(n_probes, n_sources, s.has_ground, n_sun, n_covered);
   if (bytes.size() < expected)
     return failAt(where, bytes.size(), "truncated: " + std::to_string(bytes.size()) + " bytes, the header promises " +
                                            std::to_string(expected));
@@ -255,6 +274,9 @@ Result<Sector> decodeSector(std::span<const uint8_t> bytes, const std::string& w
     if (n_sources == 0 && s.probes[i].lprt_range != 0.f)
       return failAt(where, at + 132, "probe " + std::to_string(i) + ": lprt_range set without an LPRT block");
   }
+  if (const size_t flagged = coveredProbes(s); flagged != n_covered)
+    return failAt(where, 42, "covered probe count " + std::to_string(n_covered) + ", but " + std::to_string(flagged) +
+                                 " probes are flagged covered");
   const size_t grid_at = rd.offset();
   rd.bytes(s.grid.cells.data(), kGridCells);
   // One max reduction (it vectorises); the offending cell is searched for only on failure. c + 1
@@ -320,6 +342,13 @@ Result<Sector> decodeSector(std::span<const uint8_t> bytes, const std::string& w
     for (size_t i = 0; i < sun->coeffs.size(); ++i)
       if (sun->coeffs[i] == -128) return failAt(where, coeff_at + i, "sun-transfer coefficient -128 is never written");
     s.sun = std::move(sun);
+  }
+  if (n_covered > 0) {
+    // Any two bytes are a mean and a deviation (visibility.h): nothing to refuse.
+    auto vis = std::make_unique<VisibilityBlock>();
+    vis->values.resize(n_covered * kVisBytesPerProbe);
+    rd.bytes(vis->values.data(), vis->values.size());
+    s.visibility = std::move(vis);
   }
   DRTV_CHECK(rd.ok());
   DRTV_CHECK_EQ(rd.offset(), bytes.size());

@@ -1,6 +1,7 @@
 // probe_cache.cpp — see probe_cache.h for the references [1-3] and the layout. Adding and
 // removing sectors, the sources' bookkeeping, packing and the probes' data.
 #include "drtv/runtime/probe_cache.h"
+#include "drtv/formats/visibility.h"
 
 #include <algorithm>
 #include <string>
@@ -65,6 +66,12 @@ Result<void> ProbeCache::addSector(const Sector& sector, SectorBlock keep) {
     if (K > size_t(kMaxSunSamples) || sector.sun->ranges.size() != size_t(n) || sector.sun->coeffs.size() != size_t(n) * K * 12)
       return fail(where + ": sun-transfer block size does not match its probes and samples");
   }
+  size_t covered = 0;
+  for (const ProbeRecord& r : sector.probes) covered += (r.flags & kProbeCovered) != 0;
+  const size_t vis_values = sector.visibility ? sector.visibility->values.size() : 0;
+  if (vis_values != covered * kVisValuesPerProbe)
+    return fail(where + ": visibility block holds " + std::to_string(vis_values) + " values for " +
+                std::to_string(covered) + " covered probes (" + std::to_string(kVisValuesPerProbe) + " each)");
   int s = -1;
   for (size_t k = 0; k < m.slots.size(); ++k)
     if (!m.slots[k].used) {
@@ -101,6 +108,7 @@ Result<void> ProbeCache::addSector(const Sector& sector, SectorBlock keep) {
     sl.height[i] = d.height_m;
     sl.sky_vis[i] = d.sky_vis;
     if (d.flags & kProbeInterior) sl.designated.push_back(uint8_t(i));
+    if (d.flags & kProbeCovered) sl.covered.push_back(uint8_t(i));
     sl.lo = glm::min(sl.lo, d.position);
     sl.hi = glm::max(sl.hi, d.position);
     if (sh_l1) {
@@ -182,6 +190,7 @@ Result<void> ProbeCache::addSector(const Sector& sector, SectorBlock keep) {
         for (int q = 0; q < 12; ++q)
           sl.sun.data[k * 12 * stride + blockOffset(i, q, 12)] = dequantizeSnorm8(sun.coeffs[sun.index(size_t(i), k, q / 4, q % 4)], sun.ranges[size_t(i)]);
   }
+  if (sector.visibility) sl.visibility = sector.visibility->values;
   m.sourcesArrived(s);
   return {};
 }

@@ -70,6 +70,10 @@ struct Slot {
   std::vector<glm::vec4> sky_vis;
   glm::vec3 lo{0.f}, hi{0.f};       // bounding box of `position`
   std::vector<uint8_t> designated;  // probes flagged kProbeInterior (few: one per interior)
+  // The fine level (probe_cache.h fineLookup): the probes flagged kProbeCovered, in probe order,
+  // and their visibility maps (visibility.h), kVisValuesPerProbe each in the same order.
+  std::vector<uint8_t> covered;
+  std::vector<uint8_t> visibility;
   // LPRT [2]
   std::vector<LprtSource> sources;
   // The local lights' term of the colours (the last sum of probe_cache.h's formula, in the colour

@@ -258,6 +258,14 @@ AmbientSample Runtime::ambient(const glm::dvec3& position, const glm::vec3& norm
       s.irradiance += (s.interior_ambient - s.irradiance) * s.interior_weight;
     }
   }
+  if (options_.fine.enabled) {
+    const FineSample f = cache_.fineLookup(position, n, options_.fine);
+    if (f.weight > 0.f) {
+      s.fine_weight = f.weight;
+      s.fine = shade(options_.representation, f.colours, n);
+      s.irradiance += (s.fine - s.irradiance) * s.fine_weight;
+    }
+  }
   return s;
 }
 

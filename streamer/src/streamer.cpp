@@ -2,6 +2,7 @@
 #include "drtv/streamer/streamer.h"
 
 #include <algorithm>
+#include <functional>
 #include <chrono>
 
 
@@ -26,18 +27,26 @@ const char* sectorStateName(SectorState s) {
 
 size_t predictedSectorBytes(const SectorEntry& e) {
   return sizeof(Sector) + size_t(e.probes) * sizeof(ProbeRecord) + size_t(e.lprt_sources) * sizeof(LprtSource) +
-         size_t(e.probes) * e.lprt_sources * 12 * sizeof(int16_t);
+         size_t(e.probes) * e.lprt_sources * 12 * sizeof(int16_t) + size_t(e.covered) * kVisBytesPerProbe;
 }
 
 size_t budgetBytesFor(const Manifest& manifest) {
   bool lprt = false;
   size_t sun_samples = 0;
+  std::vector<size_t> covered;
   for (const SectorEntry& e : manifest.sectors) {
     lprt |= e.lprt_sources > 0;
     // The archive reader checked that every entry's size fits its counts.
-    sun_samples = std::max(sun_samples, sunSamplesOfEncodedSize(e.raw_bytes, e.probes, e.lprt_sources).value_or(0));
+    sun_samples = std::max(sun_samples, sunSamplesOfEncodedSize(e.raw_bytes, e.probes, e.lprt_sources, e.covered).value_or(0));
+    if (e.covered > 0) covered.push_back(e.covered);
   }
-  return (lprt ? kBudgetBytesWithLprt : kBudgetBytesWithoutLprt) + size_t(kMaxResidentSectors) * sunTransferAllowanceBytes(sun_samples);
+  // The visibility maps of the 51 sectors that hold the most (sector.h): a town's resident block.
+  const size_t most = std::min(covered.size(), size_t(kMaxResidentSectors));
+  std::partial_sort(covered.begin(), covered.begin() + ptrdiff_t(most), covered.end(), std::greater<>());
+  size_t maps = 0;
+  for (size_t i = 0; i < most; ++i) maps += covered[i] * kVisBytesPerProbe;
+  return (lprt ? kBudgetBytesWithLprt : kBudgetBytesWithoutLprt) + size_t(kMaxResidentSectors) * sunTransferAllowanceBytes(sun_samples) +
+         maps;
 }
 
 Result<std::unique_ptr<Streamer>> Streamer::open(const std::filesystem::path& archive, StreamerOptions options) {

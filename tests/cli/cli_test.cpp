@@ -524,19 +524,23 @@ TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
                                  // choice); "nearest": the bytes of every build before 2026-12-02
     const char* cells;           // "": the default (sh-l1's cache cells split by walls);
                                  // "shared": the bytes of every build before 2026-12-03
+    const char* fine;            // "": the default (covered probes with visibility maps);
+                                 // "off": the bytes of every build before 2026-12-05
   };
   const Bake bakes[] = {
-      {"worlds/island.json", "2", "fc3", "0", "nearest", ""},
-      {"worlds/island.json", "1", "fc3", "0", "nearest", ""},
-      {"worlds/island_lit.json", "2", "fc3", "0", "nearest", ""},
-      {"worlds/island.json", "2", "sh-l1", "0", "nearest", "shared"},   // archive version 3: fitted direct sky, sun transfer
-      {"worlds/island.json", "2", "fc3", "", "nearest", ""},            // placement with its 0.25 m clearance
-      {"worlds/island.json", "2", "sh-l1", "", "nearest", "shared"},    // the default bake until 2026-12-02
-      {"worlds/island_lit.json", "2", "sh-l1", "", "nearest", "shared"},  // sh-l1's LPRT with the bake's 2 bounces
-      {"worlds/island.json", "2", "sh-l1", "", "", "shared"},           // the default bake until 2026-12-03
-      {"worlds/island_lit.json", "2", "sh-l1", "", "", "shared"},       // the same with LPRT of 2 bounces
-      {"worlds/island.json", "2", "sh-l1", "", "", ""},                 // the default bake
-      {"worlds/island_lit.json", "2", "sh-l1", "", "", ""},             // the default bake with LPRT
+      {"worlds/island.json", "2", "fc3", "0", "nearest", "", "off"},
+      {"worlds/island.json", "1", "fc3", "0", "nearest", "", "off"},
+      {"worlds/island_lit.json", "2", "fc3", "0", "nearest", "", "off"},
+      {"worlds/island.json", "2", "sh-l1", "0", "nearest", "shared", "off"},   // archive version 3: fitted direct sky, sun transfer
+      {"worlds/island.json", "2", "fc3", "", "nearest", "", "off"},            // placement with its 0.25 m clearance
+      {"worlds/island.json", "2", "sh-l1", "", "nearest", "shared", "off"},    // the default bake until 2026-12-02
+      {"worlds/island_lit.json", "2", "sh-l1", "", "nearest", "shared", "off"},  // sh-l1's LPRT with the bake's 2 bounces
+      {"worlds/island.json", "2", "sh-l1", "", "", "shared", "off"},           // the default bake until 2026-12-03
+      {"worlds/island_lit.json", "2", "sh-l1", "", "", "shared", "off"},       // the same with LPRT of 2 bounces
+      {"worlds/island.json", "2", "sh-l1", "", "", "", "off"},                 // the default bake until 2026-12-05
+      {"worlds/island_lit.json", "2", "sh-l1", "", "", "", "off"},             // the same with LPRT
+      {"worlds/island.json", "2", "sh-l1", "", "", "", ""},             // the default bake from 2026-12-05 (visibility maps)
+      {"worlds/island_lit.json", "2", "sh-l1", "", "", "", ""},         // the same with LPRT
   };
   constexpr size_t kBakes = sizeof bakes / sizeof bakes[0];
   struct Family {
@@ -546,10 +550,13 @@ TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
     std::array<uint64_t, kBakes> xxh3;  // 0: not recorded on this family yet (printed to record)
   };
   const Family families[] = {
-      // AMD EPYC (Zen 4), the CI host from 2026-12-02.
+      // AMD EPYC (Zen 4), the CI host from 2026-12-02. The last four recorded on 2026-12-05: the
+      // default bakes before the visibility maps (--fine off: the bytes the build before wrote,
+      // compared file for file) and with them; the Xeon's print themselves to be recorded.
       {"AMD EPYC", 0xb719567d9ef9735full, "AuthenticAMD",
        {0xb5dc41527c49bc30ull, 0xb5dc41527c49bc30ull, 0x83e674d1c0876195ull, 0xce768512b03790c7ull, 0x602302430699b4b5ull,
-        0x403bda8d7b11fe7dull, 0xeace7813206ac06aull, 0x223f3054c17af0b1ull, 0x030e6917899684ebull, 0x0ull, 0x0ull}},
+        0x403bda8d7b11fe7dull, 0xeace7813206ac06aull, 0x223f3054c17af0b1ull, 0x030e6917899684ebull, 0x889378c2a953a185ull, 0x8c6679ee6ce99884ull, 0x2ae851aaf4dd854cull,
+        0x5705d869b0421831ull}},
       // Intel Xeon, every CI host until 2026-12-01 (matched by vendor; the Xeon of 2026-12-02 had
       // the fingerprint 0xec281bdebf45ee62). The sh-l1 bakes changed on 2026-12-02 (the direct
       // sky's receiver-weighted fit) and were recorded again on a Xeon the same day. The last two
@@ -557,7 +564,7 @@ TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
       // 2026-12-03; the EPYC's print themselves to be recorded.
       {"Intel Xeon", 0x0ull, "GenuineIntel",
        {0x797f2f8433a8ec21ull, 0x797f2f8433a8ec21ull, 0x906bc4b8292ce446ull, 0x725fcbb5a43280beull, 0x6cf058d923e27201ull,
-        0x75257267d87249e8ull, 0xdd36c7ae5d8cc7e2ull, 0xca6dafdfbcf78d79ull, 0xf28d04abe1b833b1ull, 0x555b92ed9354f97aull, 0x0cccae2414c4ee7cull}},
+        0x75257267d87249e8ull, 0xdd36c7ae5d8cc7e2ull, 0xca6dafdfbcf78d79ull, 0xf28d04abe1b833b1ull, 0x555b92ed9354f97aull, 0x0cccae2414c4ee7cull, 0x0ull, 0x0ull}},
   };
   const uint64_t fingerprint = reciprocalFingerprint();
   const std::string vendor = cpuVendor();
@@ -572,7 +579,8 @@ TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
     const Outcome r = drtv("bake " + src(g.world) + " -o " + out + " --quality draft --threads " + g.threads +
                                " --representation " + g.representation + (*g.clearance ? std::string(" --clearance ") + g.clearance : "") +
                                (*g.inside ? std::string(" --inside-cells ") + g.inside : "") +
-                               (*g.cells ? std::string(" --cache-cells ") + g.cells : ""),
+                               (*g.cells ? std::string(" --cache-cells ") + g.cells : "") +
+                               (*g.fine ? std::string(" --fine ") + g.fine : ""),
                            "DRTV_EMBREE_CONFIG=isa=sse2");
     EXPECT_EQ(r.status, 0) << r.out;
     const std::string bytes = slurp(out);

@@ -40,6 +40,7 @@ class ArchiveTest : public ::testing::Test {
     for (int iy = -1; iy <= 0; ++iy)
       for (int ix = -1; ix <= 1; ++ix) {
         sectors_.push_back(testing::makeSector({ix, iy}, 10 + ix * 3 + iy, ix == 1 ? 8 : 0, uint32_t(ix * 7 + iy)));
+        if (ix == 0) testing::coverProbes(sectors_.back(), 3, uint32_t(5 - iy));  // visibility maps (sector.h)
         auto ok = w->addSector(sectors_.back());
         EXPECT_TRUE(ok.has_value()) << ok.error().message;
       }
@@ -72,6 +73,9 @@ TEST_F(ArchiveTest, RoundTripsManifestAndEverySector) {
     ASSERT_TRUE(got.has_value()) << got.error().message;
     EXPECT_EQ(encodeSector(*got), encodeSector(s));
     EXPECT_EQ(m.find(s.key)->probes, s.probes.size());
+    EXPECT_EQ(m.find(s.key)->covered, coveredProbes(s));
+    EXPECT_EQ(got->visibility ? got->visibility->values : std::vector<uint8_t>{},
+              s.visibility ? s.visibility->values : std::vector<uint8_t>{});
   }
   auto missing = r->readSector({5, 5});
   ASSERT_FALSE(missing.has_value());

@@ -55,6 +55,68 @@ TEST(Sector, RoundTripsWithoutProbesAndWithTheMostProbes) {
   }
 }
 
+TEST(Sector, RoundTripsTheCoveredProbesVisibilityMaps) {
+  Sector s = testing::makeSector({2, 5}, 70, 0, 4);
+  testing::coverProbes(s, 3, 9);
+  const size_t covered = coveredProbes(s);
+  ASSERT_EQ(covered, 24u);
+  const std::vector<uint8_t> bytes = encodeSector(s);
+  EXPECT_EQ(bytes.size(), encodedSectorBytes(70, 0, true, 0, covered));
+  EXPECT_EQ(bytes.size() - encodedSectorBytes(70, 0, true), covered * kVisBytesPerProbe);
+  EXPECT_EQ(size_t(bytes[42]) | size_t(bytes[43]) << 8, covered);
+  auto d = decodeSector(bytes, "mem");
+  ASSERT_TRUE(d.has_value()) << d.error().message;
+  ASSERT_TRUE(d->visibility);
+  EXPECT_EQ(d->visibility->values, s.visibility->values);
+  EXPECT_EQ(encodeSector(*d), bytes);
+  // A sector without covered probes has no block and its bytes are those of every build before.
+  EXPECT_FALSE(decodeSector(encodeSector(testing::makeSector({2, 5}, 70, 0, 4)), "mem")->visibility);
+}
+
+TEST(Sector, ACoveredCountThatDisagreesWithTheFlagsIsRefused) {
+  Sector s = testing::makeSector({0, 0}, 30, 0, 2);
+  testing::coverProbes(s, 2, 1);
+  const std::vector<uint8_t> good = encodeSector(s);
+  {
+    std::vector<uint8_t> bytes = good;
+    bytes[42] = uint8_t(bytes[42] + 1);  // one more map than the size holds
+    auto d = decodeSector(bytes, "x.drtv");
+    ASSERT_FALSE(d.has_value());
+    EXPECT_NE(d.error().message.find("x.drtv: byte "), std::string::npos) << d.error().message;
+  }
+  {
+    std::vector<uint8_t> bytes = good;
+    bytes[42] = 31;  // more covered probes than probes
+    auto d = decodeSector(bytes, "x.drtv");
+    ASSERT_FALSE(d.has_value());
+    EXPECT_NE(d.error().message.find("byte 42: covered probe count 31 exceeds the probe count 30"), std::string::npos)
+        << d.error().message;
+  }
+  {
+    // A probe flagged covered whose map is missing: the count says 15, the flags 16.
+    std::vector<uint8_t> bytes = good;
+    const size_t flags_at = kSectorHeaderBytes + 1 * sizeof(ProbeRecord) + 12;
+    bytes[flags_at] = uint8_t(bytes[flags_at] | kProbeCovered);
+    auto d = decodeSector(bytes, "x.drtv");
+    ASSERT_FALSE(d.has_value());
+    EXPECT_NE(d.error().message.find("covered probe count 15, but 16 probes are flagged covered"), std::string::npos)
+        << d.error().message;
+  }
+}
+
+// DESIGN.md, "Near surfaces and indoors": a sector with buildings takes at most 256 KB without
+// LPRT. The most a sector can hold: 255 probes, every one covered with its map, the ground map and
+// an 8-sample sun transfer.
+TEST(Sector, ASectorOfBuildingsStaysWithinItsBudget) {
+  EXPECT_LE(encodedSectorBytes(kMaxProbesPerSector, 0, true, kMaxSunSamples, kMaxProbesPerSector), 256u * 1000u);
+  Sector s = testing::makeSector({0, 0}, kMaxProbesPerSector, 0, 3);
+  testing::coverProbes(s, 1, 3);
+  const std::vector<uint8_t> bytes = encodeSector(s);
+  auto d = decodeSector(bytes, "mem");
+  ASSERT_TRUE(d.has_value()) << d.error().message;
+  EXPECT_LE(d->memoryBytes(), 256u * 1000u);
+}
+
 TEST(Sector, SeventyProbesWithoutLprtTakeUnder15KBInMemory) {
   // The talk: "a little under 15KB" per sector with its grid (slide 22). Measured from the heap
   // allocations that decoding makes, plus the Sector object itself.

@@ -317,7 +317,8 @@ void editEverySectorFloat(const Baked& b) {
   ASSERT_EQ(lit.size(), n);
   int refused = 0, accepted = 0;
   const size_t samples = original.sun ? original.sun->samples() : 0;
-  const size_t sun_at = encoded.size() - (samples ? samples * 12 + n * (4 + samples * 12) : 0);
+  // The sun block, then the covered probes' visibility maps (sector.h).
+  const size_t sun_at = encoded.size() - (samples ? samples * 12 + n * (4 + samples * 12) : 0) - coveredProbes(original) * kVisBytesPerProbe;
   for (const Field& f : sectorFloats(n, {0, n / 2, n - 1}, sun_at, samples))
     for (double v : kExtremes) {
       std::vector<uint8_t> bytes = encoded;
@@ -333,6 +334,7 @@ void editEverySectorFloat(const Baked& b) {
       e.hash = XXH3_64bits(frame.data(), frame.size());
       e.probes = uint16_t(n);
       e.lprt_sources = uint16_t(original.lprt.sources.size());
+      e.covered = uint16_t(coveredProbes(original));
       auto s = decodeSectorPayload(e, frame, where);
       if (!s) {
         ++refused;

@@ -356,3 +356,73 @@ TEST(ClosedRoom, TheWallsOuterFacesReadTheAirBesideThem) {
 
 }  // namespace
 }  // namespace drtv::testing
+
+namespace drtv::testing {
+namespace {
+
+// Two closed rooms side by side under one roof, parted by a 0.2 m wall, a lamp in the west one
+// (issue 35). At night the east room gets no light at all (it is closed: physics' answer is 0).
+// The fine level reads the probes under the roof that see a point (visibility.h): at the east
+// room's floor and on its face of the wall, a few decimetres from the lit room, it must read none of
+// the lamp's light, and in the west room it must read it.
+worlds::World twoRoomsOneLamp() {
+  worlds::World w = baker::test::planeWorld(64.0, {0.4f, 0.4f, 0.4f});
+  w.name = "two rooms";
+  const glm::vec3 a(0.7f, 0.7f, 0.7f);
+  const auto k = worlds::InstanceClass::kStatic;
+  const float x0 = 24.f, x1 = 40.f, y0 = 28.f, y1 = 36.f, h = 3.f, t = 0.3f;
+  add(w, box({x0, y0, 0}, {x0 + t, y1, h}, a, "west wall"), k);
+  add(w, box({x1 - t, y0, 0}, {x1, y1, h}, a, "east wall"), k);
+  add(w, box({x0 + t, y0, 0}, {x1 - t, y0 + t, h}, a, "south wall"), k);
+  add(w, box({x0 + t, y1 - t, 0}, {x1 - t, y1, h}, a, "north wall"), k);
+  add(w, box({31.9f, y0 + t, 0}, {32.1f, y1 - t, h}, a, "parting wall"), k);
+  add(w, box({x0, y0, h}, {x1, y1, h + t}, a, "roof"), k);
+  w.lights.push_back({"lamp", {28.0, 32.0, 2.2}, glm::vec3(40.f), 12.f});
+  w.effects |= kEffectLocalLights;
+  return w;
+}
+
+TEST(FineLevel, NeverTakesALampsLightThroughAWall) {
+  const worlds::World world = twoRoomsOneLamp();
+  baker::BakeSettings settings = baker::BakeSettings::forQuality(baker::Quality::kDraft, 1);
+  settings.placement.covered_column_spacing_m = 2.0;  // probes every 2 m under the roof
+  settings.placement.covered_min_horizontal_m = 1.4;
+  auto made = baker::bakeInMemory(world, world.name, settings);
+  ASSERT_TRUE(made.has_value()) << made.error().message;
+  const BakedWorld baked{std::move(made->sectors), std::move(made->manifest)};
+  size_t covered = 0;
+  for (const Sector& s : baked.sectors) covered += coveredProbes(s);
+  ASSERT_GE(covered, 16u) << "probes under the roof in each room";  // (2 m / 2 m keeps every other one: 10)
+  runtime::RuntimeOptions o;
+  o.components = runtime::kComponentLocalLights;
+  auto rt = relit(baked, 23.0, {32, 32, 2}, o);
+  rt->update({32, 32, 2});
+  const glm::vec3 up(0, 0, 1), east(1, 0, 0);
+  // The lit room: its floor reads the fine level, and light.
+  const runtime::FineSample lit = rt->cache().fineLookup({28.0, 31.0, 0.02}, up, o.fine);
+  EXPECT_GT(lit.weight, 0.5f);
+  EXPECT_GT(lit.colours[0].g + lit.colours[3].g, 0.1f) << "the lamp's room is lit";
+  // The dark room, at its floor (covered) and on its face of the parting wall (covered or left to
+  // the far field): dark.
+  for (const auto& [at, n] : {std::pair{glm::dvec3(32.6, 31.0, 0.02), up}, std::pair{glm::dvec3(33.0, 33.0, 0.02), up},
+                              std::pair{glm::dvec3(32.1, 32.0, 1.5), east}, std::pair{glm::dvec3(32.1, 29.0, 2.5), east}}) {
+    // A probe of the lit room stands within the fine level's reach: only its visibility map keeps it out.
+    bool lit_probe_in_reach = false;
+    for (int sl = 0; sl < rt->cache().maxSectors(); ++sl)
+      if (rt->cache().slotUsed(sl))
+        for (int i = 0; i < rt->cache().slot(sl).probe_count; ++i) {
+          const glm::dvec3 q = rt->cache().worldPosition({sl, i});
+          lit_probe_in_reach |= (rt->cache().flags({sl, i}) & kProbeCovered) && q.x < 31.9 &&
+                                glm::length(q - (at + glm::dvec3(n) * double(o.fine.normal_bias_m))) < 0.8 * o.fine.radius_m;
+        }
+    EXPECT_TRUE(lit_probe_in_reach) << at.x << ", " << at.y << ", " << at.z;
+    const runtime::FineSample f = rt->cache().fineLookup(at, n, o.fine);
+    if (n == up) EXPECT_GT(f.weight, 0.f) << at.x << ", " << at.y << ": a probe of the dark room sees its floor";
+    const glm::vec3 e = runtime::shade(rt->options().representation, f.colours, n);
+    EXPECT_LT(e.g, 1e-3f * (lit.colours[0].g + lit.colours[3].g)) << at.x << ", " << at.y << ", " << at.z;
+    EXPECT_LT(rt->ambient(at, n).irradiance.g, 0.02f * rt->ambient({28.0, 31.0, 0.02}, up).irradiance.g) << at.x << ", " << at.z;
+  }
+}
+
+}  // namespace
+}  // namespace drtv::testing

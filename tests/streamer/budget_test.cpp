@@ -132,6 +132,22 @@ TEST(StreamerBudget, ASunTransferAddsItsShareOfFiftyOneSectorsOfSeventyProbes) {
   EXPECT_EQ(encodedSectorBytes(70, 0, true, 6) - encodedSectorBytes(70, 0, true, 0), sunTransferAllowanceBytes(6));
 }
 
+// Covered probes' visibility maps (sector.h) are allowed for the 51 sectors that hold the most.
+TEST(StreamerBudget, VisibilityMapsAddThoseOfTheFiftyOneSectorsHoldingTheMost) {
+  Manifest m;
+  for (int i = 0; i < 60; ++i) {
+    SectorEntry e;
+    e.key = SectorKey{i, 0};
+    e.probes = 100;
+    e.covered = uint16_t(i);  // 0..59: the 51 largest are 9..59
+    e.raw_bytes = uint32_t(encodedSectorBytes(e.probes, 0, true, 0, e.covered));
+    m.sectors.push_back(e);
+  }
+  size_t maps = 0;
+  for (size_t c = 9; c < 60; ++c) maps += c * kVisBytesPerProbe;
+  EXPECT_EQ(budgetBytesFor(m), kBudgetBytesWithoutLprt + maps);
+}
+
 TEST(StreamerBudget, ASmallerByteBudgetHoldsFewerSectorsAndIsNeverExceeded) {
   testing::TempDir dir;
   const Manifest manifest = testing::writeWorld(dir.path() / "w.drtv", {});

@@ -32,6 +32,7 @@ struct BakeCliOptions {
   std::string inside_cells;
   std::string rooms;
   std::string cache_cells;
+  std::string fine;
 };
 
 void drawProgress(size_t done, size_t total) {
@@ -59,6 +60,7 @@ Result<void> runBake(const BakeCliOptions& o) {
   if (!o.inside_cells.empty()) options.inside_from_neighbours = o.inside_cells == "neighbour";
   if (!o.rooms.empty()) options.find_rooms = o.rooms == "auto";
   if (!o.cache_cells.empty()) options.cell_sides = o.cache_cells == "sides";
+  if (!o.fine.empty()) options.covered_visibility = o.fine == "on";
   options.fresh = o.fresh;
   options.keep_sector_files = o.keep_sectors;
   options.merge_only = o.merge;
@@ -165,6 +167,11 @@ Command registerBake(CLI::App& app) {
                   "room's floor does not share the ground's light outside its wall; default) | shared (one per cube "
                   "and facing, the bytes of the builds before 2026-12-03)")
       ->check(CLI::IsMember({"sides", "shared"}));
+  sub->add_option("--fine", o->fine,
+                  "The fine level near surfaces: probes under roofs get visibility maps, so that the runtime blends the "
+                  "ones that see a point and never one behind a wall: on (default) | off (the bytes of the builds "
+                  "before 2026-12-05)")
+      ->check(CLI::IsMember({"on", "off"}));
   return {sub, [o]() { return runBake(*o); }, &o->world};
 }
 

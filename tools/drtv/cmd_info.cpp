@@ -28,8 +28,11 @@ Result<void> archiveInfo(const InfoOptions& o) {
   if (!archive) return std::unexpected(archive.error());
   const Manifest& m = archive->manifest;
   size_t probes = 0, min_probes = SIZE_MAX, max_probes = 0, raw = 0, compressed = 0, lprt_sectors = 0;
+  size_t covered = 0, covered_sectors = 0;
   for (const SectorEntry& e : m.sectors) {
     probes += e.probes;
+    covered += e.covered;
+    covered_sectors += e.covered > 0;
     min_probes = std::min<size_t>(min_probes, e.probes);
     max_probes = std::max<size_t>(max_probes, e.probes);
     raw += e.raw_bytes;
@@ -50,7 +53,7 @@ Result<void> archiveInfo(const InfoOptions& o) {
     j["effects"] = effectsToString(m.effects);
     j["sectors"] = n;
     j["sectors_with_lprt"] = lprt_sectors;
-    j["probes"] = {{"total", probes}, {"min", min_probes}, {"mean", mean}, {"max", max_probes}};
+    j["probes"] = {{"total", probes}, {"min", min_probes}, {"mean", mean}, {"max", max_probes}, {"covered", covered}};
     j["bytes"] = {{"raw", raw}, {"compressed", compressed},
                   {"raw_per_sector", n ? double(raw) / n : 0.0}, {"compressed_per_sector", n ? double(compressed) / n : 0.0}};
     j["lights"] = m.lights.size();
@@ -66,7 +69,7 @@ Result<void> archiveInfo(const InfoOptions& o) {
     nlohmann::json per = nlohmann::json::array();
     for (const SectorEntry& e : m.sectors)
       per.push_back({{"ix", e.key.ix}, {"iy", e.key.iy}, {"probes", e.probes}, {"lprt_sources", e.lprt_sources},
-                     {"raw_bytes", e.raw_bytes}, {"compressed_bytes", e.compressed_bytes}});
+                     {"covered", e.covered}, {"raw_bytes", e.raw_bytes}, {"compressed_bytes", e.compressed_bytes}});
     j["per_sector"] = per;
     std::puts(j.dump(2).c_str());
     return {};
@@ -77,6 +80,8 @@ Result<void> archiveInfo(const InfoOptions& o) {
   std::printf("effects: %s\n", effectsToString(m.effects).c_str());
   std::printf("sectors: %zu of %.0f m (%zu with LPRT)\n", n, m.sector_size_m, lprt_sectors);
   std::printf("probes: %zu (per sector min %zu, mean %.1f, max %zu)\n", probes, min_probes, mean, max_probes);
+  std::printf("covered probes: %zu, with visibility maps of %zu bytes in %zu sectors\n", covered, covered * kVisBytesPerProbe,
+              covered_sectors);
   std::printf("bytes: %zu raw, %zu compressed (per sector %.0f raw, %.0f compressed)\n", raw, compressed,
               n ? double(raw) / n : 0.0, n ? double(compressed) / n : 0.0);
   std::printf("lights: %zu, interiors: %zu\n", m.lights.size(), m.interiors.size());

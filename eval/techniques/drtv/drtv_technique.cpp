@@ -17,6 +17,10 @@
 //   lookup             trilinear | facing           how ambient reads the volume: the shaders'
 //                                                   filter, or without the texels behind the
 //                                                   surface (runtime::sampleVolumeFacing)
+//   fine               on | off                     the fine level near surfaces (probe_cache.h
+//                                                   fineLookup, issue 35; default on)
+//   fine_radius, fine_bias, fine_min_visibility, fine_full_weight
+//                      reals                        its FineOptions (probe_cache.h)
 //   texel_m            metres in (0, 1e4]           the volume's horizontal texel size (the
 //                                                   vertical one twice it, as the default 2 x 4 m)
 //   sun_window         hanning | lanczos | none | linear
@@ -72,6 +76,8 @@ struct BakeParams {
 struct RuntimeParams {
   runtime::FillMode fill = runtime::FillMode::kNearest;
   runtime::RuntimeOptions::VolumeLookup lookup = runtime::RuntimeOptions::VolumeLookup::kTrilinear;
+  bool fine = true;
+  std::optional<float> fine_radius, fine_bias, fine_min_visibility, fine_full_weight;
   std::optional<float> texel_m;
   std::optional<float> sun_window;
   float sun_band0 = 1.f;
@@ -116,6 +122,11 @@ Params readDrtv(ParamReader& r) {
   r.oneOf("fill", out.runtime.fill, {{"nearest", runtime::FillMode::kNearest}, {"smooth", runtime::FillMode::kSmooth}})
       .oneOf("lookup", out.runtime.lookup,
              {{"trilinear", runtime::RuntimeOptions::VolumeLookup::kTrilinear}, {"facing", runtime::RuntimeOptions::VolumeLookup::kFacing}})
+      .oneOf("fine", out.runtime.fine, {{"on", true}, {"off", false}})
+      .real("fine_radius", out.runtime.fine_radius, 0, 64, true)
+      .real("fine_bias", out.runtime.fine_bias, 0, 4, false)
+      .real("fine_min_visibility", out.runtime.fine_min_visibility, 0, 1, false)
+      .real("fine_full_weight", out.runtime.fine_full_weight, 0, 100, true)
       .real("texel_m", out.runtime.texel_m, 0, 1e4, true);
   std::pair<std::optional<float>, float> window{std::nullopt, 1.f};  // band 1, band 0 scale
   r.oneOf("sun_window", window,
@@ -168,7 +179,7 @@ std::vector<Sector> truncateLprt(const std::vector<Sector>& sectors, size_t keep
 
 size_t storedBytes(const std::vector<Sector>& sectors) {
   size_t n = 0;
-  for (const Sector& s : sectors) n += encodedSectorBytes(s.probes.size(), s.lprt.sources.size(), s.has_ground, s.sun ? s.sun->samples() : 0);
+  for (const Sector& s : sectors) n += encodedSectorBytes(s.probes.size(), s.lprt.sources.size(), s.has_ground, s.sun ? s.sun->samples() : 0, coveredProbes(s));
   return n;
 }
 
@@ -254,6 +265,11 @@ class DrtvTechnique final : public Technique {
     const RuntimeParams& p = params_.runtime;
     o.volume.fill = p.fill;
     o.volume_lookup = p.lookup;
+    o.fine.enabled = p.fine;
+    if (p.fine_radius) o.fine.radius_m = *p.fine_radius;
+    if (p.fine_bias) o.fine.normal_bias_m = *p.fine_bias;
+    if (p.fine_min_visibility) o.fine.min_visibility = *p.fine_min_visibility;
+    if (p.fine_full_weight) o.fine.full_weight = *p.fine_full_weight;
     if (p.texel_m) o.volume.texel_size_m = glm::vec3(*p.texel_m, *p.texel_m, 2.f * *p.texel_m);
     if (p.sun_window) o.sun_band1_window = *p.sun_window, o.sun_band0_scale = p.sun_band0;
     if (p.part) o.components = *p.part;
@@ -360,6 +376,13 @@ std::vector<KnobRow> DrtvTechnique::knobs(const KnobContext& c) {
                     def ? TechniqueParams{} : TechniqueParams{{"covered_spacing", fmt(spacing)}, {"covered_min_h", fmt(min_h)}},
                     def ? "the default bake: columns / least distance under roofs" : "columns / least distance under roofs"});
   }
+  // The fine level near surfaces (issue 35), against the volume and the interiors alone.
+  rows.push_back({"fine", "on", true, "drtv", {}, "the default: covered probes that see the point, near surfaces"});
+  rows.push_back({"fine", "off", false, "drtv", {{"fine", "off"}}, "the volume and the interiors alone"});
+  const runtime::FineOptions fine;
+  for (float r : {2.5f, 6.f}) rows.push_back({"fine_radius", fmt(r), false, "drtv", {{"fine_radius", fmt(r)}}, "metres (default " + fmt(fine.radius_m) + ")"});
+  for (float w : {0.05f, 1.f})
+    rows.push_back({"fine_full_weight", fmt(w), false, "drtv", {{"fine_full_weight", fmt(w)}}, "default " + fmt(fine.full_weight)});
   // Closed rooms found at bake time and given interiors (rooms.h), against the artist's alone.
   rows.push_back({"rooms", "auto", base.rooms.enabled, "drtv", base.rooms.enabled ? TechniqueParams{} : TechniqueParams{{"rooms", "auto"}},
                   base.rooms.enabled ? "the default bake: closed rooms get interiors" : "closed rooms get interiors"});

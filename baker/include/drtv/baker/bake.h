@@ -68,6 +68,9 @@ struct BakeSettings {
   double halo_m = 64.0;        // geometry gathered around a sector without LPRT (metres)
   double lprt_halo_m = 80.0;   // with LPRT (see above)
   int zstd_level = 3;          // archive compression (zstd's default; ratio ~2 at every level)
+  // Probes under roofs flagged kProbeCovered and given visibility maps (visibility.h), which the
+  // runtime's fine level reads (issue 35). false bakes the archives of the builds before it.
+  bool covered_visibility = true;
 
   static BakeSettings forQuality(Quality q, uint64_t seed = 1);
   // (key, value) pairs stored in the manifest and used in the resume fingerprint.
@@ -124,6 +127,8 @@ struct BakeOptions {
   // Surface cache cells split by the walls that cross them (transfer.h TransferSettings::
   // cell_sides); unset = the preset's (true). false bakes the archives of the builds before it.
   std::optional<bool> cell_sides;
+  // BakeSettings::covered_visibility; unset = the preset's (true).
+  std::optional<bool> covered_visibility;
   // Called after each sector with (done, total), from one thread at a time. May be empty.
   std::function<void(size_t, size_t)> progress;
 };

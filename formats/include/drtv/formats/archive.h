@@ -35,7 +35,8 @@
 //               probe[3], f32 blend distance
 //             u32 sector count            then per sector, 40 bytes, sorted by (ix, iy), unique:
 //               i32 ix, i32 iy, u64 payload offset, u32 compressed size, u32 raw size,
-//               u64 XXH3-64 of the compressed payload, u16 probes, u16 LPRT sources, u32 zero
+//               u64 XXH3-64 of the compressed payload, u16 probes, u16 LPRT sources,
+//               u16 covered probes (sector.h: those with visibility maps), u16 zero
 //   No trailing bytes after the manifest.
 #pragma once
 
@@ -77,6 +78,7 @@ struct SectorEntry {
   uint64_t hash = 0;              // XXH3-64 of the compressed payload
   uint16_t probes = 0;
   uint16_t lprt_sources = 0;
+  uint16_t covered = 0;           // probes with visibility maps (sector.h), <= probes
 };
 
 struct Manifest {

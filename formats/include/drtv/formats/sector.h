@@ -20,7 +20,9 @@
 //   32   4  float32 ground z min    range of the ground-height map, metres: |z| <= 1e6,
 //   36   4  float32 ground z max    min <= max (checked when kSectorHasGround)
 //   40   1  uint8   sun samples     K in 0..8; 0 = no sun-transfer block
-//   41  23  uint8   reserved        zero
+//   41   1  uint8   reserved        zero
+//   42   2  uint16  covered probes  C: the probes flagged kProbeCovered, each with a visibility map
+//   44  20  uint8   reserved        zero
 //   64        probes      probe count x 152 bytes (probe.h)
 //   ..  4096  index grid  uint8 cells[z][y][x], 16^3, the index of the nearest probe; 255 = none
 //   .. (128)  ground      uint16 unorm [y][x], 8x8: ground height at each 8 m cell centre, as
@@ -39,6 +41,8 @@
 //               ranges     probe count x float32, each in [1e-30, 1e4]
 //               coeffs     probe count x K x 3 x 4 int8, [probe][sample][channel][SH4], snorm8 x
 //                          that probe's range (-128 never written)
+//   ..        visibility, present iff C > 0 (visibility.h): C x kVisTexels x 2 uint8, the maps of
+//             the covered probes in probe order, [probe][texel y * kVisDim + x][mean, deviation]
 //   No trailing bytes.
 #pragma once
 
@@ -52,6 +56,7 @@
 
 #include "drtv/formats/error.h"
 #include "drtv/formats/probe.h"
+#include "drtv/formats/visibility.h"
 
 namespace drtv {
 
@@ -140,28 +145,37 @@ struct SunBlock {
   }
 };
 
-// An owning pointer to a SunBlock that copies it with the sector (so that Sector stays a value
-// type), 8 bytes: a sector without one stays within the talk's 15 KB for 70 probes and the
-// streamer's 51 within its 760 KiB.
-class SunBlockPtr {
+// An owning pointer to an optional block (SunBlock, VisibilityBlock) that copies it with the
+// sector (so that Sector stays a value type), 8 bytes: a sector without one stays within the
+// talk's 15 KB for 70 probes and the streamer's 51 within its 760 KiB.
+template <class T>
+class BlockPtr {
  public:
-  SunBlockPtr() = default;
-  SunBlockPtr(std::unique_ptr<SunBlock> p) : p_(std::move(p)) {}  // NOLINT: implicit, as unique_ptr's
-  SunBlockPtr(const SunBlockPtr& o) : p_(o.p_ ? std::make_unique<SunBlock>(*o.p_) : nullptr) {}
-  SunBlockPtr& operator=(const SunBlockPtr& o) {
-    if (this != &o) p_ = o.p_ ? std::make_unique<SunBlock>(*o.p_) : nullptr;
+  BlockPtr() = default;
+  BlockPtr(std::unique_ptr<T> p) : p_(std::move(p)) {}  // NOLINT: implicit, as unique_ptr's
+  BlockPtr(const BlockPtr& o) : p_(o.p_ ? std::make_unique<T>(*o.p_) : nullptr) {}
+  BlockPtr& operator=(const BlockPtr& o) {
+    if (this != &o) p_ = o.p_ ? std::make_unique<T>(*o.p_) : nullptr;
     return *this;
   }
-  SunBlockPtr(SunBlockPtr&&) noexcept = default;
-  SunBlockPtr& operator=(SunBlockPtr&&) noexcept = default;
+  BlockPtr(BlockPtr&&) noexcept = default;
+  BlockPtr& operator=(BlockPtr&&) noexcept = default;
   explicit operator bool() const { return p_ != nullptr; }
-  const SunBlock& operator*() const { return *p_; }
-  const SunBlock* operator->() const { return p_.get(); }
-  SunBlock* get() { return p_.get(); }
+  const T& operator*() const { return *p_; }
+  const T* operator->() const { return p_.get(); }
+  T* get() { return p_.get(); }
 
  private:
-  std::unique_ptr<SunBlock> p_;
+  std::unique_ptr<T> p_;
 };
+using SunBlockPtr = BlockPtr<SunBlock>;
+
+// The visibility maps of the probes flagged kProbeCovered, in probe order: kVisBytesPerProbe
+// each (visibility.h).
+struct VisibilityBlock {
+  std::vector<uint8_t> values;
+};
+using VisibilityBlockPtr = BlockPtr<VisibilityBlock>;
 
 // A sector in memory: the decoded form of the bytes above. Value type.
 struct Sector {
@@ -174,6 +188,7 @@ struct Sector {
   std::array<uint16_t, kGroundDim * kGroundDim> ground{};  // [y][x] unorm in the range above
   LprtBlock lprt;                         // empty sources = no LPRT
   SunBlockPtr sun;                        // null = no sun transfer
+  VisibilityBlockPtr visibility;          // null = no probe is covered (kProbeCovered)
 
   bool hasLprt() const { return !lprt.sources.empty(); }
   // Bytes this sector occupies in memory: the struct plus the capacity of its vectors.
@@ -182,14 +197,16 @@ struct Sector {
   float groundHeight(int x, int y) const;
 };
 
-// Size of the encoded form of a sector with `probes` probes, `sources` LPRT sources and
-// `sun_samples` sun-transfer samples.
-size_t encodedSectorBytes(size_t probes, size_t sources, bool has_ground, size_t sun_samples = 0);
+// Size of the encoded form of a sector with `probes` probes, `sources` LPRT sources,
+// `sun_samples` sun-transfer samples and `covered` probes with visibility maps.
+size_t encodedSectorBytes(size_t probes, size_t sources, bool has_ground, size_t sun_samples = 0, size_t covered = 0);
+// The covered probes of `s`: those flagged kProbeCovered (each has a visibility map).
+size_t coveredProbes(const Sector& s);
 // The largest encoded sector (255 probes, 128 sources, ground map): a bound for readers.
 size_t maxEncodedSectorBytes();
 // The sun-transfer samples of a sector whose encoded form has `raw_bytes` with these counts (0
 // for none), or nullopt when no sector of these counts has that size.
-std::optional<size_t> sunSamplesOfEncodedSize(size_t raw_bytes, size_t probes, size_t sources);
+std::optional<size_t> sunSamplesOfEncodedSize(size_t raw_bytes, size_t probes, size_t sources, size_t covered = 0);
 
 // The talk's sector without LPRT, "a little under 15 KB" for about 70 probes [slide 22], as
 // encoded before zstd. A representation whose probes carry a sun transfer (sh-l1 of archive

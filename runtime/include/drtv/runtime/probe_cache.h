@@ -139,6 +139,24 @@ struct ProbeRef {
 // Which source probes may take a light's energy (see the header comment).
 enum class LightSources { kVisibleFromLight, kNearest };
 
+// The fine level near surfaces (issue 35; visibility.h): the covered probes around a point, each
+// weighted by distance, by the side of the surface it stands on and by whether it sees the point.
+struct FineOptions {
+  bool enabled = true;
+  float radius_m = 4.f;       // probes farther than this from the point take no part
+  float normal_bias_m = 0.25f;  // the point moves this far along its normal first ([1] of visibility.h)
+  // A probe whose visibility test gives less than this takes no part: the far field lights what no
+  // covered probe sees (a roof's top over a lit room), where DDGI has no fallback and keeps them.
+  float min_visibility = 0.1f;
+  // The fine level covers a point wholly once the weights sum to this (one probe at 1.5 m facing it).
+  float full_weight = 0.3f;
+};
+struct FineSample {
+  BasisColours colours{};  // the weighted mean of the probes' colours
+  float weight = 0.f;      // in [0, 1]: how fully the fine level covers the point (0: not at all)
+  int probes = 0;          // probes that took part
+};
+
 struct ProbeCacheOptions {
   int max_sectors = kMaxResidentSectors;  // slots; memory is reserved for all of them up front
   int sources_per_light = 4;              // LPRT source probes that share one light, 1..64
@@ -278,6 +296,13 @@ class ProbeCache {
   // The resident probe nearest to `pos` by Euclidean distance (brute force; for tools and
   // interiors). Invalid when nothing is resident.
   ProbeRef nearestProbe(const glm::dvec3& pos) const;
+  // The fine level's colours at world `position` for a surface facing `normal` (unit): the resident
+  // covered probes within o.radius_m of position + normal x o.normal_bias_m, weighted by
+  // (1 - (r/R)^2)^2 x (((dot(to probe, n) + 1) / 2)^2 + 0.2) x the visibility test, weights under
+  // 0.2 crushed as w^3 / 0.04 (DDGI's rules, [1] of visibility.h), a visibility under
+  // o.min_visibility giving 0. weight = min(1, sum of weights / o.full_weight).
+  // A zero sample when no covered probe is in range or none sees the point.
+  FineSample fineLookup(const glm::dvec3& position, const glm::vec3& normal, const FineOptions& o) const;
   // The probe an interior volume [lo, hi] takes its light from: the resident probe flagged
   // kProbeInterior of interior `index` (ProbeData::interior, 1-based) nearest `designated`, else
   // the resident probe inside the box nearest `designated`; invalid when neither is resident.

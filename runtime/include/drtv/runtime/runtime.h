@@ -32,6 +32,8 @@
 //   interior: inside an artist InteriorVolume with a resolved designated probe, the probe's own
 //             colours shaded for the normal (shade(): the shading weights, or sh-l1's E(n)); blended in over blend_distance_m from the
 //             box faces inward: result = mix(a, interior, saturate(depth / blend_distance_m)).
+//   fine:     where covered probes see the point (ProbeCache::fineLookup), their weighted colours
+//             shaded for the normal: result = mix(result, fine, fine weight).
 //
 // Thread-safety: one writer thread calls the non-const members. ambient(), nearestProbe() and the
 // other const members must not run concurrently with the writer, except volume().read(), which
@@ -99,6 +101,9 @@ struct RuntimeOptions {
   // does half the fill and blur, and the volume shows a time-of-day change one frame late. 1:
   // every update publishes its own lighting. Without blur a refill always takes one update. >= 1.
   int volume_rebuild_updates = 2;
+  // The fine level near surfaces (ProbeCache::fineLookup): blended over everything above by its
+  // weight. It reads only probes flagged kProbeCovered, so a world without any is unchanged.
+  FineOptions fine;
 };
 
 // The options an engine picks for an archive whose manifest says `effects` were baked: the
@@ -115,6 +120,8 @@ struct AmbientSample {
   glm::vec3 volume{0.f};          // the volume lookup (meaningful when volume_weight > 0)
   glm::vec3 distant{0.f};         // the distant ambient
   glm::vec3 interior_ambient{0.f};
+  float fine_weight = 0.f;        // the fine level's weight (0: none)
+  glm::vec3 fine{0.f};            // the fine level's ambient (meaningful when fine_weight > 0)
 };
 
 class Runtime {

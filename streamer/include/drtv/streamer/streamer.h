@@ -72,7 +72,8 @@ inline constexpr size_t kBudgetBytesWithLprt = size_t(11.5 * 1024 * 1024);
 // The budget for `manifest`'s archive: the one above for its LPRT, plus, when its sectors carry a
 // sun transfer (sh-l1 of archive version 3), that transfer for 51 sectors of the talk's 70 probes
 // at the most samples any sector holds (sector.h sunTransferAllowanceBytes). With the default 6
-// samples: 778,240 + 51 x 5,392 = 1,053,232 B without LPRT.
+// samples: 778,240 + 51 x 5,392 = 1,053,232 B without LPRT. Plus the visibility maps of covered
+// probes (sector.h, the fine level of issue 35) of the 51 sectors that hold the most.
 size_t budgetBytesFor(const Manifest& manifest);
 
 // The runtime's side of the hand-off. Called only from update() / evictAll(), on the frame's

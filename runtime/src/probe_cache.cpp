@@ -66,8 +66,7 @@ Result<void> ProbeCache::addSector(const Sector& sector, SectorBlock keep) {
     if (K > size_t(kMaxSunSamples) || sector.sun->ranges.size() != size_t(n) || sector.sun->coeffs.size() != size_t(n) * K * 12)
       return fail(where + ": sun-transfer block size does not match its probes and samples");
   }
-  size_t covered = 0;
-  for (const ProbeRecord& r : sector.probes) covered += (r.flags & kProbeCovered) != 0;
+  const size_t covered = coveredProbes(sector);
   const size_t vis_values = sector.visibility ? sector.visibility->values.size() : 0;
   if (vis_values != covered * kVisValuesPerProbe)
     return fail(where + ": visibility block holds " + std::to_string(vis_values) + " values for " +

@@ -663,12 +663,12 @@ static Result<BakeReport> bakeRecorded(const worlds::World& given, const std::st
   report.archive = archive;
   report.settings = options.settings ? *options.settings : BakeSettings::forQuality(options.quality, options.seed);
   if (options.representation) report.settings.transfer.representation = *options.representation;
+  else if (given.representation && !options.settings) report.settings.transfer.representation = *given.representation;
   if (options.clearance_m) report.settings.placement.clearance_m = *options.clearance_m;
   if (options.find_rooms) report.settings.rooms.enabled = *options.find_rooms;
   if (options.inside_from_neighbours) report.settings.grid.inside_from_neighbours = *options.inside_from_neighbours;
   if (options.cell_sides) report.settings.transfer.cell_sides = *options.cell_sides;
   if (options.covered_visibility) report.settings.covered_visibility = *options.covered_visibility;
-  else if (given.representation && !options.settings) report.settings.transfer.representation = *given.representation;
   if (auto why = validateSettings(report.settings); !why) return std::unexpected(why.error().context("bake settings"));
   report.threads = options.threads > 0 ? options.threads : int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
   if (options.shard_count > 1) report.shard = std::to_string(options.shard_index) + "/" + std::to_string(options.shard_count);

@@ -206,6 +206,26 @@ TEST(Bake, LprtSourcesNameTheNeighboursOwnProbes) {
   EXPECT_GT(compared, 100);
 }
 
+// The world's own representation holds unless --representation overrides it, whichever other
+// options are set (it was dropped whenever --fine, --cell-sides or --inside-from-neighbours was).
+TEST(Bake, AWorldsRepresentationHoldsWhicheverOtherOptionsAreSet) {
+  TempDir dir;
+  worlds::World w = test::smallWorld();
+  w.representation = Representation::kFc3;
+  BakeOptions o = draft();
+  o.covered_visibility = false;
+  o.cell_sides = true;
+  o.inside_from_neighbours = true;
+  o.sectors = raytrace::SectorRange{0, 0, 0, 0};
+  auto r = bake(w, "small", dir.path / "a.drtv", o);
+  ASSERT_TRUE(r) << r.error().message;
+  EXPECT_EQ(r->settings.transfer.representation, Representation::kFc3);
+  o.representation = Representation::kShL1;
+  auto r2 = bake(w, "small", dir.path / "b.drtv", o);
+  ASSERT_TRUE(r2) << r2.error().message;
+  EXPECT_EQ(r2->settings.transfer.representation, Representation::kShL1);
+}
+
 TEST(Bake, NoLprtBlockAtAllWithoutLocalLights) {
   TempDir dir;
   worlds::World w = test::smallWorld();

@@ -84,6 +84,50 @@ std::vector<LocalInterior> localInteriors(const worlds::World& world, SectorKey 
   return out;
 }
 
+// The baked lights' own LPRT sources in sector `key` (placement.h, step 7): each light that
+// stands still (no path, or a path whose keys all keep its position: a flicker) and lies in the
+// sector, brightest first (ties in world order), at most kMaxLightSourcesPerSector. Empty without
+// LPRT or with BakeSettings::light_sources off. A probe's local position and the light's reach.
+struct LightSourceSpot {
+  glm::vec3 position;
+  float radius_m;
+};
+std::vector<LightSourceSpot> localLightSources(const worlds::World& world, SectorKey key, const BakeSettings& settings,
+                                               uint32_t effects) {
+  std::vector<LightSourceSpot> out;
+  if (!(effects & kEffectLocalLights) || !settings.light_sources) return out;
+  struct Lit {
+    size_t i;
+    double brightness;
+    float radius_m;
+  };
+  std::vector<Lit> lit;
+  for (size_t i = 0; i < world.lights.size(); ++i) {
+    const PointLight& l = world.lights[i];
+    float radius_m = l.radius_m;
+    if (i < world.light_paths.size() && !world.light_paths[i].keys.empty()) {
+      bool still = true;
+      for (const LightKey& k : world.light_paths[i].keys) {
+        still &= k.position == l.position;
+        radius_m = std::max(radius_m, k.radius_m);
+      }
+      if (!still) continue;
+    }
+    if (SectorKey{int32_t(std::floor(l.position.x / kSectorSizeM)), int32_t(std::floor(l.position.y / kSectorSizeM))} != key) continue;
+    lit.push_back({i, double(l.intensity.r) + l.intensity.g + l.intensity.b, radius_m});
+  }
+  std::stable_sort(lit.begin(), lit.end(), [](const Lit& a, const Lit& b) { return a.brightness > b.brightness; });
+  if (lit.size() > size_t(kMaxLightSourcesPerSector)) lit.resize(kMaxLightSourcesPerSector);
+  const glm::dvec3 origin(key.ix * kSectorSizeM, key.iy * kSectorSizeM, 0.0);
+  for (const Lit& l : lit) out.push_back({glm::vec3(world.lights[l.i].position - origin), l.radius_m});
+  return out;
+}
+
+std::vector<glm::vec3> positionsOf(std::span<const LightSourceSpot> spots) {
+  std::vector<glm::vec3> out;
+  for (const LightSourceSpot& s : spots) out.push_back(s.position);
+  return out;
+}
 
 // A placement journal record's payload (little-endian, like the sector records):
 //   u32 probe count n, u64 x 9 PlacementStats (in declaration order), f64 seconds,
@@ -235,7 +279,8 @@ Result<SectorPlacement> placeSector(const raytrace::WorldGeometry& geometry, con
   auto scene = raytrace::RayScene::build(g.vertices, g.twoSided());
   if (!scene) return std::unexpected(scene.error().context("sector " + toString(key)));
   SectorPlacement out;
-  out.probes = placeProbes(*scene, g, {0, 0}, localInteriors(world, key, effects), settings.placement, out.stats);
+  out.probes = placeProbes(*scene, g, {0, 0}, localInteriors(world, key, effects), settings.placement, out.stats,
+                           positionsOf(localLightSources(world, key, settings, effects)));
   out.seconds = since(t0);
   return out;
 }
@@ -292,7 +337,8 @@ Result<Sector> bakeSector(const raytrace::WorldGeometry& geometry, const worlds:
     stats.placement_s = own->second.seconds;
   } else {
     t0 = Clock::now();
-    placed = placeProbes(*scene, g, {0, 0}, localInteriors(world, key, effects), settings.placement, stats.placement);
+    placed = placeProbes(*scene, g, {0, 0}, localInteriors(world, key, effects), settings.placement, stats.placement,
+                         positionsOf(localLightSources(world, key, settings, effects)));
     stats.placement_s = since(t0);
   }
 
@@ -330,9 +376,11 @@ Result<Sector> bakeSector(const raytrace::WorldGeometry& geometry, const worlds:
     return sector;
   }
 
-  // LPRT sources: the 128 probes nearest to the sector's centre among this sector's and its 8
-  // neighbours', as the placement pass placed them in their own scenes: (dx, dy, i) is the i-th
-  // probe of the neighbour's record by construction.
+  // LPRT sources, from this sector's and its 8 neighbours' probes as the placement pass placed
+  // them in their own scenes ((dx, dy, i) is the i-th probe of the neighbour's record by
+  // construction): first the baked lights' own sources (placement.h, step 7) whose light reaches
+  // this sector, nearest to its centre first, at most half the block; then the probes nearest to
+  // its centre, for the lights that move (the runtime shares those out, probe_cache.h).
   struct Source {
     LprtSource ref;
     glm::vec3 position;
@@ -340,6 +388,7 @@ Result<Sector> bakeSector(const raytrace::WorldGeometry& geometry, const worlds:
   };
   std::vector<Source> sources;
   if (lprt) {
+    std::vector<Source> at_lights;
     for (int dy = -1; dy <= 1; ++dy)
       for (int dx = -1; dx <= 1; ++dx) {
         const SectorKey nk{key.ix + dx, key.iy + dy};
@@ -347,16 +396,30 @@ Result<Sector> bakeSector(const raytrace::WorldGeometry& geometry, const worlds:
         DRTV_CHECK(it != placements.end());  // the caller ran the placement pass (placementKeys)
         const std::vector<PlacedProbe>& nb = it->second.probes;
         DRTV_CHECK_LE(nb.size(), size_t(kMaxProbesPerSector));
+        const std::vector<LightSourceSpot> spots = localLightSources(world, nk, settings, effects);
         // The neighbour's frame shifted by whole sectors into this one's; z is world z in both.
         const glm::vec3 shift(float(dx * kSectorSizeM), float(dy * kSectorSizeM), 0.f);
         for (size_t i = 0; i < nb.size(); ++i) {
           const glm::vec3 position = nb[i].position + shift;
           const glm::vec2 d = glm::vec2(position) - glm::vec2(float(kSectorSizeM / 2));
-          sources.push_back({{int8_t(dx), int8_t(dy), uint8_t(i)}, position, glm::dot(d, d)});
+          const Source src{{int8_t(dx), int8_t(dy), uint8_t(i)}, position, glm::dot(d, d)};
+          if (!(nb[i].flags & kProbeLightSource)) {
+            sources.push_back(src);
+            continue;
+          }
+          const auto spot = std::find_if(spots.begin(), spots.end(), [&](const LightSourceSpot& l) { return l.position == nb[i].position; });
+          DRTV_CHECK(spot != spots.end());  // placed from the same lights
+          // The light's reach against this sector's square.
+          const glm::vec2 gap = glm::max(glm::vec2(0.f), glm::max(-glm::vec2(position), glm::vec2(position) - float(kSectorSizeM)));
+          if (glm::dot(gap, gap) < spot->radius_m * spot->radius_m) at_lights.push_back(src);
         }
       }
-    std::stable_sort(sources.begin(), sources.end(), [](const Source& a, const Source& b) { return a.d2 < b.d2; });
-    if (sources.size() > size_t(kMaxLprtSources)) sources.resize(kMaxLprtSources);
+    auto nearer = [](const Source& a, const Source& b) { return a.d2 < b.d2; };
+    std::stable_sort(at_lights.begin(), at_lights.end(), nearer);
+    std::stable_sort(sources.begin(), sources.end(), nearer);
+    if (at_lights.size() > size_t(kMaxLprtSources / 2)) at_lights.resize(kMaxLprtSources / 2);
+    if (sources.size() > size_t(kMaxLprtSources) - at_lights.size()) sources.resize(size_t(kMaxLprtSources) - at_lights.size());
+    sources.insert(sources.begin(), at_lights.begin(), at_lights.end());
     stats.lprt_sources = sources.size();
   }
 
@@ -423,15 +486,22 @@ Result<Sector> bakeSector(const raytrace::WorldGeometry& geometry, const worlds:
   }
 
   t0 = Clock::now();
-  chooseGridExtent(positions, ground_min, sector.grid);
+  // The index grid names the probes a lookup reads: not the light sources, which placement put
+  // last (placement.h, step 7).
+  const size_t looked_up = size_t(std::find_if(placed.begin(), placed.end(), [](const PlacedProbe& p) {
+                                    return (p.flags & kProbeLightSource) != 0;
+                                  }) - placed.begin());
+  for (size_t i = looked_up; i < placed.size(); ++i) DRTV_CHECK(placed[i].flags & kProbeLightSource);
+  const std::span<const glm::vec3> lookup_positions(positions.data(), looked_up);
+  chooseGridExtent(lookup_positions, ground_min, sector.grid);
   {
     // Cells outside an interior that would name its probes are tested once more for being inside
     // geometry (index_grid.h): the boxes of every interior, indexed as PlacedProbe::interior is.
     std::vector<raytrace::Box> boxes;
     for (const LocalInterior& in : localInteriors(world, key, effects)) boxes.push_back(in.box);
     std::vector<uint16_t> probe_interior;
-    for (const PlacedProbe& p : placed) probe_interior.push_back(p.interior);
-    fillIndexGrid(*scene, positions, settings.grid, sector.grid, stats.grid, {boxes, probe_interior});
+    for (size_t i = 0; i < looked_up; ++i) probe_interior.push_back(placed[i].interior);
+    fillIndexGrid(*scene, lookup_positions, settings.grid, sector.grid, stats.grid, {boxes, probe_interior});
   }
   stats.grid_s = since(t0);
   stats.bytes = encodedSectorBytes(sector.probes.size(), sector.lprt.sources.size(), sector.has_ground,
@@ -669,6 +739,13 @@ static Result<BakeReport> bakeRecorded(const worlds::World& given, const std::st
   if (options.inside_from_neighbours) report.settings.grid.inside_from_neighbours = *options.inside_from_neighbours;
   if (options.cell_sides) report.settings.transfer.cell_sides = *options.cell_sides;
   if (options.covered_visibility) report.settings.covered_visibility = *options.covered_visibility;
+  if (options.light_sources) report.settings.light_sources = *options.light_sources;
+  if (options.enclosed_spacing_m) {
+    PlacementSettings& p = report.settings.placement;
+    const bool off = *options.enclosed_spacing_m == 0.0;
+    p.enclosed_column_spacing_m = off ? p.covered_column_spacing_m : *options.enclosed_spacing_m;
+    p.enclosed_min_horizontal_m = off ? p.covered_min_horizontal_m : *options.enclosed_spacing_m;
+  }
   if (auto why = validateSettings(report.settings); !why) return std::unexpected(why.error().context("bake settings"));
   report.threads = options.threads > 0 ? options.threads : int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
   if (options.shard_count > 1) report.shard = std::to_string(options.shard_index) + "/" + std::to_string(options.shard_count);

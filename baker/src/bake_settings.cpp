@@ -1,5 +1,6 @@
 // The bake's settings: the quality presets (bake.h, BakeSettings), their check, the description a
 // manifest stores, and the effects a world asks the bake for.
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -25,6 +26,8 @@ Result<void> validateSettings(const BakeSettings& s) {
   if (!in(p.min_horizontal_m, 0.0, 64.0) || !in(p.min_vertical_m, 0.0, 1e4)) return fail("minimum probe distances must be finite and >= 0");
   if (!in(p.covered_column_spacing_m, 1.0 / 16, 64.0)) return fail("covered_column_spacing_m must be in [1/16, 64] m");
   if (!in(p.covered_min_horizontal_m, 0.0, 64.0)) return fail("covered_min_horizontal_m must be finite and in [0, 64] m");
+  if (!in(p.enclosed_column_spacing_m, 1.0 / 16, 64.0)) return fail("enclosed_column_spacing_m must be in [1/16, 64] m");
+  if (!in(p.enclosed_min_horizontal_m, 0.0, 64.0)) return fail("enclosed_min_horizontal_m must be finite and in [0, 64] m");
   if (p.inside_test_rays < 0 || p.inside_test_rays > (1 << 16)) return fail("inside_test_rays must be in [0, 65536]");
   if (!in(p.inside_test_range_m, 0.0, 64.0)) return fail("inside_test_range_m must be in [0, 64] m");
   // A clearance above the lift would refuse flat ground itself.
@@ -120,9 +123,17 @@ std::vector<std::pair<std::string, std::string>> BakeSettings::describe() const 
     d.emplace_back("covered_column_spacing_m", fmt(placement.covered_column_spacing_m));
   if (placement.covered_min_horizontal_m < placement.min_horizontal_m)
     d.emplace_back("covered_min_horizontal_m", fmt(placement.covered_min_horizontal_m));
+  // Only when denser in enclosed spaces than under roofs (issue 35): other bakes as before.
+  if (placement.enclosed_column_spacing_m < std::min(placement.covered_column_spacing_m, placement.column_spacing_m))
+    d.emplace_back("enclosed_column_spacing_m", fmt(placement.enclosed_column_spacing_m));
+  if (placement.enclosed_min_horizontal_m < std::min(placement.covered_min_horizontal_m, placement.min_horizontal_m))
+    d.emplace_back("enclosed_min_horizontal_m", fmt(placement.enclosed_min_horizontal_m));
   if (transfer.sweeps != 0) d.emplace_back("sweeps", std::to_string(transfer.sweeps));
   // Only when on: a bake without visibility maps describes itself (and hashes, and packs) as before.
   if (covered_visibility) d.emplace_back("covered_visibility", "1");
+  // Only when on: a bake without them describes itself (and hashes, and packs) as before. Also a
+  // bake without LPRT, whose bytes the setting does not change.
+  if (light_sources) d.emplace_back("light_sources", "1");
   // Only when off: a bake that finds no room describes itself (and hashes, and packs) as before.
   if (!rooms.enabled) d.emplace_back("rooms", "off");
   if (transfer.representation != Representation::kFc3) d.emplace_back("representation", representationName(transfer.representation));

@@ -35,6 +35,8 @@ struct Candidate {
   uint32_t order;
   uint16_t flags = 0;
   uint16_t interior = 0;
+  bool enclosed_only = false;  // from the enclosed lattice: kept only if enclosed (step 4)
+  bool enclosed = false;       // covered, and enclosed (placement.h kEnclosedHitFraction)
 };
 
 bool isStatic(uint8_t cls) {
@@ -74,13 +76,39 @@ Surroundings surroundings(const raytrace::RayScene& scene, const raytrace::Secto
   return out;
 }
 
-// `covered_h`: the horizontal distance that rejects a covered candidate (at most min_h).
-std::vector<Candidate> greedy(const std::vector<Candidate>& sorted, double min_h, double covered_h, double min_v) {
+// Whether a ray from `p` along `d` meets a static or terrain surface within `len`, passing
+// through vegetation and dynamic geometry (at most kMaxHitsPerColumn of them).
+bool meetsStatic(const raytrace::RayScene& scene, const raytrace::SectorGeometry& geometry, const glm::vec3& p, const glm::vec3& d,
+                 float len, PlacementStats& stats) {
+  float t = 0.f;
+  for (int k = 0; k < kMaxHitsPerColumn; ++k) {
+    const raytrace::Hit h = scene.intersect(raytrace::Ray{p, t, d, len});
+    ++stats.rays;
+    if (!h.hit()) return false;
+    if (isStatic(geometry.cls[h.prim])) return true;
+    t = nextRayStart(h.t);
+  }
+  return false;
+}
+
+// Whether walls close `p` in (placement.h kEnclosedWalls): horizontal rays within kEnclosedRangeM.
+bool enclosed(const raytrace::RayScene& scene, const raytrace::SectorGeometry& geometry, const glm::vec3& p, PlacementStats& stats) {
+  int walls = 0;
+  for (int i = 0; i < kEnclosedRays; ++i) {
+    const double a = 2.0 * 3.14159265358979323846 * (i + 0.5) / kEnclosedRays;
+    walls += meetsStatic(scene, geometry, p, glm::vec3(float(std::cos(a)), float(std::sin(a)), 0.f), float(kEnclosedRangeM), stats);
+  }
+  return walls >= kEnclosedWalls;
+}
+
+// `covered_h`: the horizontal distance that rejects a covered candidate (at most min_h);
+// `enclosed_h` an enclosed one (at most covered_h).
+std::vector<Candidate> greedy(const std::vector<Candidate>& sorted, double min_h, double covered_h, double enclosed_h, double min_v) {
   std::vector<Candidate> accepted;
-  const double min_h2 = min_h * min_h, covered_h2 = covered_h * covered_h;
+  const double min_h2 = min_h * min_h, covered_h2 = covered_h * covered_h, enclosed_h2 = enclosed_h * enclosed_h;
   for (const Candidate& c : sorted) {
     bool ok = true;
-    const double reject_h2 = c.priority == kCovered ? covered_h2 : min_h2;
+    const double reject_h2 = c.priority != kCovered ? min_h2 : c.enclosed ? enclosed_h2 : covered_h2;
     if (c.priority != kDesignated)
       for (const Candidate& a : accepted) {
         const double dx = c.position.x - a.position.x, dy = c.position.y - a.position.y, dz = c.position.z - a.position.z;
@@ -98,7 +126,8 @@ std::vector<Candidate> greedy(const std::vector<Candidate>& sorted, double min_h
 
 std::vector<PlacedProbe> placeProbes(const raytrace::RayScene& scene, const raytrace::SectorGeometry& geometry, glm::ivec2 offset,
                                      std::span<const LocalInterior> interiors, const PlacementSettings& s,
-                                     PlacementStats& stats) {
+                                     PlacementStats& stats, std::span<const glm::vec3> light_sources) {
+  DRTV_CHECK_LE(light_sources.size(), size_t(kMaxLightSourcesPerSector));
   const glm::vec2 base(float(offset.x * kSectorSizeM), float(offset.y * kSectorSizeM));
   const int32_t key_x = geometry.key.ix + offset.x, key_y = geometry.key.iy + offset.y;
   const uint64_t sector_key = raytrace::hashKey(s.seed, uint64_t(uint32_t(key_x)), uint64_t(uint32_t(key_y)), 0x706c6163ull);
@@ -110,7 +139,7 @@ std::vector<PlacedProbe> placeProbes(const raytrace::RayScene& scene, const rayt
   // 1. Static pass.
   // covered_only: a column of the finer lattice under roofs, whose other hits are the coarse
   // lattice's to give.
-  auto column = [&](float x, float y, bool covered_only) {
+  auto column = [&](float x, float y, bool covered_only, bool enclosed_only = false) {
       const glm::vec3 origin(x, y, top);
       float t = 0.f, z_above = INFINITY;
       for (int k = 0; k < kMaxHitsPerColumn; ++k) {
@@ -140,7 +169,7 @@ std::vector<PlacedProbe> placeProbes(const raytrace::RayScene& scene, const rayt
             ++stats.dropped_gap;  // a slit: a probe there sees nothing but the two surfaces
           } else {
             const float lift = std::min(float(s.lift_m), 0.5f * (z_above - z));
-            cands.push_back({glm::vec3(origin.x, origin.y, z + lift), std::isinf(z_above) ? kTop : kCovered, order++});
+            cands.push_back({glm::vec3(origin.x, origin.y, z + lift), std::isinf(z_above) ? kTop : kCovered, order++, 0, 0, enclosed_only});
           }
         }
         z_above = z;
@@ -194,14 +223,46 @@ std::vector<PlacedProbe> placeProbes(const raytrace::RayScene& scene, const rayt
       }
     }
 
+  // 1c. The enclosed lattice (after every other column, so that their candidates' order, which
+  // keys their inside tests, is that of the builds before): covered hits, kept in step 4 only if
+  // enclosed. Not cast unless finer than the coarse and covered lattices. It runs through the
+  // coarse columns (not cast again), so that with the coarse lattice's probes it is one lattice:
+  // offset by half a step, every point of a 2 m lattice was within 1.41 m of a coarse probe and
+  // a 2 m least distance rejected them all.
+  const double enclosed_spacing = std::min(s.enclosed_column_spacing_m, s.covered_column_spacing_m);
+  const int enclosed_columns = std::max(1, int(std::lround(kSectorSizeM / enclosed_spacing)));
+  if (enclosed_columns > std::max(columns, fine)) {
+    const float enclosed_step = float(kSectorSizeM / enclosed_columns);
+    const float offset = std::fmod(0.5f * step, enclosed_step);
+    auto coarse = [&](float v) {  // on a coarse column's line
+      const float u = v / step - 0.5f;
+      return std::fabs(u - std::round(u)) < 1e-4f;
+    };
+    for (int cy = 0; cy < enclosed_columns; ++cy)
+      for (int cx = 0; cx < enclosed_columns; ++cx) {
+        const float x = offset + float(cx) * enclosed_step, y = offset + float(cy) * enclosed_step;
+        if (coarse(x) && coarse(y)) continue;
+        column(base.x + x, base.y + y, true, true);
+      }
+  }
+
   // 4. Inside and clearance test (before the distance test, so that a moved probe competes fairly).
+  const bool enclosed_finer = s.enclosed_column_spacing_m < std::min(s.covered_column_spacing_m, s.column_spacing_m) ||
+                              s.enclosed_min_horizontal_m < std::min(s.covered_min_horizontal_m, s.min_horizontal_m);
   std::vector<Candidate> kept;
   kept.reserve(cands.size());
   for (Candidate& c : cands) {
     const uint64_t key = raytrace::hashKey(sector_key, c.order);
     const Surroundings here = surroundings(scene, geometry, c.position, s, key, stats);
+    // Enclosed: a covered candidate with walls all round (where it is kept), tested only where the
+    // enclosed spacing is finer than the covered one.
+    auto keep = [&](Candidate& k) {
+      k.enclosed = enclosed_finer && k.priority == kCovered && enclosed(scene, geometry, k.position, stats);
+      if (k.enclosed_only && !k.enclosed) return;
+      kept.push_back(k);
+    };
     if (here.clear(s.clearance_m)) {
-      kept.push_back(c);
+      keep(c);
       continue;
     }
     bool moved = false;
@@ -211,7 +272,7 @@ std::vector<PlacedProbe> placeProbes(const raytrace::RayScene& scene, const rayt
       if (surroundings(scene, geometry, p, s, raytrace::hashKey(key, o + 1), stats).clear(s.clearance_m)) {
         c.position = p;
         c.flags |= kProbeRelocated;
-        kept.push_back(c);
+        keep(c);
         moved = true;
       }
     }
@@ -231,20 +292,30 @@ std::vector<PlacedProbe> placeProbes(const raytrace::RayScene& scene, const rayt
     ++stats.interior_probes;
   }
 
+  // 7 (first, for the cap of 6): the light sources, those under static geometry only.
+  std::vector<glm::vec3> lights;
+  for (const glm::vec3& l : light_sources) {
+    DRTV_CHECK(l.x >= base.x && l.y >= base.y && l.x <= base.x + float(kSectorSizeM) && l.y <= base.y + float(kSectorSizeM));
+    if (meetsStatic(scene, geometry, l, glm::vec3(0, 0, 1), std::max(0.f, geometry.z_max - l.z) + 1.f, stats)) lights.push_back(l);
+  }
+
   // 5 and 6. Minimum distance, then the cap.
   std::stable_sort(kept.begin(), kept.end(), [](const Candidate& a, const Candidate& b) {
     return a.priority != b.priority ? a.priority < b.priority : a.order < b.order;
   });
   double min_h = s.min_horizontal_m, covered_h = std::min(s.covered_min_horizontal_m, s.min_horizontal_m);
-  std::vector<Candidate> accepted = greedy(kept, min_h, covered_h, s.min_vertical_m);
+  double enclosed_h = std::min(s.enclosed_min_horizontal_m, covered_h);
+  std::vector<Candidate> accepted = greedy(kept, min_h, covered_h, enclosed_h, s.min_vertical_m);
   stats.rejected_distance += kept.size() - accepted.size();
   const size_t first_pass = accepted.size();
-  while (accepted.size() > size_t(kMaxProbesPerSector) && min_h < kSectorSizeM) {
+  const size_t cap = size_t(kMaxProbesPerSector) - lights.size();
+  while (accepted.size() > cap && min_h < kSectorSizeM) {
     min_h *= 1.25;
     covered_h *= 1.25;
-    accepted = greedy(kept, min_h, covered_h, s.min_vertical_m);
+    enclosed_h *= 1.25;
+    accepted = greedy(kept, min_h, covered_h, enclosed_h, s.min_vertical_m);
   }
-  if (accepted.size() > size_t(kMaxProbesPerSector)) accepted.resize(kMaxProbesPerSector);
+  if (accepted.size() > cap) accepted.resize(cap);
   stats.thinned_cap += first_pass - accepted.size();
 
   std::vector<PlacedProbe> out;
@@ -260,6 +331,7 @@ std::vector<PlacedProbe> placeProbes(const raytrace::RayScene& scene, const rayt
         }
     out.push_back(p);
   }
+  for (const glm::vec3& l : lights) out.push_back({l, kProbeLightSource, 0});
   return out;
 }
 

@@ -89,7 +89,8 @@ std::vector<Point> staticPoints(const ReferenceScene& scene, const InMemoryBake&
                                 uint64_t seed) {
   std::vector<glm::dvec3> probes;
   for (const Sector& s : bake.sectors)
-    for (const ProbeRecord& r : s.probes) probes.push_back(probeWorld(s, r));
+    for (const ProbeRecord& r : s.probes)
+      if (!(r.flags & kProbeLightSource)) probes.push_back(probeWorld(s, r));  // not from inside a lamp's fitting
   std::vector<Point> out;
   if (probes.empty()) return out;
   for (int i = 0; int(out.size()) < count && i < kAttemptsPerPoint * count; ++i) {

@@ -72,6 +72,8 @@ Result<void> validateProbe(const ProbeRecord& r) {
            ") outside the sector's [0, 64] m square");
   if (!(std::fabs(r.position[2]) < kMaxProbeHeightM)) return fail("position z " + std::to_string(r.position[2]) + " m is absurd (|z| < 1e6)");
   if (r.flags & ~kProbeKnownFlags) return fail("unknown flag bits " + std::to_string(r.flags & ~kProbeKnownFlags));
+  if ((r.flags & kProbeLightSource) && (r.flags & (kProbeCovered | kProbeInterior)))
+    return fail("a light source is flagged covered or interior: no lookup reads it");
   auto number = [](float v) {
     std::ostringstream s;
     s << v;

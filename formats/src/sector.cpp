@@ -1,6 +1,7 @@
 #include "drtv/formats/sector.h"
 
 #include <algorithm>
+#include <bitset>
 #include <bit>
 #include <climits>
 #include <cmath>
@@ -290,6 +291,15 @@ Result<Sector> decodeSector(std::span<const uint8_t> bytes, const std::string& w
     return failAt(where, grid_at + i, "index grid cell names probe " + std::to_string(s.grid.cells[i]) + " of " +
                                           std::to_string(n_probes));
   }
+  // A light source (kProbeLightSource) stands where a lamp does, often against its fitting: no
+  // cell may name it.
+  std::bitset<kMaxProbesPerSector> light_sources;
+  for (size_t i = 0; i < n_probes; ++i) light_sources[i] = (s.probes[i].flags & kProbeLightSource) != 0;
+  if (light_sources.any())
+    for (size_t i = 0; i < kGridCells; ++i)
+      if (s.grid.cells[i] != kNoProbe && light_sources[s.grid.cells[i]])
+        return failAt(where, grid_at + i, "index grid cell names probe " + std::to_string(s.grid.cells[i]) +
+                                              ", a light source (which no lookup reads)");
   if (s.has_ground)
     for (uint16_t& q : s.ground) rd.get(q);
   if (n_sources > 0) {

@@ -43,6 +43,9 @@ Result<void> ProbeCache::addSector(const Sector& sector, SectorBlock keep) {
     if (sector.grid.cells[i] != kNoProbe && sector.grid.cells[i] >= n)
       return fail(where + ": index grid cell " + std::to_string(i) + " names probe " + std::to_string(sector.grid.cells[i]) +
                   " of " + std::to_string(n));
+    else if (sector.grid.cells[i] != kNoProbe && (sector.probes[sector.grid.cells[i]].flags & kProbeLightSource))
+      return fail(where + ": index grid cell " + std::to_string(i) + " names probe " + std::to_string(sector.grid.cells[i]) +
+                  ", a light source (which no lookup reads)");
   if (!(std::isfinite(sector.grid.z_min_m) && std::isfinite(sector.grid.cell_height_m) && sector.grid.cell_height_m > 0.f))
     return fail(where + ": index grid z range is not finite and positive");
   const size_t sources = sector.lprt.sources.size();
@@ -108,6 +111,7 @@ Result<void> ProbeCache::addSector(const Sector& sector, SectorBlock keep) {
     sl.sky_vis[i] = d.sky_vis;
     if (d.flags & kProbeInterior) sl.designated.push_back(uint8_t(i));
     if (d.flags & kProbeCovered) sl.covered.push_back(uint8_t(i));
+    if (d.flags & kProbeLightSource) sl.light_sources.push_back(uint8_t(i));
     sl.lo = glm::min(sl.lo, d.position);
     sl.hi = glm::max(sl.hi, d.position);
     if (sh_l1) {
@@ -137,7 +141,9 @@ Result<void> ProbeCache::addSector(const Sector& sector, SectorBlock keep) {
     for (int b = 0; b < 4; ++b) m.inPlane(s, kTransferPlanes + b)[i] = d.sky_vis[b];
   }
   // Cells that name no probe take the sector's probe nearest to the cell centre, so that the
-  // fill never branches (sector.h allows 255 anywhere).
+  // fill never branches (sector.h allows 255 anywhere); not a light source (which stands at its
+  // lamp) unless the sector has nothing else.
+  const bool only_lights = sl.light_sources.size() == size_t(n);
   for (int z = 0; z < kGridDim; ++z)
     for (int y = 0; y < kGridDim; ++y)
       for (int x = 0; x < kGridDim; ++x) {
@@ -148,6 +154,7 @@ Result<void> ProbeCache::addSector(const Sector& sector, SectorBlock keep) {
                             sl.z_min + (z + 0.5f) * sl.cell_h);
           float best = std::numeric_limits<float>::max();
           for (int i = 0; i < n; ++i) {
+            if ((sl.flags[i] & kProbeLightSource) && !only_lights) continue;
             const glm::vec3 d = sl.position[i] - c;
             const float d2 = glm::dot(d, d);
             if (d2 < best) best = d2, p = uint8_t(i);

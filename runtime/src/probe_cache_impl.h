@@ -74,6 +74,8 @@ struct Slot {
   // and their visibility maps (visibility.h), kVisValuesPerProbe each in the same order.
   std::vector<uint8_t> covered;
   std::vector<uint8_t> visibility;
+  // The probes flagged kProbeLightSource (a baked light's own LPRT source), in probe order.
+  std::vector<uint8_t> light_sources;
   // LPRT [2]
   std::vector<LprtSource> sources;
   // The local lights' term of the colours (the last sum of probe_cache.h's formula, in the colour

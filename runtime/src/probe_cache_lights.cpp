@@ -23,6 +23,10 @@ namespace {
 constexpr double kLightFootprintM = kGridCellSizeM;
 // A source's height over its surface is taken as at least this (a probe's clearance, placement.h).
 constexpr double kMinSourceHeightM = 0.25;
+// A light this near a baked light's own source (kProbeLightSource) is that light: the bake put the
+// source at its position (float metres in the sector's frame, so within ~1e-5 m of it); a moving
+// light passing that close is as well lit from there.
+constexpr double kLightSourceMatchM = 0.25;
 
 // The mean irradiance of a unit point light (1 per sr) at height z over the disk of radius
 // kLightFootprintM under it: the flux 2 pi (1 - z / sqrt(z^2 + r^2)) through the disk over its area.
@@ -85,9 +89,26 @@ std::vector<LightShare> ProbeCache::Impl::distribute(std::span<const PointLight>
     const Slot& sl = slots[s];
     return glm::dvec3(sl.origin.x + sl.position[i].x, sl.origin.y + sl.position[i].y, sl.position[i].z);
   };
+  // The baked light's own source where one stands at `at` and a resident sector names it.
+  auto ownSource = [&](const glm::dvec3& at) -> ProbeRef {
+    if (!(std::fabs(at.x) < kMaxWorldM && std::fabs(at.y) < kMaxWorldM && std::isfinite(at.z))) return {};
+    const int s = slotOf(sectorAt(at.x, at.y));
+    if (s < 0) return {};
+    for (const uint8_t i : slots[s].light_sources) {
+      const glm::dvec3 d = world(s, i) - at;
+      if (glm::dot(d, d) <= kLightSourceMatchM * kLightSourceMatchM && !namers[size_t(s * kSlotProbes + i)].empty()) return {s, int(i)};
+    }
+    return {};
+  };
   for (const PointLight& light : lights) {
     const double r = light.radius_m, r2 = r * r;
     best.clear();
+    if (opt.own_light_sources) {
+      if (const ProbeRef own = ownSource(light.position); own.valid()) {
+        shares.push_back({own, light.intensity});
+        continue;
+      }
+    }
     if (opt.light_sources == LightSources::kVisibleFromLight) {
       // The probes the index grid names in the 4 cells at the light's height whose centres
       // surround it (a bilinear look-up's cells). The bake named, for each cell, a probe that
@@ -132,7 +153,7 @@ std::vector<LightShare> ProbeCache::Impl::distribute(std::span<const PointLight>
         const glm::dvec3 gap = glm::max(glm::dvec3(0.0), glm::max(lo - light.position, light.position - hi));
         if (glm::dot(gap, gap) >= r2) continue;
         for (int i = 0; i < sl.count; ++i) {
-          if (namers[s * kSlotProbes + size_t(i)].empty()) continue;
+          if (namers[s * kSlotProbes + size_t(i)].empty() || (sl.flags[size_t(i)] & kProbeLightSource)) continue;
           const glm::dvec3 d = world(int(s), i) - light.position;
           const double d2 = glm::dot(d, d);
           if (d2 < r2) consider({int(s), i}, d2);

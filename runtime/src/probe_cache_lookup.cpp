@@ -154,6 +154,7 @@ ProbeRef ProbeCache::interiorProbe(uint16_t index, const glm::dvec3& designated,
     if (glm::any(glm::greaterThan(slo, hi)) || glm::any(glm::lessThan(shi, lo))) continue;
     for (int i = 0; i < sl.count; ++i) {
       if ((sl.flags[i] & kProbeInterior) && sl.interior[i] == index) continue;  // none, or found above
+      if (sl.flags[i] & kProbeLightSource) continue;                          // read by no lookup
       const glm::dvec3 w = world(sl, i);
       if (!glm::all(glm::greaterThanEqual(w, lo)) || !glm::all(glm::lessThanEqual(w, hi))) continue;
       const glm::dvec3 d = w - designated;
@@ -170,6 +171,7 @@ ProbeRef ProbeCache::nearestProbe(const glm::dvec3& pos) const {
     const Slot& sl = impl_->slots[s];
     if (!sl.used) continue;
     for (int i = 0; i < sl.count; ++i) {
+      if (sl.flags[size_t(i)] & kProbeLightSource) continue;  // read by no lookup
       const glm::dvec3 d = worldPosition({int(s), i}) - pos;
       const double d2 = glm::dot(d, d);
       if (d2 < best_d2) best_d2 = d2, best = {int(s), i};

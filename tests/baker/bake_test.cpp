@@ -15,6 +15,7 @@
 #include "drtv/raytrace/ray_scene.h"
 #include "drtv/raytrace/world_geometry.h"
 #include "drtv/formats/archive.h"
+#include "drtv/formats/visibility.h"
 #include "drtv/worlds/island.h"
 #include "test_worlds.h"
 
@@ -119,7 +120,9 @@ TEST(Bake, ArchiveHoldsEverySectorWithItsManifest) {
 // 1000 B here, the stricter reading): 64 header + 70 x 152 probes + 4096 grid + 128 ground.
 // Talk slide 22: a sector without LPRT is "a little under 15 KB" for about 70 probes. That is fc3's
 // record; the default, sh-l1 of archive version 3, adds its probes' sun transfer, which issue 13
-// allows (sector.h sunTransferAllowanceBytes: 228 B a probe = 1.5x the talk's 152 B).
+// allows (sector.h sunTransferAllowanceBytes: 228 B a probe = 1.5x the talk's 152 B), and the
+// visibility maps of its probes under roofs, which DESIGN.md's budget for a sector with buildings
+// allows (256 KB; Sector.ASectorOfBuildingsStaysWithinItsBudget).
 TEST(Bake, SectorOfAbout70ProbesWithoutLprtIsUnder15KBPlusItsSunTransfer) {
   EXPECT_LT(encodedSectorBytes(kTalkProbesPerSector, 0, true), kTalkSectorBytes);
   EXPECT_EQ(kTalkSectorBytes + sunTransferAllowanceBytes(6), 20392u);
@@ -130,11 +133,15 @@ TEST(Bake, SectorOfAbout70ProbesWithoutLprtIsUnder15KBPlusItsSunTransfer) {
     auto b = bake(test::smallWorld(), "small", dir.path / "a.drtv", o);
     ASSERT_TRUE(b);
     const int sun_samples = r == Representation::kShL1 ? b->settings.transfer.sun_samples : 0;
+    auto reader = ArchiveReader::open(dir.path / "a.drtv");
+    ASSERT_TRUE(reader);
     for (const SectorStats& s : b->sectors) {
       EXPECT_EQ(s.bytes, s.bytes_without_lprt);
+      const SectorEntry* e = reader->manifest().find(s.key);
+      ASSERT_NE(e, nullptr);
       if (s.probes <= kTalkProbesPerSector) {
-        EXPECT_LT(s.bytes, kTalkSectorBytes + sunTransferAllowanceBytes(size_t(sun_samples)))
-            << representationName(r) << " " << toString(s.key) << " with " << s.probes << " probes";
+        EXPECT_LT(s.bytes, kTalkSectorBytes + sunTransferAllowanceBytes(size_t(sun_samples)) + e->covered * kVisBytesPerProbe)
+            << representationName(r) << " " << toString(s.key) << " with " << s.probes << " probes, " << e->covered << " covered";
       }
     }
   }
@@ -224,6 +231,58 @@ TEST(Bake, AWorldsRepresentationHoldsWhicheverOtherOptionsAreSet) {
   auto r2 = bake(w, "small", dir.path / "b.drtv", o);
   ASSERT_TRUE(r2) << r2.error().message;
   EXPECT_EQ(r2->settings.transfer.representation, Representation::kShL1);
+}
+
+// A lamp that stands still under a roof gets an LPRT source where it stands (placement.h, step
+// 7): a probe flagged kProbeLightSource at its position, the last of its sector's, named by no
+// index cell, the first source of its sector and of each neighbour its light reaches. A lamp in the
+// open and a light that moves get none.
+TEST(Bake, ALampUnderARoofGetsASourceWhereItStandsThatNoCellNames) {
+  worlds::World w = litWorld();  // a lamp in the open at (10, 10, 2)
+  // In the house (its room [15.4, 24.6] x [16.4, 23.6] x [0, 3]), 20 m from the sector's west and
+  // south edges: its 25 m reach takes in sectors (-1, 0) and (0, -1), not (-1, -1) (28.3 m).
+  w.lights.push_back({"ceiling lamp", {20.0, 20.0, 2.5}, glm::vec3(4.f), 25.f});
+  w.lights.push_back({"torch", {18.0, 18.0, 1.5}, glm::vec3(3.f), 8.f});
+  w.light_paths.resize(3);
+  w.light_paths[2].keys = {{0.0, {18.0, 18.0, 1.5}, glm::vec3(3.f), 8.f}, {10.0, {22.0, 18.0, 1.5}, glm::vec3(3.f), 8.f}};
+  const BakeSettings settings = BakeSettings::forQuality(Quality::kDraft);
+  auto b = bakeInMemory(w, "lit", settings);
+  ASSERT_TRUE(b) << b.error().message;
+  const Sector* own = nullptr;
+  for (const Sector& s : b->sectors) own = s.key == SectorKey{0, 0} ? &s : own;
+  ASSERT_NE(own, nullptr);
+  int sources_at_lamp = 0, keyed = 0;
+  for (const Sector& s : b->sectors) {
+    std::vector<size_t> flagged;
+    for (size_t i = 0; i < s.probes.size(); ++i)
+      if (s.probes[i].flags & kProbeLightSource) flagged.push_back(i);
+    for (uint8_t c : s.grid.cells) ASSERT_TRUE(c == kNoProbe || !(s.probes[c].flags & kProbeLightSource)) << toString(s.key);
+    if (&s == own) {
+      ASSERT_EQ(flagged.size(), 1u) << "the ceiling lamp's; not the lamp in the open nor the moving torch";
+      EXPECT_EQ(flagged[0], s.probes.size() - 1) << "after the probes a lookup reads";
+      const ProbeRecord& p = s.probes[flagged[0]];
+      EXPECT_EQ(glm::vec3(p.position[0], p.position[1], p.position[2]), glm::vec3(20.f, 20.f, 2.5f));
+    } else {
+      EXPECT_TRUE(flagged.empty()) << toString(s.key);
+    }
+    for (size_t j = 0; j < s.lprt.sources.size(); ++j) {
+      const LprtSource& src = s.lprt.sources[j];
+      if (s.key.ix + src.dx != 0 || s.key.iy + src.dy != 0 || !(own->probes[src.probe].flags & kProbeLightSource)) continue;
+      EXPECT_EQ(j, 0u) << toString(s.key) << ": the first source";
+      ++sources_at_lamp;
+      keyed |= (s.key == SectorKey{-1, -1}) << 2 | (s.key == SectorKey{-1, 0}) << 1 | (s.key == SectorKey{0, -1});
+    }
+  }
+  EXPECT_EQ(sources_at_lamp, 3) << "its own sector and the two it reaches";
+  EXPECT_EQ(keyed, 3) << "not the diagonal one, 28.3 m away";
+
+  // Off: no such probe, and the bytes of the builds before.
+  BakeSettings off = settings;
+  off.light_sources = false;
+  auto without = bakeInMemory(w, "lit", off);
+  ASSERT_TRUE(without) << without.error().message;
+  for (const Sector& s : without->sectors)
+    for (const ProbeRecord& p : s.probes) EXPECT_FALSE(p.flags & kProbeLightSource);
 }
 
 TEST(Bake, NoLprtBlockAtAllWithoutLocalLights) {

@@ -83,6 +83,41 @@ TEST(Placement, TheFinerLatticeUnderRoofsAddsProbesUnderTheDeck) {
   }
 }
 
+// An enclosed space under a roof (walls all round: placement.h kEnclosedWalls) gets its probes
+// every enclosed_column_spacing_m (2 m), for the fine level to blend; a deck over open ground,
+// covered but open on every side, keeps the covered spacing; with the enclosed spacing no finer
+// than the covered one the placement is the one before it, probe for probe.
+TEST(Placement, AClosedRoomGetsAProbeEveryTwoMetresAndADeckDoesNot) {
+  worlds::World w = test::planeWorld(200.0, glm::vec3(0.5f));
+  test::addHouse(w, {20.f, 20.f, 0.f});  // its room [15.4, 24.6] x [16.4, 23.6] x [0, 3], a door south
+  test::add(w, test::box({40, 10, 5}, {60, 40, 5.5f}, glm::vec3(0.5f), "deck"), worlds::InstanceClass::kStatic);
+  const auto in_room = [](const PlacedProbe& q) {
+    return q.position.x > 15.4f && q.position.x < 24.6f && q.position.y > 16.4f && q.position.y < 23.6f && q.position.z < 3.f;
+  };
+  const auto under_deck = [](const PlacedProbe& q) {
+    return q.position.x >= 40.f && q.position.x <= 60.f && q.position.y >= 10.f && q.position.y <= 40.f && q.position.z < 5.f;
+  };
+  PlacementSettings before;
+  before.enclosed_column_spacing_m = before.covered_column_spacing_m;
+  before.enclosed_min_horizontal_m = before.covered_min_horizontal_m;
+  const Placed now = place(w, {0, 0}), old = place(w, {0, 0}, before);
+  const size_t room_now = size_t(std::count_if(now.probes.begin(), now.probes.end(), in_room));
+  const size_t room_old = size_t(std::count_if(old.probes.begin(), old.probes.end(), in_room));
+  EXPECT_LE(room_old, 2u);
+  EXPECT_GE(room_now, 12u) << "a 9.2 x 7.2 m room on a 2 m lattice: 4 x 4 columns, less those by its walls";
+  for (const PlacedProbe& a : now.probes)
+    for (const PlacedProbe& b : now.probes)
+      if (&a != &b && in_room(a) && in_room(b)) EXPECT_GE(glm::distance(glm::vec2(a.position), glm::vec2(b.position)), 2.f - 1e-4f);
+  EXPECT_EQ(std::count_if(now.probes.begin(), now.probes.end(), under_deck), std::count_if(old.probes.begin(), old.probes.end(), under_deck))
+      << "the deck's sides are open";
+  // With nothing enclosed, the placement is the one before it.
+  worlds::World open = test::planeWorld(200.0, glm::vec3(0.5f));
+  test::add(open, test::box({40, 10, 5}, {60, 40, 5.5f}, glm::vec3(0.5f), "deck"), worlds::InstanceClass::kStatic);
+  const Placed a = place(open, {0, 0}), b = place(open, {0, 0}, before);
+  ASSERT_EQ(a.probes.size(), b.probes.size());
+  for (size_t i = 0; i < a.probes.size(); ++i) EXPECT_EQ(a.probes[i].position, b.probes[i].position) << i;
+}
+
 TEST(Placement, EveryStaticHitAlongTheRayGetsAProbeNotOnlyTheFirst) {
   worlds::World w = test::planeWorld(200.0, glm::vec3(0.5f));
   test::add(w, test::box({10, 10, 5}, {40, 40, 5.5f}, glm::vec3(0.5f), "deck"), worlds::InstanceClass::kStatic);

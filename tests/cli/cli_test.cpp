@@ -526,21 +526,28 @@ TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
                                  // "shared": the bytes of every build before 2026-12-03
     const char* fine;            // "": the default (covered probes with visibility maps);
                                  // "off": the bytes of every build before 2026-12-05
+    const char* sources;         // "": the default (an LPRT source where each still light under a
+                                 // roof stands, and the setting in the manifest); "probes": the
+                                 // bytes of every build before 2026-12-06
+    const char* enclosed;        // "": the default (probes every 2 m in enclosed spaces); "0": the
+                                 // bytes of every build before 2026-12-06
   };
   const Bake bakes[] = {
-      {"worlds/island.json", "2", "fc3", "0", "nearest", "", "off"},
-      {"worlds/island.json", "1", "fc3", "0", "nearest", "", "off"},
-      {"worlds/island_lit.json", "2", "fc3", "0", "nearest", "", "off"},
-      {"worlds/island.json", "2", "sh-l1", "0", "nearest", "shared", "off"},   // archive version 3: fitted direct sky, sun transfer
-      {"worlds/island.json", "2", "fc3", "", "nearest", "", "off"},            // placement with its 0.25 m clearance
-      {"worlds/island.json", "2", "sh-l1", "", "nearest", "shared", "off"},    // the default bake until 2026-12-02
-      {"worlds/island_lit.json", "2", "sh-l1", "", "nearest", "shared", "off"},  // sh-l1's LPRT with the bake's 2 bounces
-      {"worlds/island.json", "2", "sh-l1", "", "", "shared", "off"},           // the default bake until 2026-12-03
-      {"worlds/island_lit.json", "2", "sh-l1", "", "", "shared", "off"},       // the same with LPRT of 2 bounces
-      {"worlds/island.json", "2", "sh-l1", "", "", "", "off"},                 // the default bake until 2026-12-05
-      {"worlds/island_lit.json", "2", "sh-l1", "", "", "", "off"},             // the same with LPRT
-      {"worlds/island.json", "2", "sh-l1", "", "", "", ""},             // the default bake from 2026-12-05 (visibility maps)
-      {"worlds/island_lit.json", "2", "sh-l1", "", "", "", ""},         // the same with LPRT
+      {"worlds/island.json", "2", "fc3", "0", "nearest", "", "off", "probes", "0"},
+      {"worlds/island.json", "1", "fc3", "0", "nearest", "", "off", "probes", "0"},
+      {"worlds/island_lit.json", "2", "fc3", "0", "nearest", "", "off", "probes", "0"},
+      {"worlds/island.json", "2", "sh-l1", "0", "nearest", "shared", "off", "probes", "0"},   // archive version 3: fitted direct sky, sun transfer
+      {"worlds/island.json", "2", "fc3", "", "nearest", "", "off", "probes", "0"},            // placement with its 0.25 m clearance
+      {"worlds/island.json", "2", "sh-l1", "", "nearest", "shared", "off", "probes", "0"},    // the default bake until 2026-12-02
+      {"worlds/island_lit.json", "2", "sh-l1", "", "nearest", "shared", "off", "probes", "0"},  // sh-l1's LPRT with the bake's 2 bounces
+      {"worlds/island.json", "2", "sh-l1", "", "", "shared", "off", "probes", "0"},           // the default bake until 2026-12-03
+      {"worlds/island_lit.json", "2", "sh-l1", "", "", "shared", "off", "probes", "0"},       // the same with LPRT of 2 bounces
+      {"worlds/island.json", "2", "sh-l1", "", "", "", "off", "probes", "0"},                 // the default bake until 2026-12-05
+      {"worlds/island_lit.json", "2", "sh-l1", "", "", "", "off", "probes", "0"},             // the same with LPRT
+      {"worlds/island.json", "2", "sh-l1", "", "", "", "", "probes", "0"},             // the default bake from 2026-12-05 (visibility maps)
+      {"worlds/island_lit.json", "2", "sh-l1", "", "", "", "", "probes", "0"},         // the same with LPRT
+      {"worlds/island.json", "2", "sh-l1", "", "", "", "", "", ""},         // the default bake from 2026-12-06 (sources at the lights, rooms every 2 m)
+      {"worlds/island_lit.json", "2", "sh-l1", "", "", "", "", "", ""},     // the same with LPRT
   };
   constexpr size_t kBakes = sizeof bakes / sizeof bakes[0];
   struct Family {
@@ -550,13 +557,16 @@ TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
     std::array<uint64_t, kBakes> xxh3;  // 0: not recorded on this family yet (printed to record)
   };
   const Family families[] = {
-      // AMD EPYC (Zen 4), the CI host from 2026-12-02. The last four recorded on 2026-12-05: the
+      // AMD EPYC (Zen 4), the CI host from 2026-12-02. Bakes 10-13 recorded on 2026-12-05: the
       // default bakes before the visibility maps (--fine off: the bytes the build before wrote,
-      // compared file for file) and with them; the Xeon's print themselves to be recorded.
+      // compared file for file) and with them; the last two on 2026-12-06, with the sources at
+      // the lights and the enclosed spaces' 2 m spacing (bakes 12-13 are the build before's bytes
+      // with --light-sources probes --enclosed-spacing 0). The Xeon's print themselves to be
+      // recorded.
       {"AMD EPYC", 0xb719567d9ef9735full, "AuthenticAMD",
        {0xb5dc41527c49bc30ull, 0xb5dc41527c49bc30ull, 0x83e674d1c0876195ull, 0xce768512b03790c7ull, 0x602302430699b4b5ull,
         0x403bda8d7b11fe7dull, 0xeace7813206ac06aull, 0x223f3054c17af0b1ull, 0x030e6917899684ebull, 0x889378c2a953a185ull, 0x8c6679ee6ce99884ull, 0x2ae851aaf4dd854cull,
-        0x5705d869b0421831ull}},
+        0x5705d869b0421831ull, 0xa56cbcb8ebdcfb22ull, 0x2790b539b4c5e82dull}},
       // Intel Xeon, every CI host until 2026-12-01 (matched by vendor; the Xeon of 2026-12-02 had
       // the fingerprint 0xec281bdebf45ee62). The sh-l1 bakes changed on 2026-12-02 (the direct
       // sky's receiver-weighted fit) and were recorded again on a Xeon the same day. The last two
@@ -564,7 +574,7 @@ TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
       // 2026-12-03; the EPYC's print themselves to be recorded.
       {"Intel Xeon", 0x0ull, "GenuineIntel",
        {0x797f2f8433a8ec21ull, 0x797f2f8433a8ec21ull, 0x906bc4b8292ce446ull, 0x725fcbb5a43280beull, 0x6cf058d923e27201ull,
-        0x75257267d87249e8ull, 0xdd36c7ae5d8cc7e2ull, 0xca6dafdfbcf78d79ull, 0xf28d04abe1b833b1ull, 0x555b92ed9354f97aull, 0x0cccae2414c4ee7cull, 0x0ull, 0x0ull}},
+        0x75257267d87249e8ull, 0xdd36c7ae5d8cc7e2ull, 0xca6dafdfbcf78d79ull, 0xf28d04abe1b833b1ull, 0x555b92ed9354f97aull, 0x0cccae2414c4ee7cull, 0x0ull, 0x0ull, 0x0ull, 0x0ull}},
   };
   const uint64_t fingerprint = reciprocalFingerprint();
   const std::string vendor = cpuVendor();
@@ -580,7 +590,9 @@ TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
                                " --representation " + g.representation + (*g.clearance ? std::string(" --clearance ") + g.clearance : "") +
                                (*g.inside ? std::string(" --inside-cells ") + g.inside : "") +
                                (*g.cells ? std::string(" --cache-cells ") + g.cells : "") +
-                               (*g.fine ? std::string(" --fine ") + g.fine : ""),
+                               (*g.fine ? std::string(" --fine ") + g.fine : "") +
+                               (*g.sources ? std::string(" --light-sources ") + g.sources : "") +
+                               (*g.enclosed ? std::string(" --enclosed-spacing ") + g.enclosed : ""),
                            "DRTV_EMBREE_CONFIG=isa=sse2");
     EXPECT_EQ(r.status, 0) << r.out;
     const std::string bytes = slurp(out);
@@ -598,7 +610,8 @@ TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
     std::snprintf(hex, sizeof hex, "0x%016llxull", (unsigned long long)hash);
     record += std::string(i ? ", " : "") + hex;
     const std::string what = std::string(g.world) + " --threads " + g.threads + " --representation " + g.representation +
-                             " --clearance '" + g.clearance + "' --inside-cells '" + g.inside + "' --cache-cells '" + g.cells + "' baked " +
+                             " --clearance '" + g.clearance + "' --inside-cells '" + g.inside + "' --cache-cells '" + g.cells + "' --fine '" + g.fine +
+                             "' --light-sources '" + g.sources + "' --enclosed-spacing '" + g.enclosed + "' baked " +
                              std::to_string(size) + " bytes hashing " + hex + " on " + vendor + " (fingerprint " + fp + ")";
     if (family && family->xxh3[i]) {
       EXPECT_EQ(hash, family->xxh3[i]) << what << ", the " << family->name << "'s golden";

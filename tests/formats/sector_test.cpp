@@ -9,6 +9,8 @@
 #include <new>
 
 #include <gtest/gtest.h>
+
+#include <bitset>
 #include <xxhash.h>
 
 #include "drtv/formats/sector.h"
@@ -71,6 +73,40 @@ TEST(Sector, RoundTripsTheCoveredProbesVisibilityMaps) {
   EXPECT_EQ(encodeSector(*d), bytes);
   // A sector without covered probes has no block and its bytes are those of every build before.
   EXPECT_FALSE(decodeSector(encodeSector(testing::makeSector({2, 5}, 70, 0, 4)), "mem")->visibility);
+}
+
+// A light source (kProbeLightSource) is read by no lookup: a cell naming it, or the flag on a
+// covered or interior probe, is refused; on a probe no cell names it decodes.
+TEST(Sector, ALightSourceThatACellNamesOrThatIsCoveredIsRefused) {
+  Sector s = testing::makeSector({0, 0}, 30, 0, 2);
+  testing::coverProbes(s, 2, 1);  // probes 0, 2, 4, ... covered (coverProbes' stride 2, offset 0)
+  std::bitset<256> named;
+  for (uint8_t c : s.grid.cells)
+    if (c != kNoProbe) named.set(c);
+  const std::vector<uint8_t> good = encodeSector(s);
+  auto flagged = [&](size_t probe) {
+    std::vector<uint8_t> bytes = good;
+    bytes[kSectorHeaderBytes + probe * sizeof(ProbeRecord) + 12] |= uint8_t(kProbeLightSource);
+    return decodeSector(bytes, "x.drtv");
+  };
+  int refused_named = 0, decoded = 0, refused_covered = 0;
+  for (size_t i = 0; i < s.probes.size(); ++i) {
+    auto d = flagged(i);
+    if (s.probes[i].flags & kProbeCovered) {
+      ASSERT_FALSE(d.has_value()) << i;
+      EXPECT_NE(d.error().message.find("a light source is flagged covered or interior"), std::string::npos) << d.error().message;
+      ++refused_covered;
+    } else if (named.test(i)) {
+      ASSERT_FALSE(d.has_value()) << i;
+      EXPECT_NE(d.error().message.find("names probe " + std::to_string(i) + ", a light source"), std::string::npos) << d.error().message;
+      ++refused_named;
+    } else {
+      EXPECT_TRUE(d.has_value()) << i << ": " << d.error().message;
+      ++decoded;
+    }
+  }
+  EXPECT_GT(refused_covered, 0);
+  EXPECT_GT(refused_named, 0) << decoded << " probes named by no cell decoded with the flag";
 }
 
 TEST(Sector, ACoveredCountThatDisagreesWithTheFlagsIsRefused) {

@@ -2,6 +2,7 @@
 // does not light the outside of its roof. The talk's runtime spreads a light onto the source
 // probes nearest to it; a probe standing on the roof is often among them.
 #include <cstdio>
+#include <optional>
 
 #include <gtest/gtest.h>
 
@@ -54,22 +55,45 @@ TEST(LocalLights, ALampInAClosedRoomLendsItsLightOnlyToProbesInTheRoom) {
   auto inRoom = [&](const glm::dvec3& p) {
     return glm::all(glm::greaterThan(p, room_lo)) && glm::all(glm::lessThan(p, room_hi));
   };
-  for (const auto mode : {runtime::LightSources::kVisibleFromLight, runtime::LightSources::kNearest}) {
-    runtime::RuntimeOptions o;
-    o.cache.light_sources = mode;
-    auto rt = relit(baked, 23.0, {32, 32, 2}, o);
-    float inside = 0.f, outside = 0.f;
-    for (const runtime::LightShare& sh : rt->cache().distributeLights(baked.manifest.lights))
-      (inRoom(rt->cache().worldPosition(sh.probe)) ? inside : outside) += sh.colour.g;
-    // (A share is the light's intensity scaled by the footprint factor, probe_cache.h: they need
-    // not sum to the light's intensity.)
-    if (mode == runtime::LightSources::kVisibleFromLight) {
-      EXPECT_GT(inside, 0.f) << "the lamp goes to the room's probes";
-      EXPECT_EQ(outside, 0.f) << "and only to them";
-    } else {
-      EXPECT_GT(outside, 0.25f * (inside + outside)) << "the talk's nearest rule leaks here (what the default avoids)";
-    }
+  // The bake put a source where the lamp stands (baker/placement.h, step 7), which takes the lamp
+  // whole: inside the room by construction.
+  {
+    auto rt = relit(baked, 23.0, {32, 32, 2}, {});
+    const std::vector<runtime::LightShare> shares = rt->cache().distributeLights(baked.manifest.lights);
+    ASSERT_EQ(shares.size(), 1u);
+    EXPECT_EQ(shares[0].colour, baked.manifest.lights[0].intensity) << "the whole lamp, no footprint factor";
+    const glm::dvec3 at = rt->cache().worldPosition(shares[0].probe);
+    EXPECT_LT(glm::length(at - baked.manifest.lights[0].position), 1e-4) << "on the lamp's own source";
   }
+  // How a light is shared out where no source stands at it (a moving light): as above with the
+  // lamp's own source left unused. The talk's rule is shown leaking with the room's one probe of
+  // the placement before 2026-12-06; with the 2 m spacing in enclosed spaces (placement.h) the
+  // four sources nearest the lamp are all the room's.
+  baker::BakeSettings sparse = baker::BakeSettings::forQuality(baker::Quality::kDraft, 1);
+  sparse.placement.enclosed_column_spacing_m = sparse.placement.covered_column_spacing_m;
+  sparse.placement.enclosed_min_horizontal_m = sparse.placement.covered_min_horizontal_m;
+  auto sparse_bake = baker::bakeInMemory(w, w.name, sparse);
+  ASSERT_TRUE(sparse_bake.has_value());
+  const BakedWorld one_probe{std::move(sparse_bake->sectors), std::move(sparse_bake->manifest)};
+  for (const auto mode : {runtime::LightSources::kVisibleFromLight, runtime::LightSources::kNearest})
+    for (const BakedWorld* b : {&baked, &one_probe}) {
+      runtime::RuntimeOptions o;
+      o.cache.light_sources = mode;
+      o.cache.own_light_sources = false;
+      auto rt = relit(*b, 23.0, {32, 32, 2}, o);
+      float inside = 0.f, outside = 0.f;
+      for (const runtime::LightShare& sh : rt->cache().distributeLights(b->manifest.lights))
+        (inRoom(rt->cache().worldPosition(sh.probe)) ? inside : outside) += sh.colour.g;
+      // (A share is the light's intensity scaled by the footprint factor, probe_cache.h: they need
+      // not sum to the light's intensity.)
+      const char* which = b == &baked ? "the default placement" : "the room's one probe";
+      if (mode == runtime::LightSources::kVisibleFromLight) {
+        EXPECT_GT(inside, 0.f) << which << ": the lamp goes to the room's probes";
+        EXPECT_EQ(outside, 0.f) << which << ": and only to them";
+      } else if (b == &one_probe) {
+        EXPECT_GT(outside, 0.25f * (inside + outside)) << "the talk's nearest rule leaks here (what the default avoids)";
+      }
+    }
 
   // The reference: the roof's top and the ground outside get nothing of the lamp.
   auto scene = reference::ReferenceScene::build(w, "closed room");
@@ -164,15 +188,16 @@ TEST(LocalLights, ALampHungHighLightsTheGroundBelowItAsThePathTracerDoes) {
   EXPECT_LT(sum_err, kHungLampTolerance * sum_ref);
 }
 
-// TheLampsLightInAClosedRoomCarriesTheBakesBounces: measured 3.68 / 5.32 / 6.20 with 1 / 2 / 3
-// bounces against the reference's 5.02 (4096 paths) while the point read the volume; since the
-// room is found at bake time (baker/rooms.h) and the point reads its designated probe, 3.81 / 4.87
-// / 5.48 (2 bounces, the default, −3 %). Sweeping the cache further (transfer.h `sweeps`, not the
-// default) reads 5.95 with 4 sweeps and 6.18 with 16 (+23 %): the rest of the model (the lamp's
-// energy put on a probe 1.4 m from it, the footprint factor) is that bright here, and the second
-// bounce's truncation hides it. The bound leaves room for the noise, not for the single bounce's
-// −24 % nor for the volume's +6 %.
-constexpr double kClosedRoomBounceTolerance = 0.05;
+// TheLampsLightInAClosedRoomCarriesTheBakesBounces. Until 2026-12-06 the lamp's light was put on
+// the room's one probe, 1.4 m from it, and the point read 3.81 / 4.87 / 5.48 with 1 / 2 / 3
+// bounces against the reference's 5.02: right by luck, since that probe (1.5 m up, 1 m under the
+// lamp) truly reads 10.68. With the lamp on its own source (placement.h, step 7) the probe read
+// 7.24 / 8.32 / 9.43 against its 10.68, and the point, reading it, +66 %: a room with one probe.
+// With the 2 m spacing in enclosed spaces the room has 15 probes and the fine level blends those
+// that see the point: 2.69 / 3.59 / 4.21 (2 bounces −28 %). What is left is the bounces the bake
+// leaves out of a closed room of albedo 0.7 (each adds ~0.6-0.9 here) and LPRT's 1 m clamp of
+// 1/d^2 (transfer.h kLprtMinDistance2) under a roof 0.5 m over the lamp: both only darken.
+constexpr double kOneBounceAtMost = 0.8, kTwoBouncesAtLeast = 0.65;
 // In the closed white room most of the lamp's light on an object's top reaches it after two
 // bounces or more (walls and roof of albedo 0.7 all round). The local-light term at a point 1 m
 // over the floor, facing up (it sees the roof, lit by the floor's bounce), with the bake's bounces
@@ -187,11 +212,13 @@ TEST(LocalLights, TheLampsLightInAClosedRoomCarriesTheBakesBounces) {
   const glm::dvec3 at(31.0, 31.0, 1.0);
   const glm::vec3 up(0, 0, 1);
   const double ref = reference::referenceIrradiance(*scene, lighting, {at, up}, settings).parts[reference::kRefLocalLights].mean.g;
+  double last = 0.0;
   for (const int bounces : {1, 2, 3}) {
     baker::BakeSettings bs = baker::BakeSettings::forQuality(baker::Quality::kDraft, 1);
     bs.transfer.bounces = bounces;
     auto b = baker::bakeInMemory(w, w.name, bs, std::nullopt);
     ASSERT_TRUE(b.has_value());
+    ASSERT_EQ(b->manifest.interiors.size(), 1u) << "the closed room is found (rooms.h)";
     runtime::RuntimeOptions o;
     o.effects = b->manifest.effects;
     o.representation = b->manifest.representation;
@@ -203,14 +230,17 @@ TEST(LocalLights, TheLampsLightInAClosedRoomCarriesTheBakesBounces) {
     for (const Sector& sec : b->sectors) ASSERT_TRUE(rt.addSector(sec).has_value());
     rt.update({32, 32, 2});
     rt.update({32, 32, 2});
-    ASSERT_EQ(b->manifest.interiors.size(), 1u) << "the closed room is found (rooms.h)";
-    const double got = rt.ambient(at, up).irradiance.g;
-    std::printf("bounces %d: runtime %.4f, reference %.4f\n", bounces, got, ref);
+    const runtime::AmbientSample a = rt.ambient(at, up);
+    const double got = a.irradiance.g;
+    std::printf("bounces %d: runtime %.4f (fine level's weight %.2f), reference %.4f\n", bounces, got, a.fine_weight, ref);
+    EXPECT_GT(got, last) << "each bounce adds light";
+    EXPECT_LT(got, ref) << "and the bounces the bake leaves out only darken";
     if (bounces == 1) {
-      EXPECT_LT(got, 0.8 * ref) << "one bounce (LPRT before) misses a quarter of the light here";
+      EXPECT_LT(got, kOneBounceAtMost * ref) << "one bounce (LPRT before 2026-12-02) misses half the light here";
     } else if (bounces == 2) {
-      EXPECT_NEAR(got, ref, kClosedRoomBounceTolerance * ref) << "the default bake";
+      EXPECT_GT(got, kTwoBouncesAtLeast * ref) << "the default bake";
     }
+    last = got;
   }
 }
 
@@ -289,6 +319,13 @@ TEST(ClosedRoom, ItsFloorReadsNoSkyAndNoSunAtNoon) {
   for (const bool sides : {true, false}) {
     baker::BakeSettings bs = baker::BakeSettings::forQuality(baker::Quality::kDraft, 1);
     bs.transfer.cell_sides = sides;
+    if (!sides) {
+      // The leak shown with the room's one probe of the placement before 2026-12-06: with the 2 m
+      // spacing in enclosed spaces (placement.h) the floor's point reads probes whose shared cells
+      // gave it nothing (0 measured), which hides what the sides are for.
+      bs.placement.enclosed_column_spacing_m = bs.placement.covered_column_spacing_m;
+      bs.placement.enclosed_min_horizontal_m = bs.placement.covered_min_horizontal_m;
+    }
     auto b = baker::bakeInMemory(w, w.name, bs, std::nullopt, 2);
     ASSERT_TRUE(b.has_value());
     ASSERT_EQ(b->manifest.interiors.size(), 1u) << "the room is found (baker/rooms.h)";
@@ -417,7 +454,9 @@ TEST(FineLevel, NeverTakesALampsLightThroughAWall) {
         }
     EXPECT_TRUE(lit_probe_in_reach) << at.x << ", " << at.y << ", " << at.z;
     const runtime::FineSample f = rt->cache().fineLookup(at, n, o.fine);
-    if (n == up) EXPECT_GT(f.weight, 0.f) << at.x << ", " << at.y << ": a probe of the dark room sees its floor";
+    if (n == up) {
+      EXPECT_GT(f.weight, 0.f) << at.x << ", " << at.y << ": a probe of the dark room sees its floor";
+    }
     const glm::vec3 e = runtime::shade(rt->options().representation, f.colours, n);
     EXPECT_LT(e.g, 1e-3f * (lit.colours[0].g + lit.colours[3].g)) << at.x << ", " << at.y << ", " << at.z;
     EXPECT_LT(rt->ambient(at, n).irradiance.g, 0.02f * rt->ambient({28.0, 31.0, 0.02}, up).irradiance.g) << at.x << ", " << at.z;

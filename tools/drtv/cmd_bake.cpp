@@ -33,6 +33,8 @@ struct BakeCliOptions {
   std::string rooms;
   std::string cache_cells;
   std::string fine;
+  std::string light_sources;
+  std::optional<double> enclosed_spacing_m;
 };
 
 void drawProgress(size_t done, size_t total) {
@@ -61,6 +63,8 @@ Result<void> runBake(const BakeCliOptions& o) {
   if (!o.rooms.empty()) options.find_rooms = o.rooms == "auto";
   if (!o.cache_cells.empty()) options.cell_sides = o.cache_cells == "sides";
   if (!o.fine.empty()) options.covered_visibility = o.fine == "on";
+  if (!o.light_sources.empty()) options.light_sources = o.light_sources == "at-lights";
+  options.enclosed_spacing_m = o.enclosed_spacing_m;
   options.fresh = o.fresh;
   options.keep_sector_files = o.keep_sectors;
   options.merge_only = o.merge;
@@ -172,6 +176,17 @@ Command registerBake(CLI::App& app) {
                   "ones that see a point and never one behind a wall: on (default) | off (the bytes of the builds "
                   "before 2026-12-05)")
       ->check(CLI::IsMember({"on", "off"}));
+  sub->add_option("--light-sources", o->light_sources,
+                  "LPRT sources of lights that stand still under a roof: at-lights (a source where each such light "
+                  "stands, which the runtime gives that light whole; default) | probes (the probes around each light "
+                  "share it, as they do lights in the open and moving lights; the bytes of the builds before "
+                  "2026-12-06)")
+      ->check(CLI::IsMember({"at-lights", "probes"}));
+  sub->add_option("--enclosed-spacing", o->enclosed_spacing_m,
+                  "Probe spacing in enclosed spaces under roofs (rooms, storeys), metres: columns this far apart and "
+                  "probes no nearer each other, for the fine level to blend (default 2); 0 = the spacing under any roof "
+                  "(the bytes of the builds before 2026-12-06)")
+      ->check(CLI::Range(0.0, 64.0));
   return {sub, [o]() { return runBake(*o); }, &o->world};
 }
 

@@ -9,8 +9,14 @@
 //   covered_spacing    metres in (0, 64]            the column lattice under roofs
 //   covered_min_h      metres in (0, 64]            the minimum distance between probes under
 //                                                   roofs (placement.h, issue 16)
+//   enclosed_spacing   metres in [0, 64]            the column lattice and least distance in
+//                                                   enclosed spaces under roofs (placement.h,
+//                                                   issue 35; default 2; 0 = the covered values)
 //   rooms              auto | off                   closed rooms found at bake time get
 //                                                   interiors (rooms.h, issue 16; default auto)
+//   own_sources        on | off                     LPRT sources where the baked lights stand
+//                                                   (BakeSettings::light_sources, issue 35;
+//                                                   default on)
 //   representation     fc3 | sh-l1                  the directional representation baked
 //                                                   (representation.h; default sh-l1)
 //   fill               nearest | smooth             the volume fill (runtime FillMode)
@@ -67,9 +73,11 @@ struct BakeParams {
   baker::Quality quality = baker::Quality::kDefault;
   std::optional<int> rays_per_basis, bounces, sweeps;
   std::optional<double> covered_spacing, covered_min_h;  // placement under roofs (placement.h)
+  std::optional<double> enclosed_spacing;                // in enclosed spaces (placement.h); 0 = covered
   Representation representation = Representation::kShL1;  // the baker's default for new worlds
   bool rooms = true;  // the room search (rooms.h)
   bool cell_sides = true;  // cache cells split by walls (transfer.h TransferSettings::cell_sides)
+  bool own_sources = true;  // LPRT sources where the baked lights stand (BakeSettings::light_sources)
   bool operator==(const BakeParams&) const = default;
 };
 
@@ -113,8 +121,10 @@ Params readDrtv(ParamReader& r) {
       .integer("sweeps", out.bake.sweeps, 1, 256)
       .real("covered_spacing", out.bake.covered_spacing, 0, 64, true)
       .real("covered_min_h", out.bake.covered_min_h, 0, 64, true)
+      .real("enclosed_spacing", out.bake.enclosed_spacing, 0, 64, false)
       .oneOf("rooms", out.bake.rooms, {{"auto", true}, {"off", false}})
-      .oneOf("cache_cells", out.bake.cell_sides, {{"sides", true}, {"shared", false}});
+      .oneOf("cache_cells", out.bake.cell_sides, {{"sides", true}, {"shared", false}})
+      .oneOf("own_sources", out.bake.own_sources, {{"on", true}, {"off", false}});
   if (const std::string* v = r.text("representation")) {
     if (auto rep = parseRepresentation(*v)) out.bake.representation = *rep;
     else r.reject("representation=" + *v + ": expected one of " + representationNames());
@@ -155,9 +165,15 @@ baker::BakeSettings bakeSettings(const BakeParams& p, uint64_t seed) {
   if (p.sweeps) s.transfer.sweeps = *p.sweeps;
   if (p.covered_spacing) s.placement.covered_column_spacing_m = *p.covered_spacing;
   if (p.covered_min_h) s.placement.covered_min_horizontal_m = *p.covered_min_h;
+  if (p.enclosed_spacing) {
+    const bool off = *p.enclosed_spacing == 0.0;
+    s.placement.enclosed_column_spacing_m = off ? s.placement.covered_column_spacing_m : *p.enclosed_spacing;
+    s.placement.enclosed_min_horizontal_m = off ? s.placement.covered_min_horizontal_m : *p.enclosed_spacing;
+  }
   s.transfer.representation = p.representation;
   s.rooms.enabled = p.rooms;
   s.transfer.cell_sides = p.cell_sides;
+  s.light_sources = p.own_sources;
   return s;
 }
 
@@ -376,6 +392,14 @@ std::vector<KnobRow> DrtvTechnique::knobs(const KnobContext& c) {
                     def ? TechniqueParams{} : TechniqueParams{{"covered_spacing", fmt(spacing)}, {"covered_min_h", fmt(min_h)}},
                     def ? "the default bake: columns / least distance under roofs" : "columns / least distance under roofs"});
   }
+  // Probes in enclosed spaces under roofs (placement.h, issue 35): 0 = the covered values.
+  for (double e : {2.0, 1.0, 3.0, 0.0}) {
+    const bool def = e == base.placement.enclosed_column_spacing_m && e == base.placement.enclosed_min_horizontal_m;
+    rows.push_back({"placement_enclosed", e == 0.0 ? std::string("off") : fmt(e) + " m", def, "drtv",
+                    def ? TechniqueParams{} : TechniqueParams{{"enclosed_spacing", fmt(e)}},
+                    std::string(def ? "the default bake: " : "") +
+                        (e == 0.0 ? "as under any roof" : "columns and least distance in rooms and storeys")});
+  }
   // The fine level near surfaces (issue 35), against the volume and the interiors alone.
   rows.push_back({"fine", "on", true, "drtv", {}, "the default: covered probes that see the point, near surfaces"});
   rows.push_back({"fine", "off", false, "drtv", {{"fine", "off"}}, "the volume and the interiors alone"});
@@ -449,6 +473,12 @@ std::vector<KnobRow> DrtvTechnique::knobs(const KnobContext& c) {
       rows.push_back({"light_sources", name, mode == cache.light_sources, "drtv", {{"part", "local_lights"}, {"light_sources", name}},
                       mode == runtime::LightSources::kNearest ? "the talk's rule: the nearest source probes"
                                                               : "the probes the index grid names around the light",
+                      reference::kRefLocalLights});
+    for (const bool own : {true, false})
+      rows.push_back({"own_sources local_lights", own ? "on" : "off", own, "drtv",
+                      {{"part", "local_lights"}, {"own_sources", own ? "on" : "off"}},
+                      own ? "a source where each baked light stands, given that light whole"
+                          : "every light shared out over the probes around it, as a moving light",
                       reference::kRefLocalLights});
     // The local-light term with the probes under roofs denser (the placement rows above).
     for (const auto& [spacing, min_h] : {std::pair{2.0, 2.0}, std::pair{1.0, 1.0}})

@@ -71,6 +71,10 @@ struct BakeSettings {
   // Probes under roofs flagged kProbeCovered and given visibility maps (visibility.h), which the
   // runtime's fine level reads (issue 35). false bakes the archives of the builds before it.
   bool covered_visibility = true;
+  // With LPRT: a source probe where each still light under static geometry stands (placement.h,
+  // step 7), which the runtime gives that light whole (issue 35). false bakes the archives of the
+  // builds before it.
+  bool light_sources = true;
 
   static BakeSettings forQuality(Quality q, uint64_t seed = 1);
   // (key, value) pairs stored in the manifest and used in the resume fingerprint.
@@ -129,6 +133,11 @@ struct BakeOptions {
   std::optional<bool> cell_sides;
   // BakeSettings::covered_visibility; unset = the preset's (true).
   std::optional<bool> covered_visibility;
+  // BakeSettings::light_sources; unset = the preset's (true).
+  std::optional<bool> light_sources;
+  // PlacementSettings::enclosed_column_spacing_m and enclosed_min_horizontal_m both; 0 = the
+  // covered values (the placement before 2026-12-06); unset = the preset's (2 m).
+  std::optional<double> enclosed_spacing_m;
   // Called after each sector with (done, total), from one thread at a time. May be empty.
   std::function<void(size_t, size_t)> progress;
 };

@@ -25,16 +25,28 @@
 //     static surface, and a candidate nearer than clearance_m to one (a column landing beside a
 //     wall) is moved the same way, or dropped. Counted in PlacementStats.
 //     Under roofs (covered hits) the columns are also cast on the finer `covered_column_spacing_m`
-//     lattice; of those columns only the covered hits are candidates.
+//     lattice; of those columns only the covered hits are candidates. After the vegetation pass,
+//     columns on the `enclosed_column_spacing_m` lattice give candidates that are covered and
+//     enclosed (kEnclosedWalls of kEnclosedRays horizontal rays meet static walls) only.
 //  5. Minimum distance: candidates are taken greedily in priority order — interior designated,
 //     covered static hits (under a roof or overhang: rarer, and the only probes indoors), first
 //     static hits, vegetation; ties in column order — and a candidate is rejected when an accepted
-//     probe lies within `min_horizontal_m` (a covered one: `covered_min_horizontal_m`)
-//     horizontally AND `min_vertical_m` vertically (a cylinder: floors stacked 3 m apart keep
-//     their own probes).
-//  6. Cap: a sector holds at most 255 probes (one-byte index [1, slide 17]). If step 5 accepts
-//     more, it is repeated with min_horizontal_m x 1.25 until at most 255 remain (thinning evenly
-//     rather than dropping a region); designated interior probes are always kept.
+//     probe lies within `min_horizontal_m` (a covered one: `covered_min_horizontal_m`; an
+//     enclosed one: `enclosed_min_horizontal_m`) horizontally AND `min_vertical_m` vertically
+//     (a cylinder: floors stacked 3 m apart keep their own probes).
+//  6. Cap: a sector holds at most 255 probes (one-byte index [1, slide 17]), less the light
+//     sources of step 7. If step 5 accepts more, it is repeated with min_horizontal_m x 1.25
+//     until few enough remain (thinning evenly rather than dropping a region); designated
+//     interior probes are always kept.
+//  7. Light sources (LPRT bakes only, issue 35): a probe at the position of each given light
+//     under static geometry (a ray straight up from it meets a static surface: indoors, under a
+//     roof or an overhang), as given (no relocation: a lamp hangs against its fitting), flagged
+//     kProbeLightSource and appended after the others in the given order. LPRT's source there
+//     is the light itself rather than the probes nearest it, which may stand beyond a wall or
+//     1.5 m over a block the light is 7 m above; no index cell names such a probe. In the open
+//     the probes around a light share it (runtime/probe_cache.h, the footprint factor), which
+//     measured better there: the lit island at 22:00, local_lights 5.9 % shared against 7.7 %
+//     with every lamp on its own source (docs/runtime.md, "Sources where the lights stand").
 #pragma once
 
 #include <cstdint>
@@ -53,6 +65,15 @@ namespace drtv::baker {
 // half the hits. From outside, back faces show only through cracks and the undersides of open
 // meshes: on the default island 0.25 relocates 0.6% of the 63,600 candidates and drops 0.04%.
 inline constexpr double kInsideBackfaceFraction = 0.25;
+// A covered candidate is enclosed (PlacementSettings::enclosed_*) when at least kEnclosedWalls of
+// kEnclosedRays horizontal rays from it (evenly spread in azimuth) meet static geometry within
+// kEnclosedRangeM: walls all round, as in a room (a door or window lets one or two out), a
+// corridor (two out), a box open on one side (one); not under a deck, an overhang or an arcade,
+// whose sides are open (measured: a deck 30 m wide put 60 probes under it with "most of all rays
+// meet geometry", since its ground and underside take every ray but the horizontal ones).
+inline constexpr int kEnclosedRays = 8;
+inline constexpr int kEnclosedWalls = 6;
+inline constexpr double kEnclosedRangeM = 12.0;
 
 struct PlacementSettings {
   double column_spacing_m = 4.0;      // static pass ray spacing [1, slide 15]
@@ -71,6 +92,15 @@ struct PlacementSettings {
   // the talk's rule.
   double covered_column_spacing_m = 4.0;
   double covered_min_horizontal_m = 8.0;
+  // Enclosed spaces under roofs (rooms, storeys, a box open on one side: a covered candidate with
+  // walls all round, kEnclosedWalls) change their light
+  // within a room's width, and the runtime's fine level blends their probes (visibility.h, issue
+  // 35): columns there are cast every `enclosed_column_spacing_m` as well (after every other
+  // column), and an enclosed candidate is kept unless an accepted probe lies within
+  // `enclosed_min_horizontal_m` of it (and min_vertical_m). No finer than the covered values: the
+  // placement of the builds before 2026-12-06.
+  double enclosed_column_spacing_m = 2.0;
+  double enclosed_min_horizontal_m = 2.0;
   // The least distance from a probe to static geometry, and half the least gap a probe may stand
   // in (issue 16). 0.5 m: a probe that close to a wall sees it over half its sphere. On the
   // default island it drops 163 of its 63,651 candidates (0.26 %), more than the inside test does.
@@ -106,12 +136,17 @@ struct PlacementStats {
   uint64_t rays = 0;                 // rays cast
 };
 
+// At most this many light sources per sector (step 7): the brightest lights of a sector keep
+// their own source, the rest are shared out over probes as moving lights are (runtime/probe_cache.h).
+inline constexpr int kMaxLightSourcesPerSector = 32;
+
 // Places the probes of the sector at `offset` (sector keys relative to geometry.key; (0,0) for
 // the geometry's own sector, neighbours for LPRT sources) using `scene` built over `geometry`.
-// Positions are in the geometry's local frame. `interiors` empty unless the world asks for them.
-// Thread-safe (reads only). Returns at most 255 probes.
+// Positions are in the geometry's local frame. `interiors` empty unless the world asks for them;
+// `light_sources` (local frame, inside the sector, at most kMaxLightSourcesPerSector, checked)
+// empty unless the bake has LPRT. Thread-safe (reads only). Returns at most 255 probes.
 std::vector<PlacedProbe> placeProbes(const raytrace::RayScene& scene, const raytrace::SectorGeometry& geometry, glm::ivec2 offset,
                                      std::span<const LocalInterior> interiors, const PlacementSettings& settings,
-                                     PlacementStats& stats);
+                                     PlacementStats& stats, std::span<const glm::vec3> light_sources = {});
 
 }  // namespace drtv::baker

@@ -61,8 +61,9 @@ enum ProbeFlag : uint16_t {
   kProbeSkyMoments = 1u << 4,    // sky_terms hold the visibility moments (an sh-l1 bake of archive version 2)
   kProbeSkyFit = 1u << 5,        // sky_vis_sh and sky_terms hold the direct sky's a and b (sh-l1, version 3)
   kProbeCovered = 1u << 6,       // under static geometry (a roof, a storey, an overhang): carries a visibility map (visibility.h)
+  kProbeLightSource = 1u << 7,   // an LPRT source where a still light under a roof stands: no index cell names it, no lookup reads it
 };
-inline constexpr uint16_t kProbeKnownFlags = 0x007f;
+inline constexpr uint16_t kProbeKnownFlags = 0x00ff;
 // Snorm range of the direct sky's b with kProbeSkyFit (|b_i| <= 0.8 pi / 2 + ... < 1.3).
 inline constexpr float kSkyFitRange = 4.f;
 

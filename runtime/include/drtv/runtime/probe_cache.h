@@ -64,6 +64,11 @@
 //    above the light, the column is walked down to the first probe that does not. A few cell
 //    look-ups per light, independent of how many probes are resident.
 //  - kNearest: every resident source probe (the talk's rule); leaks through roofs and walls.
+// Before either, a light standing where a baked light stands (within 0.25 m of a probe flagged
+// kProbeLightSource, which the bake placed there: baker/placement.h, step 7) gives that source its
+// whole intensity, no footprint factor: the bake lit the source with the light itself
+// (`own_light_sources`; issue 35: the Cornell box's ceiling lights were shared out over probes
+// 1.5 m over its blocks and floor).
 //
 // Thread-safety: not thread-safe; one writer. Const member functions may run concurrently with
 // each other.
@@ -161,6 +166,7 @@ struct ProbeCacheOptions {
   int max_sectors = kMaxResidentSectors;  // slots; memory is reserved for all of them up front
   int sources_per_light = 4;              // LPRT source probes that share one light, 1..64
   LightSources light_sources = LightSources::kVisibleFromLight;
+  bool own_light_sources = true;          // a light on a baked light's own source takes it whole (above)
   Representation representation = Representation::kFc3;  // what the added sectors were baked in
 };
 

@@ -27,6 +27,7 @@
 #include "atomic_file.h"
 #include "sector_journal.h"
 #include "sector_stats.h"
+#include "static_rays.h"
 #include "drtv/baker/stopwatch.h"
 
 namespace drtv::baker {
@@ -46,23 +47,12 @@ constexpr int kMaxGroundHits = 128;
 // and its records count dropped_gap; 7: index cells inside geometry take a neighbour's choice).
 constexpr int kBakeFormat = 7;
 
-bool isStatic(uint8_t cls) {
-  return cls == uint8_t(worlds::InstanceClass::kTerrain) || cls == uint8_t(worlds::InstanceClass::kStatic);
-}
-
 // Highest terrain/static surface under (x, y), local frame; NaN if none.
 float groundAt(const raytrace::RayScene& scene, const raytrace::SectorGeometry& g, float x, float y, uint64_t& rays) {
   const glm::vec3 origin(x, y, g.z_max + kGroundRayMarginM);
   const float len = g.z_max - g.z_min + 2.f * kGroundRayMarginM;
-  float t = 0.f;
-  for (int k = 0; k < kMaxGroundHits; ++k) {
-    const raytrace::Hit h = scene.intersect(raytrace::Ray{origin, t, glm::vec3(0, 0, -1), len});
-    ++rays;
-    if (!h.hit()) break;
-    if (isStatic(g.cls[h.prim])) return origin.z - h.t;
-    t = std::max(h.t + 1e-4f, std::nextafter(h.t, INFINITY) * (1.f + 1e-6f));  // moves past the hit at any distance
-  }
-  return NAN;
+  const float t = detail::staticHitDistance(scene, g, origin, glm::vec3(0, 0, -1), len, kMaxGroundHits, rays);
+  return std::isfinite(t) ? origin.z - t : NAN;
 }
 
 

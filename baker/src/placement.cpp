@@ -7,18 +7,13 @@
 #include "drtv/raytrace/sampling.h"
 #include "drtv/formats/probe.h"
 #include "drtv/formats/sector.h"
+#include "static_rays.h"
 
 namespace drtv::baker {
 namespace {
 
 // Hits along one vertical ray, at most this many (a column through a 60-floor tower).
 constexpr int kMaxHitsPerColumn = 128;
-// Step past a hit before looking for the next one along the same ray: 0.1 mm, far below modelled
-// thickness and far above float round-off at sector coordinates.
-constexpr float kHitStepM = 1e-4f;
-// Where a ray continues after a hit at distance t: kHitStepM further, or more where floats are
-// coarser than that (beyond ~2 km a 0.1 mm step would round back onto the same hit).
-inline float nextRayStart(float t) { return std::max(t + kHitStepM, std::nextafter(t, INFINITY) * (1.f + 1e-6f)); }
 // Start vertical rays this far above the highest geometry.
 constexpr float kRayTopMarginM = 10.f;
 // Relocation offsets tried in order (metres): up first (most inside cases are a probe lifted
@@ -39,9 +34,8 @@ struct Candidate {
   bool enclosed = false;       // covered, and enclosed (placement.h kEnclosedHitFraction)
 };
 
-bool isStatic(uint8_t cls) {
-  return cls == uint8_t(worlds::InstanceClass::kTerrain) || cls == uint8_t(worlds::InstanceClass::kStatic);
-}
+using detail::isStatic;
+using detail::nextRayStart;
 
 // What the inside test's rays found around a point (step 4 of placement.h).
 struct Surroundings {
@@ -76,27 +70,13 @@ Surroundings surroundings(const raytrace::RayScene& scene, const raytrace::Secto
   return out;
 }
 
-// Whether a ray from `p` along `d` meets a static or terrain surface within `len`, passing
-// through vegetation and dynamic geometry (at most kMaxHitsPerColumn of them).
-bool meetsStatic(const raytrace::RayScene& scene, const raytrace::SectorGeometry& geometry, const glm::vec3& p, const glm::vec3& d,
-                 float len, PlacementStats& stats) {
-  float t = 0.f;
-  for (int k = 0; k < kMaxHitsPerColumn; ++k) {
-    const raytrace::Hit h = scene.intersect(raytrace::Ray{p, t, d, len});
-    ++stats.rays;
-    if (!h.hit()) return false;
-    if (isStatic(geometry.cls[h.prim])) return true;
-    t = nextRayStart(h.t);
-  }
-  return false;
-}
-
 // Whether walls close `p` in (placement.h kEnclosedWalls): horizontal rays within kEnclosedRangeM.
 bool enclosed(const raytrace::RayScene& scene, const raytrace::SectorGeometry& geometry, const glm::vec3& p, PlacementStats& stats) {
   int walls = 0;
   for (int i = 0; i < kEnclosedRays; ++i) {
     const double a = 2.0 * 3.14159265358979323846 * (i + 0.5) / kEnclosedRays;
-    walls += meetsStatic(scene, geometry, p, glm::vec3(float(std::cos(a)), float(std::sin(a)), 0.f), float(kEnclosedRangeM), stats);
+    const glm::vec3 d(float(std::cos(a)), float(std::sin(a)), 0.f);
+    walls += std::isfinite(detail::staticHitDistance(scene, geometry, p, d, float(kEnclosedRangeM), kMaxHitsPerColumn, stats.rays));
   }
   return walls >= kEnclosedWalls;
 }
@@ -296,7 +276,8 @@ std::vector<PlacedProbe> placeProbes(const raytrace::RayScene& scene, const rayt
   std::vector<glm::vec3> lights;
   for (const glm::vec3& l : light_sources) {
     DRTV_CHECK(l.x >= base.x && l.y >= base.y && l.x <= base.x + float(kSectorSizeM) && l.y <= base.y + float(kSectorSizeM));
-    if (meetsStatic(scene, geometry, l, glm::vec3(0, 0, 1), std::max(0.f, geometry.z_max - l.z) + 1.f, stats)) lights.push_back(l);
+    const float up = std::max(0.f, geometry.z_max - l.z) + 1.f;
+    if (std::isfinite(detail::staticHitDistance(scene, geometry, l, glm::vec3(0, 0, 1), up, kMaxHitsPerColumn, stats.rays))) lights.push_back(l);
   }
 
   // 5 and 6. Minimum distance, then the cap.

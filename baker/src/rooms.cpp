@@ -15,6 +15,7 @@
 
 #include "drtv/raytrace/ray_scene.h"
 #include "drtv/worlds/world.h"
+#include "static_rays.h"
 
 namespace drtv::baker {
 namespace {
@@ -83,12 +84,7 @@ class RoomFinder {
   RoomFinder(const raytrace::RayScene& scene, const raytrace::SectorGeometry& g, const RoomSettings& s)
       : scene_(scene), g_(g), s_(s) {
     // The Fibonacci sphere [2]: evenly spread, the same directions for every seed.
-    const int n = s.test_rays;
-    const double golden = 3.0 - std::sqrt(5.0);
-    for (int i = 0; i < n; ++i) {
-      const double z = 1.0 - (2.0 * i + 1.0) / n, r = std::sqrt(std::max(0.0, 1.0 - z * z)), phi = 3.14159265358979 * golden * i;
-      dirs_.push_back(glm::vec3(float(r * std::cos(phi)), float(r * std::sin(phi)), float(z)));
-    }
+    for (int i = 0; i < s.test_rays; ++i) dirs_.push_back(detail::fibonacciDirection(i, s.test_rays));
   }
 
   // Covered-air seeds of the column at (x, y), top down.

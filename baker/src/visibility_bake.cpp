@@ -6,7 +6,7 @@
 #include <cmath>
 
 #include "drtv/formats/visibility.h"
-#include "drtv/worlds/world.h"
+#include "static_rays.h"
 
 namespace drtv::baker {
 
@@ -14,24 +14,13 @@ namespace {
 
 constexpr int kMaxPassThrough = 64;  // vegetation layers a ray may pass before it counts as open
 
-glm::vec3 fibonacciDirection(int i, int n) {
-  const double golden = 2.399963229728653;  // pi (3 - sqrt 5)
-  const double z = 1.0 - (2.0 * i + 1.0) / n;
-  const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
-  return glm::vec3(float(r * std::cos(golden * i)), float(r * std::sin(golden * i)), float(z));
-}
-
-bool isStatic(uint8_t cls) {
-  return cls == uint8_t(worlds::InstanceClass::kTerrain) || cls == uint8_t(worlds::InstanceClass::kStatic);
-}
-
 }  // namespace
 
 std::vector<uint8_t> bakeVisibility(const raytrace::RayScene& scene, const raytrace::SectorGeometry& geometry,
                                      std::span<const glm::vec3> positions, uint64_t& rays) {
   static const std::array<glm::vec3, kVisRays> kDirs = [] {
     std::array<glm::vec3, kVisRays> d{};
-    for (int i = 0; i < kVisRays; ++i) d[size_t(i)] = fibonacciDirection(i, kVisRays);
+    for (int i = 0; i < kVisRays; ++i) d[size_t(i)] = detail::fibonacciDirection(i, kVisRays);
     return d;
   }();
   // Per texel, the rays of its lobe and their weights (those above 1e-6 of the centre's).
@@ -54,17 +43,7 @@ std::vector<uint8_t> bakeVisibility(const raytrace::RayScene& scene, const raytr
   std::array<float, kVisRays> dist{};
   for (size_t p = 0; p < positions.size(); ++p) {
     for (int i = 0; i < kVisRays; ++i) {
-      float t = 0.f, d = kVisRangeM;
-      for (int k = 0; k < kMaxPassThrough; ++k) {
-        const raytrace::Hit h = scene.intersect({positions[p], t, kDirs[size_t(i)], kVisRangeM});
-        ++rays;
-        if (!h.hit()) break;
-        if (isStatic(geometry.cls[h.prim])) {
-          d = h.t;
-          break;
-        }
-        t = std::max(h.t + 1e-4f, std::nextafter(h.t, INFINITY) * (1.f + 1e-6f));
-      }
+      const float d = detail::staticHitDistance(scene, geometry, positions[p], kDirs[size_t(i)], kVisRangeM, kMaxPassThrough, rays);
       dist[size_t(i)] = std::min(d, kVisRangeM);
     }
     for (int t = 0; t < kVisTexels; ++t) {

@@ -148,9 +148,9 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
   md << "- quality: " << qualityName(r.settings.quality) << ", threads: " << r.threads << "\n";
   md << "- effects baked: " << effectsToString(r.effects_baked) << "\n";
   for (const std::string& s : r.effects_skipped) md << "- skipped: " << s << "\n";
-  for (const std::string& n : r.notes) md << "- geometry " << n << "\n";
+  for (const std::string& n : worlds::collapseNotes(r.notes)) md << "- geometry " << n << "\n";
   md << "- " << worlds::materialCountsLine(r.materials) << "\n";
-  for (const std::string& n : r.world_notes) md << "- loader " << n << "\n";
+  for (const std::string& n : worlds::collapseNotes(r.world_notes)) md << "- loader " << n << "\n";
   md << "\n## Probes\n\n| | value |\n|---|---|\n";
   md << "| sectors with probes | " << probes.n << " (" << r.sectors_empty << " empty, not stored; " << resumed << " resumed) |\n";
   md << "| probes | " << total_probes << " |\n";

@@ -10,6 +10,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "drtv/worlds/summary.h"
 #include "drtv/eval/accuracy.h"
 #include "drtv/eval/topdown.h"
 
@@ -263,7 +264,7 @@ Result<void> writeAccuracyReport(const AccuracyReport& r, const fs::path& dir) {
     md << " " << (worst < 0 ? "—" : surfaceCategoryName(SurfaceCategory(worst))) << " |\n";
   }
   for (const std::string& s : r.skipped) md << "\nSkipped: " << s << ".\n";
-  for (const std::string& s : r.notes) md << "\nNote: " << s << "\n";
+  for (const std::string& s : worlds::collapseNotes(r.notes)) md << "\nNote: " << s << "\n";
   if (auto w = writeText(dir / "accuracy.md", md.str()); !w) return w;
 
   return image::writePng(dir / "accuracy.png", plot(r));

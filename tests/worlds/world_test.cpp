@@ -200,3 +200,31 @@ TEST(WorldSummary, NegativeCoordinatesFloorToNegativeSectors) {
 
 }  // namespace
 }  // namespace drtv::worlds
+
+namespace drtv::worlds {
+namespace {
+
+// The reports' notes (summary.h collapseNotes): a form past kNotesOfAForm notes is one line with
+// its count; other forms stay whole and in place; a run just one over the limit is not folded.
+TEST(Notes, ManyNotesOfOneFormCollapseToAFewAndACount) {
+  std::vector<std::string> notes;
+  notes.push_back("warning: a.glb: required extension KHR_x is not supported; loaded without it");
+  for (int i = 0; i < 1945; ++i)
+    notes.push_back("material: a.glb: material " + std::to_string(i) + " 'Mat_" + std::to_string(i * 7) + "': metallic 0." +
+                    std::to_string(i % 10) + ": diffuse albedo = base colour x 0.5");
+  notes.push_back("skipped: a.glb: node 3 does not exist");
+  for (int i = 0; i < 4; ++i) notes.push_back("dropped: a.glb mesh " + std::to_string(i) + ": 2 zero-area triangles");
+  const std::vector<std::string> out = collapseNotes(notes);
+  ASSERT_EQ(out.size(), 1u + 3u + 1u + 1u + 4u);
+  EXPECT_EQ(out[0], notes[0]);
+  EXPECT_EQ(out[1], notes[1]);
+  EXPECT_EQ(out[3], notes[3]);
+  EXPECT_EQ(out[4], "... and 1,942 more like these: material: a.glb: material # '\u2026': metallic #: diffuse albedo = base colour x #");
+  EXPECT_EQ(out[5], "skipped: a.glb: node 3 does not exist");
+  EXPECT_EQ(out[9], notes.back()) << "four of a form: one more than the limit is shown, not folded";
+  EXPECT_TRUE(collapseNotes({}).empty());
+}
+
+}  // namespace
+}  // namespace drtv::worlds
+

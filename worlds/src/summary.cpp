@@ -1,7 +1,9 @@
 // summary.cpp — see drtv/worlds/summary.h.
 #include "drtv/worlds/summary.h"
 
+#include <cctype>
 #include <cmath>
+#include <map>
 #include <sstream>
 
 namespace drtv::worlds {
@@ -28,6 +30,66 @@ WorldSummary summarize(const World& world) {
   s.notes = world.notes.size();
   s.materials = world.materials;
   return s;
+}
+
+namespace {
+
+// A note's form: each number (digits with their point, sign and exponent) as '#', each quoted
+// name ('...' or "...") as '…'.
+std::string noteForm(const std::string& note) {
+  std::string form;
+  for (size_t i = 0; i < note.size();) {
+    const char c = note[i];
+    if (c == '\'' || c == '"') {
+      const size_t close = note.find(c, i + 1);
+      if (close != std::string::npos) {
+        form += c;
+        form += "\u2026";
+        form += c;
+        i = close + 1;
+        continue;
+      }
+    }
+    if (std::isdigit(static_cast<unsigned char>(c))) {
+      while (i < note.size() && (std::isdigit(static_cast<unsigned char>(note[i])) || note[i] == '.' || note[i] == 'e' ||
+                                 ((note[i] == '-' || note[i] == '+') && i > 0 && note[i - 1] == 'e')))
+        ++i;
+      form += '#';
+      continue;
+    }
+    form += c;
+    ++i;
+  }
+  return form;
+}
+
+std::string thousands(size_t n) {
+  std::string digits = std::to_string(n), out;
+  for (size_t i = 0; i < digits.size(); ++i) {
+    if (i > 0 && (digits.size() - i) % 3 == 0) out += ',';
+    out += digits[i];
+  }
+  return out;
+}
+
+}  // namespace
+
+std::vector<std::string> collapseNotes(std::span<const std::string> notes) {
+  std::vector<std::pair<std::string, std::vector<size_t>>> forms;  // in order of first appearance
+  std::map<std::string, size_t> index;
+  for (size_t i = 0; i < notes.size(); ++i) {
+    std::string form = noteForm(notes[i]);
+    auto [at, fresh] = index.try_emplace(form, forms.size());
+    if (fresh) forms.push_back({std::move(form), {}});
+    forms[at->second].second.push_back(i);
+  }
+  std::vector<std::string> out;
+  for (const auto& [form, members] : forms) {
+    const size_t shown = members.size() <= kNotesOfAForm + 1 ? members.size() : kNotesOfAForm;
+    for (size_t k = 0; k < shown; ++k) out.push_back(notes[members[k]]);
+    if (shown < members.size()) out.push_back("... and " + thousands(members.size() - shown) + " more like these: " + form);
+  }
+  return out;
 }
 
 std::vector<std::pair<const char*, size_t>> materialCountFields(const MaterialCounts& c) {

@@ -4,6 +4,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
@@ -37,6 +38,14 @@ struct WorldSummary {
 std::vector<std::pair<const char*, size_t>> materialCountFields(const MaterialCounts& counts);
 // One line for people: "materials: 5 (opaque 5, mask kept 0, ...)".
 std::string materialCountsLine(const MaterialCounts& counts);
+
+// Notes for people (the reports' Markdown, issue 35: a building of 1,945 materials printed 1,945
+// near-identical material lines): notes of one form, the same text once every number and every
+// quoted name is taken out, are kept up to kNotesOfAForm; the rest of the form is one line,
+// "... and 1,942 more like these: material: # '…': metallic #: ...". Each form stays where it
+// first appears, its notes in their order. The JSON reports keep every note.
+inline constexpr size_t kNotesOfAForm = 3;
+std::vector<std::string> collapseNotes(std::span<const std::string> notes);
 
 // Computes the summary. O(instances + vertices). Thread-safe for a World not being mutated.
 WorldSummary summarize(const World& world);

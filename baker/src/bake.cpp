@@ -730,12 +730,7 @@ static Result<BakeReport> bakeRecorded(const worlds::World& given, const std::st
   if (options.cell_sides) report.settings.transfer.cell_sides = *options.cell_sides;
   if (options.covered_visibility) report.settings.covered_visibility = *options.covered_visibility;
   if (options.light_sources) report.settings.light_sources = *options.light_sources;
-  if (options.enclosed_spacing_m) {
-    PlacementSettings& p = report.settings.placement;
-    const bool off = *options.enclosed_spacing_m == 0.0;
-    p.enclosed_column_spacing_m = off ? p.covered_column_spacing_m : *options.enclosed_spacing_m;
-    p.enclosed_min_horizontal_m = off ? p.covered_min_horizontal_m : *options.enclosed_spacing_m;
-  }
+  if (options.enclosed_spacing_m) report.settings.placement.setEnclosedSpacing(*options.enclosed_spacing_m);
   if (auto why = validateSettings(report.settings); !why) return std::unexpected(why.error().context("bake settings"));
   report.threads = options.threads > 0 ? options.threads : int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
   if (options.shard_count > 1) report.shard = std::to_string(options.shard_index) + "/" + std::to_string(options.shard_count);

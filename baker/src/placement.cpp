@@ -31,7 +31,7 @@ struct Candidate {
   uint16_t flags = 0;
   uint16_t interior = 0;
   bool enclosed_only = false;  // from the enclosed lattice: kept only if enclosed (step 4)
-  bool enclosed = false;       // covered, and enclosed (placement.h kEnclosedHitFraction)
+  bool enclosed = false;       // covered, and enclosed (placement.h kEnclosedWalls)
 };
 
 using detail::isStatic;
@@ -227,8 +227,7 @@ std::vector<PlacedProbe> placeProbes(const raytrace::RayScene& scene, const rayt
   }
 
   // 4. Inside and clearance test (before the distance test, so that a moved probe competes fairly).
-  const bool enclosed_finer = s.enclosed_column_spacing_m < std::min(s.covered_column_spacing_m, s.column_spacing_m) ||
-                              s.enclosed_min_horizontal_m < std::min(s.covered_min_horizontal_m, s.min_horizontal_m);
+  const bool enclosed_finer = s.enclosedDenser();
   std::vector<Candidate> kept;
   kept.reserve(cands.size());
   for (Candidate& c : cands) {

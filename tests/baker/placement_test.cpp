@@ -98,8 +98,7 @@ TEST(Placement, AClosedRoomGetsAProbeEveryTwoMetresAndADeckDoesNot) {
     return q.position.x >= 40.f && q.position.x <= 60.f && q.position.y >= 10.f && q.position.y <= 40.f && q.position.z < 5.f;
   };
   PlacementSettings before;
-  before.enclosed_column_spacing_m = before.covered_column_spacing_m;
-  before.enclosed_min_horizontal_m = before.covered_min_horizontal_m;
+  before.setEnclosedSpacing(0.0);
   const Placed now = place(w, {0, 0}), old = place(w, {0, 0}, before);
   const size_t room_now = size_t(std::count_if(now.probes.begin(), now.probes.end(), in_room));
   const size_t room_old = size_t(std::count_if(old.probes.begin(), old.probes.end(), in_room));

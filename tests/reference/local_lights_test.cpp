@@ -70,8 +70,7 @@ TEST(LocalLights, ALampInAClosedRoomLendsItsLightOnlyToProbesInTheRoom) {
   // the placement before 2026-12-06; with the 2 m spacing in enclosed spaces (placement.h) the
   // four sources nearest the lamp are all the room's.
   baker::BakeSettings sparse = baker::BakeSettings::forQuality(baker::Quality::kDraft, 1);
-  sparse.placement.enclosed_column_spacing_m = sparse.placement.covered_column_spacing_m;
-  sparse.placement.enclosed_min_horizontal_m = sparse.placement.covered_min_horizontal_m;
+  sparse.placement.setEnclosedSpacing(0.0);
   auto sparse_bake = baker::bakeInMemory(w, w.name, sparse);
   ASSERT_TRUE(sparse_bake.has_value());
   const BakedWorld one_probe{std::move(sparse_bake->sectors), std::move(sparse_bake->manifest)};
@@ -323,8 +322,7 @@ TEST(ClosedRoom, ItsFloorReadsNoSkyAndNoSunAtNoon) {
       // The leak shown with the room's one probe of the placement before 2026-12-06: with the 2 m
       // spacing in enclosed spaces (placement.h) the floor's point reads probes whose shared cells
       // gave it nothing (0 measured), which hides what the sides are for.
-      bs.placement.enclosed_column_spacing_m = bs.placement.covered_column_spacing_m;
-      bs.placement.enclosed_min_horizontal_m = bs.placement.covered_min_horizontal_m;
+      bs.placement.setEnclosedSpacing(0.0);
     }
     auto b = baker::bakeInMemory(w, w.name, bs, std::nullopt, 2);
     ASSERT_TRUE(b.has_value());

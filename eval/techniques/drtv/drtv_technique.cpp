@@ -165,11 +165,7 @@ baker::BakeSettings bakeSettings(const BakeParams& p, uint64_t seed) {
   if (p.sweeps) s.transfer.sweeps = *p.sweeps;
   if (p.covered_spacing) s.placement.covered_column_spacing_m = *p.covered_spacing;
   if (p.covered_min_h) s.placement.covered_min_horizontal_m = *p.covered_min_h;
-  if (p.enclosed_spacing) {
-    const bool off = *p.enclosed_spacing == 0.0;
-    s.placement.enclosed_column_spacing_m = off ? s.placement.covered_column_spacing_m : *p.enclosed_spacing;
-    s.placement.enclosed_min_horizontal_m = off ? s.placement.covered_min_horizontal_m : *p.enclosed_spacing;
-  }
+  if (p.enclosed_spacing) s.placement.setEnclosedSpacing(*p.enclosed_spacing);
   s.transfer.representation = p.representation;
   s.rooms.enabled = p.rooms;
   s.transfer.cell_sides = p.cell_sides;

@@ -49,6 +49,7 @@
 //     with every lamp on its own source (docs/runtime.md, "Sources where the lights stand").
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -101,6 +102,16 @@ struct PlacementSettings {
   // placement of the builds before 2026-12-06.
   double enclosed_column_spacing_m = 2.0;
   double enclosed_min_horizontal_m = 2.0;
+  // Both enclosed values to `m` metres; 0 = the covered values (the placement before 2026-12-06).
+  void setEnclosedSpacing(double m) {
+    enclosed_column_spacing_m = m == 0.0 ? covered_column_spacing_m : m;
+    enclosed_min_horizontal_m = m == 0.0 ? covered_min_horizontal_m : m;
+  }
+  // Whether enclosed spaces get denser probes than any covered place (else no enclosure test runs).
+  bool enclosedDenser() const {
+    return enclosed_column_spacing_m < std::min(covered_column_spacing_m, column_spacing_m) ||
+           enclosed_min_horizontal_m < std::min(covered_min_horizontal_m, min_horizontal_m);
+  }
   // The least distance from a probe to static geometry, and half the least gap a probe may stand
   // in (issue 16). 0.5 m: a probe that close to a wall sees it over half its sphere. On the
   // default island it drops 163 of its 63,651 candidates (0.26 %), more than the inside test does.

@@ -23,6 +23,7 @@
 #include "drtv/worlds/gltf.h"
 #include "gltf_import.h"
 #include "drtv/worlds/island.h"
+#include "town_detail.h"
 #include "island_detail.h"
 #include "noise.h"
 #include "primitives.h"
@@ -210,6 +211,7 @@ class Parser {
 
   Ok terrain(const json& j);
   Ok island(const json& j);
+  Ok town(const json& j);
   Ok primitives(const json& j);
   Ok gltfs(const json& j);
   Ok vegetation(const json& j);
@@ -223,11 +225,14 @@ class Parser {
 };
 
 Result<World> Parser::parse(const json& root) {
-  DRTV_TRY(object(root, "", {"name", "terrain", "island", "primitives", "gltf", "vegetation", "lights", "interiors", "effects", "sky", "representation"}));
+  DRTV_TRY(object(root, "", {"name", "terrain", "island", "town", "primitives", "gltf", "vegetation", "lights", "interiors", "effects", "sky", "representation"}));
   DRTV_TRY_DECL(name, optString(root, "name", "", std::filesystem::path(file_).stem().string()));
   world_.name = name;
   if (root.contains("island") && root.contains("terrain")) return error("terrain", "cannot be combined with 'island' (the island has its own terrain)");
+  if (root.contains("town") && (root.contains("terrain") || root.contains("island")))
+    return error("town", "cannot be combined with 'terrain' or 'island' (the town has its own terrain)");
   if (root.contains("island")) DRTV_TRY(island(root.at("island")));
+  if (root.contains("town")) DRTV_TRY(town(root.at("town")));
   if (root.contains("terrain")) DRTV_TRY(terrain(root.at("terrain")));
   if (root.contains("primitives")) DRTV_TRY(primitives(root.at("primitives")));
   if (root.contains("gltf")) DRTV_TRY(gltfs(root.at("gltf")));
@@ -318,6 +323,46 @@ Ok Parser::island(const json& j) {
   o.interior_fraction = interior;
   Ground g;
   auto w = generateIslandWithHeightfield(o, &g.hf);
+  if (!w) return std::unexpected(w.error().context(file_));
+  const std::string name = world_.name;
+  world_ = std::move(*w);
+  world_.name = name;
+  ground_ = std::move(g);
+  return true;
+}
+
+Ok Parser::town(const json& j) {
+  const std::string path = "town";
+  DRTV_TRY(object(j, path, {"size_m", "seed", "block_m", "street_m", "min_storeys", "max_storeys", "min_storey_m", "max_storey_m",
+                            "courtyard_fraction", "pair_fraction", "square_fraction", "arcade_fraction", "lit_room_fraction",
+                            "lamp_intensity", "terrain_height_m", "grid_spacing_m"}));
+  TownOptions o;
+  DRTV_TRY_DECL(size, optNumber(j, "size_m", path, o.size_m, 64.0, 8192.0));
+  DRTV_TRY_DECL(seed, optSeed(j, "seed", path, o.seed));
+  DRTV_TRY_DECL(block, optNumber(j, "block_m", path, o.block_m, 40.0, 400.0));
+  DRTV_TRY_DECL(street, optNumber(j, "street_m", path, o.street_m, 4.0, 372.0));
+  DRTV_TRY_DECL(min_storeys, optNumber(j, "min_storeys", path, o.min_storeys, 1.0, 16.0));
+  DRTV_TRY_DECL(max_storeys, optNumber(j, "max_storeys", path, o.max_storeys, 1.0, 16.0));
+  if (min_storeys != std::floor(min_storeys)) return error(join(path, "min_storeys"), "must be a whole number");
+  if (max_storeys != std::floor(max_storeys)) return error(join(path, "max_storeys"), "must be a whole number");
+  DRTV_TRY_DECL(min_storey, optNumber(j, "min_storey_m", path, o.min_storey_m, 2.5, 4.0));
+  DRTV_TRY_DECL(max_storey, optNumber(j, "max_storey_m", path, o.max_storey_m, 2.5, 4.0));
+  DRTV_TRY_DECL(courtyard, optNumber(j, "courtyard_fraction", path, o.courtyard_fraction, 0.0, 1.0));
+  DRTV_TRY_DECL(pair, optNumber(j, "pair_fraction", path, o.pair_fraction, 0.0, 1.0));
+  DRTV_TRY_DECL(square, optNumber(j, "square_fraction", path, o.square_fraction, 0.0, 1.0));
+  DRTV_TRY_DECL(arcade, optNumber(j, "arcade_fraction", path, o.arcade_fraction, 0.0, 1.0));
+  DRTV_TRY_DECL(lit, optNumber(j, "lit_room_fraction", path, o.lit_room_fraction, 0.0, 1.0));
+  DRTV_TRY_DECL(lamp, optNumber(j, "lamp_intensity", path, o.lamp_intensity, 1e-6, 1e4));
+  DRTV_TRY_DECL(hills, optNumber(j, "terrain_height_m", path, o.terrain_height_m, 0.0, 100.0));
+  DRTV_TRY_DECL(spacing, optNumber(j, "grid_spacing_m", path, o.grid_spacing_m, 1.0, 64.0));
+  o.size_m = size, o.seed = seed, o.block_m = block, o.street_m = street;
+  o.min_storeys = uint32_t(min_storeys), o.max_storeys = uint32_t(max_storeys);
+  o.min_storey_m = min_storey, o.max_storey_m = max_storey;
+  o.courtyard_fraction = courtyard, o.pair_fraction = pair, o.square_fraction = square, o.arcade_fraction = arcade;
+  o.lit_room_fraction = lit, o.lamp_intensity = float(lamp), o.terrain_height_m = hills, o.grid_spacing_m = spacing;
+  if (o.size_m / o.grid_spacing_m <= 8192) DRTV_TRY(terrainMemory(std::round(o.size_m / o.grid_spacing_m), join(path, "grid_spacing_m")));
+  Ground g;
+  auto w = generateTownWithHeightfield(o, &g.hf);
   if (!w) return std::unexpected(w.error().context(file_));
   const std::string name = world_.name;
   world_ = std::move(*w);

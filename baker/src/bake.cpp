@@ -469,9 +469,11 @@ Result<Sector> bakeSector(const raytrace::WorldGeometry& geometry, const worlds:
     for (const PlacedProbe& p : placed)
       if (p.flags & kProbeCovered) covered.push_back(p.position);
     if (!covered.empty()) {
+      const auto t_vis = Clock::now();
       auto vis = std::make_unique<VisibilityBlock>();
       vis->values = bakeVisibility(*scene, g, covered, stats.other_rays);
       sector.visibility = std::move(vis);
+      stats.visibility_s = since(t_vis);
     }
   }
 
@@ -491,7 +493,18 @@ Result<Sector> bakeSector(const raytrace::WorldGeometry& geometry, const worlds:
     for (const LocalInterior& in : localInteriors(world, key, effects)) boxes.push_back(in.box);
     std::vector<uint16_t> probe_interior;
     for (size_t i = 0; i < looked_up; ++i) probe_interior.push_back(placed[i].interior);
-    fillIndexGrid(*scene, lookup_positions, settings.grid, sector.grid, stats.grid, {boxes, probe_interior});
+    // The sides of the sky line: covered probes, and whether static geometry stands over a cell.
+    // Only with covered probes to tell apart (kProbeCovered is cleared above without the fine
+    // level): otherwise no side, and the grid of the builds before.
+    std::vector<uint8_t> probe_covered;
+    if (settings.grid.same_side && settings.covered_visibility)
+      for (size_t i = 0; i < looked_up; ++i) probe_covered.push_back((placed[i].flags & kProbeCovered) ? 1 : 0);
+    const float top = g.z_max + 1.f;
+    IndexGridSides sides{probe_covered, [&](const glm::vec3& c, uint64_t& rays) {
+                           return std::isfinite(detail::staticHitDistance(*scene, g, c, glm::vec3(0, 0, 1), std::max(0.f, top - c.z) + 1.f,
+                                                                          kMaxGroundHits, rays));
+                         }};
+    fillIndexGrid(*scene, lookup_positions, settings.grid, sector.grid, stats.grid, {boxes, probe_interior}, sides);
   }
   stats.grid_s = since(t0);
   stats.bytes = encodedSectorBytes(sector.probes.size(), sector.lprt.sources.size(), sector.has_ground,
@@ -727,6 +740,7 @@ static Result<BakeReport> bakeRecorded(const worlds::World& given, const std::st
   if (options.clearance_m) report.settings.placement.clearance_m = *options.clearance_m;
   if (options.find_rooms) report.settings.rooms.enabled = *options.find_rooms;
   if (options.inside_from_neighbours) report.settings.grid.inside_from_neighbours = *options.inside_from_neighbours;
+  if (options.grid_same_side) report.settings.grid.same_side = *options.grid_same_side;
   if (options.cell_sides) report.settings.transfer.cell_sides = *options.cell_sides;
   if (options.covered_visibility) report.settings.covered_visibility = *options.covered_visibility;
   if (options.light_sources) report.settings.light_sources = *options.light_sources;

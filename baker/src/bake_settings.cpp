@@ -117,6 +117,9 @@ std::vector<std::pair<std::string, std::string>> BakeSettings::describe() const 
   // itself (and hashes, and packs) as before.
   if (placement.clearance_m != 0.0) d.emplace_back("clearance_m", fmt(placement.clearance_m));
   if (grid.inside_from_neighbours) d.emplace_back("grid_inside_from_neighbours", "1");
+  // Only with covered probes to tell apart (the fine level's visibility maps): without them the
+  // rule names what the builds before named.
+  if (grid.same_side && covered_visibility) d.emplace_back("grid_same_side", "1");
   if (transfer.cell_sides && transfer.representation == Representation::kShL1) d.emplace_back("cache_cell_sides", "1");
   // Only when denser under roofs than in the open (issue 16): other bakes describe themselves as before.
   if (placement.covered_column_spacing_m < placement.column_spacing_m)

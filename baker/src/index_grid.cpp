@@ -34,7 +34,7 @@ void chooseGridExtent(std::span<const glm::vec3> probes, float ground_min_z, Ind
 }
 
 void fillIndexGrid(const raytrace::RayScene& scene, std::span<const glm::vec3> probes, const IndexGridSettings& settings,
-                   IndexGrid& grid, IndexGridStats& stats, const IndexGridInteriors& interiors) {
+                   IndexGrid& grid, IndexGridStats& stats, const IndexGridInteriors& interiors, const IndexGridSides& sides) {
   DRTV_CHECK_LE(probes.size(), size_t(kMaxProbesPerSector));
   DRTV_CHECK(interiors.probe_interior.empty() || interiors.probe_interior.size() == probes.size());
   for (const uint16_t n : interiors.probe_interior) DRTV_CHECK_LE(size_t(n), interiors.boxes.size());
@@ -58,7 +58,9 @@ void fillIndexGrid(const raytrace::RayScene& scene, std::span<const glm::vec3> p
   };
   const size_t k = std::min(probes.size(), size_t(std::max(1, settings.visibility_candidates)));
   std::atomic<uint64_t> rays{0};
-  std::atomic<size_t> nearest{0}, farther{0}, inside{0}, unseen{0}, searched{0};
+  std::atomic<size_t> nearest{0}, farther{0}, inside{0}, unseen{0}, searched{0}, other_side{0};
+  DRTV_CHECK(sides.probe_covered.empty() || sides.probe_covered.size() == probes.size());
+  const bool sided = settings.same_side && !sides.probe_covered.empty() && bool(sides.covered);
   // Cells that see no probe at all (enclosed air, a slit): they take a neighbour's choice below.
   std::vector<uint8_t> unresolved(grid.cells.size(), 0);
   // Probe coordinates as separate arrays, so that each cell's distances are one vectorised loop.
@@ -73,72 +75,88 @@ void fillIndexGrid(const raytrace::RayScene& scene, std::span<const glm::vec3> p
     std::vector<std::pair<float, uint32_t>> order(k);
     std::vector<float> dist2(P);
     uint64_t n_rays = 0;
-    size_t n_nearest = 0, n_farther = 0, n_inside = 0, n_unseen = 0, n_searched = 0;
+    size_t n_nearest = 0, n_farther = 0, n_inside = 0, n_unseen = 0, n_searched = 0, n_other_side = 0;
     for (int z = zr.begin(); z < zr.end(); ++z)
       for (int y = 0; y < kGridDim; ++y)
         for (int x = 0; x < kGridDim; ++x) {
           const glm::vec3 c(float((x + 0.5) * kGridCellSizeM), float((y + 0.5) * kGridCellSizeM),
                             grid.z_min_m + (float(z) + 0.5f) * grid.cell_height_m);
-          // The k nearest, by insertion (k <= 16 of <= 255): ties broken by index, deterministic.
+          uint32_t chosen = 0;
+          bool found = false, inside = false;
+          size_t* counted = nullptr;  // the counter the cell's resolution went to
+          // The probes of one side of the sky line (side 0 open, 1 covered), or all (side -1).
+          auto select = [&](int side) {
+            auto ok = [&](size_t i) { return side < 0 || int(sides.probe_covered[i]) == side; };
+            // The k nearest, by insertion (k <= 16 of <= 255): ties broken by index, deterministic.
+            size_t n = 0;
+            for (size_t i = 0; i < P; ++i) {
+              if (!ok(i) || (n == k && !(dist2[i] < order[k - 1].first))) continue;  // ties keep the lower index
+              const std::pair<float, uint32_t> e{dist2[i], uint32_t(i)};
+              size_t j = n < k ? n++ : k - 1;
+              for (; j > 0 && e < order[j - 1]; --j) order[j] = order[j - 1];
+              order[j] = e;
+            }
+            if (n == 0) return;
+            chosen = order[0].second;
+            for (size_t j = 0; j < n && !found; ++j) {
+              const glm::vec3 to = probes[order[j].second] - c;
+              const float dist = std::sqrt(order[j].first);
+              if (dist <= kProbeClearanceM) {
+                chosen = order[j].second;
+                found = true;
+                ++*(counted = j == 0 ? &n_nearest : &n_farther);
+                break;
+              }
+              const raytrace::Ray ray{c, 0.f, to / dist, dist - kProbeClearanceM};
+              const raytrace::Hit h = scene.intersect(ray);
+              ++n_rays;
+              if (!h.hit()) {
+                chosen = order[j].second;
+                found = true;
+                ++*(counted = j == 0 ? &n_nearest : &n_farther);
+              } else if (j == 0 && !scene.frontFace(ray, h.prim)) {
+                // Centre inside geometry: a resolved neighbour's choice (below), or the nearest.
+                (settings.inside_from_neighbours ? inside : found) = true;
+                ++n_inside;
+                break;
+              }
+            }
+            if (!found && !inside && settings.search_beyond) {
+              // None of the k nearest is visible: search the rest, nearest first, before falling
+              // back (a cell must not name a probe behind a wall when one it can see exists).
+              std::vector<std::pair<float, uint32_t>> rest;
+              for (size_t i = 0; i < P; ++i)
+                if (ok(i) && std::find_if(order.begin(), order.begin() + std::ptrdiff_t(n), [&](const auto& o) { return o.second == i; }) ==
+                                 order.begin() + std::ptrdiff_t(n))
+                  rest.push_back({dist2[i], uint32_t(i)});
+              std::sort(rest.begin(), rest.end());
+              for (const auto& [d2, i] : rest) {
+                const float dist = std::sqrt(d2);
+                const raytrace::Ray ray{c, 0.f, (probes[i] - c) / dist, dist - kProbeClearanceM};
+                ++n_rays;
+                if (dist <= kProbeClearanceM || !scene.intersect(ray).hit()) {
+                  chosen = i;
+                  found = true;
+                  ++*(counted = &n_searched);
+                  break;
+                }
+              }
+            }
+          };
           // Same rounding as glm::dot(d, d) of d = probe - c: ((dx*dx + dy*dy) + dz*dz).
           for (size_t i = 0; i < P; ++i) {
             const float dx = px[i] - c.x, dy = py[i] - c.y, dz = pz[i] - c.z;
             dist2[i] = dx * dx + dy * dy + dz * dz;
           }
-          size_t n = 0;
-          for (size_t i = 0; i < P; ++i) {
-            if (n == k && !(dist2[i] < order[k - 1].first)) continue;  // ties keep the lower index
-            const std::pair<float, uint32_t> e{dist2[i], uint32_t(i)};
-            size_t j = n < k ? n++ : k - 1;
-            for (; j > 0 && e < order[j - 1]; --j) order[j] = order[j - 1];
-            order[j] = e;
-          }
-          uint32_t chosen = order[0].second;
-          bool found = false, inside = false;
-          size_t* counted = nullptr;  // the counter the cell's resolution went to
-          for (size_t j = 0; j < k && !found; ++j) {
-            const glm::vec3 to = probes[order[j].second] - c;
-            const float dist = std::sqrt(order[j].first);
-            if (dist <= kProbeClearanceM) {
-              chosen = order[j].second;
-              found = true;
-              ++*(counted = j == 0 ? &n_nearest : &n_farther);
-              break;
+          if (sided) {
+            const int side = sides.covered(c, n_rays) ? 1 : 0;
+            select(side);
+            if (!found && !inside) {
+              select(-1);
+              n_other_side += found;
             }
-            const raytrace::Ray ray{c, 0.f, to / dist, dist - kProbeClearanceM};
-            const raytrace::Hit h = scene.intersect(ray);
-            ++n_rays;
-            if (!h.hit()) {
-              chosen = order[j].second;
-              found = true;
-              ++*(counted = j == 0 ? &n_nearest : &n_farther);
-            } else if (j == 0 && !scene.frontFace(ray, h.prim)) {
-              // Centre inside geometry: a resolved neighbour's choice (below), or the nearest.
-              (settings.inside_from_neighbours ? inside : found) = true;
-              ++n_inside;
-              break;
-            }
-          }
-          if (!found && !inside && settings.search_beyond) {
-            // None of the k nearest is visible: search the rest, nearest first, before falling
-            // back (a cell must not name a probe behind a wall when one it can see exists).
-            std::vector<std::pair<float, uint32_t>> rest;
-            for (size_t i = 0; i < P; ++i)
-              if (std::find_if(order.begin(), order.begin() + std::ptrdiff_t(k), [&](const auto& o) { return o.second == i; }) ==
-                  order.begin() + std::ptrdiff_t(k))
-                rest.push_back({dist2[i], uint32_t(i)});
-            std::sort(rest.begin(), rest.end());
-            for (const auto& [d2, i] : rest) {
-              const float dist = std::sqrt(d2);
-              const raytrace::Ray ray{c, 0.f, (probes[i] - c) / dist, dist - kProbeClearanceM};
-              ++n_rays;
-              if (dist <= kProbeClearanceM || !scene.intersect(ray).hit()) {
-                chosen = i;
-                found = true;
-                ++*(counted = &n_searched);
-                break;
-              }
-            }
+          } else {
+            select(-1);
           }
           if (found && settings.inside_from_neighbours && inOtherInterior(c, chosen) && insideGeometry(c, n_rays)) {
             // A ray that reached an interior's probe from inside geometry went through a crack
@@ -161,6 +179,7 @@ void fillIndexGrid(const raytrace::RayScene& scene, std::span<const glm::vec3> p
     inside += n_inside;
     unseen += n_unseen;
     searched += n_searched;
+    other_side += n_other_side;
   });
   // A cell inside geometry takes the choice of the first resolved cell above it in its column:
   // under terrain or a floor that is the air just over the surface, on the same side of every
@@ -212,6 +231,7 @@ void fillIndexGrid(const raytrace::RayScene& scene, std::span<const glm::vec3> p
   stats.cells_inside += inside;
   stats.cells_unseen += unseen;
   stats.cells_searched += searched;
+  stats.cells_other_side += other_side;
 }
 
 }  // namespace drtv::baker

@@ -36,9 +36,9 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
                           const std::filesystem::path& markdown_path) {
   MinMeanMax probes, bytes, bytes_no_lprt, triangles;
   size_t total_probes = 0, relocated = 0, dropped = 0, gap = 0, rejected = 0, thinned = 0, veg = 0, interior = 0, resumed = 0;
-  size_t cells_near = 0, cells_far = 0, cells_inside = 0, cells_unseen = 0, cells_searched = 0, surfels = 0, cached = 0;
+  size_t cells_near = 0, cells_far = 0, cells_inside = 0, cells_unseen = 0, cells_searched = 0, cells_other_side = 0, surfels = 0, cached = 0;
   uint64_t rays = 0, r_place = 0, r_probe = 0, r_surfel = 0, r_lprt = 0, r_sun = 0, r_grid = 0, r_other = 0;
-  double t_gather = 0, t_build = 0, t_place = 0, t_probe = 0, t_surfel = 0, t_lprt = 0, t_sun = 0, t_grid = 0, t_total = 0;
+  double t_gather = 0, t_build = 0, t_place = 0, t_probe = 0, t_surfel = 0, t_lprt = 0, t_sun = 0, t_grid = 0, t_vis = 0, t_total = 0;
   std::map<size_t, size_t> histogram;  // probes per sector, bucketed by 10
   for (const SectorStats& s : r.sectors) {
     resumed += s.resumed;
@@ -54,6 +54,7 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
     cells_inside += s.grid.cells_inside;
     cells_unseen += s.grid.cells_unseen;
     cells_searched += s.grid.cells_searched;
+    cells_other_side += s.grid.cells_other_side;
     surfels += s.transfer.surfels;
     cached += s.transfer.probe_hits_cached;
     rays += s.rays();
@@ -72,6 +73,7 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
     t_lprt += s.transfer.lprt_seconds;
     t_sun += s.transfer.sun_seconds;
     t_grid += s.grid_s;
+    t_vis += s.visibility_s;
     t_total += s.total_s;
     if (s.probes == 0) continue;
     total_probes += s.probes;
@@ -116,6 +118,7 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
   j["triangles_per_sector"] = triangles.json();
   j["index_grid"] = {{"cells_nearest_visible", cells_near}, {"cells_farther_visible", cells_far},
                      {"cells_inside_geometry", cells_inside}, {"cells_beyond_candidates", cells_searched},
+                     {"cells_other_side", cells_other_side},
                      {"cells_none_visible_take_a_neighbours", cells_unseen}};
   j["surface_cache"] = {{"surfels", surfels}, {"probe_hits_reusing_a_cell", cached}};
   j["rays"] = {{"total", rays}, {"rooms", r.rooms.rays}, {"placement", r_place}, {"probe", r_probe}, {"surfel", r_surfel}, {"lprt", r_lprt},
@@ -130,7 +133,7 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
                   {"bake", r.bake_s}, {"pack", r.pack_s},
                   {"sum_over_sectors",
                    {{"gather", t_gather}, {"scene_build", t_build}, {"placement", t_place}, {"probe_rays", t_probe},
-                    {"surface_cache", t_surfel}, {"lprt", t_lprt}, {"sun_transfer", t_sun}, {"index_grid", t_grid}, {"total", t_total}}}};
+                    {"surface_cache", t_surfel}, {"lprt", t_lprt}, {"sun_transfer", t_sun}, {"visibility_maps", t_vis}, {"index_grid", t_grid}, {"total", t_total}}}};
   nlohmann::json per = nlohmann::json::array();
   for (const SectorStats& s : r.sectors) per.push_back(toJson(s));
   j["per_sector"] = per;
@@ -173,12 +176,13 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
   md << "\n## Index grid\n\n" << cells_near << " cells took the nearest probe, " << cells_far
      << " a farther one because nearer ones were hidden, " << cells_inside << " lie inside geometry (a neighbour cell's choice), "
      << cells_searched << " saw none of the nearest candidates but a farther probe, " << cells_unseen
-     << " saw no probe at all (a neighbour cell's choice).\n";
+     << " saw no probe at all (a neighbour cell's choice); " << cells_other_side
+     << " saw no probe on their side of the sky line (covered or open) and took any.\n";
   md << "\n## Rays\n\n| stage | rays |\n|---|---|\n";
   md << "| room search | " << r.rooms.rays << " |\n";
   md << "| placement | " << r_place << " |\n| probe basis rays | " << r_probe << " |\n| surface cache | " << r_surfel
      << " (" << surfels << " cells) |\n| LPRT shadow rays | " << r_lprt << " |\n| index grid visibility | " << r_grid
-     << " |\n| ground map | " << r_other << " |\n| **total** | **" << rays << "** |\n";
+     << " |\n| ground map and visibility maps | " << r_other << " |\n| **total** | **" << rays << "** |\n";
   md << "\n" << fixed(rays_per_s / 1e6, 2) << " M rays/s over the bake's wall time (placement pass and sectors).\n";
   if (r.placement_pass.sectors > 0)
     md << "\nPlacement pass (LPRT sources are the neighbours' probes): " << r.placement_pass.sectors << " sectors placed ("
@@ -197,7 +201,8 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
   md << "\nSummed over sectors (each a wall time within its sector's task):\n\n| stage | seconds |\n|---|---|\n";
   md << "| gather | " << fixed(t_gather, 2) << " |\n| scene build | " << fixed(t_build, 2) << " |\n| placement | " << fixed(t_place, 2)
      << " |\n| probe rays | " << fixed(t_probe, 2) << " |\n| surface cache + bounces | " << fixed(t_surfel, 2) << " |\n| LPRT | "
-     << fixed(t_lprt, 2) << " |\n| sun transfer | " << fixed(t_sun, 2) << " |\n| index grid | " << fixed(t_grid, 2) << " |\n";
+     << fixed(t_lprt, 2) << " |\n| sun transfer | " << fixed(t_sun, 2) << " |\n| visibility maps | " << fixed(t_vis, 2)
+     << " |\n| index grid | " << fixed(t_grid, 2) << " |\n";
   md << "\n## Settings\n\n| key | value |\n|---|---|\n";
   for (const auto& [k, v] : r.settings.describe()) md << "| " << k << " | " << v << " |\n";
   {

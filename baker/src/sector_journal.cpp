@@ -19,7 +19,7 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr uint32_t kMagic = 0x4a525444;  // "DRTJ"
-constexpr uint32_t kVersion = 5;  // 2: typed stats (sector_stats.h) instead of JSON text; 3: cells_searched; 4: sun_rays, sun_s; 5: dropped_gap
+constexpr uint32_t kVersion = 6;  // 2: typed stats (sector_stats.h) instead of JSON text; 3: cells_searched; 4: sun_rays, sun_s; 5: dropped_gap; 6: cells_other_side, visibility_s
 constexpr size_t kHeaderBytes = 24, kHashBytes = 8;
 // A sector with LPRT is < 256 KB and its stats a few KB; anything far larger is not a record.
 constexpr uint32_t kMaxPayload = 64u << 20;

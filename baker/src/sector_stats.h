@@ -49,12 +49,14 @@ void forEachStat(Stats& s, F&& f) {
   f("cells_inside", s.grid.cells_inside);
   f("cells_unseen", s.grid.cells_unseen);
   f("cells_searched", s.grid.cells_searched);
+  f("cells_other_side", s.grid.cells_other_side);
   f("other_rays", s.other_rays);
   f("gather_s", s.gather_s);
   f("build_s", s.build_s);
   f("placement_s", s.placement_s);
   f("transfer_s", s.transfer_s);
   f("grid_s", s.grid_s);
+  f("visibility_s", s.visibility_s);
   f("total_s", s.total_s);
 }
 

@@ -120,6 +120,63 @@ TEST(IndexGrid, ACellUnderTheGroundNamesNoRoomsProbeThroughACrack) {
             size_t(kGridCells));
 }
 
+// Issue 35: a cell under open sky beside a facade names a probe of the open air, not a nearer one
+// in the room behind the facade that it sees through the opening (the town's facades read 0.05
+// against 0.7 so); a cell in the room keeps the room's probe. `--grid-sides any` names the room's.
+TEST(IndexGrid, ACellUnderOpenSkyNamesAnOpenProbeNotARoomsProbeSeenThroughItsDoor) {
+  worlds::World w = test::planeWorld(200.0, glm::vec3(0.5f));
+  test::addHouse(w, {18.f, 20.f, 0.f});  // door x in [17.3, 18.7] in the south wall y in [16, 16.4]
+  auto g = raytrace::WorldGeometry::build(w, "house");
+  ASSERT_TRUE(g);
+  const raytrace::SectorGeometry geometry = g->gather({0, 0}, 64.0);
+  auto scene = raytrace::RayScene::build(geometry.vertices);
+  ASSERT_TRUE(scene);
+  const std::vector<glm::vec3> probes = {{18.f, 18.5f, 1.5f}, {22.f, 22.f, 1.5f}, {18.f, 4.f, 1.5f}};
+  const std::vector<uint8_t> covered = {1, 1, 0};
+  const IndexGridSides sides{covered, [&](const glm::vec3& c, uint64_t& rays) {
+                               ++rays;
+                               return scene->intersect(raytrace::Ray{c, 0.f, glm::vec3(0, 0, 1), 1e4f}).hit();
+                             }};
+  auto fill = [&](bool same_side, IndexGridStats& stats) {
+    IndexGrid grid;
+    grid.z_min_m = 0.f;
+    grid.cell_height_m = 1.f;
+    IndexGridSettings settings;
+    settings.same_side = same_side;
+    fillIndexGrid(*scene, probes, settings, grid, stats, {}, sides);
+    return grid;
+  };
+  IndexGridStats same, any;
+  const IndexGrid sided = fill(true, same), old = fill(false, any);
+  // Cell (4, 3, 1): centre (18, 14, 1.5), 2 m south of the wall, in line with the door: 4.5 m
+  // from the room's probe through the door, 10 m from the open one.
+  EXPECT_EQ(sided.at(4, 3, 1), 2) << "the open air's probe";
+  EXPECT_EQ(old.at(4, 3, 1), 0) << "the room's probe, through the door";
+  // Cell (4, 4, 1): centre (18, 18, 1.5), in the room: its own probe either way.
+  EXPECT_EQ(sided.at(4, 4, 1), 0);
+  EXPECT_EQ(old.at(4, 4, 1), 0);
+  EXPECT_EQ(any.cells_other_side, 0u);
+}
+
+// With no probe of its own side in sight, a cell takes any visible probe, and says so.
+TEST(IndexGrid, ACellThatSeesNoProbeOfItsSideTakesAnyAndCountsIt) {
+  const HouseScene h;  // probe 0 in the room, probe 1 outside
+  const std::vector<uint8_t> covered = {1, 1};  // both "covered": no open probe at all
+  const IndexGridSides sides{covered, [&](const glm::vec3& c, uint64_t& rays) {
+                               ++rays;
+                               return h.scene->intersect(raytrace::Ray{c, 0.f, glm::vec3(0, 0, 1), 1e4f}).hit();
+                             }};
+  IndexGrid grid;
+  grid.z_min_m = 0.f;
+  grid.cell_height_m = 1.f;
+  IndexGridStats stats, plain_stats;
+  fillIndexGrid(*h.scene, h.probes, IndexGridSettings{}, grid, stats, {}, sides);
+  EXPECT_GT(stats.cells_other_side, 0u);
+  IndexGrid plain = grid;
+  fillIndexGrid(*h.scene, h.probes, IndexGridSettings{}, plain, plain_stats);
+  EXPECT_EQ(grid.cells, plain.cells) << "every cell under open sky falls back to the rule without sides";
+}
+
 TEST(IndexGrid, ExtentCoversTheProbesAndTheGround) {
   IndexGrid grid;
   const std::vector<glm::vec3> probes = {{1, 1, 10.f}, {2, 2, 30.f}};

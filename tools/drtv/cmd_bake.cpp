@@ -30,6 +30,7 @@ struct BakeCliOptions {
   std::string representation;  // "" = the world's (else sh-l1)
   std::optional<double> clearance_m;
   std::string inside_cells;
+  std::string grid_sides;
   std::string rooms;
   std::string cache_cells;
   std::string fine;
@@ -60,6 +61,7 @@ Result<void> runBake(const BakeCliOptions& o) {
   }
   options.clearance_m = o.clearance_m;
   if (!o.inside_cells.empty()) options.inside_from_neighbours = o.inside_cells == "neighbour";
+  if (!o.grid_sides.empty()) options.grid_same_side = o.grid_sides == "same";
   if (!o.rooms.empty()) options.find_rooms = o.rooms == "auto";
   if (!o.cache_cells.empty()) options.cell_sides = o.cache_cells == "sides";
   if (!o.fine.empty()) options.covered_visibility = o.fine == "on";
@@ -162,6 +164,12 @@ Command registerBake(CLI::App& app) {
                   "What an index cell whose centre is inside geometry names: neighbour (a resolved neighbour cell's probe, "
                   "default) | nearest (the talk's nearest probe, which may be behind a wall)")
       ->check(CLI::IsMember({"neighbour", "nearest"}));
+  sub->add_option("--grid-sides", o->grid_sides,
+                  "Which probes an index cell names: same (the nearest visible probe on the cell's side of the sky line: "
+                  "under a roof a covered probe, under open sky an uncovered one, so that the street beside a facade "
+                  "does not name a room's probe through its window; default) | any (the nearest visible probe, the bytes "
+                  "of the builds before 2026-12-06's second session)")
+      ->check(CLI::IsMember({"same", "any"}));
   sub->add_option("--rooms", o->rooms,
                   "Closed rooms found in the geometry get an interior volume and a designated probe, as an artist's "
                   "interiors do: auto (default) | off (the artist's interiors only)")

@@ -14,6 +14,9 @@
 //                                                   issue 35; default 2; 0 = the covered values)
 //   rooms              auto | off                   closed rooms found at bake time get
 //                                                   interiors (rooms.h, issue 16; default auto)
+//   grid_sides         same | any                   index cells name probes on their own side
+//                                                   of the sky line (index_grid.h, issue 35;
+//                                                   default same)
 //   own_sources        on | off                     LPRT sources where the baked lights stand
 //                                                   (BakeSettings::light_sources, issue 35;
 //                                                   default on)
@@ -78,6 +81,7 @@ struct BakeParams {
   bool rooms = true;  // the room search (rooms.h)
   bool cell_sides = true;  // cache cells split by walls (transfer.h TransferSettings::cell_sides)
   bool own_sources = true;  // LPRT sources where the baked lights stand (BakeSettings::light_sources)
+  bool grid_same_side = true;  // index cells on their own side of the sky line (IndexGridSettings::same_side)
   bool operator==(const BakeParams&) const = default;
 };
 
@@ -124,7 +128,8 @@ Params readDrtv(ParamReader& r) {
       .real("enclosed_spacing", out.bake.enclosed_spacing, 0, 64, false)
       .oneOf("rooms", out.bake.rooms, {{"auto", true}, {"off", false}})
       .oneOf("cache_cells", out.bake.cell_sides, {{"sides", true}, {"shared", false}})
-      .oneOf("own_sources", out.bake.own_sources, {{"on", true}, {"off", false}});
+      .oneOf("own_sources", out.bake.own_sources, {{"on", true}, {"off", false}})
+      .oneOf("grid_sides", out.bake.grid_same_side, {{"same", true}, {"any", false}});
   if (const std::string* v = r.text("representation")) {
     if (auto rep = parseRepresentation(*v)) out.bake.representation = *rep;
     else r.reject("representation=" + *v + ": expected one of " + representationNames());
@@ -170,6 +175,7 @@ baker::BakeSettings bakeSettings(const BakeParams& p, uint64_t seed) {
   s.rooms.enabled = p.rooms;
   s.transfer.cell_sides = p.cell_sides;
   s.light_sources = p.own_sources;
+  s.grid.same_side = p.grid_same_side;
   return s;
 }
 
@@ -396,6 +402,11 @@ std::vector<KnobRow> DrtvTechnique::knobs(const KnobContext& c) {
                     std::string(def ? "the default bake: " : "") +
                         (e == 0.0 ? "as under any roof" : "columns and least distance in rooms and storeys")});
   }
+  // Index cells on their own side of the sky line (index_grid.h, issue 35), against any side.
+  rows.push_back({"grid_sides", "same", base.grid.same_side, "drtv", base.grid.same_side ? TechniqueParams{} : TechniqueParams{{"grid_sides", "same"}},
+                  std::string(base.grid.same_side ? "the default bake: " : "") + "cells name probes on their side of the sky line"});
+  rows.push_back({"grid_sides", "any", !base.grid.same_side, "drtv", !base.grid.same_side ? TechniqueParams{} : TechniqueParams{{"grid_sides", "any"}},
+                  "cells name the nearest visible probe, indoors or out"});
   // The fine level near surfaces (issue 35), against the volume and the interiors alone.
   rows.push_back({"fine", "on", true, "drtv", {}, "the default: covered probes that see the point, near surfaces"});
   rows.push_back({"fine", "off", false, "drtv", {{"fine", "off"}}, "the volume and the interiors alone"});

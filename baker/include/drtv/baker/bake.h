@@ -98,8 +98,9 @@ struct SectorStats {
   PlacementStats placement;
   TransferStats transfer;
   IndexGridStats grid;
-  uint64_t other_rays = 0;              // ground map
+  uint64_t other_rays = 0;              // ground map and the covered probes' visibility maps
   double gather_s = 0, build_s = 0, placement_s = 0, transfer_s = 0, grid_s = 0, total_s = 0;
+  double visibility_s = 0;              // the covered probes' visibility maps (visibility.h)
   bool resumed = false;                 // read back from a sector file of an earlier run
   uint64_t rays() const {
     return placement.rays + transfer.probe_rays + transfer.surfel_rays + transfer.lprt_rays + transfer.sun_rays + grid.rays + other_rays;
@@ -125,6 +126,9 @@ struct BakeOptions {
   // Index cells inside geometry (index_grid.h IndexGridSettings::inside_from_neighbours); unset =
   // the preset's (true). false, with clearance 0, bakes the archives of every earlier build.
   std::optional<bool> inside_from_neighbours;
+  // Index cells name probes on their own side of the sky line (IndexGridSettings::same_side);
+  // unset = the preset's (true). false bakes the archives of the builds before it.
+  std::optional<bool> grid_same_side;
   // The room search (rooms.h RoomSettings::enabled); unset = the preset's (true). false bakes the
   // archives of the builds before it, byte for byte.
   std::optional<bool> find_rooms;

@@ -36,6 +36,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <span>
 
 #include <glm/glm.hpp>
@@ -59,6 +60,14 @@ struct IndexGridSettings {
   // the nearest probe (false: the talk's rule, and the archives of every build before
   // 2026-12-02, byte for byte; `drtv bake --inside-cells nearest`).
   bool inside_from_neighbours = true;
+  // A cell names a probe on its own side of the sky line when it sees one (issue 35): a cell
+  // whose centre has static geometry straight above it (a room, a storey, an arcade) names the
+  // nearest visible covered probe (kProbeCovered), a cell under open sky the nearest visible
+  // uncovered one; only a cell that sees none of its side takes the rule above, any probe. A
+  // cell over a street beside a facade then names a probe of the street, not one in the room
+  // behind the facade's window (the town's facades read 0.05 against the path tracer's 0.7).
+  // false = the bytes of every build before 2026-12-06's second session (`drtv bake --grid-sides any`).
+  bool same_side = true;
 };
 
 struct IndexGridStats {
@@ -68,6 +77,7 @@ struct IndexGridStats {
   size_t cells_inside = 0;       // centre inside geometry: a resolved neighbour's choice
   size_t cells_unseen = 0;       // no probe visible at all: a neighbour cell's choice
   size_t cells_searched = 0;     // no candidate visible, a farther probe beyond them is
+  size_t cells_other_side = 0;   // saw no probe of its own side of the sky line: any probe
 };
 
 // Chooses z_min_m and cell_height_m (see above). `ground_min_z` may be +inf when unknown.
@@ -82,10 +92,20 @@ struct IndexGridInteriors {
   std::span<const uint16_t> probe_interior;  // empty, or one per probe, each 0..boxes.size()
 };
 
+// The sides of the sky line (IndexGridSettings::same_side): which probes are covered, and
+// whether a point (sector-relative, as the probes) has static geometry straight above it,
+// counting the rays it casts. Empty
+// `probe_covered` or no `covered`: every cell and probe on one side, the grid of the builds before.
+struct IndexGridSides {
+  std::span<const uint8_t> probe_covered;  // empty, or one per probe: 1 = kProbeCovered
+  std::function<bool(const glm::vec3&, uint64_t& rays)> covered;
+};
+
 // Fills grid.cells for `probes` (sector-relative positions; index = position in the span, at most
 // 255) using grid.z_min_m / cell_height_m. Thread-safe; uses TBB inside; deterministic.
 // Preconditions (checked): probe_interior is empty or has one entry per probe, none above boxes.size().
 void fillIndexGrid(const raytrace::RayScene& scene, std::span<const glm::vec3> probes, const IndexGridSettings& settings,
-                   IndexGrid& grid, IndexGridStats& stats, const IndexGridInteriors& interiors = {});
+                   IndexGrid& grid, IndexGridStats& stats, const IndexGridInteriors& interiors = {},
+                   const IndexGridSides& sides = {});
 
 }  // namespace drtv::baker

@@ -17,6 +17,7 @@
 #include "drtv/formats/archive.h"
 #include "drtv/formats/visibility.h"
 #include "drtv/worlds/island.h"
+#include "drtv/worlds/town.h"
 #include "test_worlds.h"
 
 namespace drtv::baker {
@@ -145,6 +146,39 @@ TEST(Bake, SectorOfAbout70ProbesWithoutLprtIsUnder15KBPlusItsSunTransfer) {
       }
     }
   }
+}
+
+// DESIGN.md, "Near surfaces and indoors": a sector with buildings at most 256 KB without LPRT,
+// 51 resident sectors of a town at most 12 MB (1 MB = 1000 KB = 10^6 B). Measured on the worst of
+// the town (drtv/worlds/town.h): one courtyard block of four 8-storey wings over 2 x 2 sectors, the
+// probes every 2 m in its rooms, every covered probe with its visibility map; the largest decoded
+// sector times 51 bounds any 51 such sectors. (The 1 km² town, baked whole: 142 KB a sector on
+// average, 193 KB at most, encoded.)
+TEST(Bake, ATownsSectorsStayWithinTheBudgetsForBuildings) {
+  worlds::TownOptions o;
+  o.size_m = 128;
+  o.min_storeys = o.max_storeys = 8;
+  o.courtyard_fraction = 1, o.pair_fraction = 0, o.square_fraction = 0;
+  o.lit_room_fraction = 0;
+  auto w = worlds::generateTown(o);
+  ASSERT_TRUE(w) << w.error().message;
+  TempDir dir;
+  auto r = bake(*w, "town", dir.path / "town.drtv", draft());
+  ASSERT_TRUE(r) << r.error().message;
+  auto reader = ArchiveReader::open(dir.path / "town.drtv");
+  ASSERT_TRUE(reader) << reader.error().message;
+  size_t largest = 0, covered = 0;
+  for (const SectorEntry& e : reader->manifest().sectors) {
+    auto s = reader->readSector(e.key);
+    ASSERT_TRUE(s) << s.error().message;
+    EXPECT_FALSE(s->hasLprt());
+    EXPECT_LE(s->memoryBytes(), 256u * 1000u) << toString(e.key) << ": " << s->probes.size() << " probes";
+    largest = std::max(largest, s->memoryBytes());
+    covered += e.covered;
+  }
+  EXPECT_EQ(reader->manifest().sectors.size(), 4u);
+  EXPECT_GT(covered, 400u) << "the rooms' probes: the worst case is not measured without them";
+  EXPECT_LE(51 * largest, 12u * 1000u * 1000u);
 }
 
 // Talk slide 22: LPRT adds "210KB" per sector: 70 probes x 128 sources x 4 x 3 x 2 B = 215,040 B

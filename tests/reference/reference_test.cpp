@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
 
 #include "drtv/reference/reference.h"
 #include "drtv/formats/sh.h"
@@ -142,6 +143,37 @@ TEST(ReferenceInAClosedSphere, SumsEveryBounceOfAPointLight) {
     expectWithin(r.parts[kRefLocalLights], glm::dvec3(expected), "local lights", kFacetRel * expected);
     expectWithin(r.parts[kRefDirectSky], glm::dvec3(0.0), "direct sky");
   }
+}
+
+// With more lights than a path traces one by one (a town's lamps), the lights past the few that
+// matter are sampled (reference.cpp, kExactLightsUpTo): still the physics. In a closed sphere the
+// light a point on the wall receives after the first reflection is rho Phi / (4 pi R^2) wherever
+// the lights stand (every wall element sees every other with the form factor dA / (4 pi R^2)), and
+// each later reflection multiplies it by rho: rho sum(I) / (R^2 (1 - rho)) for lights of intensity
+// I anywhere inside. 64 lights of unequal intensities scattered off-centre, read at the wall.
+TEST(ReferenceInAClosedSphere, SumsEveryBounceOfSixtyFourLightsItSamples) {
+  constexpr double kFacetRel = 0.01;
+  const double R = 5.0, rho = 0.5;
+  const ReferenceScene scene = buildScene(closedSphere(R, glm::vec3(float(rho)), 96));
+  ReferenceLighting light;
+  light.sky = testing::uniformSky(0.f, 0.f);
+  double sum_i = 0.0;
+  for (int k = 0; k < 64; ++k) {
+    const double a = 2.399963 * k, z = -0.9 + 1.8 * (k + 0.5) / 64.0, r = 3.0 * std::sqrt(1.0 - z * z);
+    const float intensity = 0.25f + 0.5f * float(k % 7);
+    light.lights.push_back(PointLight{"lamp " + std::to_string(k), glm::dvec3(r * std::cos(a), r * std::sin(a), 3.0 * z),
+                                      glm::vec3(intensity), 10.f});
+    sum_i += intensity;
+  }
+  ReferenceSettings s;
+  s.samples = 2048;
+  const glm::dvec3 d = glm::normalize(glm::dvec3(0.3, -0.5, 0.2));
+  const ReferenceIrradiance r = referenceIrradiance(scene, light, {d * (0.999 * R), glm::vec3(-d), 11}, s);
+  const double expected = rho * sum_i / (R * R * (1.0 - rho));
+  expectWithin(r.parts[kRefLocalLights], glm::dvec3(expected), "local lights", kFacetRel * expected);
+  // Sampled, not traced to every light: fewer rays a path than 64 (tracing all, every vertex of a
+  // path would cast 64 shadow rays).
+  EXPECT_LT(double(r.rays) / s.samples, 64.0) << "rays per path";
 }
 
 TEST(ReferenceIrradiance, IsTheSameBitsOnOneThreadAndOnMany) {

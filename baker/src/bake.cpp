@@ -471,7 +471,7 @@ Result<Sector> bakeSector(const raytrace::WorldGeometry& geometry, const worlds:
     if (!covered.empty()) {
       const auto t_vis = Clock::now();
       auto vis = std::make_unique<VisibilityBlock>();
-      vis->values = bakeVisibility(*scene, g, covered, stats.other_rays);
+      vis->values = bakeVisibility(*scene, g, covered, settings.visibility_rays, stats.other_rays);
       sector.visibility = std::move(vis);
       stats.visibility_s = since(t_vis);
     }
@@ -743,6 +743,10 @@ static Result<BakeReport> bakeRecorded(const worlds::World& given, const std::st
   if (options.grid_same_side) report.settings.grid.same_side = *options.grid_same_side;
   if (options.cell_sides) report.settings.transfer.cell_sides = *options.cell_sides;
   if (options.covered_visibility) report.settings.covered_visibility = *options.covered_visibility;
+  if (options.visibility_rays) report.settings.visibility_rays = *options.visibility_rays;
+  if (report.settings.visibility_rays < kVisRaysMin || report.settings.visibility_rays > kVisRaysMax)
+    return fail("--visibility-rays " + std::to_string(report.settings.visibility_rays) + ": must be in [" +
+                std::to_string(kVisRaysMin) + ", " + std::to_string(kVisRaysMax) + "]");
   if (options.light_sources) report.settings.light_sources = *options.light_sources;
   if (options.enclosed_spacing_m) report.settings.placement.setEnclosedSpacing(*options.enclosed_spacing_m);
   if (auto why = validateSettings(report.settings); !why) return std::unexpected(why.error().context("bake settings"));

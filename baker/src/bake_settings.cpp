@@ -134,6 +134,8 @@ std::vector<std::pair<std::string, std::string>> BakeSettings::describe() const 
   if (transfer.sweeps != 0) d.emplace_back("sweeps", std::to_string(transfer.sweeps));
   // Only when on: a bake without visibility maps describes itself (and hashes, and packs) as before.
   if (covered_visibility) d.emplace_back("covered_visibility", "1");
+  // Only when not the 4,096 of the builds before (their archives describe themselves as before).
+  if (covered_visibility && visibility_rays != 4096) d.emplace_back("visibility_rays", std::to_string(visibility_rays));
   // Only when on: a bake without them describes itself (and hashes, and packs) as before. Also a
   // bake without LPRT, whose bytes the setting does not change.
   if (light_sources) d.emplace_back("light_sources", "1");

@@ -4,7 +4,11 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <map>
+#include <memory>
+#include <mutex>
 
+#include "drtv/formats/error.h"
 #include "drtv/formats/visibility.h"
 #include "static_rays.h"
 
@@ -14,35 +18,48 @@ namespace {
 
 constexpr int kMaxPassThrough = 64;  // vegetation layers a ray may pass before it counts as open
 
+// The directions and each texel's taps for one ray count, built once per count (a table of 4,096
+// rays costs a million pow() calls: not per sector).
+struct Tap {
+  int ray;
+  double w;
+};
+struct Tables {
+  std::vector<glm::vec3> dirs;
+  std::array<std::vector<Tap>, kVisTexels> taps;
+};
+const Tables& tablesFor(int n) {
+  static std::mutex mutex;
+  static std::map<int, std::unique_ptr<Tables>> cache;
+  const std::lock_guard<std::mutex> lock(mutex);
+  std::unique_ptr<Tables>& t = cache[n];
+  if (!t) {
+    t = std::make_unique<Tables>();
+    for (int i = 0; i < n; ++i) t->dirs.push_back(detail::fibonacciDirection(i, n));
+    // Per texel, the rays of its lobe and their weights (those above 1e-6 of the centre's).
+    for (int k = 0; k < kVisTexels; ++k) {
+      const glm::vec3 c = visTexelDirection(k % kVisDim, k / kVisDim);
+      for (int i = 0; i < n; ++i) {
+        const double w = std::pow(std::max(0.0, double(glm::dot(c, t->dirs[size_t(i)]))), double(kVisSharpness));
+        if (w > 1e-6) t->taps[size_t(k)].push_back({i, w});
+      }
+    }
+  }
+  return *t;
+}
+
 }  // namespace
 
 std::vector<uint8_t> bakeVisibility(const raytrace::RayScene& scene, const raytrace::SectorGeometry& geometry,
-                                     std::span<const glm::vec3> positions, uint64_t& rays) {
-  static const std::array<glm::vec3, kVisRays> kDirs = [] {
-    std::array<glm::vec3, kVisRays> d{};
-    for (int i = 0; i < kVisRays; ++i) d[size_t(i)] = detail::fibonacciDirection(i, kVisRays);
-    return d;
-  }();
-  // Per texel, the rays of its lobe and their weights (those above 1e-6 of the centre's).
-  struct Tap {
-    int ray;
-    double w;
-  };
-  static const std::array<std::vector<Tap>, kVisTexels> kTaps = [] {
-    std::array<std::vector<Tap>, kVisTexels> taps;
-    for (int t = 0; t < kVisTexels; ++t) {
-      const glm::vec3 c = visTexelDirection(t % kVisDim, t / kVisDim);
-      for (int i = 0; i < kVisRays; ++i) {
-        const double w = std::pow(std::max(0.0, double(glm::dot(c, kDirs[size_t(i)]))), double(kVisSharpness));
-        if (w > 1e-6) taps[size_t(t)].push_back({i, w});
-      }
-    }
-    return taps;
-  }();
+                                     std::span<const glm::vec3> positions, int ray_count, uint64_t& rays) {
+  DRTV_CHECK(ray_count >= kVisRaysMin && ray_count <= kVisRaysMax);
+  const Tables& tables = tablesFor(ray_count);
+  const std::vector<glm::vec3>& kDirs = tables.dirs;
+  const std::array<std::vector<Tap>, kVisTexels>& kTaps = tables.taps;
   std::vector<uint8_t> out(positions.size() * kVisValuesPerProbe);
-  std::array<float, kVisRays> dist{};
+  std::vector<float> dist(static_cast<size_t>(ray_count));
   for (size_t p = 0; p < positions.size(); ++p) {
-    for (int i = 0; i < kVisRays; ++i) {
+    for (int i = 0; i < ray_count; ++i) {
       const float d = detail::staticHitDistance(scene, geometry, positions[p], kDirs[size_t(i)], kVisRangeM, kMaxPassThrough, rays);
       dist[size_t(i)] = std::min(d, kVisRangeM);
     }

@@ -531,29 +531,32 @@ TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
                                  // bytes of every build before 2026-12-06
     const char* enclosed;        // "": the default (probes every 2 m in enclosed spaces); "0": the
                                  // bytes of every build before 2026-12-06
+    const char* vis;             // "": the default (1,024 rays a visibility map); "4096": the bytes
+                                 // of every build before 2026-12-06's second session (the same
+                                 // bytes without the fine level's maps)
     const char* sides;           // "": the default (index cells name probes on their side of the
                                  // sky line); "any": the bytes of every build before 2026-12-06's
                                  // second session (the same bytes without the fine level, whose
                                  // covered probes it tells apart)
   };
   const Bake bakes[] = {
-      {"worlds/island.json", "2", "fc3", "0", "nearest", "", "off", "probes", "0", "any"},
-      {"worlds/island.json", "1", "fc3", "0", "nearest", "", "off", "probes", "0", "any"},
-      {"worlds/island_lit.json", "2", "fc3", "0", "nearest", "", "off", "probes", "0", "any"},
-      {"worlds/island.json", "2", "sh-l1", "0", "nearest", "shared", "off", "probes", "0", "any"},   // archive version 3: fitted direct sky, sun transfer
-      {"worlds/island.json", "2", "fc3", "", "nearest", "", "off", "probes", "0", "any"},            // placement with its 0.25 m clearance
-      {"worlds/island.json", "2", "sh-l1", "", "nearest", "shared", "off", "probes", "0", "any"},    // the default bake until 2026-12-02
-      {"worlds/island_lit.json", "2", "sh-l1", "", "nearest", "shared", "off", "probes", "0", "any"},  // sh-l1's LPRT with the bake's 2 bounces
-      {"worlds/island.json", "2", "sh-l1", "", "", "shared", "off", "probes", "0", "any"},           // the default bake until 2026-12-03
-      {"worlds/island_lit.json", "2", "sh-l1", "", "", "shared", "off", "probes", "0", "any"},       // the same with LPRT of 2 bounces
-      {"worlds/island.json", "2", "sh-l1", "", "", "", "off", "probes", "0", "any"},                 // the default bake until 2026-12-05
-      {"worlds/island_lit.json", "2", "sh-l1", "", "", "", "off", "probes", "0", "any"},             // the same with LPRT
-      {"worlds/island.json", "2", "sh-l1", "", "", "", "", "probes", "0", "any"},             // the default bake from 2026-12-05 (visibility maps)
-      {"worlds/island_lit.json", "2", "sh-l1", "", "", "", "", "probes", "0", "any"},         // the same with LPRT
-      {"worlds/island.json", "2", "sh-l1", "", "", "", "", "", "", "any"},         // the default bake from 2026-12-06 (sources at the lights, rooms every 2 m)
-      {"worlds/island_lit.json", "2", "sh-l1", "", "", "", "", "", "", "any"},     // the same with LPRT
-      {"worlds/island.json", "2", "sh-l1", "", "", "", "", "", "", ""},      // the default bake from 2026-12-06 (second session): cells on their side of the sky line
-      {"worlds/island_lit.json", "2", "sh-l1", "", "", "", "", "", "", ""},  // the same with LPRT
+      {"worlds/island.json", "2", "fc3", "0", "nearest", "", "off", "probes", "0", "4096", "any"},
+      {"worlds/island.json", "1", "fc3", "0", "nearest", "", "off", "probes", "0", "4096", "any"},
+      {"worlds/island_lit.json", "2", "fc3", "0", "nearest", "", "off", "probes", "0", "4096", "any"},
+      {"worlds/island.json", "2", "sh-l1", "0", "nearest", "shared", "off", "probes", "0", "4096", "any"},   // archive version 3: fitted direct sky, sun transfer
+      {"worlds/island.json", "2", "fc3", "", "nearest", "", "off", "probes", "0", "4096", "any"},            // placement with its 0.25 m clearance
+      {"worlds/island.json", "2", "sh-l1", "", "nearest", "shared", "off", "probes", "0", "4096", "any"},    // the default bake until 2026-12-02
+      {"worlds/island_lit.json", "2", "sh-l1", "", "nearest", "shared", "off", "probes", "0", "4096", "any"},  // sh-l1's LPRT with the bake's 2 bounces
+      {"worlds/island.json", "2", "sh-l1", "", "", "shared", "off", "probes", "0", "4096", "any"},           // the default bake until 2026-12-03
+      {"worlds/island_lit.json", "2", "sh-l1", "", "", "shared", "off", "probes", "0", "4096", "any"},       // the same with LPRT of 2 bounces
+      {"worlds/island.json", "2", "sh-l1", "", "", "", "off", "probes", "0", "4096", "any"},                 // the default bake until 2026-12-05
+      {"worlds/island_lit.json", "2", "sh-l1", "", "", "", "off", "probes", "0", "4096", "any"},             // the same with LPRT
+      {"worlds/island.json", "2", "sh-l1", "", "", "", "", "probes", "0", "4096", "any"},             // the default bake from 2026-12-05 (visibility maps)
+      {"worlds/island_lit.json", "2", "sh-l1", "", "", "", "", "probes", "0", "4096", "any"},         // the same with LPRT
+      {"worlds/island.json", "2", "sh-l1", "", "", "", "", "", "", "4096", "any"},         // the default bake from 2026-12-06 (sources at the lights, rooms every 2 m)
+      {"worlds/island_lit.json", "2", "sh-l1", "", "", "", "", "", "", "4096", "any"},     // the same with LPRT
+      {"worlds/island.json", "2", "sh-l1", "", "", "", "", "", "", "", ""},      // the default bake from 2026-12-06 (second session): cells on their side of the sky line, maps of 1,024 rays
+      {"worlds/island_lit.json", "2", "sh-l1", "", "", "", "", "", "", "", ""},  // the same with LPRT
   };
   constexpr size_t kBakes = sizeof bakes / sizeof bakes[0];
   struct Family {
@@ -568,13 +571,14 @@ TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
       // compared file for file) and with them; the last two on 2026-12-06, with the sources at
       // the lights and the enclosed spaces' 2 m spacing (bakes 12-13 are the build before's bytes
       // with --light-sources probes --enclosed-spacing 0); the last two in the day's second
-      // session, index cells on their side of the sky line (bakes 14-15 the bytes before it, with
-      // --grid-sides any). The Xeon's print themselves to be recorded.
+      // session, index cells on their side of the sky line and 1,024 rays a visibility map (bakes
+      // 12-15 the bytes before it, with --grid-sides any --visibility-rays 4096). The Xeon's print
+      // themselves to be recorded.
       {"AMD EPYC", 0xb719567d9ef9735full, "AuthenticAMD",
        {0xb5dc41527c49bc30ull, 0xb5dc41527c49bc30ull, 0x83e674d1c0876195ull, 0xce768512b03790c7ull, 0x602302430699b4b5ull,
         0x403bda8d7b11fe7dull, 0xeace7813206ac06aull, 0x223f3054c17af0b1ull, 0x030e6917899684ebull, 0x889378c2a953a185ull, 0x8c6679ee6ce99884ull, 0x2ae851aaf4dd854cull,
         0x5705d869b0421831ull, 0xa56cbcb8ebdcfb22ull, 0x2790b539b4c5e82dull,
-        0xf53a246f7a318504ull, 0xaf95afa928da0d09ull}},
+        0x61a3f33290582c38ull, 0x93253c07f8caed7cull}},
       // Intel Xeon, every CI host until 2026-12-01 (matched by vendor; the Xeon of 2026-12-02 had
       // the fingerprint 0xec281bdebf45ee62). The sh-l1 bakes changed on 2026-12-02 (the direct
       // sky's receiver-weighted fit) and were recorded again on a Xeon the same day. The last two
@@ -601,6 +605,7 @@ TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
                                (*g.fine ? std::string(" --fine ") + g.fine : "") +
                                (*g.sources ? std::string(" --light-sources ") + g.sources : "") +
                                (*g.enclosed ? std::string(" --enclosed-spacing ") + g.enclosed : "") +
+                               (*g.vis ? std::string(" --visibility-rays ") + g.vis : "") +
                                (*g.sides ? std::string(" --grid-sides ") + g.sides : ""),
                            "DRTV_EMBREE_CONFIG=isa=sse2");
     EXPECT_EQ(r.status, 0) << r.out;
@@ -620,7 +625,7 @@ TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
     record += std::string(i ? ", " : "") + hex;
     const std::string what = std::string(g.world) + " --threads " + g.threads + " --representation " + g.representation +
                              " --clearance '" + g.clearance + "' --inside-cells '" + g.inside + "' --cache-cells '" + g.cells + "' --fine '" + g.fine +
-                             "' --light-sources '" + g.sources + "' --enclosed-spacing '" + g.enclosed + "' --grid-sides '" + g.sides + "' baked " +
+                             "' --light-sources '" + g.sources + "' --enclosed-spacing '" + g.enclosed + "' --visibility-rays '" + g.vis + "' --grid-sides '" + g.sides + "' baked " +
                              std::to_string(size) + " bytes hashing " + hex + " on " + vendor + " (fingerprint " + fp + ")";
     if (family && family->xxh3[i]) {
       EXPECT_EQ(hash, family->xxh3[i]) << what << ", the " << family->name << "'s golden";

@@ -31,6 +31,7 @@ struct BakeCliOptions {
   std::optional<double> clearance_m;
   std::string inside_cells;
   std::string grid_sides;
+  std::optional<int> visibility_rays;
   std::string rooms;
   std::string cache_cells;
   std::string fine;
@@ -62,6 +63,7 @@ Result<void> runBake(const BakeCliOptions& o) {
   options.clearance_m = o.clearance_m;
   if (!o.inside_cells.empty()) options.inside_from_neighbours = o.inside_cells == "neighbour";
   if (!o.grid_sides.empty()) options.grid_same_side = o.grid_sides == "same";
+  options.visibility_rays = o.visibility_rays;
   if (!o.rooms.empty()) options.find_rooms = o.rooms == "auto";
   if (!o.cache_cells.empty()) options.cell_sides = o.cache_cells == "sides";
   if (!o.fine.empty()) options.covered_visibility = o.fine == "on";
@@ -170,6 +172,10 @@ Command registerBake(CLI::App& app) {
                   "does not name a room's probe through its window; default) | any (the nearest visible probe, the bytes "
                   "of the builds before 2026-12-06's second session)")
       ->check(CLI::IsMember({"same", "any"}));
+  sub->add_option("--visibility-rays", o->visibility_rays,
+                  "Rays a covered probe's visibility map is filtered from (the fine level's test of which probes see a "
+                  "point): default 1024; 4096 = the bytes of the builds before 2026-12-06's second session")
+      ->check(CLI::Range(64, 16384));
   sub->add_option("--rooms", o->rooms,
                   "Closed rooms found in the geometry get an interior volume and a designated probe, as an artist's "
                   "interiors do: auto (default) | off (the artist's interiors only)")

@@ -14,6 +14,8 @@
 //                                                   issue 35; default 2; 0 = the covered values)
 //   rooms              auto | off                   closed rooms found at bake time get
 //                                                   interiors (rooms.h, issue 16; default auto)
+//   visibility_rays    64..16384                    rays of a covered probe's visibility map
+//                                                   (BakeSettings::visibility_rays; default 1024)
 //   grid_sides         same | any                   index cells name probes on their own side
 //                                                   of the sky line (index_grid.h, issue 35;
 //                                                   default same)
@@ -82,6 +84,7 @@ struct BakeParams {
   bool cell_sides = true;  // cache cells split by walls (transfer.h TransferSettings::cell_sides)
   bool own_sources = true;  // LPRT sources where the baked lights stand (BakeSettings::light_sources)
   bool grid_same_side = true;  // index cells on their own side of the sky line (IndexGridSettings::same_side)
+  std::optional<int> visibility_rays;  // BakeSettings::visibility_rays
   bool operator==(const BakeParams&) const = default;
 };
 
@@ -123,6 +126,7 @@ Params readDrtv(ParamReader& r) {
   r.integer("rays_per_basis", out.bake.rays_per_basis, 1, 1 << 20)
       .integer("bounces", out.bake.bounces, 1, 1 << 20)
       .integer("sweeps", out.bake.sweeps, 1, 256)
+      .integer("visibility_rays", out.bake.visibility_rays, 64, 16384)
       .real("covered_spacing", out.bake.covered_spacing, 0, 64, true)
       .real("covered_min_h", out.bake.covered_min_h, 0, 64, true)
       .real("enclosed_spacing", out.bake.enclosed_spacing, 0, 64, false)
@@ -176,6 +180,7 @@ baker::BakeSettings bakeSettings(const BakeParams& p, uint64_t seed) {
   s.transfer.cell_sides = p.cell_sides;
   s.light_sources = p.own_sources;
   s.grid.same_side = p.grid_same_side;
+  if (p.visibility_rays) s.visibility_rays = *p.visibility_rays;
   return s;
 }
 
@@ -402,6 +407,11 @@ std::vector<KnobRow> DrtvTechnique::knobs(const KnobContext& c) {
                     std::string(def ? "the default bake: " : "") +
                         (e == 0.0 ? "as under any roof" : "columns and least distance in rooms and storeys")});
   }
+  // The visibility maps' rays (visibility_bake.h): the default against the builds before's 4,096.
+  rows.push_back({"visibility_rays", std::to_string(base.visibility_rays), true, "drtv", {},
+                  "the default bake: rays of a covered probe's visibility map"});
+  if (base.visibility_rays != 4096)
+    rows.push_back({"visibility_rays", "4096", false, "drtv", {{"visibility_rays", "4096"}}, "the builds before 2026-12-06's second session"});
   // Index cells on their own side of the sky line (index_grid.h, issue 35), against any side.
   rows.push_back({"grid_sides", "same", base.grid.same_side, "drtv", base.grid.same_side ? TechniqueParams{} : TechniqueParams{{"grid_sides", "same"}},
                   std::string(base.grid.same_side ? "the default bake: " : "") + "cells name probes on their side of the sky line"});

@@ -71,6 +71,9 @@ struct BakeSettings {
   // Probes under roofs flagged kProbeCovered and given visibility maps (visibility.h), which the
   // runtime's fine level reads (issue 35). false bakes the archives of the builds before it.
   bool covered_visibility = true;
+  // Rays a covered probe's visibility map is filtered from (visibility_bake.h): 1,024; the builds
+  // before 2026-12-06's second session cast 4,096 (`drtv bake --visibility-rays 4096`).
+  int visibility_rays = 1024;
   // With LPRT: a source probe where each still light under static geometry stands (placement.h,
   // step 7), which the runtime gives that light whole (issue 35). false bakes the archives of the
   // builds before it.
@@ -137,6 +140,8 @@ struct BakeOptions {
   std::optional<bool> cell_sides;
   // BakeSettings::covered_visibility; unset = the preset's (true).
   std::optional<bool> covered_visibility;
+  // BakeSettings::visibility_rays; unset = the preset's (1,024).
+  std::optional<int> visibility_rays;
   // BakeSettings::light_sources; unset = the preset's (true).
   std::optional<bool> light_sources;
   // PlacementSettings::enclosed_column_spacing_m and enclosed_min_horizontal_m both; 0 = the

@@ -63,6 +63,18 @@ Runtime::Runtime(RuntimeOptions options)
   current_ = applied_ = evaluateSky(sky_, hour_, options_.sun_band1_window, options_.sun_band0_scale);
 }
 
+namespace {
+// A point this far outside an interior's box still counts as on its face: the room's surfaces lie
+// on an artist's box (island.cpp makes it the room's inside), within float noise; thinner than
+// any wall (0.1 m in tests/reference/data/room.json).
+constexpr double kInteriorSurfaceSlackM = 0.05;
+}  // namespace
+
+const std::vector<uint32_t>* Runtime::interiorsOver(SectorKey key) const {
+  const auto it = interiors_by_sector_.find(packKey(key));
+  return it == interiors_by_sector_.end() ? nullptr : &it->second;
+}
+
 Result<void> Runtime::setLighting(const Sky& sky, std::vector<PointLight> lights, std::vector<InteriorVolume> interiors) {
   if (auto e = validateLighting(sky, lights, interiors); !e) return std::unexpected(e.error().context("lighting"));
   sky_ = sky;
@@ -73,6 +85,16 @@ Result<void> Runtime::setLighting(const Sky& sky, std::vector<PointLight> lights
     if (options_.effects & kEffectInteriors)
       for (const InteriorVolume& v : interiors_) boxes.push_back({v.min, v.max});
     cache_.setInteriorBoxes(std::move(boxes));
+  }
+  interiors_by_sector_.clear();
+  for (size_t k = 0; k < interiors_.size(); ++k) {
+    const InteriorVolume& v = interiors_[k];
+    const SectorKey lo = sectorAt(v.min.x - kInteriorSurfaceSlackM, v.min.y - kInteriorSurfaceSlackM);
+    const SectorKey hi = sectorAt(v.max.x + kInteriorSurfaceSlackM, v.max.y + kInteriorSurfaceSlackM);
+    const SectorKey at = sectorAt(v.probe_position.x, v.probe_position.y);
+    for (int64_t y = lo.iy; y <= hi.iy; ++y)
+      for (int64_t x = lo.ix; x <= hi.ix; ++x) interiors_by_sector_[packKey({int32_t(x), int32_t(y)})].push_back(uint32_t(k));
+    if (at.ix < lo.ix || at.ix > hi.ix || at.iy < lo.iy || at.iy > hi.iy) interiors_by_sector_[packKey(at)].push_back(uint32_t(k));
   }
   sky_changed_ = true;  // a changed sun path or ground scale: a full relight
   current_ = evaluateSky(sky_, hour_, options_.sun_band1_window, options_.sun_band0_scale);
@@ -153,7 +175,16 @@ Result<void> Runtime::addSector(const Sector& sector, const OcclusionTile* tile,
   if (tile) DRTV_CHECK(tile->key == sector.key);
   if (auto r = cache_.addSector(sector, block); !r) return r;
   if (options_.effects & kEffectDistantOcclusion) occlusion_.add(tile ? *tile : makeOcclusionTile(sector));
-  resolveInteriors();
+  resolveInteriors(sector.key);
+  // And those whose designated probe came with it wherever it stands (an archive may put one
+  // outside the sectors its box lies over).
+  for (const ProbeRecord& r : sector.probes) {
+    const ProbeData d = unpackProbe(r);
+    if ((d.flags & kProbeInterior) && d.interior >= 1 && d.interior <= interiors_.size()) {
+      const InteriorVolume& v = interiors_[d.interior - 1u];
+      interior_probes_[d.interior - 1u] = cache_.interiorProbe(d.interior, v.probe_position, v.min, v.max);
+    }
+  }
   if (!relit_once_) return {};  // the first update() relights everything
   if (!lights_.empty() && (options_.components & kComponentLocalLights)) {
     // New sources may take shares of the lights from probes of resident neighbours, so the next
@@ -176,22 +207,34 @@ Result<void> Runtime::addSector(const Sector& sector, const OcclusionTile* tile,
 }
 
 bool Runtime::removeSector(SectorKey key) {
+  const int slot = cache_.slotOf(key);
   if (!cache_.removeSector(key)) return false;
   occlusion_.remove(key);
-  resolveInteriors();
+  resolveInteriors(key);
+  // An interior whose probe stood in the departed slot (a designated probe an archive put outside
+  // the sectors its box lies over) is resolved again too: no reference outlives its slot.
+  for (size_t k = 0; k < interior_probes_.size(); ++k)
+    if (interior_probes_[k].slot == slot) interior_probes_[k] = cache_.interiorProbe(uint16_t(k + 1), interiors_[k].probe_position, interiors_[k].min, interiors_[k].max);
   volume_.invalidateSector(key);
   if (!lights_.empty()) lights_changed_ = true;  // the shares its sources held go elsewhere
   return true;
 }
 
-void Runtime::resolveInteriors() {
-  interior_probes_.assign(interiors_.size(), ProbeRef{});
+void Runtime::resolveInteriors(std::optional<SectorKey> key) {
   // The designated probe is flagged kProbeInterior and belongs to interior k + 1 (probe.h); without
-  // one resident, the resident probe inside the box nearest the artist's position.
-  for (size_t k = 0; k < interiors_.size(); ++k) {
+  // one resident, the resident probe inside the box nearest the artist's position. Both lie over
+  // the sectors interiors_by_sector_ lists the interior under.
+  auto resolve = [&](size_t k) {
     const InteriorVolume& v = interiors_[k];
     interior_probes_[k] = cache_.interiorProbe(uint16_t(k + 1), v.probe_position, v.min, v.max);
+  };
+  if (!key || interior_probes_.size() != interiors_.size()) {
+    interior_probes_.assign(interiors_.size(), ProbeRef{});
+    for (size_t k = 0; k < interiors_.size(); ++k) resolve(k);
+    return;
   }
+  if (const std::vector<uint32_t>* over = interiorsOver(*key))
+    for (const uint32_t k : *over) resolve(k);
 }
 
 void Runtime::update(const glm::dvec3& camera) {
@@ -210,13 +253,6 @@ void Runtime::update(const glm::dvec3& camera) {
   volume_.update(volumeOriginFor(options_.volume, camera), cache_);
 }
 
-namespace {
-// A point this far outside an interior's box still counts as on its face: the room's surfaces lie
-// on an artist's box (island.cpp makes it the room's inside), within float noise; thinner than
-// any wall (0.1 m in tests/reference/data/room.json).
-constexpr double kInteriorSurfaceSlackM = 0.05;
-}  // namespace
-
 AmbientSample Runtime::ambient(const glm::dvec3& position, const glm::vec3& normal) const {
   const glm::vec3 n = ambientNormal(normal);
   AmbientSample s;
@@ -233,8 +269,10 @@ AmbientSample Runtime::ambient(const glm::dvec3& position, const glm::vec3& norm
                      : sampleVolume(view.volume(), position, n, options_.normal_offset_m);
   }
   s.irradiance = s.distant + (s.volume - s.distant) * s.volume_weight;
-  if (options_.effects & kEffectInteriors) {
-    for (size_t k = 0; k < interiors_.size(); ++k) {
+  const std::vector<uint32_t>* over = (options_.effects & kEffectInteriors) ? interiorsOver(sectorAt(position.x, position.y)) : nullptr;
+  if (over) {
+    // Only interiors whose box (grown by the slack) lies over the point's sector can hold it.
+    for (const uint32_t k : *over) {
       if (!interior_probes_[k].valid()) continue;
       const InteriorVolume& v = interiors_[k];
       auto depthIn = [&](const glm::dvec3& q) {

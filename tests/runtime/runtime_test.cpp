@@ -1,8 +1,10 @@
 // The engine-facing Runtime: relight only what changed, interiors, distant ambient, queries,
 // input validation, and finite output for any finite input.
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
+#include <string>
 
 #include <gtest/gtest.h>
 
@@ -154,6 +156,55 @@ TEST(ProbeCache, InteriorProbeMatchesAScanOfEveryResidentProbe) {
       }
     }
     EXPECT_EQ(cache.interiorProbe(index, designated, lo, hi), flagged.valid() ? flagged : inside) << "trial " << trial;
+  }
+}
+
+// The interiors a sector's arrival or departure can change are resolved again alone (a town's
+// 18,756 rooms made every load scan them all): after any order of loads and unloads each
+// interior's probe is the one a runtime resolving every interior from scratch finds.
+TEST(Runtime, InteriorsResolvedPerSectorMatchAFullResolveAfterLoadsAndUnloads) {
+  std::vector<InteriorVolume> interiors;
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-150.0, 150.0), h(2.0, 40.0);
+  for (int k = 0; k < 60; ++k) {
+    InteriorVolume v;
+    v.name = "room " + std::to_string(k);
+    v.probe_position = glm::dvec3(u(rng), u(rng), 8.0);
+    const glm::dvec3 half(h(rng), h(rng), 6.0);
+    v.min = v.probe_position - half, v.max = v.probe_position + half;
+    interiors.push_back(v);
+  }
+  auto sectorWithDesignated = [&](SectorKey key) {
+    Sector s = testing::makeSector(key, {}, 4);
+    // Probe 5 of each sector is the designated probe of the interior numbered by its key.
+    ProbeData d = unpackProbe(s.probes[5]);
+    d.flags |= kProbeInterior;
+    d.interior = uint16_t(1 + ((key.ix + 3) * 7 + (key.iy + 3)) % 60);
+    s.probes[5] = packProbe(d);
+    return s;
+  };
+  Runtime rt;
+  ASSERT_TRUE(rt.setLighting(Sky::tropicalDefault(), {}, interiors));
+  std::vector<SectorKey> resident;
+  std::uniform_int_distribution<int> key(-3, 2), coin(0, 2);
+  for (int step = 0; step < 120; ++step) {
+    const SectorKey k{key(rng), key(rng)};
+    const bool there = std::find(resident.begin(), resident.end(), k) != resident.end();
+    if (!there && coin(rng) > 0) {
+      ASSERT_TRUE(rt.addSector(sectorWithDesignated(k)));
+      resident.push_back(k);
+    } else if (there) {
+      EXPECT_TRUE(rt.removeSector(k));
+      std::erase(resident, k);
+    }
+    Runtime fresh;
+    ASSERT_TRUE(fresh.setLighting(Sky::tropicalDefault(), {}, interiors));
+    for (const SectorKey& r : resident) ASSERT_TRUE(fresh.addSector(sectorWithDesignated(r)));
+    for (size_t i = 0; i < interiors.size(); ++i) {
+      const ProbeRef a = rt.interiorProbe(i), b = fresh.interiorProbe(i);
+      ASSERT_EQ(a.valid(), b.valid()) << "step " << step << " interior " << i;
+      if (a.valid()) EXPECT_EQ(rt.cache().worldPosition(a), fresh.cache().worldPosition(b)) << "step " << step << " interior " << i;
+    }
   }
 }
 

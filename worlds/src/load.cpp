@@ -212,6 +212,15 @@ class Parser {
   Ok terrain(const json& j);
   Ok island(const json& j);
   Ok town(const json& j);
+  // A generated world (island, town) becomes the file's, under the file's name, with its ground.
+  Ok adoptGenerated(Result<World> w, Ground g) {
+    if (!w) return std::unexpected(w.error().context(file_));
+    const std::string name = world_.name;
+    world_ = std::move(*w);
+    world_.name = name;
+    ground_ = std::move(g);
+    return true;
+  }
   Ok primitives(const json& j);
   Ok gltfs(const json& j);
   Ok vegetation(const json& j);
@@ -322,13 +331,7 @@ Ok Parser::island(const json& j) {
   o.walls_per_km2 = walls;
   o.interior_fraction = interior;
   Ground g;
-  auto w = generateIslandWithHeightfield(o, &g.hf);
-  if (!w) return std::unexpected(w.error().context(file_));
-  const std::string name = world_.name;
-  world_ = std::move(*w);
-  world_.name = name;
-  ground_ = std::move(g);
-  return true;
+  return adoptGenerated(generateIslandWithHeightfield(o, &g.hf), std::move(g));
 }
 
 Ok Parser::town(const json& j) {
@@ -360,15 +363,8 @@ Ok Parser::town(const json& j) {
   o.min_storey_m = min_storey, o.max_storey_m = max_storey;
   o.courtyard_fraction = courtyard, o.pair_fraction = pair, o.square_fraction = square, o.arcade_fraction = arcade;
   o.lit_room_fraction = lit, o.lamp_intensity = float(lamp), o.terrain_height_m = hills, o.grid_spacing_m = spacing;
-  if (o.size_m / o.grid_spacing_m <= 8192) DRTV_TRY(terrainMemory(std::round(o.size_m / o.grid_spacing_m), join(path, "grid_spacing_m")));
   Ground g;
-  auto w = generateTownWithHeightfield(o, &g.hf);
-  if (!w) return std::unexpected(w.error().context(file_));
-  const std::string name = world_.name;
-  world_ = std::move(*w);
-  world_.name = name;
-  ground_ = std::move(g);
-  return true;
+  return adoptGenerated(generateTownWithHeightfield(o, &g.hf), std::move(g));
 }
 
 Ok Parser::primitives(const json& j) {

@@ -1,6 +1,9 @@
 // drtv_consumer <archive.drtv> [x y z]: streams the archive's sectors around a camera at (x, y, z)
 // (default: the centre of the archive, 20 m up) into a runtime lit at 10:00, the way an engine's
-// frame loop does, and prints the ambient irradiance an up-facing surface there receives.
+// frame loop does (the adds and the volume update on a runtime::UpdateWorker, off the frame's
+// thread), and prints the ambient irradiance an up-facing surface there receives. The frames here
+// only stream; the one update at the end, after every add, gives what `drtv query` gives there
+// (scripts/package-check compares the two).
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -8,22 +11,27 @@
 #include <thread>
 
 #include "drtv/runtime/runtime.h"
+#include "drtv/runtime/update_worker.h"
 #include "drtv/streamer/streamer.h"
 
 namespace {
 
-// Hands every sector the streamer loads to the runtime, and takes it back on eviction.
+// Hands every sector the streamer loads to the runtime's worker (added there before its next
+// update), and takes it back on eviction.
 class RuntimeSink final : public drtv::streamer::SectorSink {
  public:
-  explicit RuntimeSink(drtv::runtime::Runtime& rt) : rt_(rt) {}
+  RuntimeSink(drtv::runtime::Runtime& rt, drtv::runtime::UpdateWorker& worker) : rt_(rt), worker_(worker) {}
   void onSectorLoaded(const drtv::Sector& sector, const drtv::runtime::OcclusionTile& tile) override {
     // `sector` stays resident until onSectorEvicted returns, so its LPRT block is borrowed, not copied.
-    if (auto ok = rt_.addSector(sector, &tile, drtv::runtime::SectorBlock::kBorrow); !ok) std::fprintf(stderr, "drtv_consumer: %s\n", ok.error().message.c_str());
+    worker_.addSector(sector, &tile, drtv::runtime::SectorBlock::kBorrow);
   }
-  void onSectorEvicted(drtv::SectorKey key) override { rt_.removeSector(key); }
+  void onSectorEvicted(drtv::SectorKey key) override {
+    if (!worker_.cancelAdd(key)) rt_.removeSector(key);  // a queued add never reached the runtime
+  }
 
  private:
   drtv::runtime::Runtime& rt_;
+  drtv::runtime::UpdateWorker& worker_;
 };
 
 }  // namespace
@@ -46,7 +54,8 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "drtv_consumer: error: %s: %s\n", argv[1], rt.error().message.c_str());
     return 1;
   }
-  RuntimeSink sink(**rt);
+  drtv::runtime::UpdateWorker worker(**rt);
+  RuntimeSink sink(**rt, worker);
   drtv::streamer::Camera camera{at, glm::dvec3(0.0)};
   // Frames until every sector the streamer wants is resident, or nothing more can come (its loads
   // failed), at most 10 s of wall time: its I/O threads load while the frame sleeps, as they would
@@ -55,15 +64,19 @@ int main(int argc, char** argv) {
   double t = 0.0;
   const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(10);
   for (int frame = 0; std::chrono::steady_clock::now() < give_up; ++frame, t += 1.0 / 60.0) {
+    // An engine would hand each frame's adds and update over here (worker.start), and wait for
+    // them (worker.wait) before the next frame streams.
     const drtv::streamer::FrameStats st = (*streamer)->update(camera, t, sink);
     if (st.wanted > 0 && st.resident == st.wanted) break;
     if (frame > 2 && (*streamer)->idle()) break;
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
+  worker.start(at);  // the queued adds, then the update: relight, fill, publish
+  worker.wait();
+  for (const auto& [key, e] : worker.takeAddErrors()) std::fprintf(stderr, "drtv_consumer: %s\n", e.message.c_str());
   // An engine would log these: a sector that failed to load is retried, and named here.
   for (const drtv::streamer::SectorFailure& f : (*streamer)->failures())
     std::fprintf(stderr, "drtv_consumer: sector load failed (attempt %d): %s\n", f.attempt, f.message.c_str());
-  (*rt)->update(at);
   const drtv::runtime::AmbientSample a = (*rt)->ambient(at, glm::vec3(0, 0, 1));
   std::printf("resident %zu sectors; ambient at (%.1f, %.1f, %.1f), normal +Z: %.4f %.4f %.4f\n",
               (*streamer)->residentKeys().size(), at.x, at.y, at.z, a.irradiance.r, a.irradiance.g, a.irradiance.b);

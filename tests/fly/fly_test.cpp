@@ -201,6 +201,57 @@ TEST(Fly, ThirtyTwoMovingLightsAtHundredMetresPerSecondStayWithinTheLprtBudget) 
   EXPECT_NE(bad.error().message.find("lights[3].path.keys"), std::string::npos) << bad.error().message;
 }
 
+// The adds and the volume update on a worker (FlyOptions::volume_worker): the same streaming,
+// the same relights frame by frame, every frame's update done by the worker and reported, and
+// the volume one frame late. (That the worker publishes the very texels an inline update does is
+// tests/runtime/update_worker_test.cpp's.)
+TEST(Fly, TheWorkerFliesTheSameFramesAndReportsItsUpdates) {
+  testing::TempDir dir;
+  const Manifest m = testing::writeWorld(dir.path() / "lit.drtv", {.lprt_sources = 128, .holes = {}});
+  auto flyWith = [&](bool worker) {
+    StreamerOptions so;
+    so.io_mode = IoMode::kDeterministic;
+    auto s = Streamer::open(dir.path() / "lit.drtv", so);
+    EXPECT_TRUE(s.has_value());
+    FlyOptions fo;
+    fo.frames = 150;
+    fo.fps = 500.0;        // kept to real time with the worker: 0.3 s
+    fo.speed_mps = 2000.0;  // 600 m: sectors stream in and out
+    fo.hours_per_s = 40.0;  // the time of day relights every frame
+    fo.volume_worker = worker;
+    auto r = fly(**s, defaultFlightPath(m, false), fo, "lit.drtv");
+    EXPECT_TRUE(r.has_value()) << r.error().message;
+    return std::move(*r);
+  };
+  const FlyResult a = flyWith(false), b = flyWith(true);
+  ASSERT_EQ(a.frames.size(), b.frames.size());
+  int64_t loads = 0;
+  for (size_t i = 0; i < a.frames.size(); ++i) {
+    const FlyFrame &x = a.frames[i], &y = b.frames[i];
+    EXPECT_EQ(std::tie(x.stats.resident, x.stats.loads, x.stats.evictions, x.stats.misses, x.full_relight, x.lights_relit,
+                       x.runtime_probes),
+              std::tie(y.stats.resident, y.stats.loads, y.stats.evictions, y.stats.misses, y.full_relight, y.lights_relit,
+                       y.runtime_probes))
+        << "frame " << i;
+    EXPECT_GT(y.worker_ms, 0.0) << "frame " << i;
+    EXPECT_GT(y.runtime_probes, 0) << "frame " << i;
+    EXPECT_EQ(x.worker_ms, 0.0);
+    loads += x.stats.loads;
+  }
+  EXPECT_GT(loads, 20);
+  const FlySummary sa = summarize(a), sb = summarize(b);
+  EXPECT_EQ(sa.full_relights, sb.full_relights);
+  EXPECT_GT(sb.full_relights, 100);
+  EXPECT_FALSE(sa.volume_worker);
+  EXPECT_EQ(sa.volume_late_frames, 0);
+  EXPECT_TRUE(sb.volume_worker);
+  EXPECT_EQ(sb.volume_late_frames, 1);
+  EXPECT_GT(sb.worker_ms_p99, 0.0);
+  EXPECT_EQ(b.runtime_note.find("rejected"), std::string::npos) << b.runtime_note;
+  EXPECT_NE(b.runtime_note.find("one frame late"), std::string::npos) << b.runtime_note;
+  EXPECT_EQ(a.volume_bytes, b.volume_bytes);
+}
+
 TEST(Fly, WritesCsvJsonMarkdownAndPngs) {
   testing::TempDir dir;
   testing::writeWorld(dir.path() / "w.drtv", {});

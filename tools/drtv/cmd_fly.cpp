@@ -32,6 +32,7 @@ struct FlyCliOptions {
   std::string outdir = "fly-report";
   int io_threads = 0;  // 0 = deterministic I/O
   bool no_runtime = false;
+  std::string volume_update = "worker";  // worker | inline
   std::vector<std::string> faults;  // "ix,iy:kind"
   std::string world;                // world file whose lights (and their paths) to fly with
   std::string technique, params;    // a registered technique that runs on drtv::runtime
@@ -108,6 +109,7 @@ Result<void> runFly(const FlyCliOptions& o) {
   fo.start_hour = o.start_hour;
   fo.hours_per_s = o.hours_per_s;
   fo.runtime = !o.no_runtime;
+  fo.volume_worker = o.volume_update == "worker";
   fo.runtime_options = technique_options;
   fo.technique = technique_name;
   std::optional<worlds::World> world;
@@ -174,6 +176,9 @@ Result<void> runFly(const FlyCliOptions& o) {
                 sum.technique_stale_max);
   if (archive->http_stats) std::printf("http: %s\n", archive->http_stats().c_str());
   std::printf("frame CPU ms: p50 %.4f, p99 %.4f, max %.4f\n", sum.frame_ms_p50, sum.frame_ms_p99, sum.frame_ms_max);
+  if (sum.volume_worker)
+    std::printf("adds and volume update on a worker, one frame late: p99 %.4f ms; the frames waited for it %d times (p99 wait %.4f ms)\n",
+                sum.worker_ms_p99, sum.frames_waited, sum.wait_ms_p99);
   std::printf("report: %s/fly-report.md\n", o.outdir.c_str());
   return {};
 }
@@ -199,6 +204,10 @@ Command registerFly(CLI::App& app) {
                   "World file whose lights fly with the camera; lights with a path move along it (docs/world-format.md)");
   sub->add_option("--fault", o->faults, "Inject a fault on a sector: IX,IY:missing|truncated|corrupt|slow (repeatable)");
   sub->add_flag("--no-runtime", o->no_runtime, "Stream only: no relighting or volume updates");
+  sub->add_option("--volume-update", o->volume_update,
+                  "worker (default): the volume update on a worker thread, off the frame's critical path, one frame late, the "
+                  "flight in real time; inline: in the frame, as before")
+      ->check(CLI::IsMember({"worker", "inline"}));
   const std::string names = eval::registeredTechniqueNames();
   sub->add_option("--technique", o->technique, "The technique to fly (one that runs on drtv::runtime): " + names + " (default: what the archive asks for)");
   sub->add_option("--params", o->params, "The technique's parameters, name=value,... (e.g. fill=smooth,texel_m=1)");

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <optional>
 #include <set>
 #include <thread>
 
@@ -13,6 +14,7 @@
 
 #include "drtv/image/image.h"
 #include "drtv/runtime/runtime.h"
+#include "drtv/runtime/update_worker.h"
 
 namespace drtv::fly {
 using namespace streamer;
@@ -35,19 +37,27 @@ class FlySink final : public SectorSink {
     if (!rt_) return;
     const auto t0 = Clock::now();
     // The streamer keeps `sector` until onSectorEvicted returns: the runtime borrows its LPRT block.
-    if (auto ok = rt_->addSector(sector, &tile, runtime::SectorBlock::kBorrow); !ok) {
-      ++runtime_errors;
-      if (first_error.empty()) first_error = ok.error().message;
+    if (worker_) {
+      worker_->addSector(sector, &tile, runtime::SectorBlock::kBorrow);  // added on the worker
+    } else if (auto ok = rt_->addSector(sector, &tile, runtime::SectorBlock::kBorrow); !ok) {
+      error(ok.error());
     }
     relight_ms += msSince(t0);
   }
   void onSectorEvicted(SectorKey key) override {
-    if (rt_) rt_->removeSector(key);
+    // A load queued for the worker and evicted before it was handed over was never added.
+    if (rt_ && !(worker_ && worker_->cancelAdd(key))) rt_->removeSector(key);
     if (technique_) {
       const auto t0 = Clock::now();
       technique_->onSectorEvicted(key);
       technique_ms += msSince(t0);
     }
+  }
+  // From here on the runtime's adds are queued for `worker` (its wait() must have returned).
+  void setWorker(runtime::UpdateWorker* worker) { worker_ = worker; }
+  void error(const Error& e) {
+    ++runtime_errors;
+    if (first_error.empty()) first_error = e.message;
   }
   std::set<SectorKey> ever_loaded;
   double relight_ms = 0.0, technique_ms = 0.0;
@@ -56,6 +66,7 @@ class FlySink final : public SectorSink {
 
  private:
   runtime::Runtime* rt_;
+  runtime::UpdateWorker* worker_ = nullptr;
   SectorSink* technique_;
 };
 
@@ -224,15 +235,37 @@ Result<FlyResult> fly(Streamer& streamer, const CatmullRomPath& path, const FlyO
   std::vector<PointLight> lights_now = o.lights;
   // With I/O threads and a streamed technique's workers, the flight keeps to real time (a frame
   // every 1/fps seconds, as a game would): the workers get the time the frames would leave them.
-  const bool pace = o.technique_sink && streamer.options().io_mode == IoMode::kThreads;
+  std::optional<runtime::UpdateWorker> worker;
+  if (rt && o.volume_worker) {
+    worker.emplace(*rt);
+    sink.setWorker(&*worker);
+  }
+  const bool pace = (o.technique_sink && streamer.options().io_mode == IoMode::kThreads) || worker.has_value();
+  // With the worker, what an update did (a full relight, lights relit) is read once it is done.
+  uint64_t relights_before = 0, light_relights_before = 0;
+  auto finishUpdate = [&](FlyFrame& frame) {
+    frame.worker_ms = worker->lastUpdateMs();
+    for (const auto& [key, e] : worker->takeAddErrors()) sink.error(e);
+    frame.full_relight = rt->relightCount() != relights_before;
+    frame.lights_relit = rt->lightRelightCount() != light_relights_before;
+    frame.runtime_probes = rt->cache().probeCount();
+  };
   const auto flight_start = Clock::now();
   for (int f = 0; f < frames; ++f) {
     const double t = f * dt;
     if (pace) std::this_thread::sleep_until(flight_start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(t)));
+    FlyFrame ff;
+    if (worker && f > 0) {
+      // The runtime is the worker's until its update is done: wait before the sectors stream.
+      const auto t0 = Clock::now();
+      ff.waited = worker->busy();
+      worker->wait();
+      ff.wait_ms = msSince(t0);
+      finishUpdate(r.frames.back());
+    }
     const double s_m = o.speed_mps * t;
     Camera cam{path.position(s_m), path.direction(s_m) * o.speed_mps};
     if (!path.closed() && s_m >= path.lengthM()) cam.velocity_mps = glm::dvec3(0.0);
-    FlyFrame ff;
     ff.position_m = cam.position_m;
     ff.hour = std::fmod(o.start_hour + o.hours_per_s * t, 24.0);
     sink.relight_ms = 0.0;
@@ -253,18 +286,31 @@ Result<FlyResult> fly(Streamer& streamer, const CatmullRomPath& path, const FlyO
       ff.technique_ms = c->ms + sink.technique_ms;
     }
     if (rt) {
-      const uint64_t relights = rt->relightCount(), light_relights = rt->lightRelightCount();
+      relights_before = rt->relightCount();
+      light_relights_before = rt->lightRelightCount();
       const auto t0 = Clock::now();
       (void)rt->setTime(ff.hour);  // finite by construction
-      rt->update(cam.position_m);
-      ff.volume_ms = msSince(t0);
-      ff.full_relight = rt->relightCount() != relights;
-      ff.lights_relit = rt->lightRelightCount() != light_relights;
+      if (worker) {
+        worker->start(cam.position_m);
+        ff.volume_ms = ff.wait_ms + msSince(t0);
+      } else {
+        rt->update(cam.position_m);
+        ff.volume_ms = msSince(t0);
+        ff.full_relight = rt->relightCount() != relights_before;
+        ff.lights_relit = rt->lightRelightCount() != light_relights_before;
+        ff.runtime_probes = rt->cache().probeCount();
+      }
     }
     ff.frame_ms = ff.stats.update_ms + ff.relight_ms + ff.lights_ms + ff.volume_ms + ff.technique_ms;
     r.frames.push_back(ff);
     if (std::find(snap_at.begin(), snap_at.end(), f) != snap_at.end()) r.snapshots.push_back(snapshot(streamer, sink, path, cam, f));
     if (o.progress && (f % std::max(1, frames / 100) == 0 || f == frames - 1)) o.progress(f + 1, frames);
+  }
+  if (worker) {
+    worker->wait();
+    sink.setWorker(nullptr);
+    if (!r.frames.empty()) finishUpdate(r.frames.back());
+    r.runtime_note += "; volume updated on a worker thread, published one frame late (the flight kept to real time)";
   }
   if (rt) {
     const auto view = rt->volume().read();
@@ -284,9 +330,16 @@ Result<FlyResult> fly(Streamer& streamer, const CatmullRomPath& path, const FlyO
 FlySummary summarize(const FlyResult& r) {
   FlySummary s;
   s.frames = int(r.frames.size());
-  std::vector<double> frame_ms, update_ms, relight_ms, volume_ms, technique_ms;
+  std::vector<double> frame_ms, update_ms, relight_ms, volume_ms, technique_ms, worker_ms, wait_ms;
   double io_ms = 0;
+  s.volume_worker = r.options.volume_worker && r.options.runtime;
+  s.volume_late_frames = s.volume_worker ? 1 : 0;
   for (const FlyFrame& f : r.frames) {
+    if (s.volume_worker) {
+      worker_ms.push_back(f.worker_ms);
+      wait_ms.push_back(f.wait_ms);
+      s.frames_waited += f.waited;
+    }
     s.max_resident = std::max(s.max_resident, f.stats.resident);
     s.max_resident_bytes = std::max(s.max_resident_bytes, f.stats.resident_bytes);
     s.max_reserved_bytes = std::max(s.max_reserved_bytes, f.stats.reserved_bytes);
@@ -319,6 +372,8 @@ FlySummary summarize(const FlyResult& r) {
   s.update_ms_p99 = percentile(update_ms, 0.99);
   s.relight_ms_p99 = percentile(relight_ms, 0.99);
   s.volume_ms_p99 = percentile(volume_ms, 0.99);
+  s.worker_ms_p99 = percentile(worker_ms, 0.99);
+  s.wait_ms_p99 = percentile(wait_ms, 0.99);
   s.technique_ms_p99 = percentile(technique_ms, 0.99);
   const int64_t started = [&] {
     int64_t n = 0;
@@ -342,16 +397,16 @@ Result<void> writeFlyReport(const FlyResult& r, const std::filesystem::path& dir
     if (!f) return fail(p.string() + ": cannot write");
     f << "frame,time_s,x_m,y_m,z_m,hour,resident,in_flight,wanted,loads,evictions,cancels,failures,misses,fallback,"
          "resident_bytes,reserved_bytes,update_ms,relight_ms,volume_ms,frame_ms,full_relight,inline_io_ms,technique_ms,"
-         "technique_reach,technique_missing,technique_stale,technique_held,technique_inline_ms\n";
+         "technique_reach,technique_missing,technique_stale,technique_held,technique_inline_ms,worker_ms,wait_ms,waited\n";
     char line[512];
     for (const FlyFrame& x : r.frames) {
       const FrameStats& st = x.stats;
-      std::snprintf(line, sizeof line, "%llu,%.6f,%.3f,%.3f,%.3f,%.5f,%d,%d,%d,%d,%d,%d,%d,%d,%d,%zu,%zu,%.5f,%.5f,%.5f,%.5f,%d,%.5f,%.5f,%d,%d,%d,%d,%.5f\n",
+      std::snprintf(line, sizeof line, "%llu,%.6f,%.3f,%.3f,%.3f,%.5f,%d,%d,%d,%d,%d,%d,%d,%d,%d,%zu,%zu,%.5f,%.5f,%.5f,%.5f,%d,%.5f,%.5f,%d,%d,%d,%d,%.5f,%.5f,%.5f,%d\n",
                     (unsigned long long)st.frame, st.time_s, x.position_m.x, x.position_m.y, x.position_m.z, x.hour, st.resident,
                     st.in_flight, st.wanted, st.loads, st.evictions, st.cancels, st.failures, st.misses, st.fallback,
                     st.resident_bytes, st.reserved_bytes, st.update_ms, x.relight_ms, x.volume_ms, x.frame_ms, int(x.full_relight),
                     st.inline_io_ms, x.technique_ms, x.technique.reach, x.technique.missing, x.technique.stale,
-                    x.technique.held, x.technique.inline_ms);
+                    x.technique.held, x.technique.inline_ms, x.worker_ms, x.wait_ms, int(x.waited));
       f << line;
     }
     if (!f) return fail(p.string() + ": write failed");
@@ -414,7 +469,12 @@ Result<void> writeFlyReport(const FlyResult& r, const std::filesystem::path& dir
                   {"volume_ms_p99", s.volume_ms_p99},
                   {"technique_ms_p99", s.technique_ms_p99},
                   {"full_relights", s.full_relights},
-                  {"inline_io_ms_per_load", s.inline_io_ms_mean_per_load}};
+                  {"inline_io_ms_per_load", s.inline_io_ms_mean_per_load},
+                  {"volume_worker", s.volume_worker},
+                  {"volume_late_frames", s.volume_late_frames},
+                  {"worker_ms_p99", s.worker_ms_p99},
+                  {"wait_ms_p99", s.wait_ms_p99},
+                  {"frames_waited", s.frames_waited}};
   if (s.technique_streamed)
     j["technique_stream"] = {{"technique", r.options.technique},
                              {"misses", s.technique_misses},
@@ -486,6 +546,13 @@ Result<void> writeFlyReport(const FlyResult& r, const std::filesystem::path& dir
   std::snprintf(buf, sizeof buf, "| p99 ms: streamer update / relight of loads / volume update | %.4f / %.4f / %.4f | |\n",
                 s.update_ms_p99, s.relight_ms_p99, s.volume_ms_p99);
   md << buf;
+  if (s.volume_worker) {
+    std::snprintf(buf, sizeof buf,
+                  "| the worker (the frame's adds and volume update): p99 ms; the frame's wait p99 ms, frames that waited; frames late | "
+                  "%.4f; %.4f, %d; %d | |\n",
+                  s.worker_ms_p99, s.wait_ms_p99, s.frames_waited, s.volume_late_frames);
+    md << buf;
+  }
   std::snprintf(buf, sizeof buf, "| full relights (time of day) | %d | |\n", s.full_relights);
   md << buf;
   if (r.options.technique_frame) {

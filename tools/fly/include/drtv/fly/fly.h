@@ -91,6 +91,15 @@ struct FlyOptions {
       technique_frame;
   streamer::SectorSink* technique_sink = nullptr;
   size_t technique_bytes = 0;
+  // The volume update (Runtime::setTime's relight, scroll, fill, blur, publish) and the adds of
+  // the frame's loads (their relight and slabs) on a worker thread (runtime::UpdateWorker), off
+  // the frame's critical path: frame f hands its update over
+  // and frame f + 1 waits for it before it streams, so the volume a frame reads is the previous
+  // frame's (one frame late). The flight then keeps to real time (frame f starts f / fps seconds
+  // after the first): a game's frame leaves the worker the time its other work takes, which a
+  // flight that only streams and updates does not have. The frame time counts the frame's own
+  // thread (its wait for the worker included); the worker's time is reported beside it.
+  bool volume_worker = false;
   // Called every ~1 % of the flight with (frames done, frames total): progress for a terminal.
   std::function<void(int, int)> progress;
 };
@@ -99,8 +108,15 @@ struct FlyFrame {
   streamer::FrameStats stats;             // the streamer's view of the frame
   glm::dvec3 position_m{0.0};   // camera
   double hour = 0.0;            // time of day
-  double relight_ms = 0.0;      // Runtime::addSector of this frame's loads (0 without runtime)
-  double volume_ms = 0.0;       // Runtime::setTime + update: relight if needed, scroll, publish
+  double relight_ms = 0.0;      // Runtime::addSector of this frame's loads (0 without runtime);
+                                // with volume_worker, queueing them (the adds are in worker_ms)
+  double volume_ms = 0.0;       // Runtime::setTime + update: relight if needed, scroll, publish.
+                                // With volume_worker: the frame thread's part (setTime, the wait
+                                // for the previous frame's update, the hand-over)
+  double worker_ms = 0.0;       // volume_worker: the worker's time for this frame's adds and update
+  double wait_ms = 0.0;         // volume_worker: this frame's wait for the previous frame's update
+  bool waited = false;          // volume_worker: that update was still running when the frame began
+  int runtime_probes = 0;       // probes the runtime held after this frame's update
   bool full_relight = false;    // the runtime relit every resident probe this frame
   bool lights_relit = false;    // it relit only the sectors changed lights reach (Runtime::lightRelightCount)
   double lights_ms = 0.0;       // Runtime::setLights of this frame's moving lights (0 without)
@@ -145,6 +161,11 @@ struct FlySummary {
   int64_t loads = 0, evictions = 0, failures = 0, misses = 0, frames_with_misses = 0;
   double frame_ms_p50 = 0, frame_ms_p99 = 0, frame_ms_max = 0;
   double update_ms_p99 = 0, relight_ms_p99 = 0, volume_ms_p99 = 0, technique_ms_p99 = 0;
+  // volume_worker: the worker's update p99, the frames that found it still running, and how
+  // many frames late the volume a frame reads is (0 inline, 1 with the worker).
+  bool volume_worker = false;
+  double worker_ms_p99 = 0, wait_ms_p99 = 0;
+  int frames_waited = 0, volume_late_frames = 0;
   double inline_io_ms_mean_per_load = 0;  // kDeterministic: the I/O threads' work per sector
   int full_relights = 0;
   // A streamed technique: sector-frames within the volume's reach without per-sector state, the

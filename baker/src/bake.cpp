@@ -25,6 +25,8 @@
 #include "drtv/baker/shard.h"
 #include "drtv/raytrace/sampling.h"
 #include "atomic_file.h"
+#include "bake_directory.h"
+#include "placement_record.h"
 #include "sector_journal.h"
 #include "sector_stats.h"
 #include "static_rays.h"
@@ -34,6 +36,15 @@ namespace drtv::baker {
 namespace fs = std::filesystem;
 namespace {
 
+using detail::bakeFingerprint;
+using detail::claimSectorDirectory;
+using detail::decodePlacement;
+using detail::encodePlacement;
+using detail::fingerprintText;
+using detail::missingShards;
+using detail::readFile;
+using detail::shardsOfThisBake;
+
 using detail::Clock;
 using detail::since;
 
@@ -41,11 +52,6 @@ using detail::since;
 constexpr float kGroundRayMarginM = 10.f;
 // Hits stepped through per ground ray (vegetation is passed through to reach the ground).
 constexpr int kMaxGroundHits = 128;
-// Version of what the sector journals hold; part of the resume fingerprint (2: journals instead
-// of a pair of files per sector; 3: records keep their LPRT source positions for packing; 4: a
-// placement pass names LPRT sources, records keep no positions; 6: placement keeps a clearance
-// and its records count dropped_gap; 7: index cells inside geometry take a neighbour's choice).
-constexpr int kBakeFormat = 7;
 
 // Highest terrain/static surface under (x, y), local frame; NaN if none.
 float groundAt(const raytrace::RayScene& scene, const raytrace::SectorGeometry& g, float x, float y, uint64_t& rays) {
@@ -56,12 +62,6 @@ float groundAt(const raytrace::RayScene& scene, const raytrace::SectorGeometry& 
 }
 
 
-Result<std::vector<uint8_t>> readFile(const fs::path& path) {
-  std::ifstream f(path, std::ios::binary);
-  if (!f) return fail(path.string() + ": cannot open");
-  std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-  return bytes;
-}
 
 std::vector<LocalInterior> localInteriors(const worlds::World& world, SectorKey key, uint32_t effects) {
   std::vector<LocalInterior> out;
@@ -116,74 +116,6 @@ std::vector<LightSourceSpot> localLightSources(const worlds::World& world, Secto
 std::vector<glm::vec3> positionsOf(std::span<const LightSourceSpot> spots) {
   std::vector<glm::vec3> out;
   for (const LightSourceSpot& s : spots) out.push_back(s.position);
-  return out;
-}
-
-// A placement journal record's payload (little-endian, like the sector records):
-//   u32 probe count n, u64 x 9 PlacementStats (in declaration order), f64 seconds,
-//   then n x { f32 x, y, z; u16 flags; u16 interior } — positions bit for bit, so that a resumed
-//   placement gives the same LPRT source positions as a fresh one.
-static_assert(std::endian::native == std::endian::little, "journal records are little-endian");
-constexpr size_t kPlacementHeaderBytes = 4 + 9 * 8 + 8;
-constexpr size_t kPlacedProbeBytes = 16;
-
-template <class T>
-void put(std::vector<uint8_t>& out, T v) {
-  const size_t at = out.size();
-  out.resize(at + sizeof v);
-  std::memcpy(out.data() + at, &v, sizeof v);
-}
-template <class T>
-T take(const uint8_t*& p) {
-  T v;
-  std::memcpy(&v, p, sizeof v);
-  p += sizeof v;
-  return v;
-}
-
-std::vector<uint8_t> encodePlacement(const SectorPlacement& p) {
-  std::vector<uint8_t> out;
-  out.reserve(kPlacementHeaderBytes + p.probes.size() * kPlacedProbeBytes);
-  put(out, uint32_t(p.probes.size()));
-  const PlacementStats& s = p.stats;
-  for (uint64_t v : {uint64_t(s.static_candidates), uint64_t(s.vegetation_candidates), uint64_t(s.interior_probes),
-                     uint64_t(s.relocated), uint64_t(s.dropped_inside), uint64_t(s.dropped_gap), uint64_t(s.rejected_distance),
-                     uint64_t(s.thinned_cap), s.rays})
-    put(out, v);
-  put(out, p.seconds);
-  for (const PlacedProbe& q : p.probes) {
-    put(out, q.position.x);
-    put(out, q.position.y);
-    put(out, q.position.z);
-    put(out, q.flags);
-    put(out, q.interior);
-  }
-  return out;
-}
-
-Result<SectorPlacement> decodePlacement(std::span<const uint8_t> bytes, const std::string& where) {
-  if (bytes.size() < kPlacementHeaderBytes) return fail(where + ": placement record of " + std::to_string(bytes.size()) + " bytes is truncated");
-  const uint8_t* p = bytes.data();
-  const uint32_t n = take<uint32_t>(p);
-  if (n > uint32_t(kMaxProbesPerSector) || bytes.size() != kPlacementHeaderBytes + size_t(n) * kPlacedProbeBytes)
-    return fail(where + ": placement record of " + std::to_string(bytes.size()) + " bytes does not hold " + std::to_string(n) + " probes");
-  SectorPlacement out;
-  PlacementStats& s = out.stats;
-  for (size_t* f : {&s.static_candidates, &s.vegetation_candidates, &s.interior_probes, &s.relocated, &s.dropped_inside,
-                    &s.dropped_gap, &s.rejected_distance, &s.thinned_cap})
-    *f = size_t(take<uint64_t>(p));
-  s.rays = take<uint64_t>(p);
-  out.seconds = take<double>(p);
-  out.probes.resize(n);
-  for (PlacedProbe& q : out.probes) {
-    q.position.x = take<float>(p);
-    q.position.y = take<float>(p);
-    q.position.z = take<float>(p);
-    q.flags = take<uint16_t>(p);
-    q.interior = take<uint16_t>(p);
-    if (!std::isfinite(q.position.x) || !std::isfinite(q.position.y) || !std::isfinite(q.position.z))
-      return fail(where + ": placement record holds a non-finite probe position");
-  }
   return out;
 }
 
@@ -519,53 +451,6 @@ fs::path sectorDirectory(const fs::path& archive) { return fs::path(archive.stri
 
 namespace {
 
-// What a resumed bake must share with the one that wrote the journals: the geometry, effects,
-// journal format, settings and every field of every interior.
-uint64_t bakeFingerprint(const raytrace::WorldGeometry& geometry, const worlds::World& world, const BakeSettings& settings,
-                         uint32_t effects) {
-  uint64_t fingerprint = raytrace::hashKey(geometry.fingerprint(), effects, kBakeFormat);
-  // Text hashed with XXH3, not std::hash: the stamp outlives the build (std::hash may change with
-  // the standard library, and a rebuilt drtv would then refuse to resume its own bake).
-  auto textHash = [](const std::string& t) { return uint64_t(XXH3_64bits(t.data(), t.size())); };
-  for (const auto& [k, v] : settings.describe()) fingerprint = raytrace::hashKey(fingerprint, textHash(k + "=" + v));
-  // Interiors decide probe flags and indices: every field, exactly (bit patterns, not text).
-  for (const InteriorVolume& v : world.interiors) {
-    fingerprint = raytrace::hashKey(fingerprint, textHash(v.name));
-    for (const glm::dvec3& p : {v.probe_position, v.min, v.max})
-      for (int a = 0; a < 3; ++a) fingerprint = raytrace::hashKey(fingerprint, std::bit_cast<uint64_t>(p[a]));
-    fingerprint = raytrace::hashKey(fingerprint, uint64_t(std::bit_cast<uint32_t>(v.blend_distance_m)));
-  }
-  return fingerprint;
-}
-
-// The fingerprint as bake.txt and the shards' status files write it: 16 hex digits.
-std::string fingerprintText(uint64_t fingerprint) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(fingerprint));
-  return text;
-}
-
-// Creates `dir` and stamps it with `fingerprint`; a directory stamped by a different bake is an
-// error unless `fresh` (then its journals are removed).
-Result<void> claimSectorDirectory(const fs::path& dir, uint64_t fingerprint, bool fresh) {
-  const std::string fp = fingerprintText(fingerprint);
-  const char* fp_text = fp.c_str();
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (ec) return fail(dir.string() + ": cannot create: " + ec.message());
-  const fs::path stamp = dir / "bake.txt";
-  if (fs::exists(stamp, ec)) {
-    auto old = readFile(stamp);
-    const std::string text = old ? std::string(old->begin(), old->end()) : "";
-    if (text != fp_text) {
-      if (!fresh)
-        return fail(dir.string() + ": holds sectors of a different bake (other world, quality, settings or drtv version); pass --fresh to discard them");
-      if (auto r = detail::removeJournals(dir); !r) return std::unexpected(r.error());
-    }
-  }
-  // Shards on a farm write the same stamp at once (atomic_file.h).
-  return detail::writeFileAtomically(stamp, fp_text);
-}
 
 // Pass 1 of an LPRT bake: the placement of the sectors `todo_keys` and of their neighbours
 // (placementKeys), read back from any placement journal in `dir` or placed now and appended to
@@ -650,59 +535,6 @@ Result<void> packArchive(const raytrace::WorldGeometry& geometry, const worlds::
   return {};
 }
 
-// The shards' status files (shard.h) in `dir`, each checked against the merge's bake: a shard
-// baked from another world or with other settings is named, with what differs.
-Result<std::vector<ShardStatus>> shardsOfThisBake(const fs::path& dir, const std::string& fingerprint, const std::string& world_name,
-                                                  const BakeSettings& settings) {
-  auto statuses = readShardStatuses(dir);
-  if (!statuses) return std::unexpected(statuses.error());
-  for (const ShardStatus& s : *statuses) {
-    if (s.fingerprint.empty() || s.fingerprint == fingerprint) continue;  // empty: it failed before it knew
-    const std::map<std::string, std::string> theirs(s.settings.begin(), s.settings.end());
-    std::string differ;
-    for (const auto& [key, value] : settings.describe()) {
-      const auto it = theirs.find(key);
-      const std::string there = it == theirs.end() ? "unset" : it->second;
-      if (there != value) differ += (differ.empty() ? "" : ", ") + key + " " + there + " there, " + value + " here";
-    }
-    std::string why = differ.empty() ? "another world (its geometry, effects or interiors differ)" : "other settings (" + differ + ")";
-    if (s.world != world_name) why += "; it baked '" + s.world + "', this merge '" + world_name + "'";
-    return fail(shardStatusFile(dir, s.index, s.count).string() + ": shard " + std::to_string(s.index) + "/" +
-                std::to_string(s.count) + " was baked from " + why + "; rebake it like the others (--fresh discards its sectors)");
-  }
-  return statuses;
-}
-
-// Why the sectors `keys[i]` with !have[i] are missing, shard by shard, as the shards' status files
-// tell it: which shard of each split owns them, and whether it failed (its error), is running or
-// was killed, says it is done (its journal lost them), or never ran.
-std::string missingShards(const fs::path& dir, const std::vector<SectorKey>& keys, const std::vector<uint64_t>& costs,
-                          const std::vector<uint8_t>& have, const std::vector<ShardStatus>& statuses) {
-  std::set<int> splits;
-  for (const ShardStatus& s : statuses) splits.insert(s.count);
-  if (splits.empty()) return "; no shard has written a status in " + dir.string();
-  std::string out;
-  for (const int n : splits) {
-    std::map<int, std::pair<SectorKey, size_t>> owners;  // shard -> (first missing sector, count)
-    const std::vector<int> owner = shardOwners(costs, n);
-    for (size_t i = 0; i < keys.size(); ++i)
-      if (!have[i]) {
-        const auto it = owners.try_emplace(owner[i], keys[i], 0).first;
-        ++it->second.second;
-      }
-    for (const auto& [k, first] : owners) {
-      const auto st = std::find_if(statuses.begin(), statuses.end(), [&](const ShardStatus& s) { return s.count == n && s.index == k; });
-      const std::string shard = "shard " + std::to_string(k) + "/" + std::to_string(n);
-      const std::string owned = " (" + std::to_string(first.second) + " of its sectors, first " + toString(first.first) + ")";
-      out += "; " + shard;
-      if (st == statuses.end()) out += " has not run" + owned;
-      else if (st->state == ShardStatus::State::kFailed) out += " failed" + owned + ": " + st->error;
-      else if (st->state == ShardStatus::State::kRunning) out += " is running or was killed" + owned;
-      else out += " says it is done but its journal sectors-" + std::to_string(k) + "-of-" + std::to_string(n) + ".log lacks" + owned;
-    }
-  }
-  return out;
-}
 
 }  // namespace
 

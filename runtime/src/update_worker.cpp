@@ -1,6 +1,11 @@
 #include "drtv/runtime/update_worker.h"
 
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 
 #include "drtv/formats/error.h"
@@ -8,7 +13,8 @@
 
 namespace drtv::runtime {
 
-UpdateWorker::UpdateWorker(Runtime& runtime) : runtime_(runtime), thread_([this] { run(); }) {}
+UpdateWorker::UpdateWorker(Runtime& runtime, int nice_increment)
+    : runtime_(runtime), nice_increment_(nice_increment), thread_([this] { run(); }) {}
 
 UpdateWorker::~UpdateWorker() {
   // The owner may be unwinding from an exception of its own: an update's error is dropped here.
@@ -47,14 +53,23 @@ void UpdateWorker::start(const glm::dvec3& camera) {
 }
 
 void UpdateWorker::wait() {
-  const uint64_t want = requested_.load(std::memory_order_relaxed);
-  for (uint64_t d = done_.load(std::memory_order_acquire); d != want; d = done_.load(std::memory_order_acquire))
+  const uint32_t want = requested_.load(std::memory_order_relaxed);
+  for (uint32_t d = done_.load(std::memory_order_acquire); d != want; d = done_.load(std::memory_order_acquire))
     done_.wait(d, std::memory_order_acquire);
   if (error_) std::rethrow_exception(std::exchange(error_, nullptr));
 }
 
 void UpdateWorker::run() {
-  uint64_t finished = 0;
+#ifdef __linux__
+  // Raising a thread's own nice value needs no privilege; if it fails the worker runs as before.
+  if (nice_increment_ > 0) {
+    const pid_t tid = pid_t(syscall(SYS_gettid));
+    errno = 0;
+    const int now = getpriority(PRIO_PROCESS, id_t(tid));
+    if (errno == 0) (void)setpriority(PRIO_PROCESS, id_t(tid), std::min(19, now + nice_increment_));
+  }
+#endif
+  uint32_t finished = 0;
   for (;;) {
     requested_.wait(finished, std::memory_order_acquire);  // sleeps while nothing new is handed over
     if (stop_.load(std::memory_order_acquire)) return;

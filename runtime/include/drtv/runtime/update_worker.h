@@ -23,7 +23,10 @@
 // frame's update published: one frame late. PublishedVolume double-buffers (publish.h), so every
 // read sees one complete volume. The worker's thread is started by the constructor and sleeps on
 // an atomic between updates (a futex, no spinning): handing an update over wakes it, nothing is
-// created per frame. The sequence of runtime calls, and so every colour and texel, is the same as
+// created per frame. It runs at a lower priority than the thread that made it (nice + 5 on Linux):
+// waking a thread of equal priority let the kernel run it on the waker's core at once and leave
+// the frame's thread waiting for the other core, 0.7-3.6 ms in 1 % of the town's frames (`drtv
+// fly` above the town, docs/runtime.md). The sequence of runtime calls, and so every colour and texel, is the same as
 // the same calls made inline (tests/runtime/update_worker_test.cpp).
 //
 // Thread-safety: start() and wait() from one thread, the one that owns the runtime. Between
@@ -53,8 +56,10 @@ class Runtime;
 
 class UpdateWorker {
  public:
-  // Starts the worker's thread for `runtime`, which must outlive this object.
-  explicit UpdateWorker(Runtime& runtime);
+  // Starts the worker's thread for `runtime`, which must outlive this object. `nice_increment`:
+  // how much lower than its creator's the worker's priority is (Linux nice steps; 0: the same).
+  explicit UpdateWorker(Runtime& runtime, int nice_increment = kDefaultNiceIncrement);
+  static constexpr int kDefaultNiceIncrement = 5;
   // Waits for an update in flight, then stops the thread.
   ~UpdateWorker();
   UpdateWorker(const UpdateWorker&) = delete;
@@ -86,6 +91,7 @@ class UpdateWorker {
   void run();
 
   Runtime& runtime_;
+  int nice_increment_;
   struct PendingAdd {
     const Sector* sector;
     const OcclusionTile* tile;
@@ -95,8 +101,8 @@ class UpdateWorker {
   std::vector<PendingAdd> queued_;      // the owner's, until start() hands them over
   std::vector<PendingAdd> handed_;      // the worker's, from start() to done_
   std::vector<std::pair<SectorKey, Error>> add_errors_;  // the worker's until done_
-  std::atomic<uint64_t> requested_{0};  // updates handed over
-  std::atomic<uint64_t> done_{0};       // updates finished
+  std::atomic<uint32_t> requested_{0};  // updates handed over (32-bit: a futex word)
+  std::atomic<uint32_t> done_{0};       // updates finished (wraps; compared for equality only)
   std::atomic<bool> stop_{false};
   std::atomic<double> last_update_ms_{0.0}, last_adds_ms_{0.0};
   std::exception_ptr error_;            // written by the worker before done_ is released

@@ -1,8 +1,11 @@
+// runtime::UpdateWorker (update_worker.h).
 #include "drtv/runtime/update_worker.h"
 
+#ifdef __linux__
 #include <sys/resource.h>
 #include <sys/syscall.h>
 #include <unistd.h>
+#endif
 
 #include <algorithm>
 #include <cerrno>

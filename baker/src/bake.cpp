@@ -194,6 +194,16 @@ std::vector<uint64_t> sectorCosts(const raytrace::WorldGeometry& geometry, std::
   return costs;
 }
 
+// The placement settings of a bake: without the fine level (whose covered flags it clears), a
+// covered candidate is relocated as in the builds before 2026-12-07 (covered_stays_under).
+namespace {
+PlacementSettings placementOf(const BakeSettings& settings) {
+  PlacementSettings p = settings.placement;
+  p.covered_stays_under = p.covered_stays_under && settings.covered_visibility;
+  return p;
+}
+}  // namespace
+
 Result<SectorPlacement> placeSector(const raytrace::WorldGeometry& geometry, const worlds::World& world, SectorKey key,
                                     const BakeSettings& settings, uint32_t effects) {
   const auto t0 = Clock::now();
@@ -201,7 +211,7 @@ Result<SectorPlacement> placeSector(const raytrace::WorldGeometry& geometry, con
   auto scene = raytrace::RayScene::build(g.vertices, g.twoSided());
   if (!scene) return std::unexpected(scene.error().context("sector " + toString(key)));
   SectorPlacement out;
-  out.probes = placeProbes(*scene, g, {0, 0}, localInteriors(world, key, effects), settings.placement, out.stats,
+  out.probes = placeProbes(*scene, g, {0, 0}, localInteriors(world, key, effects), placementOf(settings), out.stats,
                            positionsOf(localLightSources(world, key, settings, effects)));
   out.seconds = since(t0);
   return out;
@@ -259,7 +269,7 @@ Result<Sector> bakeSector(const raytrace::WorldGeometry& geometry, const worlds:
     stats.placement_s = own->second.seconds;
   } else {
     t0 = Clock::now();
-    placed = placeProbes(*scene, g, {0, 0}, localInteriors(world, key, effects), settings.placement, stats.placement,
+    placed = placeProbes(*scene, g, {0, 0}, localInteriors(world, key, effects), placementOf(settings), stats.placement,
                          positionsOf(localLightSources(world, key, settings, effects)));
     stats.placement_s = since(t0);
   }

@@ -32,6 +32,7 @@ struct Candidate {
   uint16_t interior = 0;
   bool enclosed_only = false;  // from the enclosed lattice: kept only if enclosed (step 4)
   bool enclosed = false;       // covered, and enclosed (placement.h kEnclosedWalls)
+  float ceiling = INFINITY;    // a covered column hit's static surface above (step 4 stays under it)
 };
 
 using detail::isStatic;
@@ -149,7 +150,8 @@ std::vector<PlacedProbe> placeProbes(const raytrace::RayScene& scene, const rayt
             ++stats.dropped_gap;  // a slit: a probe there sees nothing but the two surfaces
           } else {
             const float lift = std::min(float(s.lift_m), 0.5f * (z_above - z));
-            cands.push_back({glm::vec3(origin.x, origin.y, z + lift), std::isinf(z_above) ? kTop : kCovered, order++, 0, 0, enclosed_only});
+            cands.push_back({glm::vec3(origin.x, origin.y, z + lift), std::isinf(z_above) ? kTop : kCovered, order++, 0, 0, enclosed_only,
+                             false, z_above});
           }
         }
         z_above = z;
@@ -248,6 +250,10 @@ std::vector<PlacedProbe> placeProbes(const raytrace::RayScene& scene, const rayt
     for (size_t o = 0; o < std::size(kRelocationOffsets) && !moved; ++o) {
       const glm::vec3 p = c.position + kRelocationOffsets[o];
       if (p.x < base.x || p.y < base.y || p.x >= base.x + float(kSectorSizeM) || p.y >= base.y + float(kSectorSizeM)) continue;
+      // A covered candidate stays under the surface that covers it: lifted through the ceiling it
+      // stood in the storey above or on the roof, still flagged covered (15 of the 806 covered
+      // probes of the town test's 8-storey block stood on its roof, 2026-12-07).
+      if (s.covered_stays_under && p.z > c.ceiling - float(s.clearance_m)) continue;
       if (surroundings(scene, geometry, p, s, raytrace::hashKey(key, o + 1), stats).clear(s.clearance_m)) {
         c.position = p;
         c.flags |= kProbeRelocated;

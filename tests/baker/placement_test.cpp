@@ -175,6 +175,41 @@ TEST(Placement, NoProbeInAGapThinnerThanItsClearanceNorCloserThanThatToAWall) {
   EXPECT_GT(around, 4u) << "the ground around the house keeps probes of its own";
 }
 
+// A room's covered candidate beside a pillar (0.05 m from it, within the clearance) is moved by
+// the inside test's offsets, up first. Lifted 2 m it stood on the roof, still flagged covered with
+// a visibility map (15 of 806 covered probes in the town test's 8-storey block, 2026-12-07); it
+// now stays under the ceiling over its column hit and moves sideways instead.
+TEST(Placement, ACoveredProbeIsNeverLiftedThroughTheCeilingOverIt) {
+  worlds::World w = test::planeWorld(200.0, glm::vec3(0.5f));
+  const glm::vec3 grey(0.5f);
+  test::add(w, test::box({10, 10, 0}, {34, 10.3f, 3}, grey, "south wall"), worlds::InstanceClass::kStatic);
+  test::add(w, test::box({10, 33.7f, 0}, {34, 34, 3}, grey, "north wall"), worlds::InstanceClass::kStatic);
+  test::add(w, test::box({10, 10.3f, 0}, {10.3f, 33.7f, 3}, grey, "west wall"), worlds::InstanceClass::kStatic);
+  test::add(w, test::box({33.7f, 10.3f, 0}, {34, 33.7f, 3}, grey, "east wall"), worlds::InstanceClass::kStatic);
+  test::add(w, test::box({10, 10, 2.7f}, {34, 34, 3}, grey, "roof"), worlds::InstanceClass::kStatic);
+  test::add(w, test::box({22.05f, 21.5f, 0}, {23, 22.5f, 2.7f}, grey, "pillar"), worlds::InstanceClass::kStatic);
+  auto beside = [](const PlacedProbe& q) { return std::abs(q.position.y - 22.f) < 1e-3f && q.position.x > 19.9f && q.position.x < 22.1f; };
+  for (const bool stays : {true, false}) {
+    PlacementSettings s;
+    s.covered_stays_under = stays;
+    const Placed p = place(w, {0, 0}, s);
+    size_t covered = 0, on_roof = 0, moved_beside = 0;
+    for (const PlacedProbe& q : p.probes) {
+      if (!(q.flags & kProbeCovered)) continue;
+      ++covered;
+      on_roof += q.position.z > 3.f;
+      moved_beside += (q.flags & kProbeRelocated) && beside(q);
+    }
+    EXPECT_GT(covered, 4u);
+    if (stays) {
+      EXPECT_EQ(on_roof, 0u) << "no covered probe above the roof";
+      EXPECT_EQ(moved_beside, 1u) << "the pillar's neighbour moved sideways, under the roof";
+    } else {
+      EXPECT_GT(on_roof, 0u) << "the fault the rule removes: the pillar's neighbour lifted onto the roof";
+    }
+  }
+}
+
 // A closed mesh with a double-sided material has no detectable inside: seen from within, its
 // underside is a surface too. The talk's rule then made the slab's inside a covered candidate,
 // which outranks the floor's top, and every probe of tests/assets/probe_room_bevy (a 0.9 m

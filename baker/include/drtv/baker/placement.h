@@ -21,7 +21,9 @@
 //     a candidate whose hits include many back faces (> kInsideBackfaceFraction) is inside geometry
 //     (under terrain inside a rock, inside a floor slab). It is moved to the first of a fixed list
 //     of offsets (up 0.5/1/2/4 m, then sideways 1/2 m) that passes the test and flagged
-//     kProbeRelocated; if none passes it is dropped. The same test's rays measure the nearest
+//     kProbeRelocated; if none passes it is dropped. A covered candidate is not moved to within
+//     clearance_m of the surface above its column hit, or past it (into the storey above, onto
+//     the roof, still flagged covered; `covered_stays_under`). The same test's rays measure the nearest
 //     static surface, and a candidate nearer than clearance_m to one (a column landing beside a
 //     wall) is moved the same way, or dropped. Counted in PlacementStats.
 //     Under roofs (covered hits) the columns are also cast on the finer `covered_column_spacing_m`
@@ -116,6 +118,11 @@ struct PlacementSettings {
   // in (issue 16). 0.5 m: a probe that close to a wall sees it over half its sphere. On the
   // default island it drops 163 of its 63,651 candidates (0.26 %), more than the inside test does.
   double clearance_m = 0.25;
+  // Step 4: a covered candidate is not moved to within clearance_m of the static surface above its
+  // column hit or past it. The bake turns it off without the fine level (BakeSettings::
+  // covered_visibility), whose covered flags it clears: those bakes' bytes are the builds' before
+  // 2026-12-07.
+  bool covered_stays_under = true;
   int inside_test_rays = 32;          // rays of the inside test
   double inside_test_range_m = 16.0;  // their length (bounds the geometry placement depends on)
   uint64_t seed = 1;                  // keys the inside-test directions

@@ -521,6 +521,7 @@ Result<void> packArchive(const raytrace::WorldGeometry& geometry, const worlds::
   auto out = ArchiveWriter::create(archive, report.settings.zstd_level);
   if (!out) return std::unexpected(out.error());
   report.sectors_empty = 0;
+  BuildingCollector buildings;
   for (size_t i = 0; i < keys.size(); ++i) {
     const detail::JournalEntry& e = entries.at(keys[i]);
     auto bytes = detail::readSector(e);
@@ -537,8 +538,10 @@ Result<void> packArchive(const raytrace::WorldGeometry& geometry, const worlds::
     st.bytes = bytes->size();
     st.bytes_without_lprt = encodedSectorBytes(st.probes, 0, decoded->has_ground, decoded->sun ? decoded->sun->samples() : 0,
                                                coveredProbes(*decoded));
+    buildings.addSector(*decoded);
     if (auto a = out->addEncodedSector(*bytes); !a) return std::unexpected(a.error());
   }
+  report.buildings = buildings.buildings();
   if (auto f = out->finish(manifestFor(geometry, world, world_name, report.settings, effects)); !f) return std::unexpected(f.error());
   report.packed = true;
   report.pack_s = since(t0);

@@ -134,6 +134,14 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
                   {"sum_over_sectors",
                    {{"gather", t_gather}, {"scene_build", t_build}, {"placement", t_place}, {"probe_rays", t_probe},
                     {"surface_cache", t_surfel}, {"lprt", t_lprt}, {"sun_transfer", t_sun}, {"visibility_maps", t_vis}, {"index_grid", t_grid}, {"total", t_total}}}};
+  {
+    nlohmann::json bs = nlohmann::json::array();
+    for (const BuildingStats& b : r.buildings)
+      bs.push_back({{"min_m", {b.min.x, b.min.y}}, {"max_m", {b.max.x, b.max.y}}, {"bottom_z_m", b.bottom_z}, {"top_z_m", b.top_z},
+                    {"probes", b.probes}, {"storey_probes", b.storey_probes}, {"rooms", b.rooms}, {"bytes", b.bytes},
+                    {"sectors", b.sectors}});
+    j["buildings"] = bs;
+  }
   nlohmann::json per = nlohmann::json::array();
   for (const SectorStats& s : r.sectors) per.push_back(toJson(s));
   j["per_sector"] = per;
@@ -194,6 +202,30 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
        << r.rooms.seeds << " covered-air seeds (" << r.rooms.enclosed << " enclosed; " << r.rooms.dropped_artist
        << " rooms inside an artist's interior and " << r.rooms.dropped_overlap << " seen twice dropped), " << r.rooms.rays
        << " rays, " << fixed(r.rooms_s, 2) << " s.\n";
+  if (!r.buildings.empty()) {
+    // The largest first; every one is in the JSON.
+    size_t probes = 0, rooms = 0, bytes = 0, storeys = 0;
+    for (const BuildingStats& b : r.buildings) probes += b.probes, rooms += b.rooms, bytes += b.bytes, storeys += b.storey_probes.size();
+    const BuildingOptions bo;
+    md << "\n## Buildings\n\nCovered probes (the fine level's, each with a visibility map) joined within " << fixed(bo.join_m, 1)
+       << " m horizontally, storeys counted up each column of probes (buildings.h): "
+       << r.buildings.size() << " buildings, " << storeys << " storeys, " << probes << " probes, " << rooms << " rooms with a designated probe, "
+       << bytes << " B of records and maps.\n\n"
+       << "| # | footprint (m) | height (m) | storeys: probes, bottom up | rooms | probes | KiB | sectors |\n"
+          "|---:|---|---|---|---:|---:|---:|---:|\n";
+    constexpr size_t kListed = 20;
+    for (size_t i = 0; i < std::min(kListed, r.buildings.size()); ++i) {
+      const BuildingStats& b = r.buildings[i];
+      std::string st;
+      for (size_t k = 0; k < b.storey_probes.size(); ++k) st += (k ? " " : "") + std::to_string(b.storey_probes[k]);
+      md << "| " << i + 1 << " | " << fixed(b.min.x, 0) << ", " << fixed(b.min.y, 0) << " to " << fixed(b.max.x, 0) << ", "
+         << fixed(b.max.y, 0) << " | " << fixed(b.bottom_z, 1) << " to " << fixed(b.top_z, 1) << " | " << b.storey_probes.size()
+         << ": " << st << " | " << b.rooms << " | " << b.probes << " | " << fixed(double(b.bytes) / 1024.0, 1) << " | " << b.sectors
+         << " |\n";
+    }
+    if (r.buildings.size() > kListed)
+      md << "\n... and " << r.buildings.size() - kListed << " more (bake-report.json, \"buildings\").\n";
+  }
   md << "\n## Time (seconds)\n\n| stage | seconds |\n|---|---|\n";
   md << "| wall | " << fixed(r.wall_s, 2) << " |\n| world geometry | " << fixed(r.geometry_s, 2) << " |\n| room search | " << fixed(r.rooms_s, 2) << " |\n| sectors (wall) | "
      << fixed(r.bake_s, 2) << " |\n| placement pass (LPRT) | " << fixed(r.placement_pass.seconds, 2) << " |\n| pack | "

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <numeric>
 
 #include "drtv/baker/bake.h"
 #include "drtv/baker/placement.h"
@@ -179,6 +180,24 @@ TEST(Bake, ATownsSectorsStayWithinTheBudgetsForBuildings) {
   EXPECT_EQ(reader->manifest().sectors.size(), 4u);
   EXPECT_GT(covered, 400u) << "the rooms' probes: the worst case is not measured without them";
   EXPECT_LE(51 * largest, 12u * 1000u * 1000u);
+
+  // The report per building (buildings.h): the block's four wings meet at its corners, one
+  // building of eight storeys holding every covered probe and rooms among them.
+  ASSERT_EQ(r->buildings.size(), 1u);
+  size_t in_buildings = 0, rooms = 0;
+  for (const BuildingStats& b : r->buildings) {
+    in_buildings += b.probes;
+    rooms += b.rooms;
+    EXPECT_EQ(std::accumulate(b.storey_probes.begin(), b.storey_probes.end(), size_t(0)), b.probes);
+  }
+  EXPECT_EQ(in_buildings, covered);
+  EXPECT_GT(rooms, 0u);
+  EXPECT_LE(rooms, r->rooms.rooms);
+  EXPECT_EQ(r->buildings.front().storey_probes.size(), 8u);
+  ASSERT_TRUE(writeReports(*r, dir.path / "bake-report.json", dir.path / "bake-report.md"));
+  std::ifstream md(dir.path / "bake-report.md");
+  const std::string text((std::istreambuf_iterator<char>(md)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("## Buildings"), std::string::npos);
 }
 
 // Talk slide 22: LPRT adds "210KB" per sector: 70 probes x 128 sources x 4 x 3 x 2 B = 215,040 B

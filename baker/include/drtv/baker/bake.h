@@ -38,6 +38,7 @@
 #include <string_view>
 #include <vector>
 
+#include "drtv/baker/buildings.h"
 #include "drtv/baker/index_grid.h"
 #include "drtv/baker/placement.h"
 #include "drtv/baker/rooms.h"
@@ -186,6 +187,9 @@ struct BakeReport {
   PlacementPass placement_pass;          // empty without LPRT
   RoomStats rooms;                       // the room search (rooms.h); its rooms.rooms are the
                                          // manifest's interiors after the artist's ("room N")
+  // The buildings of the packed archive (buildings.h), the most probes first; empty for a shard
+  // (the merge that packs reports them).
+  std::vector<BuildingStats> buildings;
   double geometry_s = 0, rooms_s = 0, bake_s = 0, pack_s = 0, wall_s = 0;
   bool packed = false;                   // the archive was written (false for a shard)
 };

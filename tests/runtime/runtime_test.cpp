@@ -203,7 +203,9 @@ TEST(Runtime, InteriorsResolvedPerSectorMatchAFullResolveAfterLoadsAndUnloads) {
     for (size_t i = 0; i < interiors.size(); ++i) {
       const ProbeRef a = rt.interiorProbe(i), b = fresh.interiorProbe(i);
       ASSERT_EQ(a.valid(), b.valid()) << "step " << step << " interior " << i;
-      if (a.valid()) EXPECT_EQ(rt.cache().worldPosition(a), fresh.cache().worldPosition(b)) << "step " << step << " interior " << i;
+      if (a.valid()) {
+        EXPECT_EQ(rt.cache().worldPosition(a), fresh.cache().worldPosition(b)) << "step " << step << " interior " << i;
+      }
     }
   }
 }

@@ -55,4 +55,21 @@ FineSample ProbeCache::fineLookup(const glm::dvec3& position, const glm::vec3& n
   return out;
 }
 
+void ProbeCache::visitCoveredProbes(const glm::dvec3& lo, const glm::dvec3& hi, const std::function<void(const CoveredProbe&)>& visit) const {
+  for (size_t s = 0; s < impl_->slots.size(); ++s) {
+    const Slot& sl = impl_->slots[s];
+    if (!sl.used || sl.covered.empty()) continue;
+    const glm::dvec3 slo(sl.origin.x + sl.lo.x, sl.origin.y + sl.lo.y, double(sl.lo.z));
+    const glm::dvec3 shi(sl.origin.x + sl.hi.x, sl.origin.y + sl.hi.y, double(sl.hi.z));
+    if (glm::any(glm::lessThan(shi, lo)) || glm::any(glm::greaterThan(slo, hi))) continue;
+    for (size_t k = 0; k < sl.covered.size(); ++k) {
+      const int i = sl.covered[k];
+      const glm::vec3& q = sl.position[size_t(i)];
+      const glm::dvec3 p(sl.origin.x + q.x, sl.origin.y + q.y, double(q.z));
+      if (glm::any(glm::lessThan(p, lo)) || glm::any(glm::greaterThan(p, hi))) continue;
+      visit({p, std::span<const uint8_t>(sl.visibility.data() + k * kVisValuesPerProbe, kVisValuesPerProbe), colours({int(s), i})});
+    }
+  }
+}
+
 }  // namespace drtv::runtime

@@ -77,6 +77,7 @@
 #include <array>
 #include <bitset>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <span>
 #include <vector>
@@ -309,6 +310,15 @@ class ProbeCache {
   // o.min_visibility giving 0. weight = min(1, sum of weights / o.full_weight).
   // A zero sample when no covered probe is in range or none sees the point.
   FineSample fineLookup(const glm::dvec3& position, const glm::vec3& normal, const FineOptions& o) const;
+  // One resident covered probe (the fine level's), as visitCoveredProbes visits it.
+  struct CoveredProbe {
+    glm::dvec3 position;                  // world metres
+    std::span<const uint8_t> visibility;  // its map, kVisValuesPerProbe bytes (visibility.h)
+    BasisColours colours;                 // its colours of the last relight
+  };
+  // Calls `visit` for each resident covered probe inside [lo, hi] (world metres), slot by slot in
+  // probe order: what fine_shader.h packs for the shaders.
+  void visitCoveredProbes(const glm::dvec3& lo, const glm::dvec3& hi, const std::function<void(const CoveredProbe&)>& visit) const;
   // The probe an interior volume [lo, hi] takes its light from: the resident probe flagged
   // kProbeInterior of interior `index` (ProbeData::interior, 1-based) nearest `designated`, else
   // the resident probe inside the box nearest `designated`; invalid when neither is resident.

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstring>
 
+#include "drtv/formats/error.h"
 #include "drtv/formats/visibility.h"
 
 namespace drtv::runtime {
@@ -17,6 +18,8 @@ FineShaderData packFineLevel(const ProbeCache& cache, const glm::dvec3& camera, 
   const double R = o.lookup.radius_m;
   const bool finite = std::isfinite(camera.x) && std::isfinite(camera.y) && std::isfinite(camera.z);
   const glm::dvec3 half = glm::max(o.half_extent_m, glm::dvec3(cell));
+  // Options are the engine's, not a file's: a box of more cells than a GPU buffer indexes is a bug.
+  DRTV_CHECK(cell > 0.0 && glm::all(glm::lessThanEqual(2.0 * half / cell, glm::dvec3(1024.0))));
   const glm::ivec3 n = glm::ivec3(glm::ceil(2.0 * half / cell));
   const glm::dvec3 lo = finite ? glm::floor((camera - half) / cell) * cell : glm::dvec3(0.0);
   const glm::dvec3 hi = lo + glm::dvec3(n) * cell;

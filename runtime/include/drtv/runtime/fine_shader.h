@@ -59,8 +59,8 @@ struct FineShaderProbe {
 static_assert(sizeof(FineShaderProbe) == 80);
 
 struct FineShaderOptions {
-  glm::dvec3 half_extent_m{32.0, 32.0, 24.0};  // the box around the camera
-  double cell_m = 4.0;                         // its cells (and the fade at its edge)
+  glm::dvec3 half_extent_m{32.0, 32.0, 24.0};  // the box around the camera (at most 1,024 cells an axis: checked)
+  double cell_m = 4.0;                         // its cells (and the fade at its edge); not positive: 4
   FineOptions lookup;                          // radius, normal bias, visibility floor, full weight
 };
 

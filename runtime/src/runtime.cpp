@@ -251,6 +251,13 @@ void Runtime::update(const glm::dvec3& camera) {
     relightMovedLights();
   }
   volume_.update(volumeOriginFor(options_.volume, camera), cache_);
+  if (options_.fine_shader) {
+    FineShaderOptions o = *options_.fine_shader;
+    o.lookup = options_.fine;
+    auto level = std::make_shared<const FineShaderData>(packFineLevel(cache_, camera, o));
+    std::lock_guard lock(fine_mutex_);
+    fine_level_ = std::move(level);
+  }
 }
 
 AmbientSample Runtime::ambient(const glm::dvec3& position, const glm::vec3& normal) const {

@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <random>
 
@@ -273,6 +274,39 @@ TEST(FineShaderPack, EachCellListsEveryProbeInReachOfItsPointsWithinTheBudget) {
   EXPECT_TRUE(none.probes.empty());
   EXPECT_TRUE(std::all_of(none.cells.begin(), none.cells.end(), [](uint32_t v) { return v == 0; }));
   EXPECT_TRUE(runtime::packFineLevel(rt->cache(), glm::dvec3(NAN), options).probes.empty());
+}
+
+// RuntimeOptions::fine_shader: every update packs the level around the camera, the same as
+// packFineLevel with the runtime's lookup; a reader keeps the level it took across the next update.
+TEST(FineShaderPack, TheRuntimePacksTheLevelOnEachUpdateWhenAsked) {
+  const Baked& baked = bakedTown(Representation::kFc3);
+  ASSERT_FALSE(baked.sectors.empty());
+  EXPECT_EQ(relit(baked, kCamera)->fineLevel(), nullptr) << "not asked for";
+  runtime::RuntimeOptions ro = runtime::optionsForEffects(baked.manifest.effects);
+  ro.fine_shader = runtime::FineShaderOptions{};
+  auto made = runtime::runtimeForArchive(baked.manifest, ro, kHour);
+  ASSERT_TRUE(made.has_value());
+  std::unique_ptr<runtime::Runtime> rt = std::move(*made);
+  EXPECT_EQ(rt->fineLevel(), nullptr) << "before the first update";
+  for (const Sector& s : baked.sectors) ASSERT_TRUE(rt->addSector(s).has_value());
+  rt->update(kCamera);
+  const std::shared_ptr<const runtime::FineShaderData> level = rt->fineLevel();
+  ASSERT_NE(level, nullptr);
+  runtime::FineShaderOptions o;
+  o.lookup = rt->options().fine;
+  const runtime::FineShaderData direct = runtime::packFineLevel(rt->cache(), kCamera, o);
+  ASSERT_GT(direct.probes.size(), 300u);
+  ASSERT_EQ(level->probes.size(), direct.probes.size());
+  EXPECT_EQ(std::memcmp(level->probes.data(), direct.probes.data(), direct.probes.size() * sizeof(runtime::FineShaderProbe)), 0);
+  EXPECT_EQ(level->visibility, direct.visibility);
+  EXPECT_EQ(level->cells, direct.cells);
+  EXPECT_EQ(std::memcmp(&level->constants, &direct.constants, sizeof direct.constants), 0);
+  rt->update(kCamera + glm::dvec3(40.0, 0.0, 0.0));
+  const std::shared_ptr<const runtime::FineShaderData> moved = rt->fineLevel();
+  ASSERT_NE(moved, nullptr);
+  EXPECT_NE(moved.get(), level.get());
+  EXPECT_EQ(moved->constants.box_min[0], level->constants.box_min[0] + 40.f) << "the box follows the camera by whole cells";
+  EXPECT_EQ(level->probes.size(), direct.probes.size()) << "the level a reader took is unchanged";
 }
 
 }  // namespace

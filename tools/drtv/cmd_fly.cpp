@@ -32,6 +32,7 @@ struct FlyCliOptions {
   std::string outdir = "fly-report";
   int io_threads = 0;  // 0 = deterministic I/O
   bool no_runtime = false;
+  bool fine_shader = false;
   std::string volume_update = "worker";  // worker | inline
   std::vector<std::string> faults;  // "ix,iy:kind"
   std::string world;                // world file whose lights (and their paths) to fly with
@@ -110,6 +111,7 @@ Result<void> runFly(const FlyCliOptions& o) {
   fo.hours_per_s = o.hours_per_s;
   fo.runtime = !o.no_runtime;
   fo.volume_worker = o.volume_update == "worker";
+  fo.fine_shader = o.fine_shader;
   fo.runtime_options = technique_options;
   fo.technique = technique_name;
   std::optional<worlds::World> world;
@@ -208,6 +210,9 @@ Command registerFly(CLI::App& app) {
                   "worker (default): the volume update on a worker thread, off the frame's critical path, one frame late, the "
                   "flight in real time; inline: in the frame, as before")
       ->check(CLI::IsMember({"worker", "inline"}));
+  sub->add_flag("--fine-shader", o->fine_shader,
+                "Each update also packs the fine level near surfaces for the shaders around the camera (runtime/fine_shader.h): "
+                "its cost shows in the worker's time");
   const std::string names = eval::registeredTechniqueNames();
   sub->add_option("--technique", o->technique, "The technique to fly (one that runs on drtv::runtime): " + names + " (default: what the archive asks for)");
   sub->add_option("--params", o->params, "The technique's parameters, name=value,... (e.g. fill=smooth,texel_m=1)");

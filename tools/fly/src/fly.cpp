@@ -180,6 +180,7 @@ Result<FlyResult> fly(Streamer& streamer, const CatmullRomPath& path, const FlyO
     // what the archive's effects ask for.
     ro.volume.size = streamer.options().residency.volume.size;
     ro.volume.texel_size_m = streamer.options().residency.volume.texel_size_m;
+    if (o.fine_shader) ro.fine_shader = runtime::FineShaderOptions{};
     const std::vector<PointLight>& lights = o.lights.empty() ? m.lights : o.lights;
     auto made = runtime::runtimeForArchive(m, ro, o.start_hour, &lights);
     if (!made) return std::unexpected(made.error().context(r.archive));

@@ -19,8 +19,9 @@
 // blends ambient = mix(ambient, fine.rgb, fine.a).
 //
 // Memory: 80 + 512 bytes a packed probe, 8 bytes a cell and 4 a listed probe. The default box
-// (64 x 64 x 48 m, 4 m cells: 3,072 cells) over the town's densest block packs 806 probes in
-// ~0.9 MB (tests/runtime/fine_shader_run_test.cpp); the volumes take 1.7 MB.
+// (64 x 64 x 48 m, 4 m cells: 3,072 cells) over a block of 4-storey courtyard buildings packs 606
+// probes in 0.43 MB (tests/runtime/fine_shader_run_test.cpp); the volumes take 1.77 MB.
+// Runtime::update packs it when RuntimeOptions::fine_shader is set (Runtime::fineLevel).
 #pragma once
 
 #include <cstddef>

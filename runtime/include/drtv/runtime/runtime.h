@@ -41,6 +41,7 @@
 #pragma once
 
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <span>
 #include <unordered_map>
@@ -53,6 +54,7 @@
 #include "drtv/formats/error.h"
 #include "drtv/formats/lighting.h"
 #include "drtv/formats/sector.h"
+#include "drtv/runtime/fine_shader.h"
 #include "drtv/runtime/lighting_sh.h"
 #include "drtv/runtime/occlusion.h"
 #include "drtv/runtime/probe_cache.h"
@@ -105,6 +107,10 @@ struct RuntimeOptions {
   // The fine level near surfaces (ProbeCache::fineLookup): blended over everything above by its
   // weight. It reads only probes flagged kProbeCovered, so a world without any is unchanged.
   FineOptions fine;
+  // Set: every update() also packs the fine level for the shaders around the camera
+  // (packFineLevel, fine_shader.h; its lookup is `fine`), which fineLevel() hands out. On an
+  // UpdateWorker the packing is the worker's, off the frame's critical path.
+  std::optional<FineShaderOptions> fine_shader;
 };
 
 // The options an engine picks for an archive whose manifest says `effects` were baked: the
@@ -157,6 +163,13 @@ class Runtime {
   const SkyLighting& lighting() const { return current_; }
   const ProbeCache& cache() const { return cache_; }
   const PublishedVolume& volume() const { return volume_; }
+  // The fine level the last update() packed (RuntimeOptions::fine_shader), whole: a reader keeps
+  // the one it took while the next update packs another. Null before the first update or without
+  // the option.
+  std::shared_ptr<const FineShaderData> fineLevel() const {
+    std::lock_guard lock(fine_mutex_);
+    return fine_level_;
+  }
   const OcclusionMap& occlusion() const { return occlusion_; }
   const std::vector<InteriorVolume>& interiors() const { return interiors_; }
   // The designated probe of interior k, if one is resident.
@@ -192,6 +205,8 @@ class Runtime {
   bool relit_once_ = false, sky_changed_ = false, lights_changed_ = false;
   ProbeCache cache_;
   PublishedVolume volume_;
+  mutable std::mutex fine_mutex_;  // guards fine_level_ (the pointer, not the level: that is never written once published)
+  std::shared_ptr<const FineShaderData> fine_level_;
   OcclusionMap occlusion_;
   uint64_t relights_ = 0, light_relights_ = 0, light_rescales_ = 0;
 };

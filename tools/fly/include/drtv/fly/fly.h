@@ -100,6 +100,9 @@ struct FlyOptions {
   // flight that only streams and updates does not have. The frame time counts the frame's own
   // thread (its wait for the worker included); the worker's time is reported beside it.
   bool volume_worker = false;
+  // Each update also packs the fine level for the shaders (RuntimeOptions::fine_shader): its
+  // cost is in the worker's time (or the frame's, inline).
+  bool fine_shader = false;
   // Called every ~1 % of the flight with (frames done, frames total): progress for a terminal.
   std::function<void(int, int)> progress;
 };

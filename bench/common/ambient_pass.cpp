@@ -47,25 +47,17 @@ Result<std::unique_ptr<AmbientPass>> AmbientPass::create(VulkanCompute& vk, cons
   auto ubo = vk.addBuffer(sizeof(VolumeConstantsBlock), BufferKind::kUniform);
   if (!ubo) return std::unexpected(ubo.error());
   std::memcpy(vk.bufferMemory(*ubo).data(), &constants, sizeof constants);
-  // Whole workgroups: the entry points do not test the index against a count. Points and results
-  // live in device memory, copied through one staging buffer (points are the larger).
-  pass->max_points_ = (max_points + kWorkgroupSize - 1) / kWorkgroupSize * kWorkgroupSize;
-  auto points = vk.addBuffer(pass->max_points_ * sizeof(AmbientPoint), BufferKind::kDeviceStorage);
-  if (!points) return std::unexpected(points.error());
-  auto results = vk.addBuffer(pass->max_points_ * sizeof(glm::vec4), BufferKind::kDeviceStorage);
-  if (!results) return std::unexpected(results.error());
-  auto staging = vk.addBuffer(pass->max_points_ * sizeof(AmbientPoint), BufferKind::kStaging);
-  if (!staging) return std::unexpected(staging.error());
-  pass->points_ = *points;
-  pass->results_ = *results;
-  pass->staging_ = *staging;
+  // Whole workgroups: the entry points do not test the index against a count.
+  auto buffers = addPointBuffers(vk, max_points, kWorkgroupSize);
+  if (!buffers) return std::unexpected(buffers.error());
+  pass->buffers_ = *buffers;
 
   std::vector<PipelineBinding> bindings;
   const BindingKind texture = language == ShaderLanguage::kGlsl ? BindingKind::kTextureAndSampler : BindingKind::kTexture;
   for (int c = 0; c < 3; ++c) bindings.push_back({uint32_t(c), texture, textures[c]});
   bindings.push_back({3, BindingKind::kUniformBuffer, *ubo});
-  bindings.push_back({4, BindingKind::kStorageBuffer, *points});
-  bindings.push_back({5, BindingKind::kStorageBuffer, *results});
+  bindings.push_back({4, BindingKind::kStorageBuffer, pass->buffers_.points});
+  bindings.push_back({5, BindingKind::kStorageBuffer, pass->buffers_.results});
   if (language == ShaderLanguage::kHlsl) bindings.push_back({6, BindingKind::kSampler, -1});
   auto pipeline = vk.addPipeline(*spirv, language == ShaderLanguage::kGlsl ? "main" : "computeMain", bindings);
   if (!pipeline) return std::unexpected(pipeline.error());
@@ -73,27 +65,46 @@ Result<std::unique_ptr<AmbientPass>> AmbientPass::create(VulkanCompute& vk, cons
   return pass;
 }
 
-Result<std::vector<glm::vec3>> AmbientPass::run(std::span<const AmbientPoint> points, double* seconds) {
-  if (points.empty()) return std::vector<glm::vec3>{};
-  if (points.size() > max_points_) return fail("ambient pass: " + std::to_string(points.size()) + " points, room for " + std::to_string(max_points_));
-  const std::span<std::byte> staging = vk_.bufferMemory(staging_);
+Result<PointBuffers> addPointBuffers(VulkanCompute& vk, size_t max_points, uint32_t workgroup) {
+  PointBuffers b;
+  b.max_points = (max_points + workgroup - 1) / workgroup * workgroup;
+  auto points = vk.addBuffer(b.max_points * sizeof(AmbientPoint), BufferKind::kDeviceStorage);
+  if (!points) return std::unexpected(points.error());
+  auto results = vk.addBuffer(b.max_points * sizeof(glm::vec4), BufferKind::kDeviceStorage);
+  if (!results) return std::unexpected(results.error());
+  auto staging = vk.addBuffer(b.max_points * sizeof(AmbientPoint), BufferKind::kStaging);  // points are the larger
+  if (!staging) return std::unexpected(staging.error());
+  b.points = *points, b.results = *results, b.staging = *staging;
+  return b;
+}
+
+Result<std::vector<glm::vec4>> runPoints(VulkanCompute& vk, int pipeline, const PointBuffers& b, uint32_t workgroup,
+                                         std::span<const AmbientPoint> points, const char* what, double* seconds) {
+  if (points.empty()) return std::vector<glm::vec4>{};
+  if (points.size() > b.max_points)
+    return fail(std::string(what) + ": " + std::to_string(points.size()) + " points, room for " + std::to_string(b.max_points));
+  const std::span<std::byte> staging = vk.bufferMemory(b.staging);
   std::memcpy(staging.data(), points.data(), points.size_bytes());
   // The padding up to a whole workgroup repeats the last point (a finite lookup).
-  const size_t groups = (points.size() + kWorkgroupSize - 1) / kWorkgroupSize, padded = groups * kWorkgroupSize;
+  const size_t groups = (points.size() + workgroup - 1) / workgroup, padded = groups * workgroup;
   for (size_t i = points.size(); i < padded; ++i)
     std::memcpy(staging.data() + i * sizeof(AmbientPoint), &points.back(), sizeof(AmbientPoint));
-  if (auto r = vk_.copyBuffer(staging_, points_, padded * sizeof(AmbientPoint)); !r) return std::unexpected(r.error());
-  auto t = vk_.dispatch(pipeline_, uint32_t(groups));
+  if (auto r = vk.copyBuffer(b.staging, b.points, padded * sizeof(AmbientPoint)); !r) return std::unexpected(r.error());
+  auto t = vk.dispatch(pipeline, uint32_t(groups));
   if (!t) return std::unexpected(t.error());
   if (seconds) *seconds = *t;
-  if (auto r = vk_.copyBuffer(results_, staging_, padded * sizeof(glm::vec4)); !r) return std::unexpected(r.error());
-  const std::span<const std::byte> out = staging;
-  std::vector<glm::vec3> ambient(points.size());
-  for (size_t i = 0; i < points.size(); ++i) {
-    glm::vec4 r;
-    std::memcpy(&r, out.data() + i * sizeof(glm::vec4), sizeof r);
-    ambient[i] = glm::vec3(r);
-  }
+  if (auto r = vk.copyBuffer(b.results, b.staging, padded * sizeof(glm::vec4)); !r) return std::unexpected(r.error());
+  std::vector<glm::vec4> out(points.size());
+  std::memcpy(out.data(), staging.data(), points.size() * sizeof(glm::vec4));
+  return out;
+}
+
+Result<std::vector<glm::vec3>> AmbientPass::run(std::span<const AmbientPoint> points, double* seconds) {
+  auto r = runPoints(vk_, pipeline_, buffers_, kWorkgroupSize, points, "ambient pass", seconds);
+  if (!r) return std::unexpected(r.error());
+  std::vector<glm::vec3> ambient;
+  ambient.reserve(r->size());
+  for (const glm::vec4& v : *r) ambient.push_back(glm::vec3(v));
   return ambient;
 }
 

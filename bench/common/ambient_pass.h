@@ -58,6 +58,19 @@ struct AmbientPoint {
 };
 static_assert(sizeof(AmbientPoint) == 32);
 
+// A pass's point buffers (points in, one vec4 per point out, in device memory, copied through one
+// staging buffer) for up to max_points points rounded up to whole workgroups of `workgroup`.
+struct PointBuffers {
+  int points = -1, results = -1, staging = -1;
+  size_t max_points = 0;
+};
+Result<PointBuffers> addPointBuffers(VulkanCompute& vk, size_t max_points, uint32_t workgroup);
+// Uploads `points` (the padding up to a whole workgroup repeats the last one), dispatches
+// `pipeline` and reads the results back; the dispatch's device time goes to `seconds` if given.
+// Error if there are more points than the buffers hold (`what` names the pass).
+Result<std::vector<glm::vec4>> runPoints(VulkanCompute& vk, int pipeline, const PointBuffers& buffers, uint32_t workgroup,
+                                         std::span<const AmbientPoint> points, const char* what, double* seconds = nullptr);
+
 class AmbientPass {
  public:
   static constexpr uint32_t kWorkgroupSize = 64;  // local_size_x / numthreads of both entry points
@@ -76,8 +89,8 @@ class AmbientPass {
  private:
   AmbientPass(VulkanCompute& vk) : vk_(vk) {}
   VulkanCompute& vk_;
-  int pipeline_ = -1, points_ = -1, results_ = -1, staging_ = -1;
-  size_t max_points_ = 0;
+  int pipeline_ = -1;
+  PointBuffers buffers_;
 };
 
 }  // namespace drtv::testing

@@ -45,17 +45,12 @@ Result<std::unique_ptr<FinePass>> FinePass::create(VulkanCompute& vk, const std:
   auto cells = deviceBuffer(vk, level.cells.data(), level.cells.size() * sizeof(uint32_t));
   if (!cells) return std::unexpected(cells.error());
 
-  pass->max_points_ = (max_points + kWorkgroupSize - 1) / kWorkgroupSize * kWorkgroupSize;
-  auto points = vk.addBuffer(pass->max_points_ * sizeof(AmbientPoint), BufferKind::kDeviceStorage);
-  if (!points) return std::unexpected(points.error());
-  auto results = vk.addBuffer(pass->max_points_ * sizeof(glm::vec4), BufferKind::kDeviceStorage);
-  if (!results) return std::unexpected(results.error());
-  auto staging = vk.addBuffer(pass->max_points_ * sizeof(AmbientPoint), BufferKind::kStaging);
-  if (!staging) return std::unexpected(staging.error());
-  pass->points_ = *points, pass->results_ = *results, pass->staging_ = *staging;
+  auto buffers = addPointBuffers(vk, max_points, kWorkgroupSize);
+  if (!buffers) return std::unexpected(buffers.error());
+  pass->buffers_ = *buffers;
 
   const std::vector<PipelineBinding> bindings = {
-      {0, BindingKind::kStorageBuffer, *points}, {1, BindingKind::kStorageBuffer, *results}, {2, BindingKind::kUniformBuffer, *ubo},
+      {0, BindingKind::kStorageBuffer, pass->buffers_.points}, {1, BindingKind::kStorageBuffer, pass->buffers_.results}, {2, BindingKind::kUniformBuffer, *ubo},
       {3, BindingKind::kStorageBuffer, *probes}, {4, BindingKind::kStorageBuffer, *maps},    {5, BindingKind::kStorageBuffer, *cells}};
   auto pipeline = vk.addPipeline(*spirv, language == ShaderLanguage::kGlsl ? "main" : "computeMain", bindings);
   if (!pipeline) return std::unexpected(pipeline.error());
@@ -64,19 +59,7 @@ Result<std::unique_ptr<FinePass>> FinePass::create(VulkanCompute& vk, const std:
 }
 
 Result<std::vector<glm::vec4>> FinePass::run(std::span<const AmbientPoint> points) {
-  if (points.empty()) return std::vector<glm::vec4>{};
-  if (points.size() > max_points_) return fail("fine pass: " + std::to_string(points.size()) + " points, room for " + std::to_string(max_points_));
-  const std::span<std::byte> staging = vk_.bufferMemory(staging_);
-  std::memcpy(staging.data(), points.data(), points.size_bytes());
-  const size_t groups = (points.size() + kWorkgroupSize - 1) / kWorkgroupSize, padded = groups * kWorkgroupSize;
-  for (size_t i = points.size(); i < padded; ++i)
-    std::memcpy(staging.data() + i * sizeof(AmbientPoint), &points.back(), sizeof(AmbientPoint));
-  if (auto r = vk_.copyBuffer(staging_, points_, padded * sizeof(AmbientPoint)); !r) return std::unexpected(r.error());
-  if (auto t = vk_.dispatch(pipeline_, uint32_t(groups)); !t) return std::unexpected(t.error());
-  if (auto r = vk_.copyBuffer(results_, staging_, padded * sizeof(glm::vec4)); !r) return std::unexpected(r.error());
-  std::vector<glm::vec4> out(points.size());
-  std::memcpy(out.data(), staging.data(), points.size() * sizeof(glm::vec4));
-  return out;
+  return runPoints(vk_, pipeline_, buffers_, kWorkgroupSize, points, "fine pass");
 }
 
 }  // namespace drtv::testing

@@ -44,8 +44,8 @@ class FinePass {
  private:
   FinePass(VulkanCompute& vk) : vk_(vk) {}
   VulkanCompute& vk_;
-  int pipeline_ = -1, points_ = -1, results_ = -1, staging_ = -1;
-  size_t max_points_ = 0;
+  int pipeline_ = -1;
+  PointBuffers buffers_;
 };
 
 }  // namespace drtv::testing

@@ -6,20 +6,18 @@
 //
 // The archive: a 128 m town of courtyard blocks of four storeys (worlds/town.h), baked at draft
 // quality, written by baker::bake and read back, relit at 15:00 as `drtv query` sets up a runtime.
-#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <filesystem>
 #include <random>
 
 #include <gtest/gtest.h>
 
 #include "ambient_pass.h"
+#include "baked_archive.h"
 #include "drtv/baker/bake.h"
-#include "drtv/formats/archive.h"
 #include "drtv/formats/probe.h"
 #include "drtv/runtime/fine_shader.h"
 #include "drtv/runtime/runtime.h"
@@ -30,18 +28,13 @@
 namespace drtv::testing {
 namespace {
 
-namespace fs = std::filesystem;
 
 constexpr int kPoints = 6000;
 constexpr double kHour = 15.0;
 
-struct Baked {
-  Manifest manifest;
-  std::vector<Sector> sectors;
-};
+using Baked = BakedArchive;
 
 Baked bakeTown(Representation representation) {
-  Baked b;
   worlds::TownOptions o;
   o.size_m = 128;
   o.min_storeys = o.max_storeys = 4;
@@ -49,28 +42,11 @@ Baked bakeTown(Representation representation) {
   o.lit_room_fraction = 0;
   auto world = worlds::generateTown(o);
   EXPECT_TRUE(world.has_value()) << (world ? "" : world.error().message);
-  if (!world) return b;
-  const fs::path dir = fs::temp_directory_path() / ("drtv_fine_shader_run_test_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
+  if (!world) return {};
   baker::BakeOptions options;
   options.quality = baker::Quality::kDraft;
   options.representation = representation;
-  auto report = baker::bake(*world, "town", dir / "town.drtv", options);
-  EXPECT_TRUE(report.has_value()) << (report ? "" : report.error().message);
-  if (report) {
-    auto reader = ArchiveReader::open(dir / "town.drtv");
-    EXPECT_TRUE(reader.has_value()) << (reader ? "" : reader.error().message);
-    if (reader) {
-      b.manifest = reader->manifest();
-      for (const SectorEntry& e : b.manifest.sectors) {
-        auto s = reader->readSector(e.key);
-        EXPECT_TRUE(s.has_value()) << (s ? "" : s.error().message);
-        if (s) b.sectors.push_back(std::move(*s));
-      }
-    }
-  }
-  fs::remove_all(dir);
-  return b;
+  return bakeArchive(*world, "town", options);
 }
 const Baked& bakedTown(Representation representation) {
   static const Baked fc3 = bakeTown(Representation::kFc3);
@@ -79,14 +55,7 @@ const Baked& bakedTown(Representation representation) {
   return sh_l1;
 }
 
-std::unique_ptr<runtime::Runtime> relit(const Baked& b, const glm::dvec3& camera) {
-  auto made = runtime::runtimeForArchive(b.manifest, runtime::optionsForEffects(b.manifest.effects), kHour);
-  EXPECT_TRUE(made.has_value());
-  std::unique_ptr<runtime::Runtime> rt = std::move(*made);
-  for (const Sector& s : b.sectors) EXPECT_TRUE(rt->addSector(s).has_value());
-  rt->update(camera);
-  return rt;
-}
+std::unique_ptr<runtime::Runtime> relit(const Baked& b, const glm::dvec3& camera) { return relitArchive(b, kHour, camera); }
 
 // The camera: over the block's courtyard, at its second storey.
 constexpr glm::dvec3 kCamera{0.0, 0.0, 6.0};

@@ -8,19 +8,17 @@
 // sectors around (32, 32), written to disk by baker::bake and read back with ArchiveReader, relit
 // at 15:00 the way `drtv query` sets up a runtime. Two cameras: one centred on the block, and one
 // reached from it by a scroll (so the textures hold a toroidally wrapped, scrolled volume).
-#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
 #include <random>
 
 #include <gtest/gtest.h>
 
 #include "ambient_pass.h"
+#include "baked_archive.h"
 #include "drtv/baker/bake.h"
-#include "drtv/formats/archive.h"
 #include "drtv/formats/sh.h"
 #include "drtv/runtime/runtime.h"
 #include "drtv/worlds/island.h"
@@ -29,7 +27,6 @@
 namespace drtv::testing {
 namespace {
 
-namespace fs = std::filesystem;
 
 // Points per camera; two cameras, so 12,000 lookups per shader language.
 constexpr int kPointsPerCamera = 6000;
@@ -54,45 +51,21 @@ constexpr double kHour = 15.0;
 constexpr double kRoundingStepsPerLevel = 1.0;
 constexpr double kFloatSteps = 2.5e-3;
 
-struct Baked {
-  Manifest manifest;
-  std::vector<Sector> sectors;
-};
+using Baked = BakedArchive;
 
-// The island baked to an archive in a temporary directory and read back (once for all tests, per
-// representation).
+// The island baked to an archive and read back (once for all tests, per representation).
 Baked bakeIsland(Representation representation) {
-  {
-    Baked b;
-    worlds::IslandOptions io;
-    io.size_km2 = 0.09;  // 300 m square: the 3 x 3 sector block is land, shore and sea
-    io.seed = 7;
-    auto world = worlds::generateIsland(io);
-    EXPECT_TRUE(world.has_value()) << (world ? "" : world.error().message);
-    if (!world) return b;
-    const fs::path dir = fs::temp_directory_path() / ("drtv_shader_run_test_" + std::to_string(::getpid()));
-    fs::create_directories(dir);
-    baker::BakeOptions options;
-    options.quality = baker::Quality::kDraft;
-    options.sectors = raytrace::SectorRange{-1, 1, -1, 1};
-    options.representation = representation;
-    auto report = baker::bake(*world, "island", dir / "island.drtv", options);
-    EXPECT_TRUE(report.has_value()) << (report ? "" : report.error().message);
-    if (report) {
-      auto reader = ArchiveReader::open(dir / "island.drtv");
-      EXPECT_TRUE(reader.has_value()) << (reader ? "" : reader.error().message);
-      if (reader) {
-        b.manifest = reader->manifest();
-        for (const SectorEntry& e : b.manifest.sectors) {
-          auto s = reader->readSector(e.key);
-          EXPECT_TRUE(s.has_value()) << (s ? "" : s.error().message);
-          if (s) b.sectors.push_back(std::move(*s));
-        }
-      }
-    }
-    fs::remove_all(dir);
-    return b;
-  }
+  worlds::IslandOptions io;
+  io.size_km2 = 0.09;  // 300 m square: the 3 x 3 sector block is land, shore and sea
+  io.seed = 7;
+  auto world = worlds::generateIsland(io);
+  EXPECT_TRUE(world.has_value()) << (world ? "" : world.error().message);
+  if (!world) return {};
+  baker::BakeOptions options;
+  options.quality = baker::Quality::kDraft;
+  options.sectors = raytrace::SectorRange{-1, 1, -1, 1};
+  options.representation = representation;
+  return bakeArchive(*world, "island", options);
 }
 const Baked& bakedIsland(Representation representation) {
   static const Baked fc3 = bakeIsland(Representation::kFc3);
@@ -102,14 +75,7 @@ const Baked& bakedIsland(Representation representation) {
 }
 
 // A runtime for the archive as `drtv query` builds one, lit at kHour, volume on `camera`.
-std::unique_ptr<runtime::Runtime> relit(const Baked& b, const glm::dvec3& camera) {
-  auto made = runtime::runtimeForArchive(b.manifest, runtime::optionsForEffects(b.manifest.effects), kHour);
-  EXPECT_TRUE(made.has_value());
-  std::unique_ptr<runtime::Runtime> rt = std::move(*made);
-  for (const Sector& s : b.sectors) EXPECT_TRUE(rt->addSector(s).has_value());
-  rt->update(camera);
-  return rt;
-}
+std::unique_ptr<runtime::Runtime> relit(const Baked& b, const glm::dvec3& camera) { return relitArchive(b, kHour, camera); }
 
 struct TestPoint {
   glm::dvec3 position;  // world metres

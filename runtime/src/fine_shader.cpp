@@ -11,17 +11,29 @@
 
 namespace drtv::runtime {
 
+namespace {
+double cellOf(const FineShaderOptions& o) { return o.cell_m > 0.0 ? o.cell_m : 4.0; }
+glm::dvec3 halfOf(const FineShaderOptions& o) { return glm::max(o.half_extent_m, glm::dvec3(cellOf(o))); }
+}  // namespace
+
+glm::dvec3 fineBoxCorner(const glm::dvec3& camera, const FineShaderOptions& o) {
+  const bool finite = std::isfinite(camera.x) && std::isfinite(camera.y) && std::isfinite(camera.z);
+  if (!finite) return glm::dvec3(NAN);
+  const double cell = cellOf(o);
+  return glm::floor((camera - halfOf(o)) / cell) * cell;
+}
+
 FineShaderData packFineLevel(const ProbeCache& cache, const glm::dvec3& camera, const FineShaderOptions& o) {
   FineShaderData out;
   FineShaderConstants& k = out.constants;
-  const double cell = o.cell_m > 0.0 ? o.cell_m : 4.0;
+  const double cell = cellOf(o);
   const double R = o.lookup.radius_m;
   const bool finite = std::isfinite(camera.x) && std::isfinite(camera.y) && std::isfinite(camera.z);
-  const glm::dvec3 half = glm::max(o.half_extent_m, glm::dvec3(cell));
+  const glm::dvec3 half = halfOf(o);
   // Options are the engine's, not a file's: a box of more cells than a GPU buffer indexes is a bug.
   DRTV_CHECK(cell > 0.0 && glm::all(glm::lessThanEqual(2.0 * half / cell, glm::dvec3(1024.0))));
   const glm::ivec3 n = glm::ivec3(glm::ceil(2.0 * half / cell));
-  const glm::dvec3 lo = finite ? glm::floor((camera - half) / cell) * cell : glm::dvec3(0.0);
+  const glm::dvec3 lo = finite ? fineBoxCorner(camera, o) : glm::dvec3(0.0);
   const glm::dvec3 hi = lo + glm::dvec3(n) * cell;
   for (int a = 0; a < 3; ++a) k.box_min[a] = float(lo[a]), k.box_max[a] = float(hi[a]), k.cells[a] = n[a];
   k.cell_m = float(cell);

@@ -174,6 +174,7 @@ void Runtime::relightMovedLights() {
 Result<void> Runtime::addSector(const Sector& sector, const OcclusionTile* tile, SectorBlock block) {
   if (tile) DRTV_CHECK(tile->key == sector.key);
   if (auto r = cache_.addSector(sector, block); !r) return r;
+  fine_stale_ = true;
   if (options_.effects & kEffectDistantOcclusion) occlusion_.add(tile ? *tile : makeOcclusionTile(sector));
   resolveInteriors(sector.key);
   // And those whose designated probe came with it wherever it stands (an archive may put one
@@ -209,6 +210,7 @@ Result<void> Runtime::addSector(const Sector& sector, const OcclusionTile* tile,
 bool Runtime::removeSector(SectorKey key) {
   const int slot = cache_.slotOf(key);
   if (!cache_.removeSector(key)) return false;
+  fine_stale_ = true;
   occlusion_.remove(key);
   resolveInteriors(key);
   // An interior whose probe stood in the departed slot (a designated probe an archive put outside
@@ -245,18 +247,25 @@ void Runtime::update(const glm::dvec3& camera) {
     relit_once_ = true;
     sky_changed_ = lights_changed_ = false;
     ++relights_;
+    fine_stale_ = true;
   } else if (lights_changed_) {
     // Only the lights moved: the sky and sun are those every slot was last relit with.
     lights_changed_ = false;
     relightMovedLights();
+    fine_stale_ = true;
   }
   volume_.update(volumeOriginFor(options_.volume, camera), cache_);
   if (options_.fine_shader) {
     FineShaderOptions o = *options_.fine_shader;
     o.lookup = options_.fine;
-    auto level = std::make_shared<const FineShaderData>(packFineLevel(cache_, camera, o));
-    std::lock_guard lock(fine_mutex_);
-    fine_level_ = std::move(level);
+    const glm::dvec3 corner = fineBoxCorner(camera, o);
+    if (fine_stale_ || corner != fine_corner_) {  // NaN (a non-finite camera) never equals: packed (empty) each time
+      auto level = std::make_shared<const FineShaderData>(packFineLevel(cache_, camera, o));
+      fine_stale_ = false;
+      fine_corner_ = corner;
+      std::lock_guard lock(fine_mutex_);
+      fine_level_ = std::move(level);
+    }
   }
 }
 

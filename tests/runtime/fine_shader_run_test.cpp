@@ -245,9 +245,10 @@ TEST(FineShaderPack, EachCellListsEveryProbeInReachOfItsPointsWithinTheBudget) {
   EXPECT_TRUE(runtime::packFineLevel(rt->cache(), glm::dvec3(NAN), options).probes.empty());
 }
 
-// RuntimeOptions::fine_shader: every update packs the level around the camera, the same as
-// packFineLevel with the runtime's lookup; a reader keeps the level it took across the next update.
-TEST(FineShaderPack, TheRuntimePacksTheLevelOnEachUpdateWhenAsked) {
+// RuntimeOptions::fine_shader: an update packs the level around the camera, the same as
+// packFineLevel with the runtime's lookup, whenever the box's corner, the colours or the resident
+// sectors changed, and only then; a reader keeps the level it took across the next update.
+TEST(FineShaderPack, TheRuntimePacksTheLevelWhenAskedAndOnlyWhenItChanges) {
   const Baked& baked = bakedTown(Representation::kFc3);
   ASSERT_FALSE(baked.sectors.empty());
   EXPECT_EQ(relit(baked, kCamera)->fineLevel(), nullptr) << "not asked for";
@@ -276,6 +277,17 @@ TEST(FineShaderPack, TheRuntimePacksTheLevelOnEachUpdateWhenAsked) {
   EXPECT_NE(moved.get(), level.get());
   EXPECT_EQ(moved->constants.box_min[0], level->constants.box_min[0] + 40.f) << "the box follows the camera by whole cells";
   EXPECT_EQ(level->probes.size(), direct.probes.size()) << "the level a reader took is unchanged";
+  // Nothing it reads changed: the same level. A relight (another hour), a sector gone: a new one.
+  rt->update(kCamera + glm::dvec3(41.0, 0.5, 0.0));
+  EXPECT_EQ(rt->fineLevel().get(), moved.get()) << "the camera moved within its cell, nothing else changed";
+  ASSERT_TRUE(rt->setTime(kHour + 3.0).has_value());
+  rt->update(kCamera + glm::dvec3(41.0, 0.5, 0.0));
+  const std::shared_ptr<const runtime::FineShaderData> later = rt->fineLevel();
+  EXPECT_NE(later.get(), moved.get()) << "relit: the colours changed";
+  EXPECT_NE(std::memcmp(later->probes.data(), moved->probes.data(), moved->probes.size() * sizeof(runtime::FineShaderProbe)), 0);
+  ASSERT_TRUE(rt->removeSector(baked.sectors.front().key));
+  rt->update(kCamera + glm::dvec3(41.0, 0.5, 0.0));
+  EXPECT_NE(rt->fineLevel().get(), later.get()) << "a sector left";
 }
 
 }  // namespace

@@ -21,7 +21,8 @@
 // Memory: 80 + 512 bytes a packed probe, 8 bytes a cell and 4 a listed probe. The default box
 // (64 x 64 x 48 m, 4 m cells: 3,072 cells) over a block of 4-storey courtyard buildings packs 606
 // probes in 0.43 MB (tests/runtime/fine_shader_run_test.cpp); the volumes take 1.77 MB.
-// Runtime::update packs it when RuntimeOptions::fine_shader is set (Runtime::fineLevel).
+// Runtime::update packs it when RuntimeOptions::fine_shader is set and the box's corner, the
+// colours or the resident sectors changed (Runtime::fineLevel).
 #pragma once
 
 #include <cstddef>
@@ -79,6 +80,10 @@ struct FineShaderData {
 // covered probes of `cache` and their current colours. An empty level (no probe: every drtvFine
 // weight 0) when o.lookup is disabled, its radius is not positive, or the camera is not finite.
 FineShaderData packFineLevel(const ProbeCache& cache, const glm::dvec3& camera, const FineShaderOptions& o);
+
+// The corner of the box packFineLevel packs around `camera`, snapped to whole cells: the level's
+// cells and lists change only when it does (NaN components for a non-finite camera).
+glm::dvec3 fineBoxCorner(const glm::dvec3& camera, const FineShaderOptions& o);
 
 // The factor by which the shaders fade the fine level's weight at `at` (the point moved along its
 // normal): 1 deeper than fade_m inside the box, falling linearly to 0 at its faces, 0 outside.

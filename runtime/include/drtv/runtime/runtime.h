@@ -107,9 +107,10 @@ struct RuntimeOptions {
   // The fine level near surfaces (ProbeCache::fineLookup): blended over everything above by its
   // weight. It reads only probes flagged kProbeCovered, so a world without any is unchanged.
   FineOptions fine;
-  // Set: every update() also packs the fine level for the shaders around the camera
-  // (packFineLevel, fine_shader.h; its lookup is `fine`), which fineLevel() hands out. On an
-  // UpdateWorker the packing is the worker's, off the frame's critical path.
+  // Set: update() also packs the fine level for the shaders around the camera (packFineLevel,
+  // fine_shader.h; its lookup is `fine`), which fineLevel() hands out, whenever the box's corner,
+  // the probes' colours or the resident sectors changed since the last pack. On an UpdateWorker
+  // the packing is the worker's, off the frame's critical path.
   std::optional<FineShaderOptions> fine_shader;
 };
 
@@ -207,6 +208,8 @@ class Runtime {
   PublishedVolume volume_;
   mutable std::mutex fine_mutex_;  // guards fine_level_ (the pointer, not the level: that is never written once published)
   std::shared_ptr<const FineShaderData> fine_level_;
+  bool fine_stale_ = true;  // colours or resident sectors changed since fine_level_ was packed
+  glm::dvec3 fine_corner_{0.0};  // fineBoxCorner of fine_level_
   OcclusionMap occlusion_;
   uint64_t relights_ = 0, light_relights_ = 0, light_rescales_ = 0;
 };

@@ -539,6 +539,7 @@ Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::st
   // its defaults; then every registered technique at its own defaults.
   if (!options.stratify) categories = categorise(*scene, points, options.seed);
   for (const SurfaceCategory c : categories) ++report.category_points[size_t(c)];
+  const std::vector<SurfaceCategory> point_categories = categories;
   RowEvaluator rows(world, where, *block, options, *base, points, truth, std::move(categories), report);
   Values default_values;  // the default DRTV row's, for the storage emulation check
   // DRTV's knob rows always (the table's subject: the default bake, the storage emulation check),
@@ -554,7 +555,14 @@ Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::st
   for (const RowSpec& spec : specs) {
     auto v = rows.evaluate(spec);
     if (!v) return std::unexpected(v.error());
-    if (spec.knob == "rays_per_basis" && spec.is_default) default_values = *v;
+    if (spec.knob == "rays_per_basis" && spec.is_default) {
+      default_values = *v;
+      for (size_t h = 0; h < options.hours.size(); ++h)
+        for (size_t i = 0; i < points.size(); ++i) {
+          const size_t k = h * points.size() + i;
+          report.point_values.push_back({points[i].position, points[i].normal, point_categories[i], options.hours[h], truth.mean[k], (*v)[k]});
+        }
+    }
     if (spec.knob == "storage" && spec.value == "8-bit") {
       double d = 0, sum = 0;
       for (size_t i = 0; i < v->size(); ++i)

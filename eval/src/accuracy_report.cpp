@@ -172,6 +172,17 @@ Result<void> writeAccuracyReport(const AccuracyReport& r, const fs::path& dir) {
            "," + std::to_string(row.volume_bytes) + "," + csvField(row.note) + "\n";
   if (auto w = writeText(dir / "accuracy.csv", csv); !w) return w;
 
+  // Per point and hour, the default DRTV row beside the reference.
+  std::string pts = "hour,x,y,z,nx,ny,nz,category,ref_r,ref_g,ref_b,drtv_r,drtv_g,drtv_b\n";
+  for (const AccuracyPoint& p : r.point_values) {
+    pts += num(p.hour, 3) + "," + num(p.position.x, 8) + "," + num(p.position.y, 8) + "," + num(p.position.z, 8) + "," + num(p.normal.x, 4) +
+           "," + num(p.normal.y, 4) + "," + num(p.normal.z, 4) + "," + surfaceCategoryName(p.category);
+    for (int c = 0; c < 3; ++c) pts += "," + num(p.reference[c], 6);
+    for (int c = 0; c < 3; ++c) pts += "," + num(p.drtv[c], 6);
+    pts += "\n";
+  }
+  if (auto w = writeText(dir / "accuracy-points.csv", pts); !w) return w;
+
   // JSON
   nlohmann::json j;
   j["world"] = r.world;
@@ -242,7 +253,8 @@ Result<void> writeAccuracyReport(const AccuracyReport& r, const fs::path& dir) {
     // So do the rooms' interiors (rooms.h) and the cache's sweeps and cells (transfer.h), indoors.
     const bool placement = row.knob == "placement_under_roofs" && !row.is_default;
     const bool rooms = (row.knob == "rooms" || row.knob == "sweeps" || row.knob == "cache_cells" || row.knob.rfind("fine", 0) == 0 ||
-                        row.knob == "placement_enclosed" || row.knob == "grid_sides" || row.knob == "own_sources local_lights") &&
+                        row.knob == "placement_enclosed" || row.knob == "grid_sides" || row.knob == "covered_sight" || row.knob == "openings" ||
+                        row.knob == "own_sources local_lights") &&
                        !row.is_default;
     if (!(row.knob == "technique" || placement || rooms || (row.knob == "rays_per_basis" && row.is_default))) continue;
     md << "| "

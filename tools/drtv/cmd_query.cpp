@@ -108,6 +108,8 @@ Result<void> runQuery(const QueryOptions& o) {
     j["distant"] = rgb(total->distant);
     j["interior"] = total->interior >= 0 ? nlohmann::json(m.interiors[total->interior].name) : nlohmann::json(nullptr);
     j["interior_weight"] = total->interior_weight;
+    j["fine_weight"] = total->fine_weight;
+    j["fine"] = total->fine_weight > 0.f ? rgb(total->fine) : nlohmann::json(nullptr);
     nlohmann::json pj = nlohmann::json::object();
     for (const Part& p : parts) pj[p.name] = p.baked ? rgb(p.value) : nlohmann::json(nullptr);
     j["parts"] = pj;
@@ -135,6 +137,11 @@ Result<void> runQuery(const QueryOptions& o) {
       std::printf("  %-13s not baked\n", p.name);
   }
   std::printf("  %-13s %.5f %.5f %.5f\n", "distant", total->distant.r, total->distant.g, total->distant.b);
+  if (total->fine_weight > 0.f)
+    std::printf("fine level near surfaces: weight %.2f, %.5f %.5f %.5f (blended over the path above)\n", total->fine_weight,
+                total->fine.r, total->fine.g, total->fine.b);
+  else
+    std::printf("fine level near surfaces: no covered probe sees the point\n");
   if (probe.valid)
     std::printf("probe named here: sector (%d,%d) #%d at (%.2f, %.2f, %.2f), shaded for the normal %.5f %.5f %.5f\n", probe.sector.ix,
                 probe.sector.iy, probe.index, probe.position.x, probe.position.y, probe.position.z, probe.shaded.r, probe.shaded.g,

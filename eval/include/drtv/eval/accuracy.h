@@ -146,6 +146,17 @@ struct AccuracyRow {
   std::array<CategoryError, kSurfaceCategoryCount> categories{};  // the same error by category
 };
 
+// One sample point at one hour, as the default DRTV row shaded it beside the reference
+// (accuracy-points.csv): to find where a category's error comes from.
+struct AccuracyPoint {
+  glm::dvec3 position{0.0};
+  glm::vec3 normal{0.f};
+  SurfaceCategory category = kOpenGround;
+  double hour = 0;
+  glm::vec3 reference{0.f};  // the path tracer's ambient
+  glm::vec3 drtv{0.f};       // the default DRTV row's
+};
+
 struct AccuracyReport {
   std::string world;                  // name or file
   raytrace::SectorRange sectors;                // the block baked
@@ -159,6 +170,7 @@ struct AccuracyReport {
   glm::dvec3 reference_mean{0.0};     // mean reference ambient (RGB)
   double emulation_check = 0;         // relative L1 difference, emulated 8-bit vs the runtime
   std::vector<AccuracyRow> rows;
+  std::vector<AccuracyPoint> point_values;  // every (hour, point) of the default DRTV row
   std::vector<std::string> skipped;   // "lprt_sources: the world has no point lights"
   std::vector<std::string> notes;
   double wall_s = 0;
@@ -172,8 +184,9 @@ Result<AccuracyReport> measureAccuracy(const worlds::World& world, const std::st
 // the one that is not and list those that are.
 Result<void> checkKnobs(const std::vector<std::string>& names);
 
-// Writes accuracy.csv, accuracy.json, accuracy.md (the tables) and accuracy.png (relative error
-// against bake time, relight + fill time and memory) into `dir` (created if needed).
+// Writes accuracy.csv, accuracy.json, accuracy.md (the tables), accuracy.png (relative error
+// against bake time, relight + fill time and memory) and accuracy-points.csv (AccuracyPoint per
+// line) into `dir` (created if needed).
 Result<void> writeAccuracyReport(const AccuracyReport& report, const std::filesystem::path& dir);
 
 }  // namespace drtv::eval

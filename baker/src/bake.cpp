@@ -195,11 +195,14 @@ std::vector<uint64_t> sectorCosts(const raytrace::WorldGeometry& geometry, std::
 }
 
 // The placement settings of a bake: without the fine level (whose covered flags it clears), a
-// covered candidate is relocated as in the builds before 2026-12-07 (covered_stays_under).
+// covered candidate is relocated and kept apart as in the builds before 2026-12-07
+// (covered_stays_under, covered_sight).
 namespace {
 PlacementSettings placementOf(const BakeSettings& settings) {
   PlacementSettings p = settings.placement;
   p.covered_stays_under = p.covered_stays_under && settings.covered_visibility;
+  p.covered_sight = p.covered_sight && settings.covered_visibility;
+  p.thin_near_first = p.thin_near_first && settings.covered_visibility;
   return p;
 }
 }  // namespace
@@ -413,7 +416,7 @@ Result<Sector> bakeSector(const raytrace::WorldGeometry& geometry, const worlds:
     if (!covered.empty()) {
       const auto t_vis = Clock::now();
       auto vis = std::make_unique<VisibilityBlock>();
-      vis->values = bakeVisibility(*scene, g, covered, settings.visibility_rays, stats.other_rays);
+      vis->values = bakeVisibility(*scene, g, covered, settings.visibility_rays, settings.visibility_openings, stats.other_rays);
       sector.visibility = std::move(vis);
       stats.visibility_s = since(t_vis);
     }
@@ -594,6 +597,7 @@ static Result<BakeReport> bakeRecorded(const worlds::World& given, const std::st
                 std::to_string(kVisRaysMin) + ", " + std::to_string(kVisRaysMax) + "]");
   if (options.light_sources) report.settings.light_sources = *options.light_sources;
   if (options.enclosed_spacing_m) report.settings.placement.setEnclosedSpacing(*options.enclosed_spacing_m);
+  if (options.sweeps) report.settings.transfer.sweeps = *options.sweeps;
   if (auto why = validateSettings(report.settings); !why) return std::unexpected(why.error().context("bake settings"));
   report.threads = options.threads > 0 ? options.threads : int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
   if (options.shard_count > 1) report.shard = std::to_string(options.shard_index) + "/" + std::to_string(options.shard_count);

@@ -38,6 +38,7 @@ Result<void> validateSettings(const BakeSettings& s) {
   if (!in(t.surfel_cell_m, 0.25, 64.0)) return fail("surfel_cell_m must be in [0.25, 64] m (cell keys assume >= 0.25 m)");
   if (t.bounces < 1 || t.bounces > 64) return fail("bounces must be in [1, 64]");
   if (t.sweeps < 0 || t.sweeps > 256) return fail("sweeps must be in [0, 256] (0: bounces - 1)");
+  if (t.lprt_sweeps < 0 || t.lprt_sweeps > 256) return fail("lprt_sweeps must be in [0, 256] (0: bounces - 1)");
   if (t.sun_samples != 0 && (t.sun_samples < 2 || t.sun_samples > kMaxSunSamples)) return fail("sun_samples must be 0 or in [2, 8]");
   if (s.grid.visibility_candidates < 1 || s.grid.visibility_candidates > 255) return fail("visibility_candidates must be in [1, 255]");
   if (!in(s.halo_m, 0.0, 1024.0) || !in(s.lprt_halo_m, 0.0, 1024.0)) return fail("halos must be in [0, 1024] m");
@@ -67,6 +68,7 @@ BakeSettings BakeSettings::forQuality(Quality q, uint64_t seed) {
   s.quality = q;
   s.placement.seed = seed;
   s.transfer.seed = seed;
+  s.transfer.sweeps = kPresetSweeps;
   switch (q) {
     case Quality::kDraft:
       s.transfer.probe_rays_per_basis = 32;
@@ -132,10 +134,16 @@ std::vector<std::pair<std::string, std::string>> BakeSettings::describe() const 
   if (placement.enclosed_min_horizontal_m < std::min(placement.covered_min_horizontal_m, placement.min_horizontal_m))
     d.emplace_back("enclosed_min_horizontal_m", fmt(placement.enclosed_min_horizontal_m));
   if (transfer.sweeps != 0) d.emplace_back("sweeps", std::to_string(transfer.sweeps));
+  if (transfer.lprt_sweeps != 0) d.emplace_back("lprt_sweeps", std::to_string(transfer.lprt_sweeps));
   // Only when on: a bake without visibility maps describes itself (and hashes, and packs) as before.
   if (covered_visibility) d.emplace_back("covered_visibility", "1");
   // Only when not the 4,096 of the builds before (their archives describe themselves as before).
   if (covered_visibility && visibility_rays != 4096) d.emplace_back("visibility_rays", std::to_string(visibility_rays));
+  // Only with the fine level, and only when on (2026-12-07): other bakes describe themselves as before.
+  if (covered_visibility && visibility_openings) d.emplace_back("visibility_openings", "1");
+  if (covered_visibility && placement.covered_stays_under) d.emplace_back("covered_stays_under", "1");
+  if (covered_visibility && placement.covered_sight) d.emplace_back("covered_sight", "1");
+  if (covered_visibility && placement.thin_near_first) d.emplace_back("thin_near_first", "1");
   // Only when on: a bake without them describes itself (and hashes, and packs) as before. Also a
   // bake without LPRT, whose bytes the setting does not change.
   if (light_sources) d.emplace_back("light_sources", "1");

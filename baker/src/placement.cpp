@@ -82,18 +82,31 @@ bool enclosed(const raytrace::RayScene& scene, const raytrace::SectorGeometry& g
   return walls >= kEnclosedWalls;
 }
 
-// `covered_h`: the horizontal distance that rejects a covered candidate (at most min_h);
-// `enclosed_h` an enclosed one (at most covered_h).
-std::vector<Candidate> greedy(const std::vector<Candidate>& sorted, double min_h, double covered_h, double enclosed_h, double min_v) {
+// The least horizontal distances of step 5: an open candidate's, a covered one's (at most the
+// open one) and an enclosed one's (at most the covered one).
+struct LeastDistances {
+  double open, covered, enclosed;
+  double of(const Candidate& c) const { return c.priority != kCovered ? open : c.enclosed ? enclosed : covered; }
+};
+
+// Step 5 at the distances `now` (step 6 grows them from `base`). `hidden(a, b)`: whether static
+// geometry stands between two probes of which one is covered (PlacementSettings::covered_sight;
+// always false without it); such a pair rejects no one within the candidate's `base` distance,
+// so that thinning (distances past `base`) still thins a block of rooms one probe a room.
+template <class Hidden>
+std::vector<Candidate> greedy(const std::vector<Candidate>& sorted, const LeastDistances& now, const LeastDistances& base, double min_v,
+                              const Hidden& hidden) {
   std::vector<Candidate> accepted;
-  const double min_h2 = min_h * min_h, covered_h2 = covered_h * covered_h, enclosed_h2 = enclosed_h * enclosed_h;
   for (const Candidate& c : sorted) {
     bool ok = true;
-    const double reject_h2 = c.priority != kCovered ? min_h2 : c.enclosed ? enclosed_h2 : covered_h2;
+    const double reject_h = now.of(c), reject_h2 = reject_h * reject_h, base_h = base.of(c), base_h2 = base_h * base_h;
     if (c.priority != kDesignated)
       for (const Candidate& a : accepted) {
         const double dx = c.position.x - a.position.x, dy = c.position.y - a.position.y, dz = c.position.z - a.position.z;
-        if (dx * dx + dy * dy < reject_h2 && std::abs(dz) < min_v) {
+        const double h2 = dx * dx + dy * dy;
+        if (h2 < reject_h2 && std::abs(dz) < min_v &&
+            !(h2 < base_h2 && (c.priority == kCovered || a.priority == kCovered || a.priority == kDesignated) &&
+              hidden(c.position, a.position))) {
           ok = false;
           break;
         }
@@ -289,17 +302,31 @@ std::vector<PlacedProbe> placeProbes(const raytrace::RayScene& scene, const rayt
   std::stable_sort(kept.begin(), kept.end(), [](const Candidate& a, const Candidate& b) {
     return a.priority != b.priority ? a.priority < b.priority : a.order < b.order;
   });
-  double min_h = s.min_horizontal_m, covered_h = std::min(s.covered_min_horizontal_m, s.min_horizontal_m);
-  double enclosed_h = std::min(s.enclosed_min_horizontal_m, covered_h);
-  std::vector<Candidate> accepted = greedy(kept, min_h, covered_h, enclosed_h, s.min_vertical_m);
+  const double covered_h0 = std::min(s.covered_min_horizontal_m, s.min_horizontal_m);
+  const LeastDistances least{s.min_horizontal_m, covered_h0, std::min(s.enclosed_min_horizontal_m, covered_h0)};
+  LeastDistances now = least;
+  auto hidden = [&](const glm::vec3& a, const glm::vec3& b) {
+    if (!s.covered_sight) return false;
+    const glm::vec3 d = b - a;
+    const float len = glm::length(d);
+    return len > 0.f && std::isfinite(detail::staticHitDistance(scene, geometry, a, d / len, len, kMaxHitsPerColumn, stats.rays));
+  };
+  std::vector<Candidate> accepted = greedy(kept, now, least, s.min_vertical_m, hidden);
   stats.rejected_distance += kept.size() - accepted.size();
   const size_t first_pass = accepted.size();
   const size_t cap = size_t(kMaxProbesPerSector) - lights.size();
-  while (accepted.size() > cap && min_h < kSectorSizeM) {
-    min_h *= 1.25;
-    covered_h *= 1.25;
-    enclosed_h *= 1.25;
-    accepted = greedy(kept, min_h, covered_h, enclosed_h, s.min_vertical_m);
+  while (accepted.size() > cap && now.open < kSectorSizeM) {
+    if (s.thin_near_first && now.covered < now.open) {
+      now.covered = std::min(now.covered * 1.25, now.open);
+      now.enclosed = std::min(now.enclosed * 1.25, now.covered);
+    } else if (s.thin_near_first && now.enclosed < now.covered) {
+      now.enclosed = std::min(now.enclosed * 1.25, now.covered);
+    } else {
+      now.open *= 1.25;
+      now.covered *= 1.25;
+      now.enclosed *= 1.25;
+    }
+    accepted = greedy(kept, now, least, s.min_vertical_m, hidden);
   }
   if (accepted.size() > cap) accepted.resize(cap);
   stats.thinned_cap += first_pass - accepted.size();

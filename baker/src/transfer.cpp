@@ -602,15 +602,15 @@ void bakeSunTransfer(const TransferContext& ctx, std::span<const glm::vec3> prob
   if (out_sh) bounceToProbes<4>(ctx, probes, probe_res, probe_surfel, wrong, K, sphereWeight, *out_sh);
 }
 
-// LPRT: the direct irradiance of each source at each traced surfel, `bounces - 1` sweeps through
-// the surface cache's links (the same as T's), then one bounce to the probes.
+// LPRT: the direct irradiance of each source at each traced surfel, lprtSweepCount sweeps through
+// the surface cache's links (T's links), then one bounce to the probes.
 void bakeLprt(const TransferContext& ctx, std::span<const glm::vec3> probes, const std::vector<Surfel>& surfels, size_t level1,
               const SurfelLinks* links, const std::vector<RayResult>& probe_res,
               const std::vector<uint32_t>& probe_surfel, std::span<const glm::vec3> lprt_sources, std::vector<float>* lprt,
               std::vector<float>* cube_lprt, TransferStats& stats) {
   const raytrace::RayScene& scene = ctx.scene;
   const size_t P = ctx.P, N = ctx.N, M = ctx.M, S = lprt_sources.size();
-  const bool sweeps = links != nullptr && sweepCount(ctx.s) > 0;
+  const bool sweeps = links != nullptr && lprtSweepCount(ctx.s) > 0;
   // Without later bounces only level 1 (what the probes see) needs the light.
   const size_t lit = sweeps ? links->traced : level1;
   DRTV_CHECK_LE(level1, lit);
@@ -671,7 +671,7 @@ void bakeLprt(const TransferContext& ctx, std::span<const glm::vec3> probes, con
     for (size_t si = 0; si < lit; ++si)
       for (size_t j = 0; j < S; ++j)
         for (size_t c = 0; c < 3; ++c) cur[(si * S + j) * 3 + c] = irradiance[si * S + j];
-    for (int sweep = 0; sweep < sweepCount(ctx.s); ++sweep) {
+    for (int sweep = 0; sweep < lprtSweepCount(ctx.s); ++sweep) {
       tbb::parallel_for(tbb::blocked_range<size_t>(0, lit, 64), [&](const tbb::blocked_range<size_t>& range) {
         std::vector<float> acc(S * 3);
         for (size_t si = range.begin(); si < range.end(); ++si) {
@@ -770,7 +770,7 @@ std::vector<ProbeData> bakeTransfer(const raytrace::RayScene& scene, const raytr
   // (DESIGN.md: fc3 reproducible bit for bit); sh-l1 (and a cube baked beside it) carries all
   // `bounces`.
   SurfelLinks links;
-  const bool lprt_links = want_lprt && sweepCount(s) > 0 && s.representation == Representation::kShL1;
+  const bool lprt_links = want_lprt && lprtSweepCount(s) > 0 && s.representation == Representation::kShL1;
   std::vector<Sh4Rgb> transfer;
   if (s.prt || lprt_links)
     transfer = surfaceCache(ctx, cells, surfels, stats, want_sun || want_cube_sun ? &direct : nullptr, lprt_links ? &links : nullptr);

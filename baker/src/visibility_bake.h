@@ -24,7 +24,17 @@ inline constexpr int kVisRaysMin = 64, kVisRaysMax = 16384;
 // and dynamic objects are passed through: they move or let light through), filtered into the
 // map's texels. `positions` in the geometry's local frame. Adds the rays cast to `rays`.
 // Deterministic; thread-safe.
+//
+// With `openings`, a ray that leaves the covered air before it meets a surface ends where it
+// leaves it: at the first point along it, sampled every kVisOpeningStepM, with no static surface
+// straight above it (through a window, a door or past the eaves into the open). A covered probe
+// then does not "see" the street, the yard or the terrace outside its room through the openings:
+// the fine level blends it into points under a roof only, and the points outside read the far
+// field's open probes (index_grid.h, same_side). What counts as covered is the highest static
+// surface over a kVisOpeningCellM lattice (one ray down per cell the rays reach). A probe that
+// stands in the open itself (relocated sideways past the eaves) keeps its rays whole.
+inline constexpr float kVisOpeningStepM = 0.25f, kVisOpeningCellM = 0.5f;
 std::vector<uint8_t> bakeVisibility(const raytrace::RayScene& scene, const raytrace::SectorGeometry& geometry,
-                                     std::span<const glm::vec3> positions, int ray_count, uint64_t& rays);
+                                     std::span<const glm::vec3> positions, int ray_count, bool openings, uint64_t& rays);
 
 }  // namespace drtv::baker

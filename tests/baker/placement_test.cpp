@@ -210,6 +210,88 @@ TEST(Placement, ACoveredProbeIsNeverLiftedThroughTheCeilingOverIt) {
   }
 }
 
+// A room whose roof top stands under min_vertical_m (3 m) above the room's probes: the roof's open
+// probe was rejected by the covered probe under it, which it cannot see, and the roof read the
+// room's light (the roof of living_room, on a sector corner, read 89 % too dark: no index cell of
+// its sector could name an open probe). With covered_sight the two keep a probe each; probes that
+// see each other still keep their distance.
+TEST(Placement, ARoofKeepsItsOwnProbeOverTheRoomUnderIt) {
+  // 16 x 16 m, so that the ground's probes (4 m over it, out of reach below) lie 8 m or more from
+  // the roof's middle.
+  worlds::World w = test::planeWorld(200.0, glm::vec3(0.5f));
+  const glm::vec3 grey(0.5f);
+  test::add(w, test::box({10, 10, 0}, {26, 10.3f, 2.5f}, grey, "south wall"), worlds::InstanceClass::kStatic);
+  test::add(w, test::box({10, 25.7f, 0}, {26, 26, 2.5f}, grey, "north wall"), worlds::InstanceClass::kStatic);
+  test::add(w, test::box({10, 10.3f, 0}, {10.3f, 25.7f, 2.5f}, grey, "west wall"), worlds::InstanceClass::kStatic);
+  test::add(w, test::box({25.7f, 10.3f, 0}, {26, 25.7f, 2.5f}, grey, "east wall"), worlds::InstanceClass::kStatic);
+  test::add(w, test::box({10, 10, 2.5f}, {26, 26, 2.7f}, grey, "roof"), worlds::InstanceClass::kStatic);
+  const auto on_roof = [](const PlacedProbe& q) {
+    return q.position.x > 10.5f && q.position.x < 25.5f && q.position.y > 10.5f && q.position.y < 25.5f && q.position.z > 2.7f;
+  };
+  for (const bool sight : {true, false}) {
+    PlacementSettings s;
+    s.covered_sight = sight;
+    const Placed p = place(w, {0, 0}, s);
+    size_t roof = 0, room = 0;
+    for (const PlacedProbe& q : p.probes) {
+      roof += on_roof(q);
+      room += (q.flags & kProbeCovered) != 0;
+    }
+    EXPECT_GT(room, 4u);
+    if (sight) {
+      EXPECT_GE(roof, 1u) << "the roof keeps an open probe of its own";
+    } else {
+      EXPECT_EQ(roof, 0u) << "the fault: the room's probes 2.95 m under the roof's reject it";
+    }
+    // Probes that see each other keep the least distance of the more distant of the two kinds.
+    for (const PlacedProbe& a : p.probes)
+      for (const PlacedProbe& b : p.probes) {
+        if (&a == &b || (a.flags & kProbeCovered) || (b.flags & kProbeCovered)) continue;
+        const float h = glm::distance(glm::vec2(a.position), glm::vec2(b.position)), v = std::abs(a.position.z - b.position.z);
+        EXPECT_FALSE(h < float(s.min_horizontal_m) - 1e-3f && v < float(s.min_vertical_m) - 1e-3f)
+            << a.position.x << "," << a.position.y << "," << a.position.z << " and " << b.position.x << "," << b.position.y << ","
+            << b.position.z;
+      }
+  }
+}
+
+// A sector over the cap (a two-storey block of 8 m rooms beside open ground): the rooms' 2 m
+// lattice thins first, and the open ground keeps the probes it has without the block, the far
+// field's lattice (thin_near_first); thinning all alike took them too.
+TEST(Placement, OverTheCapTheRoomsThinBeforeTheOpenGround) {
+  const glm::vec3 grey(0.5f);
+  worlds::World block = test::planeWorld(200.0, grey);
+  const float x0 = 2.f, x1 = 34.f, y0 = 2.f, y1 = 58.f, top = 6.f;
+  for (float x = x0; x <= x1 + 1e-3f; x += 8.f)
+    test::add(block, test::box({x, y0, 0}, {x + 0.3f, y1, top}, grey, "wall x"), worlds::InstanceClass::kStatic);
+  for (float y = y0; y <= y1 + 1e-3f; y += 8.f)
+    test::add(block, test::box({x0, y, 0}, {x1 + 0.3f, y + 0.3f, top}, grey, "wall y"), worlds::InstanceClass::kStatic);
+  for (float z : {3.f, top})
+    test::add(block, test::box({x0, y0, z}, {x1 + 0.3f, y1 + 0.3f, z + 0.2f}, grey, "slab"), worlds::InstanceClass::kStatic);
+  const auto open_ground = [](const PlacedProbe& q) { return q.position.x > 44.f && q.position.z < 3.f && !(q.flags & kProbeCovered); };
+  // The same block with its rooms at the covered spacing, under the cap: the ground unthinned.
+  PlacementSettings sparse;
+  sparse.setEnclosedSpacing(0.0);
+  const Placed under = place(block, {0, 0}, sparse);
+  ASSERT_EQ(under.stats.thinned_cap, 0u);
+  const size_t ground_alone = size_t(std::count_if(under.probes.begin(), under.probes.end(), open_ground));
+  ASSERT_GT(ground_alone, 8u);
+  for (const bool near_first : {true, false}) {
+    PlacementSettings s;
+    s.thin_near_first = near_first;
+    const Placed p = place(block, {0, 0}, s);
+    EXPECT_GT(p.stats.thinned_cap, 0u) << "the block's rooms put the sector over the cap";
+    EXPECT_LE(p.probes.size(), size_t(kMaxProbesPerSector));
+    const size_t ground = size_t(std::count_if(p.probes.begin(), p.probes.end(), open_ground));
+    if (near_first) {
+      EXPECT_EQ(ground, ground_alone) << "the open ground keeps its lattice";
+      EXPECT_GT(std::count_if(p.probes.begin(), p.probes.end(), [](const PlacedProbe& q) { return (q.flags & kProbeCovered) != 0; }), 100);
+    } else {
+      EXPECT_LT(ground, ground_alone) << "thinning all alike takes the open ground's probes too";
+    }
+  }
+}
+
 // A closed mesh with a double-sided material has no detectable inside: seen from within, its
 // underside is a surface too. The talk's rule then made the slab's inside a covered candidate,
 // which outranks the floor's top, and every probe of tests/assets/probe_room_bevy (a 0.9 m

@@ -538,6 +538,8 @@ TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
                                  // sky line); "any": the bytes of every build before 2026-12-06's
                                  // second session (the same bytes without the fine level, whose
                                  // covered probes it tells apart)
+    const char* sweeps = "0";    // "0": bounces - 1 sweeps, the bytes of every build before
+                                 // 2026-12-07's second session; "": the presets' 4
   };
   const Bake bakes[] = {
       {"worlds/island.json", "2", "fc3", "0", "nearest", "", "off", "probes", "0", "4096", "any"},
@@ -557,6 +559,8 @@ TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
       {"worlds/island_lit.json", "2", "sh-l1", "", "", "", "", "", "", "4096", "any"},     // the same with LPRT
       {"worlds/island.json", "2", "sh-l1", "", "", "", "", "", "", "", ""},      // the default bake from 2026-12-06 (second session): cells on their side of the sky line, maps of 1,024 rays
       {"worlds/island_lit.json", "2", "sh-l1", "", "", "", "", "", "", "", ""},  // the same with LPRT
+      {"worlds/island.json", "2", "sh-l1", "", "", "", "", "", "", "", "", ""},      // the default bake from 2026-12-07 (second session): 4 sweeps
+      {"worlds/island_lit.json", "2", "sh-l1", "", "", "", "", "", "", "", "", ""},  // the same with LPRT (whose sweeps stay bounces - 1)
   };
   constexpr size_t kBakes = sizeof bakes / sizeof bakes[0];
   struct Family {
@@ -575,13 +579,18 @@ TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
       // 12-15 the bytes before it, with --grid-sides any --visibility-rays 4096). Bakes 11-16, the
       // ones with the fine level, recorded again on 2026-12-07: a covered candidate is no longer
       // lifted through the ceiling over it (PlacementSettings::covered_stays_under; bakes 0-10,
-      // without the fine level, are the bytes they were). The Xeon's print themselves to be
-      // recorded.
+      // without the fine level, are the bytes they were), and again later that day: a covered
+      // probe keeps others away only where they see each other (PlacementSettings::covered_sight)
+      // and its visibility map ends at the covered air's openings (BakeSettings::
+      // visibility_openings), and a sector over the cap thins its probes under roofs first
+      // (thin_near_first; the island's sectors are under it: the settings' description alone);
+      // bakes 17-18 are the day's new default, 4 sweeps (bakes 0-16 pass --sweeps 0, the bytes
+      // before). The Xeon's print themselves to be recorded.
       {"AMD EPYC", 0xb719567d9ef9735full, "AuthenticAMD",
        {0xb5dc41527c49bc30ull, 0xb5dc41527c49bc30ull, 0x83e674d1c0876195ull, 0xce768512b03790c7ull, 0x602302430699b4b5ull,
-        0x403bda8d7b11fe7dull, 0xeace7813206ac06aull, 0x223f3054c17af0b1ull, 0x030e6917899684ebull, 0x889378c2a953a185ull, 0x8c6679ee6ce99884ull, 0x265464349665531eull,
-        0x4db23bd1deeb5c89ull, 0x2e5f76d9c034b8a5ull, 0xb6a3b3b9d6c80a44ull,
-        0x8badeba59d0bd723ull, 0x3e44b3ea86d8dcaeull}},
+        0x403bda8d7b11fe7dull, 0xeace7813206ac06aull, 0x223f3054c17af0b1ull, 0x030e6917899684ebull, 0x889378c2a953a185ull, 0x8c6679ee6ce99884ull, 0x3dcd45ff1ca4193full,
+        0xbf9af09d2af8e446ull, 0xd3248a63f44a6850ull, 0xb54d654a773bfaecull,
+        0xeeaaa6554f66cdf6ull, 0xd76548ee98720e7dull, 0xdc47f6fd1e5b721bull, 0x2cca82f06af37933ull}},
       // Intel Xeon, every CI host until 2026-12-01 (matched by vendor; the Xeon of 2026-12-02 had
       // the fingerprint 0xec281bdebf45ee62). The sh-l1 bakes changed on 2026-12-02 (the direct
       // sky's receiver-weighted fit) and were recorded again on a Xeon the same day. The last two
@@ -589,7 +598,7 @@ TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
       // 2026-12-03; the EPYC's print themselves to be recorded.
       {"Intel Xeon", 0x0ull, "GenuineIntel",
        {0x797f2f8433a8ec21ull, 0x797f2f8433a8ec21ull, 0x906bc4b8292ce446ull, 0x725fcbb5a43280beull, 0x6cf058d923e27201ull,
-        0x75257267d87249e8ull, 0xdd36c7ae5d8cc7e2ull, 0xca6dafdfbcf78d79ull, 0xf28d04abe1b833b1ull, 0x555b92ed9354f97aull, 0x0cccae2414c4ee7cull, 0x0ull, 0x0ull, 0x0ull, 0x0ull, 0x0ull, 0x0ull}},
+        0x75257267d87249e8ull, 0xdd36c7ae5d8cc7e2ull, 0xca6dafdfbcf78d79ull, 0xf28d04abe1b833b1ull, 0x555b92ed9354f97aull, 0x0cccae2414c4ee7cull, 0x0ull, 0x0ull, 0x0ull, 0x0ull, 0x0ull, 0x0ull, 0x0ull, 0x0ull}},
   };
   const uint64_t fingerprint = reciprocalFingerprint();
   const std::string vendor = cpuVendor();
@@ -609,7 +618,8 @@ TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
                                (*g.sources ? std::string(" --light-sources ") + g.sources : "") +
                                (*g.enclosed ? std::string(" --enclosed-spacing ") + g.enclosed : "") +
                                (*g.vis ? std::string(" --visibility-rays ") + g.vis : "") +
-                               (*g.sides ? std::string(" --grid-sides ") + g.sides : ""),
+                               (*g.sides ? std::string(" --grid-sides ") + g.sides : "") +
+                               (*g.sweeps ? std::string(" --sweeps ") + g.sweeps : ""),
                            "DRTV_EMBREE_CONFIG=isa=sse2");
     EXPECT_EQ(r.status, 0) << r.out;
     const std::string bytes = slurp(out);
@@ -628,7 +638,7 @@ TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
     record += std::string(i ? ", " : "") + hex;
     const std::string what = std::string(g.world) + " --threads " + g.threads + " --representation " + g.representation +
                              " --clearance '" + g.clearance + "' --inside-cells '" + g.inside + "' --cache-cells '" + g.cells + "' --fine '" + g.fine +
-                             "' --light-sources '" + g.sources + "' --enclosed-spacing '" + g.enclosed + "' --visibility-rays '" + g.vis + "' --grid-sides '" + g.sides + "' baked " +
+                             "' --light-sources '" + g.sources + "' --enclosed-spacing '" + g.enclosed + "' --visibility-rays '" + g.vis + "' --grid-sides '" + g.sides + "' --sweeps '" + g.sweeps + "' baked " +
                              std::to_string(size) + " bytes hashing " + hex + " on " + vendor + " (fingerprint " + fp + ")";
     if (family && family->xxh3[i]) {
       EXPECT_EQ(hash, family->xxh3[i]) << what << ", the " << family->name << "'s golden";

@@ -467,3 +467,57 @@ TEST(FineLevel, NeverTakesALampsLightThroughAWall) {
 
 }  // namespace
 }  // namespace drtv::testing
+
+namespace drtv::testing {
+namespace {
+
+// A closed room with a window onto the open ground (issue 35). Its probes see the ground outside
+// through the window; that ground is in the open, lit by the whole sky, and the room's probes hold
+// the room's dimmer light. With the visibility maps ended at the covered air's openings
+// (BakeSettings::visibility_openings) the fine level leaves the ground outside to the far field and
+// still reads the room's floor by the window; without, it blends the room's light onto the ground.
+TEST(FineLevel, ARoomsProbesStopAtItsWindow) {
+  worlds::World w = baker::test::planeWorld(64.0, {0.4f, 0.4f, 0.4f});
+  w.name = "room with a window";
+  const glm::vec3 a(0.7f, 0.7f, 0.7f);
+  const auto k = worlds::InstanceClass::kStatic;
+  const float x0 = 24.f, x1 = 34.f, y0 = 28.f, y1 = 36.f, h = 3.f, t = 0.3f;
+  add(w, box({x0, y0, 0}, {x0 + t, y1, h}, a, "west wall"), k);
+  add(w, box({x1 - t, y0, 0}, {x1, y1, h}, a, "east wall"), k);
+  add(w, box({x0 + t, y1 - t, 0}, {x1 - t, y1, h}, a, "north wall"), k);
+  // The south wall, a window 4 m wide from 0.4 to 2.5 m.
+  add(w, box({x0 + t, y0, 0}, {27.f, y0 + t, h}, a, "south wall west"), k);
+  add(w, box({31.f, y0, 0}, {x1 - t, y0 + t, h}, a, "south wall east"), k);
+  add(w, box({27.f, y0, 0}, {31.f, y0 + t, 0.4f}, a, "sill"), k);
+  add(w, box({27.f, y0, 2.5f}, {31.f, y0 + t, h}, a, "lintel"), k);
+  add(w, box({x0, y0, h}, {x1, y1, h + t}, a, "roof"), k);
+  const glm::vec3 up(0, 0, 1);
+  const glm::dvec3 outside(29.0, 27.0, 0.02), by_window(29.0, 29.0, 0.02);
+  float outside_weight[2] = {0, 0};
+  for (const bool openings : {true, false}) {
+    baker::BakeSettings settings = baker::BakeSettings::forQuality(baker::Quality::kDraft, 1);
+    settings.visibility_openings = openings;
+    auto made = baker::bakeInMemory(w, w.name, settings);
+    ASSERT_TRUE(made.has_value()) << made.error().message;
+    const BakedWorld baked{std::move(made->sectors), std::move(made->manifest)};
+    auto rt = relit(baked, 12.0, {29, 29, 2});
+    const runtime::FineOptions fine = rt->options().fine;
+    // A covered probe sees the ground outside through the window, within the fine level's reach.
+    bool seen_through_window = false;
+    for (int sl = 0; sl < rt->cache().maxSectors(); ++sl)
+      if (rt->cache().slotUsed(sl))
+        for (int i = 0; i < rt->cache().slot(sl).probe_count; ++i) {
+          const glm::dvec3 q = rt->cache().worldPosition({sl, i});
+          const glm::dvec3 at = outside + glm::dvec3(up) * double(fine.normal_bias_m);
+          seen_through_window |= (rt->cache().flags({sl, i}) & kProbeCovered) && glm::length(q - at) < 0.9 * fine.radius_m && q.y > y0 + t;
+        }
+    EXPECT_TRUE(seen_through_window) << "a room's probe within reach of the ground outside";
+    outside_weight[openings ? 0 : 1] = rt->cache().fineLookup(outside, up, fine).weight;
+    EXPECT_GT(rt->cache().fineLookup(by_window, up, fine).weight, 0.5f) << "the room's floor by the window is the fine level's";
+  }
+  EXPECT_EQ(outside_weight[0], 0.f) << "with openings, the ground outside is the far field's";
+  EXPECT_GT(outside_weight[1], 0.f) << "the fault: without them, the room's probes light the ground outside";
+}
+
+}  // namespace
+}  // namespace drtv::testing

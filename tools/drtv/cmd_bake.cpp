@@ -37,6 +37,7 @@ struct BakeCliOptions {
   std::string fine;
   std::string light_sources;
   std::optional<double> enclosed_spacing_m;
+  std::optional<int> sweeps;
 };
 
 void drawProgress(size_t done, size_t total) {
@@ -69,6 +70,7 @@ Result<void> runBake(const BakeCliOptions& o) {
   if (!o.fine.empty()) options.covered_visibility = o.fine == "on";
   if (!o.light_sources.empty()) options.light_sources = o.light_sources == "at-lights";
   options.enclosed_spacing_m = o.enclosed_spacing_m;
+  options.sweeps = o.sweeps;
   options.fresh = o.fresh;
   options.keep_sector_files = o.keep_sectors;
   options.merge_only = o.merge;
@@ -196,6 +198,10 @@ Command registerBake(CLI::App& app) {
                   "share it, as they do lights in the open and moving lights; the bytes of the builds before "
                   "2026-12-06)")
       ->check(CLI::IsMember({"at-lights", "probes"}));
+  sub->add_option("--sweeps", o->sweeps,
+                  "Jacobi sweeps of the sun's and sky's bounces over the surface cache (default 4): more carry further "
+                  "bounces around closed rooms with no more rays; 0 = bounces - 1 (the bytes of the builds before 2026-12-07)")
+      ->check(CLI::Range(0, 256));
   sub->add_option("--enclosed-spacing", o->enclosed_spacing_m,
                   "Probe spacing in enclosed spaces under roofs (rooms, storeys), metres: columns this far apart and "
                   "probes no nearer each other, for the fine level to blend (default 2); 0 = the spacing under any roof "

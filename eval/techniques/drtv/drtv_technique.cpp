@@ -19,6 +19,15 @@
 //   grid_sides         same | any                   index cells name probes on their own side
 //                                                   of the sky line (index_grid.h, issue 35;
 //                                                   default same)
+//   covered_sight      on | off                     a covered probe keeps others away only where
+//                                                   they see each other (placement.h, issue 35;
+//                                                   default on)
+//   openings           on | off                     covered probes' visibility maps end where a ray
+//                                                   leaves the covered air (visibility_bake.h,
+//                                                   issue 35; default on)
+//   thinning           near-first | even            a sector over the 255 cap thins its probes
+//                                                   under roofs first (placement.h, issue 35;
+//                                                   default near-first)
 //   own_sources        on | off                     LPRT sources where the baked lights stand
 //                                                   (BakeSettings::light_sources, issue 35;
 //                                                   default on)
@@ -84,6 +93,9 @@ struct BakeParams {
   bool cell_sides = true;  // cache cells split by walls (transfer.h TransferSettings::cell_sides)
   bool own_sources = true;  // LPRT sources where the baked lights stand (BakeSettings::light_sources)
   bool grid_same_side = true;  // index cells on their own side of the sky line (IndexGridSettings::same_side)
+  bool covered_sight = true;   // probes apart only where they see each other (PlacementSettings::covered_sight)
+  bool thin_near_first = true;  // over the cap, the probes under roofs thin first (PlacementSettings::thin_near_first)
+  bool openings = true;        // visibility maps end at the covered air's openings (BakeSettings::visibility_openings)
   std::optional<int> visibility_rays;  // BakeSettings::visibility_rays
   bool operator==(const BakeParams&) const = default;
 };
@@ -133,7 +145,10 @@ Params readDrtv(ParamReader& r) {
       .oneOf("rooms", out.bake.rooms, {{"auto", true}, {"off", false}})
       .oneOf("cache_cells", out.bake.cell_sides, {{"sides", true}, {"shared", false}})
       .oneOf("own_sources", out.bake.own_sources, {{"on", true}, {"off", false}})
-      .oneOf("grid_sides", out.bake.grid_same_side, {{"same", true}, {"any", false}});
+      .oneOf("grid_sides", out.bake.grid_same_side, {{"same", true}, {"any", false}})
+      .oneOf("covered_sight", out.bake.covered_sight, {{"on", true}, {"off", false}})
+      .oneOf("openings", out.bake.openings, {{"on", true}, {"off", false}})
+      .oneOf("thinning", out.bake.thin_near_first, {{"near-first", true}, {"even", false}});
   if (const std::string* v = r.text("representation")) {
     if (auto rep = parseRepresentation(*v)) out.bake.representation = *rep;
     else r.reject("representation=" + *v + ": expected one of " + representationNames());
@@ -180,6 +195,9 @@ baker::BakeSettings bakeSettings(const BakeParams& p, uint64_t seed) {
   s.transfer.cell_sides = p.cell_sides;
   s.light_sources = p.own_sources;
   s.grid.same_side = p.grid_same_side;
+  s.placement.covered_sight = p.covered_sight;
+  s.visibility_openings = p.openings;
+  s.placement.thin_near_first = p.thin_near_first;
   if (p.visibility_rays) s.visibility_rays = *p.visibility_rays;
   return s;
 }
@@ -386,7 +404,7 @@ std::vector<KnobRow> DrtvTechnique::knobs(const KnobContext& c) {
   }
   // Jacobi sweeps over the surface cache (transfer.h): further bounces around its closed links.
   const int default_sweeps = baker::sweepCount(base.transfer);
-  for (int sweeps : {default_sweeps, 4, 16, 64}) {
+  for (int sweeps : {default_sweeps, 1, 4, 16, 64}) {
     const bool def = sweeps == default_sweeps;
     if (def && rows.back().knob == "sweeps") continue;  // the default is also one of the others: once
     rows.push_back({"sweeps", std::to_string(sweeps), def, "drtv",
@@ -417,6 +435,29 @@ std::vector<KnobRow> DrtvTechnique::knobs(const KnobContext& c) {
                   std::string(base.grid.same_side ? "the default bake: " : "") + "cells name probes on their side of the sky line"});
   rows.push_back({"grid_sides", "any", !base.grid.same_side, "drtv", !base.grid.same_side ? TechniqueParams{} : TechniqueParams{{"grid_sides", "any"}},
                   "cells name the nearest visible probe, indoors or out"});
+  // The least distance only between probes that see each other where one is covered (placement.h).
+  rows.push_back({"covered_sight", "on", base.placement.covered_sight, "drtv",
+                  base.placement.covered_sight ? TechniqueParams{} : TechniqueParams{{"covered_sight", "on"}},
+                  std::string(base.placement.covered_sight ? "the default bake: " : "") +
+                      "a covered probe keeps others away only where they see each other"});
+  rows.push_back({"covered_sight", "off", !base.placement.covered_sight, "drtv",
+                  !base.placement.covered_sight ? TechniqueParams{} : TechniqueParams{{"covered_sight", "off"}},
+                  "the least distance through walls and ceilings (the builds before 2026-12-07)"});
+  // The visibility maps end at the covered air's openings (visibility_bake.h), against whole rays.
+  rows.push_back({"openings", "on", base.visibility_openings, "drtv", base.visibility_openings ? TechniqueParams{} : TechniqueParams{{"openings", "on"}},
+                  std::string(base.visibility_openings ? "the default bake: " : "") +
+                      "a covered probe's visibility ends where its rays leave the covered air"});
+  rows.push_back({"openings", "off", !base.visibility_openings, "drtv",
+                  !base.visibility_openings ? TechniqueParams{} : TechniqueParams{{"openings", "off"}},
+                  "covered probes see through windows and doors (the builds before 2026-12-07)"});
+  // Over the cap, the probes under roofs thinned first (placement.h), against all alike.
+  rows.push_back({"thinning", "near-first", base.placement.thin_near_first, "drtv",
+                  base.placement.thin_near_first ? TechniqueParams{} : TechniqueParams{{"thinning", "near-first"}},
+                  std::string(base.placement.thin_near_first ? "the default bake: " : "") +
+                      "a sector over the 255 cap thins its probes under roofs first"});
+  rows.push_back({"thinning", "even", !base.placement.thin_near_first, "drtv",
+                  !base.placement.thin_near_first ? TechniqueParams{} : TechniqueParams{{"thinning", "even"}},
+                  "all probes thinned alike (the builds before 2026-12-07)"});
   // The fine level near surfaces (issue 35), against the volume and the interiors alone.
   rows.push_back({"fine", "on", true, "drtv", {}, "the default: covered probes that see the point, near surfaces"});
   rows.push_back({"fine", "off", false, "drtv", {{"fine", "off"}}, "the volume and the interiors alone"});

@@ -75,6 +75,10 @@ struct BakeSettings {
   // Rays a covered probe's visibility map is filtered from (visibility_bake.h): 1,024; the builds
   // before 2026-12-06's second session cast 4,096 (`drtv bake --visibility-rays 4096`).
   int visibility_rays = 1024;
+  // The visibility maps end where a ray leaves the covered air (visibility_bake.h, openings): a
+  // covered probe is not blended into the street or the yard it sees through a window. false:
+  // the maps of the builds before 2026-12-07.
+  bool visibility_openings = true;
   // With LPRT: a source probe where each still light under static geometry stands (placement.h,
   // step 7), which the runtime gives that light whole (issue 35). false bakes the archives of the
   // builds before it.
@@ -148,6 +152,9 @@ struct BakeOptions {
   // PlacementSettings::enclosed_column_spacing_m and enclosed_min_horizontal_m both; 0 = the
   // covered values (the placement before 2026-12-06); unset = the preset's (2 m).
   std::optional<double> enclosed_spacing_m;
+  // TransferSettings::sweeps; 0 = bounces - 1 (the bytes of the builds before 2026-12-07); unset =
+  // the preset's (kPresetSweeps).
+  std::optional<int> sweeps;
   // Called after each sector with (done, total), from one thread at a time. May be empty.
   std::function<void(size_t, size_t)> progress;
 };

@@ -35,11 +35,15 @@
 //     static hits, vegetation; ties in column order — and a candidate is rejected when an accepted
 //     probe lies within `min_horizontal_m` (a covered one: `covered_min_horizontal_m`; an
 //     enclosed one: `enclosed_min_horizontal_m`) horizontally AND `min_vertical_m` vertically
-//     (a cylinder: floors stacked 3 m apart keep their own probes).
+//     (a cylinder: floors stacked 3 m apart keep their own probes). Where one of the two is
+//     covered, only if no static surface stands between them (`covered_sight`): a roof and the
+//     room under it, or two rooms either side of a wall, keep a probe each.
 //  6. Cap: a sector holds at most 255 probes (one-byte index [1, slide 17]), less the light
-//     sources of step 7. If step 5 accepts more, it is repeated with min_horizontal_m x 1.25
-//     until few enough remain (thinning evenly rather than dropping a region); designated
-//     interior probes are always kept.
+//     sources of step 7. If step 5 accepts more, it is repeated with the least distances x 1.25
+//     until few enough remain (thinning evenly rather than dropping a region): the enclosed and
+//     covered ones first, up to the open one (`thin_near_first`), then all three; designated
+//     interior probes are always kept. Probes that do not see each other are kept apart past
+//     their step-5 distance (`covered_sight` waives only that), so a block of rooms thins too.
 //  7. Light sources (LPRT bakes only, issue 35): a probe at the position of each given light
 //     under static geometry (a ray straight up from it meets a static surface: indoors, under a
 //     roof or an overhang), as given (no relocation: a lamp hangs against its fitting), flagged
@@ -123,6 +127,19 @@ struct PlacementSettings {
   // covered_visibility), whose covered flags it clears: those bakes' bytes are the builds' before
   // 2026-12-07.
   bool covered_stays_under = true;
+  // Step 5: a covered candidate and an accepted probe (either covered) reject each other only if
+  // they see each other: no static surface on the segment between them. A roof's open probe is no
+  // longer rejected by the room's probe 2.8 m under it, which left the roof of `living_room`
+  // (a building on a sector corner, each quarter of it in its own sector) with no probe of its
+  // side and its roof read 89 % too dark (2026-12-07). Off without the fine level, as
+  // covered_stays_under.
+  bool covered_sight = true;
+  // Step 6: a sector over the cap thins its denser probes under roofs first (the covered and the
+  // enclosed distances grow towards the open one), and the open lattice, the far field's, only
+  // once they reach it. Thinning all alike left the roofs of the 1 km town's centre without an
+  // open probe: the cells over them named a storey's probe 18 m away (2026-12-07). false: all
+  // alike, the rule before.
+  bool thin_near_first = true;
   int inside_test_rays = 32;          // rays of the inside test
   double inside_test_range_m = 16.0;  // their length (bounds the geometry placement depends on)
   uint64_t seed = 1;                  // keys the inside-test directions

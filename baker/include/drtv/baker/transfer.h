@@ -123,8 +123,12 @@ struct TransferSettings {
   // Jacobi sweeps over the cache's links (0: bounces - 1, each level's bounce once). More sweeps
   // than levels carry further bounces around the links that close on cells already cached (a
   // room's walls light each other), with no more rays; bounded by it, since the energy of a
-  // closed room of albedo 1 never converges.
+  // closed room of albedo 1 never converges. The presets sweep kPresetSweeps times (2026-12-07).
   int sweeps = 0;
+  // The same for LPRT's local light (0: bounces - 1). Apart from `sweeps` since 2026-12-07: each of
+  // its sweeps carries every source's light (up to 128 a sector), and 4 of them made the lit 150 m
+  // town's bake 1.5x as long, where the sun and sky's cost nothing measurable.
+  int lprt_sweeps = 0;
   // A cache cell splits where a wall separates the hits that land in it (above; sh-l1 only: fc3
   // keeps the talk's bytes). false: one surfel per cube and normal direction, the archives of
   // every build before 2026-12-03 byte for byte (`drtv bake --cache-cells shared`).
@@ -138,6 +142,13 @@ struct TransferSettings {
 
 // The Jacobi sweeps a bake with `s` runs (TransferSettings::sweeps).
 inline int sweepCount(const TransferSettings& s) { return s.sweeps > 0 ? s.sweeps : s.bounces - 1; }
+// LPRT's (TransferSettings::lprt_sweeps).
+inline int lprtSweepCount(const TransferSettings& s) { return s.lprt_sweeps > 0 ? s.lprt_sweeps : s.bounces - 1; }
+// The presets' sweeps (BakeSettings::forQuality): measured 2026-12-07 on the shared assets, the
+// same points each (drtv accuracy --stratify, 1 -> 4 sweeps): pandora 49.0 -> 37.5 %, zdm2 18.9 ->
+// 17.0 %, the 150 m town 8.9 -> 8.6 %, the Cornell world 17.0 -> 16.7 %; the island 9.0 -> 9.3 %,
+// living_room 24.6 -> 24.8 %. 16 converge (pandora 36.7 %) for no further gain elsewhere.
+inline constexpr int kPresetSweeps = 4;
 
 
 // The linear sun lobe per unit irradiance from unit direction `d`: 2 [0, Y1(d)] (lighting_sh.h's

@@ -12,7 +12,9 @@
 // upper hemisphere is the inner diamond). Texel t holds the mean and the standard deviation of the
 // distance, from the probe, of the first static surface along the directions about its centre
 // direction c_t, weighted by max(0, dot(c_t, d))^kVisSharpness [1]; a ray that meets nothing within
-// kVisRangeM counts as kVisRangeM. Two bytes: the mean as 255 sqrt(mean / kVisRangeM) (steps of
+// kVisRangeM counts as kVisRangeM. A bake may end a ray earlier, where it leaves the covered air
+// through an opening (baker/visibility_bake.h, BakeSettings::visibility_openings): the runtime reads
+// any distance alike. Two bytes: the mean as 255 sqrt(mean / kVisRangeM) (steps of
 // 1.6 cm at 0.5 m, 6 cm at 8 m), the deviation as 255 sigma / kVisMaxSigmaM.
 // 8 x 8 texels (30 degrees each) were measured first: read bilinearly, a direction between a texel
 // on a ceiling 1.6 m away and one on a wall 3.5 m away read 2.5 m, and a lamp's light reached a

@@ -106,6 +106,18 @@ TEST(Cli, InfoDescribesAnArchive) {
   ASSERT_EQ(r.status, 0) << r.out;
   EXPECT_NE(r.out.find("sectors: 1 of 64 m (1 with LPRT)"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("probes: 2"), std::string::npos) << r.out;
+  // --probes lists them, one a line (and as JSON), read and checked as the runtime reads them.
+  const Outcome p = drtv("info " + src("tests/formats/data/golden_v1.drtv") + " --probes");
+  ASSERT_EQ(p.status, 0) << p.out;
+  EXPECT_EQ(std::count(p.out.begin(), p.out.end(), '\n'), 3) << "a header and two probes: " << p.out;
+  const Outcome j = drtv("info " + src("tests/formats/data/golden_v1.drtv") + " --probes --json");
+  ASSERT_EQ(j.status, 0) << j.out;
+  size_t n = 0;
+  for (size_t at = j.out.find("\"index\""); at != std::string::npos; at = j.out.find("\"index\"", at + 1)) ++n;
+  EXPECT_EQ(n, 2u) << j.out;
+  const Outcome world = drtv("info " + src("worlds/fc3_testbox.json") + " --probes");
+  EXPECT_EQ(world.status, 1);
+  EXPECT_NE(world.out.find("--probes lists an archive's probes"), std::string::npos) << world.out;
 }
 
 TEST(Cli, ACorruptArchiveIsAnErrorNamingTheFileAndOffset) {
@@ -703,6 +715,11 @@ TEST(Cli, FlyAndRenderTakeATechniqueByName) {
                               scratch("r.png"));
   EXPECT_EQ(render.status, 0) << render.out;
   EXPECT_EQ(drtv("fly " + archive + " --frames 2 --params fill=smooth -o " + scratch("fly")).status, 1) << "--params alone";
+  // A bake's parameter on a baked archive is refused, not ignored.
+  const Outcome baked = drtv("render " + archive + " --world " + src("worlds/fc3_testbox.json") +
+                             " --size 16x16 --technique drtv --params sweeps=1 -o " + scratch("r.png"));
+  EXPECT_EQ(baked.status, 1) << baked.out;
+  EXPECT_NE(baked.out.find("this archive is baked already"), std::string::npos) << baked.out;
 }
 
 // What the loader did with each class of glTF material is said by drtv info and the bake report

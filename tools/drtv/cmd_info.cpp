@@ -1,4 +1,4 @@
-// drtv info <world.json | file.gltf | file.glb | archive | http(s)://.../archive> [--json]
+// drtv info <world.json | file.gltf | file.glb | archive | http(s)://.../archive> [--json] [--probes]
 #include <algorithm>
 #include <cctype>
 #include <cstdio>
@@ -19,13 +19,49 @@ namespace {
 struct InfoOptions {
   std::string path;
   bool json = false;
+  bool probes = false;  // an archive's probes, one each
 };
 
 nlohmann::json vec3Json(const glm::dvec3& v) { return {v.x, v.y, v.z}; }
 
+// The names of a probe's flags (probe.h), comma-separated; "-" for none.
+std::string flagNames(uint16_t f) {
+  static constexpr std::pair<uint16_t, const char*> kNames[] = {
+      {kProbeRelocated, "relocated"}, {kProbeVegetation, "vegetation"}, {kProbeInterior, "interior"},
+      {kProbeManual, "manual"},       {kProbeCovered, "covered"},       {kProbeLightSource, "light-source"}};
+  std::string out;
+  for (const auto& [bit, name] : kNames)
+    if (f & bit) out += (out.empty() ? "" : ",") + std::string(name);
+  return out.empty() ? "-" : out;
+}
+
+// Every probe of every sector: sector, index, world position, flags (drtv info --probes). The
+// sectors are read and checked as the runtime reads them.
+Result<void> archiveProbes(const InfoOptions& o, const OpenedArchive& a) {
+  nlohmann::json list = nlohmann::json::array();
+  if (!o.json) std::printf("%-12s %5s %10s %10s %8s  %s\n", "sector", "probe", "x", "y", "z", "flags");
+  for (const SectorEntry& e : a.manifest.sectors) {
+    auto sector = readSector(a, e.key);
+    if (!sector) return std::unexpected(sector.error());
+    const double ox = double(e.key.ix) * kSectorSizeM, oy = double(e.key.iy) * kSectorSizeM;
+    for (size_t i = 0; i < sector->probes.size(); ++i) {
+      const ProbeRecord& p = sector->probes[i];
+      const glm::dvec3 w(ox + p.position[0], oy + p.position[1], p.position[2]);
+      if (o.json)
+        list.push_back({{"sector", {e.key.ix, e.key.iy}}, {"index", i}, {"position", vec3Json(w)}, {"flags", flagNames(p.flags)}});
+      else
+        std::printf("%-12s %5zu %10.2f %10.2f %8.2f  %s\n", toString(e.key).c_str(), i, w.x, w.y, w.z, flagNames(p.flags).c_str());
+    }
+  }
+  if (o.json) std::puts(list.dump(2).c_str());
+  return {};
+}
+
+
 Result<void> archiveInfo(const InfoOptions& o) {
   auto archive = openArchive(o.path);
   if (!archive) return std::unexpected(archive.error());
+  if (o.probes) return archiveProbes(o, *archive);
   const Manifest& m = archive->manifest;
   size_t probes = 0, min_probes = SIZE_MAX, max_probes = 0, raw = 0, compressed = 0, lprt_sectors = 0;
   size_t covered = 0, covered_sectors = 0;
@@ -139,6 +175,7 @@ Command registerInfo(CLI::App& app) {
   CLI::App* sub = app.add_subcommand("info", "Describe a world (.json, .gltf, .glb) or a baked archive");
   sub->add_option("path", o->path, "World file, archive, or an archive's http(s):// URL")->required();
   sub->add_flag("--json", o->json, "Print JSON instead of text");
+  sub->add_flag("--probes", o->probes, "An archive's probes, one a line: sector, index, world position, flags");
   return {sub, [o]() -> Result<void> {
             if (isArchiveUrl(o->path)) return archiveInfo(*o);  // a URL names an archive (docs/streamer.md)
             if (!std::filesystem::exists(o->path)) return fail(o->path + ": no such file");
@@ -149,6 +186,7 @@ Command registerInfo(CLI::App& app) {
             std::string ext = std::filesystem::path(o->path).extension().string();
             std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
             if (ext == ".drtv") return std::unexpected(version.error());
+            if (o->probes) return fail(o->path + ": --probes lists an archive's probes; this is a world file");
             return worldInfo(*o);
           }, &o->path};
 }

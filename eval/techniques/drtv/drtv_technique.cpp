@@ -251,6 +251,13 @@ class DrtvTechnique final : public Technique {
   }
 
   Result<void> onPrepareBaked(const Manifest& manifest, std::span<const Sector> sectors) override {
+    // An archive's bake is done: its parameters were the bake's (drtv bake), and taking them here
+    // would show the archive's light under another bake's name.
+    if (!(params_.bake == BakeParams{}))
+      return fail("a bake parameter was given (quality, rays_per_basis, bounces, sweeps, covered_spacing, covered_min_h, "
+                  "enclosed_spacing, rooms, cache_cells, own_sources, grid_sides, covered_sight, openings, thinning, "
+                  "visibility_rays, representation), but this archive is baked already: bake it again with the setting "
+                  "(drtv bake), or measure it with drtv accuracy, which bakes each row");
     adopt(manifest, std::vector<Sector>(sectors.begin(), sectors.end()), 0.0);
     return {};
   }

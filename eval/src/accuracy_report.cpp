@@ -253,7 +253,7 @@ Result<void> writeAccuracyReport(const AccuracyReport& r, const fs::path& dir) {
     // So do the rooms' interiors (rooms.h) and the cache's sweeps and cells (transfer.h), indoors.
     const bool placement = row.knob == "placement_under_roofs" && !row.is_default;
     const bool rooms = (row.knob == "rooms" || row.knob == "sweeps" || row.knob == "cache_cells" || row.knob.rfind("fine", 0) == 0 ||
-                        row.knob == "placement_enclosed" || row.knob == "grid_sides" || row.knob == "covered_sight" || row.knob == "openings" || row.knob == "thinning" ||
+                        row.knob == "placement_enclosed" || row.knob == "grid_sides" || row.knob == "covered_sight" || row.knob == "openings" || row.knob == "thinning" || row.knob == "before" ||
                         row.knob == "own_sources local_lights") &&
                        !row.is_default;
     if (!(row.knob == "technique" || placement || rooms || (row.knob == "rays_per_basis" && row.is_default))) continue;

@@ -465,6 +465,12 @@ std::vector<KnobRow> DrtvTechnique::knobs(const KnobContext& c) {
   rows.push_back({"thinning", "even", !base.placement.thin_near_first, "drtv",
                   !base.placement.thin_near_first ? TechniqueParams{} : TechniqueParams{{"thinning", "even"}},
                   "all probes thinned alike (the builds before 2026-12-07)"});
+  // The default bake of the builds before 2026-12-07's second session, on this run's points: the
+  // day's four rules off at once (the old binary would draw other points from its other probes).
+  if (base.placement.covered_sight && base.visibility_openings && base.placement.thin_near_first && base.transfer.sweeps != 0)
+    rows.push_back({"before", "2026-12-07", false, "drtv",
+                    TechniqueParams{{"covered_sight", "off"}, {"openings", "off"}, {"thinning", "even"}, {"sweeps", "1"}},
+                    "covered_sight off, openings off, thinning even, 1 sweep: the default bake before 2026-12-07's second session"});
   // The fine level near surfaces (issue 35), against the volume and the interiors alone.
   rows.push_back({"fine", "on", true, "drtv", {}, "the default: covered probes that see the point, near surfaces"});
   rows.push_back({"fine", "off", false, "drtv", {{"fine", "off"}}, "the volume and the interiors alone"});

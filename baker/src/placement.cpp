@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <unordered_map>
 
 #include "drtv/raytrace/sampling.h"
 #include "drtv/formats/probe.h"
@@ -89,7 +90,7 @@ struct LeastDistances {
   double of(const Candidate& c) const { return c.priority != kCovered ? open : c.enclosed ? enclosed : covered; }
 };
 
-// Step 5 at the distances `now` (step 6 grows them from `base`). `hidden(a, b)`: whether static
+// Step 5 at the distances `now` (step 6 grows them from `base`). `hidden(c, a)`: whether static
 // geometry stands between two probes of which one is covered (PlacementSettings::covered_sight;
 // always false without it); such a pair rejects no one within the candidate's `base` distance,
 // so that thinning (distances past `base`) still thins a block of rooms one probe a room.
@@ -105,8 +106,7 @@ std::vector<Candidate> greedy(const std::vector<Candidate>& sorted, const LeastD
         const double dx = c.position.x - a.position.x, dy = c.position.y - a.position.y, dz = c.position.z - a.position.z;
         const double h2 = dx * dx + dy * dy;
         if (h2 < reject_h2 && std::abs(dz) < min_v &&
-            !(h2 < base_h2 && (c.priority == kCovered || a.priority == kCovered || a.priority == kDesignated) &&
-              hidden(c.position, a.position))) {
+            !(h2 < base_h2 && (c.priority == kCovered || a.priority == kCovered || a.priority == kDesignated) && hidden(c, a))) {
           ok = false;
           break;
         }
@@ -305,21 +305,26 @@ std::vector<PlacedProbe> placeProbes(const raytrace::RayScene& scene, const rayt
   const double covered_h0 = std::min(s.covered_min_horizontal_m, s.min_horizontal_m);
   const LeastDistances least{s.min_horizontal_m, covered_h0, std::min(s.enclosed_min_horizontal_m, covered_h0)};
   LeastDistances now = least;
-  auto hidden = [&](const glm::vec3& a, const glm::vec3& b) {
+  // One ray a pair, kept: step 6 runs step 5 again with the same pairs in reach.
+  std::unordered_map<uint64_t, bool> sight_between;
+  auto hidden = [&](const Candidate& a, const Candidate& b) {
     if (!s.covered_sight) return false;
-    const glm::vec3 d = b - a;
-    const float len = glm::length(d);
-    return len > 0.f && std::isfinite(detail::staticHitDistance(scene, geometry, a, d / len, len, kMaxHitsPerColumn, stats.rays));
+    const uint64_t key = (uint64_t(std::min(a.order, b.order)) << 32) | std::max(a.order, b.order);
+    const auto [it, fresh] = sight_between.try_emplace(key, false);
+    if (fresh) {
+      const glm::vec3 d = b.position - a.position;
+      const float len = glm::length(d);
+      it->second = len > 0.f && std::isfinite(detail::staticHitDistance(scene, geometry, a.position, d / len, len, kMaxHitsPerColumn, stats.rays));
+    }
+    return it->second;
   };
   std::vector<Candidate> accepted = greedy(kept, now, least, s.min_vertical_m, hidden);
   stats.rejected_distance += kept.size() - accepted.size();
   const size_t first_pass = accepted.size();
   const size_t cap = size_t(kMaxProbesPerSector) - lights.size();
   while (accepted.size() > cap && now.open < kSectorSizeM) {
-    if (s.thin_near_first && now.covered < now.open) {
+    if (s.thin_near_first && now.enclosed < now.open) {  // the denser two first, up to the open one
       now.covered = std::min(now.covered * 1.25, now.open);
-      now.enclosed = std::min(now.enclosed * 1.25, now.covered);
-    } else if (s.thin_near_first && now.enclosed < now.covered) {
       now.enclosed = std::min(now.enclosed * 1.25, now.covered);
     } else {
       now.open *= 1.25;

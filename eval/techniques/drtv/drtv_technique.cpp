@@ -393,6 +393,18 @@ std::string fmt(double v) {
 // DRTV's knobs, one at a time around the defaults (accuracy.h lists them), in the table's order. The
 // basis rows and the part probe-reference rows read DRTV's probes with path-traced values (the
 // probe-reference technique): what the probes and the index grid alone allow.
+// A bake setting's two rows: `on` (its parameter value `on_value`) and `off`, the default one first
+// marked "the default bake: " and baked with no parameter.
+static void twoWayRows(std::vector<KnobRow>& rows, const std::string& knob, const std::string& on_value, const std::string& off_value,
+                bool on_is_default, const std::string& on_note, const std::string& off_note) {
+  for (const bool on : {true, false}) {
+    const bool def = on == on_is_default;
+    const std::string& value = on ? on_value : off_value;
+    rows.push_back({knob, value, def, "drtv", def ? TechniqueParams{} : TechniqueParams{{knob, value}},
+                    std::string(def ? "the default bake: " : "") + (on ? on_note : off_note)});
+  }
+}
+
 std::vector<KnobRow> DrtvTechnique::knobs(const KnobContext& c) {
   const baker::BakeSettings& base = c.base;
   const uint32_t effects = c.effects;
@@ -438,33 +450,18 @@ std::vector<KnobRow> DrtvTechnique::knobs(const KnobContext& c) {
   if (base.visibility_rays != 4096)
     rows.push_back({"visibility_rays", "4096", false, "drtv", {{"visibility_rays", "4096"}}, "the builds before 2026-12-06's second session"});
   // Index cells on their own side of the sky line (index_grid.h, issue 35), against any side.
-  rows.push_back({"grid_sides", "same", base.grid.same_side, "drtv", base.grid.same_side ? TechniqueParams{} : TechniqueParams{{"grid_sides", "same"}},
-                  std::string(base.grid.same_side ? "the default bake: " : "") + "cells name probes on their side of the sky line"});
-  rows.push_back({"grid_sides", "any", !base.grid.same_side, "drtv", !base.grid.same_side ? TechniqueParams{} : TechniqueParams{{"grid_sides", "any"}},
-                  "cells name the nearest visible probe, indoors or out"});
+  twoWayRows(rows, "grid_sides", "same", "any", base.grid.same_side, "cells name probes on their side of the sky line",
+             "cells name the nearest visible probe, indoors or out");
   // The least distance only between probes that see each other where one is covered (placement.h).
-  rows.push_back({"covered_sight", "on", base.placement.covered_sight, "drtv",
-                  base.placement.covered_sight ? TechniqueParams{} : TechniqueParams{{"covered_sight", "on"}},
-                  std::string(base.placement.covered_sight ? "the default bake: " : "") +
-                      "a covered probe keeps others away only where they see each other"});
-  rows.push_back({"covered_sight", "off", !base.placement.covered_sight, "drtv",
-                  !base.placement.covered_sight ? TechniqueParams{} : TechniqueParams{{"covered_sight", "off"}},
-                  "the least distance through walls and ceilings (the builds before 2026-12-07)"});
+  twoWayRows(rows, "covered_sight", "on", "off", base.placement.covered_sight,
+             "a covered probe keeps others away only where they see each other",
+             "the least distance through walls and ceilings (the builds before 2026-12-07)");
   // The visibility maps end at the covered air's openings (visibility_bake.h), against whole rays.
-  rows.push_back({"openings", "on", base.visibility_openings, "drtv", base.visibility_openings ? TechniqueParams{} : TechniqueParams{{"openings", "on"}},
-                  std::string(base.visibility_openings ? "the default bake: " : "") +
-                      "a covered probe's visibility ends where its rays leave the covered air"});
-  rows.push_back({"openings", "off", !base.visibility_openings, "drtv",
-                  !base.visibility_openings ? TechniqueParams{} : TechniqueParams{{"openings", "off"}},
-                  "covered probes see through windows and doors (the builds before 2026-12-07)"});
+  twoWayRows(rows, "openings", "on", "off", base.visibility_openings, "a covered probe's visibility ends where its rays leave the covered air",
+             "covered probes see through windows and doors (the builds before 2026-12-07)");
   // Over the cap, the probes under roofs thinned first (placement.h), against all alike.
-  rows.push_back({"thinning", "near-first", base.placement.thin_near_first, "drtv",
-                  base.placement.thin_near_first ? TechniqueParams{} : TechniqueParams{{"thinning", "near-first"}},
-                  std::string(base.placement.thin_near_first ? "the default bake: " : "") +
-                      "a sector over the 255 cap thins its probes under roofs first"});
-  rows.push_back({"thinning", "even", !base.placement.thin_near_first, "drtv",
-                  !base.placement.thin_near_first ? TechniqueParams{} : TechniqueParams{{"thinning", "even"}},
-                  "all probes thinned alike (the builds before 2026-12-07)"});
+  twoWayRows(rows, "thinning", "near-first", "even", base.placement.thin_near_first,
+             "a sector over the 255 cap thins its probes under roofs first", "all probes thinned alike (the builds before 2026-12-07)");
   // The default bake of the builds before 2026-12-07's second session, on this run's points: the
   // day's four rules off at once (the old binary would draw other points from its other probes).
   if (base.placement.covered_sight && base.visibility_openings && base.placement.thin_near_first && base.transfer.sweeps != 0)

@@ -220,11 +220,7 @@ TEST(Placement, ARoofKeepsItsOwnProbeOverTheRoomUnderIt) {
   // the roof's middle.
   worlds::World w = test::planeWorld(200.0, glm::vec3(0.5f));
   const glm::vec3 grey(0.5f);
-  test::add(w, test::box({10, 10, 0}, {26, 10.3f, 2.5f}, grey, "south wall"), worlds::InstanceClass::kStatic);
-  test::add(w, test::box({10, 25.7f, 0}, {26, 26, 2.5f}, grey, "north wall"), worlds::InstanceClass::kStatic);
-  test::add(w, test::box({10, 10.3f, 0}, {10.3f, 25.7f, 2.5f}, grey, "west wall"), worlds::InstanceClass::kStatic);
-  test::add(w, test::box({25.7f, 10.3f, 0}, {26, 25.7f, 2.5f}, grey, "east wall"), worlds::InstanceClass::kStatic);
-  test::add(w, test::box({10, 10, 2.5f}, {26, 26, 2.7f}, grey, "roof"), worlds::InstanceClass::kStatic);
+  test::addWalledRoom(w, {10, 10}, {26, 26}, 2.5f, 0.3f, 0.2f, grey);
   const auto on_roof = [](const PlacedProbe& q) {
     return q.position.x > 10.5f && q.position.x < 25.5f && q.position.y > 10.5f && q.position.y < 25.5f && q.position.z > 2.7f;
   };

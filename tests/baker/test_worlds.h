@@ -60,6 +60,18 @@ inline void addHouse(worlds::World& w, glm::vec3 c) {
       worlds::InstanceClass::kStatic);
 }
 
+// A closed room on the ground: walls `t` thick from 0 to `h` inside the outer footprint [lo, hi]
+// (west and east the whole depth, south and north between them) and a roof `roof_t` thick on
+// them. Without `south` the south wall is the caller's (a window, a door).
+inline void addWalledRoom(worlds::World& w, glm::vec2 lo, glm::vec2 hi, float h, float t, float roof_t, glm::vec3 a, bool south = true) {
+  const auto k = worlds::InstanceClass::kStatic;
+  add(w, box({lo.x, lo.y, 0}, {lo.x + t, hi.y, h}, a, "west wall"), k);
+  add(w, box({hi.x - t, lo.y, 0}, {hi.x, hi.y, h}, a, "east wall"), k);
+  if (south) add(w, box({lo.x + t, lo.y, 0}, {hi.x - t, lo.y + t, h}, a, "south wall"), k);
+  add(w, box({lo.x + t, hi.y - t, 0}, {hi.x - t, hi.y, h}, a, "north wall"), k);
+  add(w, box({lo.x, lo.y, h}, {hi.x, hi.y, h + roof_t}, a, "roof"), k);
+}
+
 // The bake tests' world: 4 sectors of ground with a house, a rock, a tree and a dynamic sphere.
 inline worlds::World smallWorld() {
   worlds::World w = planeWorld(64.0, {0.3f, 0.45f, 0.2f});

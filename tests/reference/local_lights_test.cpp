@@ -409,13 +409,9 @@ worlds::World twoRoomsOneLamp() {
   w.name = "two rooms";
   const glm::vec3 a(0.7f, 0.7f, 0.7f);
   const auto k = worlds::InstanceClass::kStatic;
-  const float x0 = 24.f, x1 = 40.f, y0 = 28.f, y1 = 36.f, h = 3.f, t = 0.3f;
-  add(w, box({x0, y0, 0}, {x0 + t, y1, h}, a, "west wall"), k);
-  add(w, box({x1 - t, y0, 0}, {x1, y1, h}, a, "east wall"), k);
-  add(w, box({x0 + t, y0, 0}, {x1 - t, y0 + t, h}, a, "south wall"), k);
-  add(w, box({x0 + t, y1 - t, 0}, {x1 - t, y1, h}, a, "north wall"), k);
+  const float y0 = 28.f, y1 = 36.f, h = 3.f, t = 0.3f;
+  baker::test::addWalledRoom(w, {24.f, y0}, {40.f, y1}, h, t, t, a);
   add(w, box({31.9f, y0 + t, 0}, {32.1f, y1 - t, h}, a, "parting wall"), k);
-  add(w, box({x0, y0, h}, {x1, y1, h + t}, a, "roof"), k);
   w.lights.push_back({"lamp", {28.0, 32.0, 2.2}, glm::vec3(40.f), 12.f});
   w.effects |= kEffectLocalLights;
   return w;
@@ -482,15 +478,12 @@ TEST(FineLevel, ARoomsProbesStopAtItsWindow) {
   const glm::vec3 a(0.7f, 0.7f, 0.7f);
   const auto k = worlds::InstanceClass::kStatic;
   const float x0 = 24.f, x1 = 34.f, y0 = 28.f, y1 = 36.f, h = 3.f, t = 0.3f;
-  add(w, box({x0, y0, 0}, {x0 + t, y1, h}, a, "west wall"), k);
-  add(w, box({x1 - t, y0, 0}, {x1, y1, h}, a, "east wall"), k);
-  add(w, box({x0 + t, y1 - t, 0}, {x1 - t, y1, h}, a, "north wall"), k);
+  baker::test::addWalledRoom(w, {x0, y0}, {x1, y1}, h, t, t, a, /*south=*/false);
   // The south wall, a window 4 m wide from 0.4 to 2.5 m.
   add(w, box({x0 + t, y0, 0}, {27.f, y0 + t, h}, a, "south wall west"), k);
   add(w, box({31.f, y0, 0}, {x1 - t, y0 + t, h}, a, "south wall east"), k);
   add(w, box({27.f, y0, 0}, {31.f, y0 + t, 0.4f}, a, "sill"), k);
   add(w, box({27.f, y0, 2.5f}, {31.f, y0 + t, h}, a, "lintel"), k);
-  add(w, box({x0, y0, h}, {x1, y1, h + t}, a, "roof"), k);
   const glm::vec3 up(0, 0, 1);
   const glm::dvec3 outside(29.0, 27.0, 0.02), by_window(29.0, 29.0, 0.02);
   float outside_weight[2] = {0, 0};

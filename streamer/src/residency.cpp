@@ -92,31 +92,65 @@ double distanceToSegment(SectorKey key, const glm::dvec2& a, const glm::dvec2& b
   return d;
 }
 
+double footprintEntry(SectorKey key, const glm::dvec2& half, const glm::dvec2& a, const glm::dvec2& b) {
+  // The footprint about p overlaps the sector's open square iff p lies in the square grown by the
+  // footprint's half size (open): a slab test of the segment against that rectangle.
+  const Rect r = sectorRect(key);
+  const Rect g{r.min - half, r.max + half};
+  double t0 = 0.0, t1 = 1.0;
+  for (int axis = 0; axis < 2; ++axis) {
+    const double d = b[axis] - a[axis];
+    if (d == 0.0) {
+      if (!(a[axis] > g.min[axis] && a[axis] < g.max[axis])) return -1.0;
+      continue;
+    }
+    double ta = (g.min[axis] - a[axis]) / d, tb = (g.max[axis] - a[axis]) / d;
+    if (ta > tb) std::swap(ta, tb);
+    t0 = std::max(t0, ta);
+    t1 = std::min(t1, tb);
+  }
+  // Open rectangle: touching at one instant is no overlap. NaN (a camera holding anything) fails.
+  return t0 < t1 ? t0 : -1.0;
+}
+
 void rankSectors(const Manifest& manifest, const Camera& camera, const ResidencyOptions& o,
                  std::span<const SectorKey> held, std::vector<RankedSector>& out) {
   out.clear();
   const glm::dvec2 a{camera.position_m.x, camera.position_m.y};
   const glm::dvec2 v{camera.velocity_mps.x, camera.velocity_mps.y};
   const glm::dvec2 b = a + v * o.lookahead_s;
+  // The footprint swept from now to the end of the guard or the look-ahead, whichever is later:
+  // a sector's time of need is when the moving footprint first overlaps it.
+  const double sweep_s = std::max({o.guard_s, o.lookahead_s, 0.0});
+  const glm::dvec2 sweep_end = a + v * sweep_s;
   const Footprint now = volumeFootprint(camera.position_m, o);
-  const Footprint soon = volumeFootprint(camera.position_m + camera.velocity_mps * o.guard_s, o);
+  const glm::dvec2 half = 0.5 * (now.max - now.min);
+  const double speed = glm::length(v);
   const double r = o.candidate_radius_m;
-  const KeyBox box = clipToManifest(manifest, {floorKey(std::min(a.x, b.x) - r), floorKey(std::min(a.y, b.y) - r),
-                                               floorKey(std::max(a.x, b.x) + r), floorKey(std::max(a.y, b.y) + r)});
+  const double reach = std::max({r, half.x, half.y});  // tier 0 lies within the footprint's reach of the sweep
+  const KeyBox box = clipToManifest(manifest, {floorKey(std::min(a.x, sweep_end.x) - reach), floorKey(std::min(a.y, sweep_end.y) - reach),
+                                               floorKey(std::max(a.x, sweep_end.x) + reach), floorKey(std::max(a.y, sweep_end.y) + reach)});
   for (int32_t ix = box.x0; ix <= box.x1; ++ix)
     for (int32_t iy = box.y0; iy <= box.y1; ++iy) {
       const SectorKey key{ix, iy};
       const SectorEntry* e = manifest.find(key);
       if (!e) continue;
-      const int tier = overlaps(key, now) || overlaps(key, soon) ? 0 : 1;
+      const double entry = footprintEntry(key, half, a, sweep_end);
+      const double need_s = entry >= 0.0 ? entry * sweep_s : std::numeric_limits<double>::infinity();
+      const int tier = need_s <= o.guard_s ? 0 : 1;
       const double d = distanceToSegment(key, a, b);
       if (tier == 1 && d > r) continue;
       const bool is_held = std::binary_search(held.begin(), held.end(), key);
-      out.push_back({key, tier, d, d - (is_held ? o.hysteresis_m : 0.0), e});
+      // Tier 0 in the order the footprint reaches the sectors (metres of travel until needed);
+      // tier 1 by distance to the look-ahead segment; ties by time of need, then distance, then key.
+      const double base = tier == 0 ? need_s * speed : d;
+      out.push_back({key, tier, d, base - (is_held ? o.hysteresis_m : 0.0), need_s, e});
     }
   std::sort(out.begin(), out.end(), [](const RankedSector& x, const RankedSector& y) {
     if (x.tier != y.tier) return x.tier < y.tier;
     if (x.score_m != y.score_m) return x.score_m < y.score_m;
+    if (x.need_s != y.need_s) return x.need_s < y.need_s;
+    if (x.distance_m != y.distance_m) return x.distance_m < y.distance_m;
     return x.key < y.key;
   });
 }

@@ -62,6 +62,7 @@ Streamer::Streamer(Manifest manifest, std::shared_ptr<SectorSource> source, Stre
   DRTV_CHECK(source_ != nullptr);
   DRTV_CHECK_LE(1, options_.residency.max_sectors);
   DRTV_CHECK_LE(1, options_.max_in_flight);
+  DRTV_CHECK(options_.guard_latency_factor >= 0.0 && options_.guard_latency_factor <= 1e6);  // NaN fails too
   if (!options_.occlusion_tile) options_.occlusion_tile = runtime::makeOcclusionTile;
   max_bytes_ = options_.max_bytes ? options_.max_bytes : budgetBytesFor(manifest_);
   slots_.resize(size_t(options_.residency.max_sectors));
@@ -71,6 +72,7 @@ Streamer::Streamer(Manifest manifest, std::shared_ptr<SectorSource> source, Stre
   held_.reserve(n);
   footprint_.reserve(64);
   drained_.reserve(n);
+  last_latencies_.reserve(n);
   if (options_.io_mode == IoMode::kThreads) {
     DRTV_CHECK_LE(1, options_.io_threads);
     queue_.reserve(n);
@@ -182,6 +184,12 @@ void Streamer::handleDone(Done& d, double time_s, SectorSink& sink, FrameStats& 
   slot->sector = std::move(d.sector);
   slot->tile = d.tile;
   slot->bytes = slot->sector->memoryBytes() + sizeof(OcclusionTile);
+  // Camera seconds from the request to the frame that hands the sector over: how far ahead of
+  // the camera the residency must ask (the guard below).
+  const double latency_s = std::max(0.0, time_s - slot->issued_s);
+  latencies_[latency_next_++ % latencies_.size()] = latency_s;
+  last_latencies_.push_back(latency_s);
+  st.latency_max_s = std::max(st.latency_max_s, latency_s);
   ++st.loads;
   ++total_loads_;
   const auto t0 = Clock::now();
@@ -193,6 +201,7 @@ void Streamer::issue(Slot& slot, const RankedSector& r, double time_s, FrameStat
   slot.state = SlotState::kQueued;
   slot.key = r.key;
   slot.ticket = next_ticket_++;
+  slot.issued_s = time_s;
   slot.bytes = predictedSectorBytes(*r.entry) + sizeof(OcclusionTile);
   ++st.started;
   Job job{slot.ticket, *r.entry, r.score_m + (r.tier == 0 ? -1e9 : 0.0)};
@@ -228,6 +237,7 @@ FrameStats Streamer::update(const Camera& camera, double time_s, SectorSink& sin
 
   // 1. Finished loads, in completion order.
   drained_.clear();
+  last_latencies_.clear();
   if (options_.io_mode == IoMode::kThreads) {
     std::lock_guard lock(mutex_);
     for (Done& d : done_) drained_.push_back(std::move(d));
@@ -251,7 +261,10 @@ FrameStats Streamer::update(const Camera& camera, double time_s, SectorSink& sin
   for (const Slot& s : slots_)
     if (s.state != SlotState::kFree && s.state != SlotState::kCancelling) held_.push_back(s.key);
   std::sort(held_.begin(), held_.end());
-  rankSectors(manifest_, camera, options_.residency, held_, ranked_);
+  ResidencyOptions residency = options_.residency;
+  residency.guard_s = guardS();
+  st.guard_s = residency.guard_s;
+  rankSectors(manifest_, camera, residency, held_, ranked_);
   // Forget back-off for sectors the camera has left behind (keeps backoff_ small); one that comes
   // back into range is tried again at once.
   std::erase_if(backoff_, [&](const Backoff& b) {
@@ -360,6 +373,16 @@ FrameStats Streamer::update(const Camera& camera, double time_s, SectorSink& sin
   st.sink_ms = sink_ms;
   st.update_ms = std::max(0.0, msSince(t_start) - sink_ms - st.inline_io_ms);
   return st;
+}
+
+double Streamer::latencyEstimateS() const {
+  const size_t n = std::min(latency_next_, latencies_.size());
+  return n ? *std::max_element(latencies_.begin(), latencies_.begin() + ptrdiff_t(n)) : 0.0;
+}
+
+double Streamer::guardS() const {
+  const double g = std::max(options_.residency.guard_s, options_.guard_latency_factor * latencyEstimateS());
+  return std::min(g, kMaxGuardS);
 }
 
 void Streamer::evictAll(SectorSink& sink) {

@@ -94,6 +94,78 @@ TEST(RankSectors, LooksAheadAlongTheVelocity) {
   EXPECT_NE(std::find_if(ranked.begin(), ranked.end(), [](auto& r) { return r.key == SectorKey{11, 7}; }), ranked.end());
 }
 
+// Does the footprint about `p` overlap sector `key`'s open square, the footprint grown by `grow_m`?
+bool footprintOverlaps(SectorKey key, glm::dvec3 p, const ResidencyOptions& o, double grow_m) {
+  Footprint f = volumeFootprint(p, o);
+  f.min -= glm::dvec2(grow_m);
+  f.max += glm::dvec2(grow_m);
+  return overlaps(key, f);
+}
+
+// The sectors the footprint overlaps at any of `samples` instants in [0, guard_s].
+std::vector<SectorKey> bruteSwept(const Manifest& m, const Camera& cam, const ResidencyOptions& o, double grow_m, int samples) {
+  std::vector<SectorKey> out;
+  for (const SectorEntry& e : m.sectors)
+    for (int i = 0; i <= samples; ++i)
+      if (footprintOverlaps(e.key, cam.position_m + cam.velocity_mps * (o.guard_s * i / samples), o, grow_m)) {
+        out.push_back(e.key);
+        break;
+      }
+  return out;
+}
+
+TEST(RankSectors, ADiagonalFlightsSweptCornersAreTierZero) {
+  // The 16 km² island's default path at 300 m/s: the footprint now and the one guard_s ahead
+  // missed the sectors that only the footprint in between touches (its corners sweep them).
+  const Manifest m = gridManifest(16, 16);
+  ResidencyOptions o;
+  const Camera cam{{500, 500, 30}, {134.2, 268.3, 0}};
+  std::vector<RankedSector> ranked;
+  rankSectors(m, cam, o, {}, ranked);
+  int corners = 0;
+  for (SectorKey k : bruteSwept(m, cam, o, 0.0, 2000)) {
+    const bool ends = footprintOverlaps(k, cam.position_m, o, 0.0) ||
+                      footprintOverlaps(k, cam.position_m + cam.velocity_mps * o.guard_s, o, 0.0);
+    corners += !ends;
+    auto it = std::find_if(ranked.begin(), ranked.end(), [&](auto& r) { return r.key == k; });
+    ASSERT_NE(it, ranked.end());
+    EXPECT_EQ(it->tier, 0) << k.ix << "," << k.iy;
+    EXPECT_LT(it - ranked.begin(), o.max_sectors);
+  }
+  EXPECT_GT(corners, 0);  // the case the two ends alone got wrong is in this camera
+}
+
+TEST(RankSectors, TierZeroIsWhatTheMovingFootprintOverlapsInOrderOfNeed) {
+  const Manifest m = gridManifest(24, 24);
+  uint32_t seed = 12345;
+  auto uniform = [&](double lo, double hi) {
+    seed = seed * 1664525u + 1013904223u;
+    return lo + (hi - lo) * (seed >> 8) / double(1u << 24);
+  };
+  for (int trial = 0; trial < 25; ++trial) {
+    ResidencyOptions o;
+    o.guard_s = uniform(0.0, 2.0);
+    const Camera cam{{uniform(300, 1200), uniform(300, 1200), 20}, {uniform(-600, 600), uniform(-600, 600), 0}};
+    std::vector<RankedSector> ranked;
+    rankSectors(m, cam, o, {}, ranked);
+    std::vector<SectorKey> tier0;
+    for (const RankedSector& r : ranked)
+      if (r.tier == 0) tier0.push_back(r.key);
+    std::sort(tier0.begin(), tier0.end());
+    // Every sector a sampled instant overlaps is tier 0; every tier-0 sector is overlapped by the
+    // footprint grown by the distance between samples (at most 850 m/s x 2 s / 1,000 = 1.7 m).
+    for (SectorKey k : bruteSwept(m, cam, o, 0.0, 1000)) EXPECT_TRUE(std::binary_search(tier0.begin(), tier0.end(), k)) << trial;
+    const auto loose = bruteSwept(m, cam, o, 1.8, 1000);
+    for (SectorKey k : tier0) EXPECT_TRUE(std::find(loose.begin(), loose.end(), k) != loose.end()) << trial;
+    // Tier 0 in order of need: a sector the footprint overlaps now first, never after a later one.
+    for (size_t i = 1; i < ranked.size() && ranked[i].tier == 0; ++i) EXPECT_LE(ranked[i - 1].need_s, ranked[i].need_s) << trial;
+    for (const RankedSector& r : ranked) {
+      if (r.tier != 0) continue;
+      EXPECT_EQ(r.need_s == 0.0, footprintOverlaps(r.key, cam.position_m, o, 0.0)) << trial;
+    }
+  }
+}
+
 TEST(RankSectors, StandingStillRanksADiscAroundTheCamera) {
   const Manifest m = gridManifest(16, 16);
   std::vector<RankedSector> ranked;

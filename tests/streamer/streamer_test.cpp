@@ -85,6 +85,43 @@ TEST_F(StreamerTest, NeverHoldsMoreThan51SectorsAndHasNoMissesAt100MetresPerSeco
   EXPECT_EQ(sink.loads - sink.evictions, int(sink.held()));
 }
 
+// A fast diagonal flight with loads slower than the residency's least guard (0.8 s against
+// 0.5 s): with the guard sized by the measured latency nothing is missed; held at the least, the
+// same flight misses. Reads in flight enough for the rate (the bound is not what is tested). Returns the misses; `guard_s` gets the largest guard the flight used.
+int missesWithSlowLoads(const std::filesystem::path& path, double guard_latency_factor, double& guard_s) {
+  StreamerOptions o = deterministic();
+  o.simulated_latency_s = 0.8;
+  o.max_in_flight = 32;  // ~20 sectors a second for 0.8 s each (Little's law: 16 in flight)
+  o.guard_latency_factor = guard_latency_factor;
+  auto s = openStreamer(path, o);
+  testing::CheckingSink sink;
+  double t = 0;
+  const glm::dvec3 a{40, 60, 30}, b{990, 960, 30};
+  const glm::dvec3 v = glm::normalize(b - a) * 300.0;
+  settle(*s, {a, v}, t, sink);
+  int misses = 0;
+  guard_s = 0;
+  for (glm::dvec3 p = a; glm::dot(b - p, v) > 0; p += v * kFrameS) {
+    const FrameStats st = s->update({p, v}, t, sink);
+    t += kFrameS;
+    misses += st.misses;
+    guard_s = std::max(guard_s, st.guard_s);
+    EXPECT_LE(st.resident + st.in_flight, kMaxResidentSectors);
+    for (double l : s->lastLoadLatenciesS()) EXPECT_NEAR(l, 0.8, kFrameS + 1e-9);
+  }
+  return misses;
+}
+
+TEST_F(StreamerTest, LooksFurtherAheadWhenLoadsAreSlow) {
+  double guard_sized = 0, guard_least = 0;
+  const int sized = missesWithSlowLoads(path(), 2.0, guard_sized);
+  const int least = missesWithSlowLoads(path(), 0.0, guard_least);
+  EXPECT_EQ(sized, 0);
+  EXPECT_GT(least, 0);
+  EXPECT_NEAR(guard_sized, 2.0 * 0.8, 2.0 * kFrameS + 1e-9);  // twice the latency, in frames
+  EXPECT_DOUBLE_EQ(guard_least, ResidencyOptions{}.guard_s);
+}
+
 TEST_F(StreamerTest, HandsEachLoadedSectorToTheSinkWithItsOcclusionTile) {
   std::atomic<int> built{0};
   StreamerOptions o = deterministic();

@@ -6,15 +6,20 @@
 //  [2] ibid., slides 34-36: the 96x96x16 volume follows the camera and scrolls toroidally; its
 //      texels are filled from the probes of the sectors it covers.
 //
-// Ranking (pure, deterministic, no allocation once `out` has capacity):
-//   tier 0  sectors that overlap the volume's footprint around the camera, or around where the
-//           camera will be in `guard_s` seconds: a sector missing here is a visible miss.
+// Ranking (pure, deterministic, no allocation once `out` has capacity). A sector's time of need is
+// when the footprint, moving at the camera's velocity, first overlaps it (0: it does now):
+//   tier 0  sectors needed within `guard_s` seconds: a sector missing when needed is a visible
+//           miss. The footprint is swept, not sampled at its two ends: a camera moving diagonally
+//           sweeps corners that neither the footprint now nor the one guard_s ahead covers, and
+//           those sectors were the misses of fast flights (the 16 km² island at 300 m/s: 325
+//           sector-frames before, deterministic I/O). Ordered by time of need (metres of travel).
 //   tier 1  every other sector within `candidate_radius_m` of the look-ahead segment
 //           [camera, camera + velocity * lookahead_s], nearest first.
-// Inside a tier, sectors are ordered by the horizontal distance from their 64 m square to the
-// look-ahead segment, minus `hysteresis_m` for sectors already held (so that a sector at the edge
-// of the set is not dropped and reloaded every frame), then by key. Only sectors the archive
-// holds are ranked: sea and the world's outside have no sector and are never misses.
+// Sectors already held rank `hysteresis_m` nearer than they are (so that a sector at the edge
+// of the set is not dropped and reloaded every frame); ties go by time of need, distance to the
+// look-ahead segment, then key. Only
+// sectors the archive holds are ranked: sea and the world's outside have no sector and are never
+// misses. The streamer lengthens guard_s to cover the load latency it measures (streamer.h).
 //
 // Conventions: world metres, Z up; only x and y matter here (sectors span all heights).
 #pragma once
@@ -46,9 +51,10 @@ struct ResidencyOptions {
   // The runtime's volume [2], whose horizontal footprint about the camera (size x texel size:
   // 96 x 2 m = a 192 m square by default) is tier 0. Pass the runtime's own options here.
   runtime::VolumeOptions volume;
-  // The footprint is also held at camera + velocity * guard_s: loads take a few frames and the
-  // footprint must be complete when the camera gets there. 0.5 s at 100 m/s is 50 m, more than
+  // Sectors the moving footprint reaches within guard_s are tier 0: loads take a few frames and
+  // the footprint must be complete when the camera gets there. 0.5 s at 100 m/s is 50 m, more than
   // the simulated I/O latency (2 frames) and a thread pool's queueing under a sector-row crossing.
+  // The least: the streamer raises it to cover the latency it measures (StreamerOptions).
   double guard_s = 0.5;
   // Remaining slots go to sectors nearest the segment camera -> camera + velocity * lookahead_s.
   double lookahead_s = 2.0;
@@ -73,7 +79,10 @@ struct RankedSector {
   SectorKey key;
   int tier = 1;                       // 0 = inside (or about to be inside) the volume's footprint
   double distance_m = 0.0;            // to the look-ahead segment, before hysteresis
-  double score_m = 0.0;               // distance_m, less hysteresis_m when held: the sort key
+  double score_m = 0.0;               // the sort key (see rankSectors), less hysteresis_m when held
+  // Camera seconds until the volume's footprint, moving at the camera's velocity, first overlaps
+  // the sector (0: it does now); infinity when it does not within max(guard_s, lookahead_s).
+  double need_s = 0.0;
   const SectorEntry* entry = nullptr; // in the manifest passed to rankSectors
 };
 

@@ -40,6 +40,7 @@
 // loads, evictions and misses in the same frames. Tests and `drtv fly` reports use it.
 #pragma once
 
+#include <array>
 #include <condition_variable>
 #include <cstddef>
 #include <cstdint>
@@ -109,6 +110,12 @@ struct StreamerOptions {
   // kDeterministic: each read completes this long after it was started, camera seconds. Two
   // frames at 60 Hz: a 15 KB read from an SSD plus a decode is well under that.
   double simulated_latency_s = 2.0 / 60.0;
+  // Residency looks ahead at least this many times the load latency it measures (the slowest of
+  // the last kLatencyWindow loads, camera seconds from request to hand-over): tier 0 is every
+  // sector the moving footprint reaches within max(residency.guard_s, factor x latency), at most
+  // kMaxGuardS. 2: a load asked for when its sector enters the guard arrives with one latency to
+  // spare, for queueing behind a row of other loads.
+  double guard_latency_factor = 2.0;
   double retry_initial_s = 0.25;    // first back-off after a failed load, seconds
   double retry_max_s = 8.0;         // back-off doubles up to this
   size_t failure_log = 256;         // failures() keeps the latest this many
@@ -143,6 +150,8 @@ struct FrameStats {
   int over_budget = 0;         // footprint sectors left out of the wanted set by the byte budget
   size_t resident_bytes = 0;   // sum of memoryBytes() + tile of resident sectors
   size_t reserved_bytes = 0;   // resident_bytes + predicted bytes of loads in flight
+  double guard_s = 0.0;        // the residency's guard this frame (seconds ahead that are tier 0)
+  double latency_max_s = 0.0;  // the slowest load handed over in this update, camera seconds; 0 if none
   double update_ms = 0.0;      // frame-thread time in update(), less sink calls and inline I/O
   double sink_ms = 0.0;        // frame-thread time inside the sink's callbacks
   double inline_io_ms = 0.0;   // kDeterministic: time spent reading/decoding inline
@@ -204,6 +213,17 @@ class Streamer {
   bool idle() const;                                       // no load queued or running
   const std::deque<SectorFailure>& failures() const { return failures_; }  // oldest first
   uint64_t totalLoads() const { return total_loads_; }
+  // Load latency, camera seconds from the update that requested a sector to the one that handed
+  // it over (in kDeterministic mode the simulated latency, rounded up to frames).
+  static constexpr size_t kLatencyWindow = 32;
+  static constexpr double kMaxGuardS = 8.0;
+  // The slowest of the last kLatencyWindow loads; 0 before the first.
+  double latencyEstimateS() const;
+  // The guard the next update ranks with: max(residency.guard_s, guard_latency_factor x
+  // latencyEstimateS()), at most kMaxGuardS.
+  double guardS() const;
+  // The latencies of the loads the latest update handed over, in hand-over order.
+  std::span<const double> lastLoadLatenciesS() const { return last_latencies_; }
   uint64_t totalEvictions() const { return total_evictions_; }
 
  private:
@@ -212,6 +232,7 @@ class Streamer {
     SlotState state = SlotState::kFree;
     SectorKey key;
     uint64_t ticket = 0;
+    double issued_s = 0.0;             // update() time at which its load was requested
     size_t bytes = 0;                  // predicted until resident, then memoryBytes()
     std::unique_ptr<Sector> sector;    // kResident
     OcclusionTile tile;                // kResident
@@ -257,6 +278,9 @@ class Streamer {
   std::vector<Done> drained_;
   std::deque<Done> delayed_;           // kDeterministic: done, waiting for their ready time
   uint64_t next_ticket_ = 1, frame_ = 0, total_loads_ = 0, total_evictions_ = 0;
+  std::array<double, kLatencyWindow> latencies_{};  // a ring of the latest loads' latencies
+  size_t latency_next_ = 0;                         // loads recorded so far
+  std::vector<double> last_latencies_;              // the latest update's
 
   // Shared with the I/O threads, under mutex_.
   mutable std::mutex mutex_;

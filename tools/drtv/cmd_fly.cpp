@@ -155,6 +155,7 @@ Result<void> runFly(const FlyCliOptions& o) {
   if (auto made = createParentFolder((std::filesystem::path(o.outdir) / "fly-report.json").string()); !made) return made;
   auto result = fly::fly(s, *path, fo, o.archive);
   if (!result) return std::unexpected(result.error());
+  result->source_note = archive->http_stats ? "HTTP: " + archive->http_stats() : "file";
   if (auto ok = fly::writeFlyReport(*result, o.outdir); !ok) return ok;
 
   const fly::FlySummary sum = fly::summarize(*result);
@@ -177,6 +178,8 @@ Result<void> runFly(const FlyCliOptions& o) {
                 sum.technique_reach_max, sum.technique_held_max, double(sum.technique_bytes_max) / (1024.0 * 1024.0),
                 sum.technique_stale_max);
   if (archive->http_stats) std::printf("http: %s\n", archive->http_stats().c_str());
+  std::printf("load latency ms: p50 %.1f, p95 %.1f, p99 %.1f, max %.1f; residency guard up to %.2f s\n", sum.latency_ms_p50,
+              sum.latency_ms_p95, sum.latency_ms_p99, sum.latency_ms_max, sum.guard_s_max);
   std::printf("frame CPU ms: p50 %.4f, p99 %.4f, max %.4f\n", sum.frame_ms_p50, sum.frame_ms_p99, sum.frame_ms_max);
   if (sum.volume_worker)
     std::printf("adds and volume update on a worker, one frame late: p99 %.4f ms; the frames waited for it %d times (p99 wait %.4f ms)\n",

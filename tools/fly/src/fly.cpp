@@ -207,8 +207,11 @@ Result<FlyResult> fly(Streamer& streamer, const CatmullRomPath& path, const FlyO
   if (o.warmup_frames > 0) {
     const Camera start{path.position(0.0), path.direction(0.0) * o.speed_mps};
     // Warm-up time runs up to t = 0 so that back-off and simulated latency stay consistent. A
-    // streamed technique warms up with it (its sectors' state built before the flight starts);
-    // with worker threads, real time must pass for them.
+    // streamed technique warms up with it (its sectors' state built before the flight starts).
+    // With I/O or worker threads real time must pass for them, a frame's worth per update: else
+    // the camera's clock would race ahead of the reads, the warm-up would end before they are
+    // done, and the streamer would measure a 20 ms read as seconds of flight (and size its
+    // look-ahead by that).
     const bool real_time = streamer.options().io_mode == IoMode::kThreads;
     for (int i = 0; i < o.warmup_frames; ++i) {
       const double t = double(i - o.warmup_frames) * dt;
@@ -219,9 +222,9 @@ Result<FlyResult> fly(Streamer& streamer, const CatmullRomPath& path, const FlyO
         auto c = o.technique_frame(start, t, std::fmod(o.start_hour, 24.0), o.lights.empty() ? m.lights : o.lights);
         if (!c) return std::unexpected(c.error().context("fly: warm-up"));
         technique_idle = c->idle;
-        if (!technique_idle && real_time) std::this_thread::sleep_for(std::chrono::duration<double>(dt));
       }
       if (streamer.idle() && technique_idle && i > 0) break;
+      if (real_time) std::this_thread::sleep_for(std::chrono::duration<double>(dt));
     }
     if (rt) rt->update(start.position_m);
   }
@@ -272,6 +275,8 @@ Result<FlyResult> fly(Streamer& streamer, const CatmullRomPath& path, const FlyO
     sink.relight_ms = 0.0;
     sink.technique_ms = 0.0;
     ff.stats = streamer.update(cam, t, sink);
+    const auto latencies = streamer.lastLoadLatenciesS();
+    r.load_latencies_s.insert(r.load_latencies_s.end(), latencies.begin(), latencies.end());
     ff.relight_ms = sink.relight_ms;
     if ((rt || o.technique_frame) && moving) {
       const auto t0 = Clock::now();
@@ -350,6 +355,7 @@ FlySummary summarize(const FlyResult& r) {
     s.misses += f.stats.misses;
     s.frames_with_misses += f.stats.misses > 0;
     s.full_relights += f.full_relight;
+    s.guard_s_max = std::max(s.guard_s_max, f.stats.guard_s);
     io_ms += f.stats.inline_io_ms;
     frame_ms.push_back(f.frame_ms);
     update_ms.push_back(f.stats.update_ms);
@@ -367,6 +373,12 @@ FlySummary summarize(const FlyResult& r) {
       s.technique_inline_ms_total += f.technique.inline_ms;
     }
   }
+  std::vector<double> latency_ms;
+  for (double l : r.load_latencies_s) latency_ms.push_back(l * 1000.0);
+  s.latency_ms_p50 = percentile(latency_ms, 0.5);
+  s.latency_ms_p95 = percentile(latency_ms, 0.95);
+  s.latency_ms_p99 = percentile(latency_ms, 0.99);
+  s.latency_ms_max = percentile(latency_ms, 1.0);
   s.frame_ms_p50 = percentile(frame_ms, 0.5);
   s.frame_ms_p99 = percentile(frame_ms, 0.99);
   s.frame_ms_max = frame_ms.empty() ? 0 : *std::max_element(frame_ms.begin(), frame_ms.end());
@@ -398,16 +410,18 @@ Result<void> writeFlyReport(const FlyResult& r, const std::filesystem::path& dir
     if (!f) return fail(p.string() + ": cannot write");
     f << "frame,time_s,x_m,y_m,z_m,hour,resident,in_flight,wanted,loads,evictions,cancels,failures,misses,fallback,"
          "resident_bytes,reserved_bytes,update_ms,relight_ms,volume_ms,frame_ms,full_relight,inline_io_ms,technique_ms,"
-         "technique_reach,technique_missing,technique_stale,technique_held,technique_inline_ms,worker_ms,wait_ms,waited\n";
+         "technique_reach,technique_missing,technique_stale,technique_held,technique_inline_ms,worker_ms,wait_ms,waited,guard_s,"
+         "latency_max_ms\n";
     char line[512];
     for (const FlyFrame& x : r.frames) {
       const FrameStats& st = x.stats;
-      std::snprintf(line, sizeof line, "%llu,%.6f,%.3f,%.3f,%.3f,%.5f,%d,%d,%d,%d,%d,%d,%d,%d,%d,%zu,%zu,%.5f,%.5f,%.5f,%.5f,%d,%.5f,%.5f,%d,%d,%d,%d,%.5f,%.5f,%.5f,%d\n",
+      std::snprintf(line, sizeof line, "%llu,%.6f,%.3f,%.3f,%.3f,%.5f,%d,%d,%d,%d,%d,%d,%d,%d,%d,%zu,%zu,%.5f,%.5f,%.5f,%.5f,%d,%.5f,%.5f,%d,%d,%d,%d,%.5f,%.5f,%.5f,%d,%.4f,%.3f\n",
                     (unsigned long long)st.frame, st.time_s, x.position_m.x, x.position_m.y, x.position_m.z, x.hour, st.resident,
                     st.in_flight, st.wanted, st.loads, st.evictions, st.cancels, st.failures, st.misses, st.fallback,
                     st.resident_bytes, st.reserved_bytes, st.update_ms, x.relight_ms, x.volume_ms, x.frame_ms, int(x.full_relight),
                     st.inline_io_ms, x.technique_ms, x.technique.reach, x.technique.missing, x.technique.stale,
-                    x.technique.held, x.technique.inline_ms, x.worker_ms, x.wait_ms, int(x.waited));
+                    x.technique.held, x.technique.inline_ms, x.worker_ms, x.wait_ms, int(x.waited), st.guard_s,
+                    st.latency_max_s * 1000.0);
       f << line;
     }
     if (!f) return fail(p.string() + ": write failed");
@@ -440,6 +454,7 @@ Result<void> writeFlyReport(const FlyResult& r, const std::filesystem::path& dir
   j["archive"] = r.archive;
   j["runtime"] = r.runtime_note;
   j["io_mode"] = deterministic ? "deterministic" : "threads";
+  j["source"] = r.source_note;
   j["deterministic"] = deterministic;
   j["warmup_frames"] = r.warmup_frames;
   j["options"] = {{"speed_mps", r.options.speed_mps}, {"fps", r.options.fps}, {"frames", s.frames},
@@ -447,7 +462,7 @@ Result<void> writeFlyReport(const FlyResult& r, const std::filesystem::path& dir
                   {"max_sectors", r.streamer.residency.max_sectors}, {"volume_texel_m", r.streamer.residency.volume.texel_size_m.x},
                   {"lookahead_s", r.streamer.residency.lookahead_s}, {"guard_s", r.streamer.residency.guard_s},
                   {"io_threads", r.streamer.io_threads}, {"simulated_latency_s", r.streamer.simulated_latency_s},
-                  {"max_in_flight", r.streamer.max_in_flight}};
+                  {"max_in_flight", r.streamer.max_in_flight}, {"guard_latency_factor", r.streamer.guard_latency_factor}};
   nlohmann::json wps = nlohmann::json::array();
   for (const auto& w : r.waypoints) wps.push_back({w.x, w.y, w.z});
   j["path"] = {{"length_m", r.path_length_m}, {"loop", r.loop}, {"waypoints", wps}};
@@ -475,7 +490,12 @@ Result<void> writeFlyReport(const FlyResult& r, const std::filesystem::path& dir
                   {"volume_late_frames", s.volume_late_frames},
                   {"worker_ms_p99", s.worker_ms_p99},
                   {"wait_ms_p99", s.wait_ms_p99},
-                  {"frames_waited", s.frames_waited}};
+                  {"frames_waited", s.frames_waited},
+                  {"latency_ms_p50", s.latency_ms_p50},
+                  {"latency_ms_p95", s.latency_ms_p95},
+                  {"latency_ms_p99", s.latency_ms_p99},
+                  {"latency_ms_max", s.latency_ms_max},
+                  {"guard_s_max", s.guard_s_max}};
   if (s.technique_streamed)
     j["technique_stream"] = {{"technique", r.options.technique},
                              {"misses", s.technique_misses},
@@ -541,6 +561,14 @@ Result<void> writeFlyReport(const FlyResult& r, const std::filesystem::path& dir
   std::snprintf(buf, sizeof buf, "| loads / evictions / failures | %lld / %lld / %lld | |\n", (long long)s.loads,
                 (long long)s.evictions, (long long)s.failures);
   md << buf;
+  std::snprintf(buf, sizeof buf,
+                "| load latency ms p50 / p95 / p99 / max (request to hand-over, flight time) | %.1f / %.1f / %.1f / %.1f | |\n",
+                s.latency_ms_p50, s.latency_ms_p95, s.latency_ms_p99, s.latency_ms_max);
+  md << buf;
+  std::snprintf(buf, sizeof buf, "| residency guard, max (s ahead loaded first: %.1f x the slowest recent load, at least %.2f s) | %.3f | |\n",
+                r.streamer.guard_latency_factor, r.streamer.residency.guard_s, s.guard_s_max);
+  md << buf;
+  if (!r.source_note.empty()) md << "| source | " << r.source_note << " | |\n";
   std::snprintf(buf, sizeof buf, "| frame CPU ms p50 / p99 / max | %.4f / %.4f / %.4f | p99 <= 1 |\n", s.frame_ms_p50,
                 s.frame_ms_p99, s.frame_ms_max);
   md << buf;

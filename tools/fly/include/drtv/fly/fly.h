@@ -150,6 +150,12 @@ struct FlyResult {
   size_t volume_bytes = 0;          // the runtime's 3 RGBA8 textures (0 without runtime)
   size_t io_working_bytes = 0;      // the loads' working memory at most (streamer::Streamer::ioWorkingBytes)
   uint64_t total_loads = 0, total_evictions = 0;
+  // Every load's latency, camera seconds from the update that asked for it to the one that handed
+  // it over (Streamer::lastLoadLatenciesS), in flight order; warm-up loads left out.
+  std::vector<double> load_latencies_s;
+  // What the sectors were read from, for the report: "file", or the HTTP source's counts
+  // ("N requests on C connections, R retries, F failed reads, B payload bytes"). Set by the caller.
+  std::string source_note;
 };
 
 // Flies `path` with `streamer` (fresh: nothing resident). Errors: the runtime rejected the
@@ -171,6 +177,10 @@ struct FlySummary {
   int frames_waited = 0, volume_late_frames = 0;
   double inline_io_ms_mean_per_load = 0;  // kDeterministic: the I/O threads' work per sector
   int full_relights = 0;
+  // Load latency (FlyResult::load_latencies_s), milliseconds; and the largest residency guard
+  // the streamer used (seconds ahead that are tier 0, sized by the latency it measured).
+  double latency_ms_p50 = 0, latency_ms_p95 = 0, latency_ms_p99 = 0, latency_ms_max = 0;
+  double guard_s_max = 0;
   // A streamed technique: sector-frames within the volume's reach without per-sector state, the
   // frames with any, the most sectors in reach, the most stale, and the inline (worker) time.
   bool technique_streamed = false;

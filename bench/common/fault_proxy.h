@@ -3,11 +3,15 @@
 // headers and half the body, then silence). It forwards requests and nginx's answers byte for
 // byte otherwise, over kept-alive connections on both sides.
 //
-// Faults apply to the next `count` responses (set with fault()); the rest pass. One thread per
-// client connection; stop() (and the destructor) shuts every socket down and joins them all.
+// Faults apply to the next `count` responses (set with fault()); the rest pass. Added latency
+// (setLatency) holds every response, and every new connection before it reaches nginx, for that
+// long: one round trip of a network that far away, on each connection independently, so that
+// reads in flight on several connections overlap as they would over a real network. One thread
+// per client connection; stop() (and the destructor) shuts every socket down and joins them all.
 #pragma once
 
 #include <atomic>
+#include <chrono>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -45,6 +49,9 @@ class FaultProxy {
     left_ = count;
   }
   int faulted() const { return faulted_; }  // responses broken so far
+  // Every response (and every new connection) from now on waits this long: added round-trip time.
+  void setLatency(std::chrono::microseconds latency) { latency_us_ = latency.count(); }
+  int64_t delayed() const { return delayed_; }  // responses held so far
   int port() const { return port_; }
   std::string url(const std::string& path) const { return "http://127.0.0.1:" + std::to_string(port_) + path; }
 
@@ -111,7 +118,14 @@ class FaultProxy {
     const size_t at = lower.find("\r\ncontent-length:");
     return at == std::string::npos ? 0 : std::stoul(lower.substr(at + 17));
   }
+  void wait() {
+    if (const int64_t us = latency_us_; us > 0) {
+      std::this_thread::sleep_for(std::chrono::microseconds(us));
+      ++delayed_;
+    }
+  }
   void serve(int client) {
+    wait();  // the connection's handshake crosses the same distance
     const int up = ::socket(AF_INET, SOCK_STREAM, 0);
     sockaddr_in a = loopback(upstream_port_);
     track(up);
@@ -136,6 +150,7 @@ class FaultProxy {
         if (k <= 0) return;
         out.append(tmp, size_t(k));
       }
+      wait();
       Mode mode = Mode::kPass;
       if (left_ > 0 && left_.fetch_sub(1) > 0) mode = mode_;
       if (mode == Mode::kPass) {
@@ -163,6 +178,7 @@ class FaultProxy {
   int listen_fd_ = -1, port_ = 0;
   std::atomic<Mode> mode_{Mode::kPass};
   std::atomic<int> left_{0}, faulted_{0};
+  std::atomic<int64_t> latency_us_{0}, delayed_{0};
   std::atomic<bool> stopping_{false};
   std::thread acceptor_;
   std::mutex mutex_;

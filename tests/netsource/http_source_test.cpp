@@ -195,6 +195,46 @@ TEST_F(HttpSourceTest, EightIoThreadsReadAtOnceOverAtMostEightConnections) {
   EXPECT_EQ(http->stats().requests, 2 + uint64_t(sink.loads));
 }
 
+// A server 100 ms away (the proxy holds every answer that long): the streamer, on I/O threads
+// and a real clock, measures each load at no less than that, and its residency then looks at
+// least twice that far ahead. The bytes are the file's.
+TEST_F(HttpSourceTest, AServerFarAwayIsMeasuredAndTheResidencyLooksFurtherAhead) {
+  testing::FaultProxy proxy(nginx_->port());
+  proxy.setLatency(std::chrono::milliseconds(100));
+  auto opened = HttpSectorSource::open(proxy.url("/ok/world.drtv"), quick());
+  ASSERT_TRUE(opened.has_value()) << opened.error().message;
+  std::shared_ptr<HttpSectorSource> http(std::move(*opened));
+  streamer::StreamerOptions so;
+  so.io_mode = streamer::IoMode::kThreads;
+  so.io_threads = 8;
+  so.max_in_flight = 16;
+  streamer::Streamer s(http->manifest(), http, so);
+  EXPECT_EQ(s.guardS(), so.residency.guard_s);  // nothing measured yet: the least
+  testing::CheckingSink sink;
+  const streamer::Camera cam{{512, 512, 40}, {0, 0, 0}};
+  const auto start = std::chrono::steady_clock::now();
+  auto now = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
+  streamer::FrameStats st;
+  std::vector<double> latencies;
+  for (int i = 0; i < 20000; ++i) {  // a bound for a loaded machine, not a timed assertion
+    st = s.update(cam, now(), sink);
+    latencies.insert(latencies.end(), s.lastLoadLatenciesS().begin(), s.lastLoadLatenciesS().end());
+    if (st.resident == st.wanted && s.idle()) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  ASSERT_EQ(st.resident, st.wanted);
+  EXPECT_EQ(sink.failures, 0) << sink.last_error;
+  ASSERT_EQ(int(latencies.size()), sink.loads);
+  for (double l : latencies) EXPECT_GE(l, 0.1);
+  EXPECT_GE(s.latencyEstimateS(), 0.1);
+  EXPECT_DOUBLE_EQ(s.guardS(), std::max(so.residency.guard_s, 2.0 * s.latencyEstimateS()));
+  EXPECT_GE(proxy.delayed(), sink.loads);
+  for (SectorKey key : s.residentKeys()) {
+    auto from_file = ArchiveReader::open(file_)->readSector(key);
+    ASSERT_EQ(encodeSector(*s.resident(key)), encodeSector(*from_file)) << toString(key);
+  }
+}
+
 TEST_F(HttpSourceTest, A503IsRetriedAndTheFlightRecoversWhenTheServerDoes) {
   auto http = openHttp("/flaky/world.drtv");
   ASSERT_NE(http, nullptr);

@@ -301,6 +301,10 @@ TEST(SectorReader, RejectsABadSunTransferNamingTheByte) {
     std::memcpy(&b[sun_at + 48 + 4], &nan, 4);  // probe 1's range
   }, "probe 1: sun-transfer range");
   expectError([&](std::vector<uint8_t>& b) { b[b.size() - 1] = 0x80; }, "sun-transfer coefficient -128 is never written");
+  // The byte named is the first -128, wherever it lies (the check is a reduction, then a search).
+  const size_t coeff_at = good.size() - 3 * 4 * 12;
+  expectError([&](std::vector<uint8_t>& b) { b[coeff_at + 70] = 0x80, b[coeff_at + 17] = 0x80; },
+              "byte " + std::to_string(coeff_at + 17) + ": sun-transfer coefficient -128");
 }
 
 TEST(SectorReader, RejectsGridIndicesPastTheProbeCount) {

@@ -2,6 +2,7 @@
 #include "drtv/streamer/residency.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -92,6 +93,8 @@ double distanceToSegment(SectorKey key, const glm::dvec2& a, const glm::dvec2& b
   return d;
 }
 
+namespace {
+
 double footprintEntry(SectorKey key, const glm::dvec2& half, const glm::dvec2& a, const glm::dvec2& b) {
   // The footprint about p overlaps the sector's open square iff p lies in the square grown by the
   // footprint's half size (open): a slab test of the segment against that rectangle.
@@ -113,36 +116,121 @@ double footprintEntry(SectorKey key, const glm::dvec2& half, const glm::dvec2& a
   return t0 < t1 ? t0 : -1.0;
 }
 
+// The camera's predicted track as a polyline of (position, time) corners from now to `end_s`:
+// the camera, then Camera::path_ahead's points up to the first at or past end_s (cut there), or
+// the straight line along the velocity; a path that stops short goes on along its last step.
+// Camera::path_ahead's points the ranking follows at most; past them the track goes straight on
+// along the last one's step.
+constexpr size_t kMaxPathPoints = 126;
+
+class Track {
+ public:
+  Track(const Camera& c, double end_s) : c_(c), end_s_(end_s) {
+    const bool path = !c.path_ahead.empty() && c.path_step_s > 0.0 && std::isfinite(c.path_step_s);
+    n_ = path ? std::min({c.path_ahead.size(), size_t(std::ceil(end_s / c.path_step_s)), kMaxPathPoints}) : 0;
+    tail_ = n_ == 0 || double(n_) * c.path_step_s < end_s;
+    if (n_ > 0) {
+      const glm::dvec2 prev = n_ >= 2 ? xy(c.path_ahead[n_ - 2]) : xy(c.position_m);
+      tail_v_ = (xy(c.path_ahead[n_ - 1]) - prev) / c.path_step_s;
+    } else {
+      tail_v_ = xy(c.velocity_mps);
+    }
+  }
+  // Corners 0 .. corners() - 1 in time order; corner 0 is the camera now. The track reaches end_s
+  // (a path's last point used may lie past it).
+  size_t corners() const { return n_ + 1 + (tail_ ? 1 : 0); }
+  double time(size_t i) const { return i == 0 ? 0.0 : i <= n_ ? double(i) * c_.path_step_s : end_s_; }
+  glm::dvec2 at(size_t i) const {
+    if (i == 0) return xy(c_.position_m);
+    if (i <= n_) return xy(c_.path_ahead[i - 1]);
+    const glm::dvec2 last = n_ ? xy(c_.path_ahead[n_ - 1]) : xy(c_.position_m);
+    return last + tail_v_ * (end_s_ - (n_ ? double(n_) * c_.path_step_s : 0.0));
+  }
+
+ private:
+  static glm::dvec2 xy(const glm::dvec3& p) { return {p.x, p.y}; }
+  const Camera& c_;
+  double end_s_;
+  size_t n_ = 0;
+  bool tail_ = true;
+  glm::dvec2 tail_v_{0.0};
+};
+
+}  // namespace
+
 void rankSectors(const Manifest& manifest, const Camera& camera, const ResidencyOptions& o,
                  std::span<const SectorKey> held, std::vector<RankedSector>& out) {
   out.clear();
-  const glm::dvec2 a{camera.position_m.x, camera.position_m.y};
-  const glm::dvec2 v{camera.velocity_mps.x, camera.velocity_mps.y};
-  const glm::dvec2 b = a + v * o.lookahead_s;
-  // The footprint swept from now to the end of the guard or the look-ahead, whichever is later:
-  // a sector's time of need is when the moving footprint first overlaps it.
+  // The footprint swept along the track from now to the end of the guard or the look-ahead,
+  // whichever is later: a sector's time of need is when the moving footprint first overlaps it.
   const double sweep_s = std::max({o.guard_s, o.lookahead_s, 0.0});
-  const glm::dvec2 sweep_end = a + v * sweep_s;
+  const Track track(camera, sweep_s);
   const Footprint now = volumeFootprint(camera.position_m, o);
   const glm::dvec2 half = 0.5 * (now.max - now.min);
-  const double speed = glm::length(v);
+  const bool on_path = !camera.path_ahead.empty() && camera.path_step_s > 0.0;
+  const glm::dvec2 tolerance(on_path && camera.path_tolerance_m > 0.0 ? std::min(camera.path_tolerance_m, kSectorSizeM) : 0.0);
+  const double speed = glm::length(glm::dvec2(camera.velocity_mps.x, camera.velocity_mps.y));
   const double r = o.candidate_radius_m;
   const double reach = std::max({r, half.x, half.y});  // tier 0 lies within the footprint's reach of the sweep
-  const KeyBox box = clipToManifest(manifest, {floorKey(std::min(a.x, sweep_end.x) - reach), floorKey(std::min(a.y, sweep_end.y) - reach),
-                                               floorKey(std::max(a.x, sweep_end.x) + reach), floorKey(std::max(a.y, sweep_end.y) + reach)});
+  // The track's segments once, each with its bounding box (the sectors test it first: most of
+  // them lie far from most segments). The look-ahead's: the track up to lookahead_s, cut there.
+  struct Seg {
+    glm::dvec2 a, b, lo, hi;  // ends; bounding box
+    double t0, t1;
+    glm::dvec2 la_b;          // the look-ahead's end of this segment (b, or cut at lookahead_s)
+    bool look_ahead;          // part of the look-ahead
+  };
+  constexpr size_t kMaxSegments = kMaxPathPoints + 1;  // the points, and the tail past them
+  std::array<Seg, kMaxSegments> segs;
+  size_t n_segs = 0;
+  glm::dvec2 lo = track.at(0), hi = lo;
+  for (size_t i = 0; i + 1 < track.corners(); ++i) {
+    Seg& g = segs[n_segs++];
+    g.a = track.at(i), g.b = track.at(i + 1), g.t0 = track.time(i), g.t1 = track.time(i + 1);
+    g.lo = glm::min(g.a, g.b), g.hi = glm::max(g.a, g.b);
+    g.look_ahead = g.t0 < o.lookahead_s || i == 0;
+    const double f = g.t1 > o.lookahead_s && g.t1 > g.t0 ? std::max(0.0, (o.lookahead_s - g.t0) / (g.t1 - g.t0)) : 1.0;
+    g.la_b = g.a + (g.b - g.a) * f;
+    lo = glm::min(lo, g.lo), hi = glm::max(hi, g.hi);
+  }
+  const glm::dvec2 grown = half + tolerance;
+  const KeyBox box = clipToManifest(manifest, {floorKey(lo.x - reach), floorKey(lo.y - reach), floorKey(hi.x + reach), floorKey(hi.y + reach)});
+  constexpr double kInf = std::numeric_limits<double>::infinity();
   for (int32_t ix = box.x0; ix <= box.x1; ++ix)
     for (int32_t iy = box.y0; iy <= box.y1; ++iy) {
       const SectorKey key{ix, iy};
       const SectorEntry* e = manifest.find(key);
       if (!e) continue;
-      const double entry = footprintEntry(key, half, a, sweep_end);
-      const double need_s = entry >= 0.0 ? entry * sweep_s : std::numeric_limits<double>::infinity();
+      const Rect rect = sectorRect(key);
+      // Time of need: the first segment whose swept footprint overlaps the sector.
+      double need_s = kInf;
+      for (size_t i = 0; i < n_segs; ++i) {
+        const Seg& g = segs[i];
+        if (g.lo.x >= rect.max.x + grown.x || g.hi.x <= rect.min.x - grown.x || g.lo.y >= rect.max.y + grown.y ||
+            g.hi.y <= rect.min.y - grown.y)
+          continue;
+        if (const double entry = footprintEntry(key, grown, g.a, g.b); entry >= 0.0) {
+          need_s = g.t0 + entry * (g.t1 - g.t0);
+          break;
+        }
+      }
+      // Distance to the look-ahead; a segment whose box lies farther than the best so far (or
+      // than the candidate radius) cannot be nearer.
+      double d = kInf;
+      for (size_t i = 0; i < n_segs && d > 0.0; ++i) {
+        const Seg& g = segs[i];
+        if (!g.look_ahead) break;
+        const glm::dvec2 blo = glm::min(g.a, g.la_b), bhi = glm::max(g.a, g.la_b);
+        const double gx = std::max({rect.min.x - bhi.x, blo.x - rect.max.x, 0.0}), gy = std::max({rect.min.y - bhi.y, blo.y - rect.max.y, 0.0});
+        const double bound = std::sqrt(gx * gx + gy * gy);
+        if (bound >= d || bound > r) continue;
+        d = std::min(d, distanceToSegment(key, g.a, g.la_b));
+      }
       const int tier = need_s <= o.guard_s ? 0 : 1;
-      const double d = distanceToSegment(key, a, b);
-      if (tier == 1 && d > r) continue;
+      if (tier == 1 && !(d <= r)) continue;
       const bool is_held = std::binary_search(held.begin(), held.end(), key);
       // Tier 0 in the order the footprint reaches the sectors (metres of travel until needed);
-      // tier 1 by distance to the look-ahead segment; ties by time of need, then distance, then key.
+      // tier 1 by distance to the look-ahead; ties by time of need, then distance, then key.
       const double base = tier == 0 ? need_s * speed : d;
       out.push_back({key, tier, d, base - (is_held ? o.hysteresis_m : 0.0), need_s, e});
     }

@@ -166,6 +166,58 @@ TEST(RankSectors, TierZeroIsWhatTheMovingFootprintOverlapsInOrderOfNeed) {
   }
 }
 
+TEST(RankSectors, APathAheadAsksForTheSectorsPastATurnBeforeTheCameraTurns) {
+  const Manifest m = gridManifest(16, 16);
+  ResidencyOptions o;
+  o.guard_s = 1.0;
+  // North at 300 m/s from (500, 300); at (500, 500) the path turns east.
+  Camera cam{{500, 300, 30}, {0, 300, 0}};
+  std::vector<glm::dvec3> ahead;
+  for (int i = 1; i <= 30; ++i) {
+    const double s = 30.0 * i;  // 0.1 s apart
+    ahead.push_back(s <= 200 ? glm::dvec3(500, 300 + s, 30) : glm::dvec3(500 + (s - 200), 500, 30));
+  }
+  auto tierOf = [&](const std::vector<RankedSector>& ranked, SectorKey k) {
+    auto it = std::find_if(ranked.begin(), ranked.end(), [&](auto& r) { return r.key == k; });
+    return it == ranked.end() ? -1 : it->tier;
+  };
+  std::vector<RankedSector> straight, turning;
+  rankSectors(m, cam, o, {}, straight);
+  cam.path_ahead = ahead;
+  cam.path_step_s = 0.1;
+  rankSectors(m, cam, o, {}, turning);
+  // (10, 7) spans x 640..704, y 448..512: the footprint reaches it 0.81 s from now after the
+  // turn, and never along the straight line north.
+  EXPECT_EQ(tierOf(turning, {10, 7}), 0);
+  EXPECT_EQ(tierOf(straight, {10, 7}), 1);
+  // And (7, 10), straight on north (y 640..704, reached 0.81 s from now on the old heading), is
+  // no longer tier 0: after the turn the footprint stops at y 596.
+  EXPECT_EQ(tierOf(straight, {7, 10}), 0);
+  EXPECT_EQ(tierOf(turning, {7, 10}), 1);
+}
+
+TEST(RankSectors, APathAlongTheVelocityRanksAsTheVelocityAlone) {
+  const Manifest m = gridManifest(16, 16);
+  ResidencyOptions o;
+  const Camera still{{420, 610, 30}, {-170, 240, 0}};
+  Camera along = still;
+  std::vector<glm::dvec3> ahead;
+  for (int i = 1; i <= 8; ++i) ahead.push_back(still.position_m + still.velocity_mps * (0.25 * i));
+  along.path_ahead = ahead;
+  along.path_step_s = 0.25;
+  std::vector<RankedSector> a, b;
+  rankSectors(m, still, o, {}, a);
+  rankSectors(m, along, o, {}, b);
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i].key, b[i].key) << i;
+    EXPECT_EQ(a[i].tier, b[i].tier) << i;
+    if (std::isinf(a[i].need_s)) EXPECT_EQ(a[i].need_s, b[i].need_s) << i;
+    else EXPECT_NEAR(a[i].need_s, b[i].need_s, 1e-9) << i;
+    EXPECT_NEAR(a[i].distance_m, b[i].distance_m, 1e-9) << i;
+  }
+}
+
 TEST(RankSectors, StandingStillRanksADiscAroundTheCamera) {
   const Manifest m = gridManifest(16, 16);
   std::vector<RankedSector> ranked;

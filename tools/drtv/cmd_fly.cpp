@@ -34,6 +34,7 @@ struct FlyCliOptions {
   bool no_runtime = false;
   bool fine_shader = false;
   std::string volume_update = "worker";  // worker | inline
+  std::string look_ahead = "path";       // path | velocity
   std::vector<std::string> faults;  // "ix,iy:kind"
   std::string world;                // world file whose lights (and their paths) to fly with
   std::string technique, params;    // a registered technique that runs on drtv::runtime
@@ -112,6 +113,7 @@ Result<void> runFly(const FlyCliOptions& o) {
   fo.runtime = !o.no_runtime;
   fo.volume_worker = o.volume_update == "worker";
   fo.fine_shader = o.fine_shader;
+  if (o.look_ahead == "velocity") fo.path_ahead_step_s = 0.0;
   fo.runtime_options = technique_options;
   fo.technique = technique_name;
   std::optional<worlds::World> world;
@@ -213,6 +215,10 @@ Command registerFly(CLI::App& app) {
                   "worker (default): the volume update on a worker thread, off the frame's critical path, one frame late, the "
                   "flight in real time; inline: in the frame, as before")
       ->check(CLI::IsMember({"worker", "inline"}));
+  sub->add_option("--look-ahead", o->look_ahead,
+                  "path (default): the streamer is told where the camera will be along its path, as an engine that knows "
+                  "the camera's spline or route; velocity: the straight line along its velocity alone")
+      ->check(CLI::IsMember({"path", "velocity"}));
   sub->add_flag("--fine-shader", o->fine_shader,
                 "Each update also packs the fine level near surfaces for the shaders around the camera (runtime/fine_shader.h): "
                 "its cost shows in the worker's time");

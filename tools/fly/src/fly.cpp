@@ -254,6 +254,10 @@ Result<FlyResult> fly(Streamer& streamer, const CatmullRomPath& path, const FlyO
     frame.lights_relit = rt->lightRelightCount() != light_relights_before;
     frame.runtime_probes = rt->cache().probeCount();
   };
+  // Camera::path_ahead's points.
+  constexpr int kPathAhead = 8;
+  std::vector<glm::dvec3> ahead;
+  ahead.reserve(kPathAhead);
   const auto flight_start = Clock::now();
   for (int f = 0; f < frames; ++f) {
     const double t = f * dt;
@@ -270,6 +274,25 @@ Result<FlyResult> fly(Streamer& streamer, const CatmullRomPath& path, const FlyO
     const double s_m = o.speed_mps * t;
     Camera cam{path.position(s_m), path.direction(s_m) * o.speed_mps};
     if (!path.closed() && s_m >= path.lengthM()) cam.velocity_mps = glm::dvec3(0.0);
+    if (o.path_ahead_step_s > 0.0) {
+      // Points along the path up to the streamer's look-ahead (its guard included).
+      // At most kPathAhead points: each costs the ranking a test per sector; the chord error
+      // between them is the tolerance below.
+      const double reach_s = std::max(streamer.guardS(), streamer.options().residency.lookahead_s);
+      const double step_s = std::max(o.path_ahead_step_s, reach_s / kPathAhead);
+      const int n = std::min(kPathAhead, int(std::ceil(reach_s / step_s)));
+      ahead.clear();
+      const double step_m = o.speed_mps * step_s;
+      double stray_m = 0.0;  // the spline's largest distance from a chord, measured at its middles
+      for (int i = 1; i <= n; ++i) {
+        ahead.push_back(path.position(s_m + step_m * i));
+        const glm::dvec3 from = i == 1 ? cam.position_m : ahead[size_t(i - 2)];
+        stray_m = std::max(stray_m, glm::length(path.position(s_m + step_m * (i - 0.5)) - 0.5 * (from + ahead.back())));
+      }
+      cam.path_ahead = ahead;
+      cam.path_step_s = step_s;
+      cam.path_tolerance_m = 1.5 * stray_m;  // the middle is not always the farthest point
+    }
     ff.position_m = cam.position_m;
     ff.hour = std::fmod(o.start_hour + o.hours_per_s * t, 24.0);
     sink.relight_ms = 0.0;
@@ -462,7 +485,8 @@ Result<void> writeFlyReport(const FlyResult& r, const std::filesystem::path& dir
                   {"max_sectors", r.streamer.residency.max_sectors}, {"volume_texel_m", r.streamer.residency.volume.texel_size_m.x},
                   {"lookahead_s", r.streamer.residency.lookahead_s}, {"guard_s", r.streamer.residency.guard_s},
                   {"io_threads", r.streamer.io_threads}, {"simulated_latency_s", r.streamer.simulated_latency_s},
-                  {"max_in_flight", r.streamer.max_in_flight}, {"guard_latency_factor", r.streamer.guard_latency_factor}};
+                  {"max_in_flight", r.streamer.max_in_flight}, {"guard_latency_factor", r.streamer.guard_latency_factor},
+                  {"path_ahead_step_s", r.options.path_ahead_step_s}};
   nlohmann::json wps = nlohmann::json::array();
   for (const auto& w : r.waypoints) wps.push_back({w.x, w.y, w.z});
   j["path"] = {{"length_m", r.path_length_m}, {"loop", r.loop}, {"waypoints", wps}};
@@ -567,6 +591,11 @@ Result<void> writeFlyReport(const FlyResult& r, const std::filesystem::path& dir
   md << buf;
   std::snprintf(buf, sizeof buf, "| residency guard, max (s ahead loaded first: %.1f x the slowest recent load, at least %.2f s) | %.3f | |\n",
                 r.streamer.guard_latency_factor, r.streamer.residency.guard_s, s.guard_s_max);
+  md << buf;
+  if (r.options.path_ahead_step_s > 0.0)
+    std::snprintf(buf, sizeof buf, "| look-ahead | along the flight path (a point every %.2f s) | |\n", r.options.path_ahead_step_s);
+  else
+    std::snprintf(buf, sizeof buf, "| look-ahead | along the velocity | |\n");
   md << buf;
   if (!r.source_note.empty()) md << "| source | " << r.source_note << " | |\n";
   std::snprintf(buf, sizeof buf, "| frame CPU ms p50 / p99 / max | %.4f / %.4f / %.4f | p99 <= 1 |\n", s.frame_ms_p50,

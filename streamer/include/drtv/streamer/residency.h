@@ -15,6 +15,8 @@
 //           sector-frames before, deterministic I/O). Ordered by time of need (metres of travel).
 //   tier 1  every other sector within `candidate_radius_m` of the look-ahead segment
 //           [camera, camera + velocity * lookahead_s], nearest first.
+// With Camera::path_ahead the sweep and the look-ahead follow those points (the camera, then each
+// point at its time; beyond the last, its last step's direction) instead of the velocity.
 // Sectors already held rank `hysteresis_m` nearer than they are (so that a sector at the edge
 // of the set is not dropped and reloaded every frame); ties go by time of need, distance to the
 // look-ahead segment, then key. Only
@@ -42,8 +44,23 @@ using runtime::kMaxResidentSectors;
 
 // What the streamer needs to know about the viewer.
 struct Camera {
+  Camera() = default;
+  Camera(const glm::dvec3& position, const glm::dvec3& velocity = glm::dvec3(0.0)) : position_m(position), velocity_mps(velocity) {}
   glm::dvec3 position_m{0.0};    // world metres
   glm::dvec3 velocity_mps{0.0};  // world metres per second (the look-ahead direction and reach)
+  // Where the camera will be, when the engine knows (a spline it follows, a vehicle's route, a
+  // cutscene): path_ahead[i] is its position path_step_s * (i + 1) seconds from now. Given, the
+  // look-ahead follows these points instead of the straight line along the velocity, so that a
+  // turn's sectors are asked for before the camera turns. Not owned: valid during the call that
+  // takes the camera. Empty (or path_step_s <= 0) = the velocity alone. The ranking follows at
+  // most 126 points, as far as max(guard, look-ahead) reaches, and goes straight on past the last
+  // along its step; each costs it a test per sector, so a handful is best (drtv fly gives 8).
+  std::span<const glm::dvec3> path_ahead;
+  double path_step_s = 0.0;
+  // How far the camera may stray from the straight lines between those points (a curve's chord
+  // error, metres): the sweep's footprint is grown by it, so that a curve's bulge between two
+  // points is not missed.
+  double path_tolerance_m = 0.0;
 };
 
 struct ResidencyOptions {

@@ -103,6 +103,11 @@ struct FlyOptions {
   // Each update also packs the fine level for the shaders (RuntimeOptions::fine_shader): its
   // cost is in the worker's time (or the frame's, inline).
   bool fine_shader = false;
+  // The streamer is told where the camera will be along the flight path (Camera::path_ahead), as
+  // an engine that knows a camera's spline or route would: 8 points up to its look-ahead (its
+  // guard included), at least this many seconds apart, with the spline's largest distance from
+  // their chords (x 1.5) as the tolerance; 0 = the velocity alone.
+  double path_ahead_step_s = 0.1;
   // Called every ~1 % of the flight with (frames done, frames total): progress for a terminal.
   std::function<void(int, int)> progress;
 };

@@ -134,6 +134,9 @@ FlySnapshot snapshot(const Streamer& s, const FlySink& sink, const CatmullRomPat
   return {frame, c.take()};
 }
 
+// The points of the flight path the streamer is told per frame (FlyOptions::path_ahead_step_s).
+constexpr int kPathAheadPoints = 8;
+
 double percentile(std::vector<double> v, double p) {
   if (v.empty()) return 0.0;
   std::sort(v.begin(), v.end());
@@ -255,7 +258,7 @@ Result<FlyResult> fly(Streamer& streamer, const CatmullRomPath& path, const FlyO
     frame.runtime_probes = rt->cache().probeCount();
   };
   // Camera::path_ahead's points.
-  constexpr int kPathAhead = 8;
+  constexpr int kPathAhead = kPathAheadPoints;
   std::vector<glm::dvec3> ahead;
   ahead.reserve(kPathAhead);
   const auto flight_start = Clock::now();
@@ -593,7 +596,8 @@ Result<void> writeFlyReport(const FlyResult& r, const std::filesystem::path& dir
                 r.streamer.guard_latency_factor, r.streamer.residency.guard_s, s.guard_s_max);
   md << buf;
   if (r.options.path_ahead_step_s > 0.0)
-    std::snprintf(buf, sizeof buf, "| look-ahead | along the flight path (a point every %.2f s) | |\n", r.options.path_ahead_step_s);
+    std::snprintf(buf, sizeof buf, "| look-ahead | along the flight path (%d points up to the guard and look-ahead, at least %.2f s apart) | |\n",
+                  kPathAheadPoints, r.options.path_ahead_step_s);
   else
     std::snprintf(buf, sizeof buf, "| look-ahead | along the velocity | |\n");
   md << buf;

@@ -116,18 +116,22 @@ double footprintEntry(SectorKey key, const glm::dvec2& half, const glm::dvec2& a
   return t0 < t1 ? t0 : -1.0;
 }
 
-// The camera's predicted track as a polyline of (position, time) corners from now to `end_s`:
-// the camera, then Camera::path_ahead's points up to the first at or past end_s (cut there), or
-// the straight line along the velocity; a path that stops short goes on along its last step.
 // Camera::path_ahead's points the ranking follows at most; past them the track goes straight on
 // along the last one's step.
 constexpr size_t kMaxPathPoints = 126;
+
+// The camera's predicted track as a polyline of (position, time) corners from now to `end_s`:
+// the camera, then Camera::path_ahead's points up to the first at or past end_s (or the
+// kMaxPathPoints-th), then straight on along the last step if they stop short of end_s; without a
+// path, the straight line along the velocity.
 
 class Track {
  public:
   Track(const Camera& c, double end_s) : c_(c), end_s_(end_s) {
     const bool path = !c.path_ahead.empty() && c.path_step_s > 0.0 && std::isfinite(c.path_step_s);
-    n_ = path ? std::min({c.path_ahead.size(), size_t(std::ceil(end_s / c.path_step_s)), kMaxPathPoints}) : 0;
+    // In double first: a tiny step or a NaN end would not fit a size_t.
+    const double wanted = std::ceil(end_s / c.path_step_s);
+    n_ = path ? std::min(c.path_ahead.size(), wanted < double(kMaxPathPoints) ? size_t(std::max(wanted, 0.0)) : kMaxPathPoints) : 0;
     tail_ = n_ == 0 || double(n_) * c.path_step_s < end_s;
     if (n_ > 0) {
       const glm::dvec2 prev = n_ >= 2 ? xy(c.path_ahead[n_ - 2]) : xy(c.position_m);

@@ -218,6 +218,29 @@ TEST(RankSectors, APathAlongTheVelocityRanksAsTheVelocityAlone) {
   }
 }
 
+TEST(RankSectors, AnAbsurdPathRanksWithoutFailing) {
+  const Manifest m = gridManifest(8, 8);
+  const std::vector<glm::dvec3> ahead(1000, glm::dvec3(300, 300, 0));
+  const std::vector<glm::dvec3> wild = {{NAN, 0, 0}, {1e300, -1e300, 0}, {INFINITY, 5, 0}};
+  for (const double step : {1e-300, 1e-9, 1e300, -1.0, double(NAN), double(INFINITY)})
+    for (const auto* points : {&ahead, &wild}) {
+      Camera cam{{256, 256, 10}, {50, 0, 0}};
+      cam.path_ahead = *points;
+      cam.path_step_s = step;
+      cam.path_tolerance_m = step;
+      std::vector<RankedSector> ranked;
+      rankSectors(m, cam, {}, {}, ranked);
+      // The footprint about the camera is always wanted first.
+      std::vector<SectorKey> foot;
+      footprintSectors(m, cam.position_m, {}, foot);
+      for (SectorKey k : foot) {
+        auto it = std::find_if(ranked.begin(), ranked.end(), [&](auto& r) { return r.key == k; });
+        ASSERT_NE(it, ranked.end()) << step;
+        EXPECT_EQ(it->tier, 0) << step;
+      }
+    }
+}
+
 TEST(RankSectors, StandingStillRanksADiscAroundTheCamera) {
   const Manifest m = gridManifest(16, 16);
   std::vector<RankedSector> ranked;

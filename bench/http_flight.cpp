@@ -24,16 +24,13 @@
 #include <nlohmann/json.hpp>
 #include <unistd.h>
 
+#include "drtv/baker/farm.h"
 #include "fault_proxy.h"
 #include "nginx_server.h"
 
 namespace {
 
-std::string quoted(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
-}
+using drtv::baker::shellQuote;
 
 int usage(const char* why) {
   std::fprintf(stderr,
@@ -100,10 +97,10 @@ int main(int argc, char** argv) {
       for (double speed : speeds)
         for (const bool http : {false, true}) {
           const auto out = (keep.empty() ? dir : keep) / ("run" + std::to_string(run++));
-          std::string cmd = quoted(bin) + " fly " + quoted(http ? url : archive.string()) + " --speed " + std::to_string(speed) +
-                            " --io-threads " + std::to_string(io_threads) + " -o " + quoted(out.string()) + " > " +
-                            quoted((out.string() + ".log")) + " 2>&1";
+          std::string cmd = shellQuote(bin) + " fly " + shellQuote(http ? url : archive.string()) + " --speed " + std::to_string(speed) +
+                            " --io-threads " + std::to_string(io_threads) + " -o " + shellQuote(out.string());
           if (frames > 0) cmd += " --frames " + std::to_string(frames);
+          cmd += " > " + shellQuote(out.string() + ".log") + " 2>&1";
           std::filesystem::create_directories(out.parent_path());
           const int rc = std::system(cmd.c_str());
           std::ifstream f(out / "fly-report.json");

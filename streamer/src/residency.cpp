@@ -31,22 +31,30 @@ double pointToSegment(const glm::dvec2& p, const glm::dvec2& a, const glm::dvec2
   return glm::length(p - (a + t * ab));
 }
 
-// Slab test: does the segment [a, b] pass through the closed rectangle?
-bool segmentHitsRect(const glm::dvec2& a, const glm::dvec2& b, const Rect& r) {
-  double t0 = 0.0, t1 = 1.0;
+// Slab test: narrows [t0, t1] = [0, 1] to the part of the segment a + t (b - a) between each pair
+// of r's lines, closed or open (touching is not inside); true when some of it is left. A segment
+// that does not move along an axis keeps all of it or nothing.
+bool clipToRect(const glm::dvec2& a, const glm::dvec2& b, const Rect& r, bool open, double& t0, double& t1) {
+  t0 = 0.0, t1 = 1.0;
   for (int axis = 0; axis < 2; ++axis) {
     const double d = b[axis] - a[axis];
-    if (std::abs(d) < 1e-12) {
-      if (a[axis] < r.min[axis] || a[axis] > r.max[axis]) return false;
+    if (d == 0.0) {
+      const bool inside = open ? a[axis] > r.min[axis] && a[axis] < r.max[axis] : !(a[axis] < r.min[axis] || a[axis] > r.max[axis]);
+      if (!inside) return false;
       continue;
     }
     double ta = (r.min[axis] - a[axis]) / d, tb = (r.max[axis] - a[axis]) / d;
     if (ta > tb) std::swap(ta, tb);
     t0 = std::max(t0, ta);
     t1 = std::min(t1, tb);
-    if (t0 > t1) return false;
   }
-  return true;
+  return open ? t0 < t1 : !(t0 > t1);
+}
+
+// Does the segment [a, b] pass through the closed rectangle?
+bool segmentHitsRect(const glm::dvec2& a, const glm::dvec2& b, const Rect& r) {
+  double t0, t1;
+  return clipToRect(a, b, r, /*open=*/false, t0, t1);
 }
 
 // The manifest's key range, so that enumeration never walks empty sea.
@@ -95,25 +103,12 @@ double distanceToSegment(SectorKey key, const glm::dvec2& a, const glm::dvec2& b
 
 namespace {
 
+// When the footprint about p = a + t (b - a) first overlaps the sector's open square: p lies in
+// the square grown by the footprint's half size (open). -1 when it never does for t in [0, 1].
 double footprintEntry(SectorKey key, const glm::dvec2& half, const glm::dvec2& a, const glm::dvec2& b) {
-  // The footprint about p overlaps the sector's open square iff p lies in the square grown by the
-  // footprint's half size (open): a slab test of the segment against that rectangle.
   const Rect r = sectorRect(key);
-  const Rect g{r.min - half, r.max + half};
-  double t0 = 0.0, t1 = 1.0;
-  for (int axis = 0; axis < 2; ++axis) {
-    const double d = b[axis] - a[axis];
-    if (d == 0.0) {
-      if (!(a[axis] > g.min[axis] && a[axis] < g.max[axis])) return -1.0;
-      continue;
-    }
-    double ta = (g.min[axis] - a[axis]) / d, tb = (g.max[axis] - a[axis]) / d;
-    if (ta > tb) std::swap(ta, tb);
-    t0 = std::max(t0, ta);
-    t1 = std::min(t1, tb);
-  }
-  // Open rectangle: touching at one instant is no overlap. NaN (a camera holding anything) fails.
-  return t0 < t1 ? t0 : -1.0;
+  double t0, t1;
+  return clipToRect(a, b, {r.min - half, r.max + half}, /*open=*/true, t0, t1) ? t0 : -1.0;
 }
 
 // Camera::path_ahead's points the ranking follows at most; past them the track goes straight on
@@ -143,6 +138,7 @@ class Track {
   // Corners 0 .. corners() - 1 in time order; corner 0 is the camera now. The track reaches end_s
   // (a path's last point used may lie past it).
   size_t corners() const { return n_ + 1 + (tail_ ? 1 : 0); }
+  bool followsPath() const { return n_ > 0; }
   double time(size_t i) const { return i == 0 ? 0.0 : i <= n_ ? double(i) * c_.path_step_s : end_s_; }
   glm::dvec2 at(size_t i) const {
     if (i == 0) return xy(c_.position_m);
@@ -171,8 +167,7 @@ void rankSectors(const Manifest& manifest, const Camera& camera, const Residency
   const Track track(camera, sweep_s);
   const Footprint now = volumeFootprint(camera.position_m, o);
   const glm::dvec2 half = 0.5 * (now.max - now.min);
-  const bool on_path = !camera.path_ahead.empty() && camera.path_step_s > 0.0;
-  const glm::dvec2 tolerance(on_path && camera.path_tolerance_m > 0.0 ? std::min(camera.path_tolerance_m, kSectorSizeM) : 0.0);
+  const glm::dvec2 tolerance(track.followsPath() && camera.path_tolerance_m > 0.0 ? std::min(camera.path_tolerance_m, kSectorSizeM) : 0.0);
   const double speed = glm::length(glm::dvec2(camera.velocity_mps.x, camera.velocity_mps.y));
   const double r = o.candidate_radius_m;
   const double reach = std::max({r, half.x, half.y});  // tier 0 lies within the footprint's reach of the sweep

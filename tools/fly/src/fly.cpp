@@ -257,10 +257,8 @@ Result<FlyResult> fly(Streamer& streamer, const CatmullRomPath& path, const FlyO
     frame.lights_relit = rt->lightRelightCount() != light_relights_before;
     frame.runtime_probes = rt->cache().probeCount();
   };
-  // Camera::path_ahead's points.
-  constexpr int kPathAhead = kPathAheadPoints;
-  std::vector<glm::dvec3> ahead;
-  ahead.reserve(kPathAhead);
+  std::vector<glm::dvec3> ahead;  // Camera::path_ahead's points
+  ahead.reserve(kPathAheadPoints);
   const auto flight_start = Clock::now();
   for (int f = 0; f < frames; ++f) {
     const double t = f * dt;
@@ -279,11 +277,11 @@ Result<FlyResult> fly(Streamer& streamer, const CatmullRomPath& path, const FlyO
     if (!path.closed() && s_m >= path.lengthM()) cam.velocity_mps = glm::dvec3(0.0);
     if (o.path_ahead_step_s > 0.0) {
       // Points along the path up to the streamer's look-ahead (its guard included).
-      // At most kPathAhead points: each costs the ranking a test per sector; the chord error
+      // At most kPathAheadPoints: each costs the ranking a test per sector; the chord error
       // between them is the tolerance below.
       const double reach_s = std::max(streamer.guardS(), streamer.options().residency.lookahead_s);
-      const double step_s = std::max(o.path_ahead_step_s, reach_s / kPathAhead);
-      const int n = std::min(kPathAhead, int(std::ceil(reach_s / step_s)));
+      const double step_s = std::max(o.path_ahead_step_s, reach_s / kPathAheadPoints);
+      const int n = std::min(kPathAheadPoints, int(std::ceil(reach_s / step_s)));
       ahead.clear();
       const double step_m = o.speed_mps * step_s;
       double stray_m = 0.0;  // the spline's largest distance from a chord, measured at its middles

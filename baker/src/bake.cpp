@@ -188,11 +188,6 @@ std::vector<SectorKey> bakeKeys(const raytrace::SectorRange& range) {
   return keys;
 }
 
-std::vector<uint64_t> sectorCosts(const raytrace::WorldGeometry& geometry, std::span<const SectorKey> keys, double halo_m) {
-  std::vector<uint64_t> costs(keys.size());
-  for (size_t i = 0; i < keys.size(); ++i) costs[i] = 1 + geometry.gatherEstimate(keys[i], halo_m);
-  return costs;
-}
 
 // The placement settings of a bake: without the fine level (whose covered flags it clears), a
 // covered candidate is relocated and kept apart as in the builds before 2026-12-07
@@ -654,15 +649,17 @@ static Result<BakeReport> bakeRecorded(const worlds::World& given, const std::st
       return std::unexpected(ok.error());
   const std::vector<SectorKey> keys = bakeKeys(range);
   // What each sector costs to bake, and so which shard bakes it (shard.h, shardOwners).
-  const std::vector<uint64_t> costs = sectorCosts(*geometry, keys, haloFor(report.settings, effects));
-  const std::vector<int> owner = shardOwners(costs, options.shard_count);
+  const SectorCosts costs = sectorCosts(*geometry, keys, haloFor(report.settings, effects), options.costs ? &*options.costs : nullptr);
+  const std::vector<int> owner = shardOwners(costs.units, options.shard_count);
+  report.geometry_fingerprint = fingerprintText(geometry->fingerprint());
+  report.split = costs.split;
 
   // The sector directory, stamped with the bake's fingerprint: a resumed bake must be the same bake.
   const fs::path dir = sectorDirectory(archive);
   const uint64_t fingerprint = bakeFingerprint(*geometry, world, report.settings, effects);
   std::vector<ShardStatus> shard_statuses;
   if (options.merge_only) {
-    auto s = shardsOfThisBake(dir, fingerprintText(fingerprint), world_name, report.settings);
+    auto s = shardsOfThisBake(dir, fingerprintText(fingerprint), world_name, report.settings, costs.split);
     if (!s) return std::unexpected(s.error());
     shard_statuses = std::move(*s);
   }
@@ -694,7 +691,7 @@ static Result<BakeReport> bakeRecorded(const worlds::World& given, const std::st
       if (!have[i] && missing++ == 0) first = toString(keys[i]);
     if (missing)
       return fail(dir.string() + ": " + std::to_string(missing) + " sectors not baked yet (first " + first + ")" +
-                  missingShards(dir, keys, costs, have, shard_statuses) + "; run the missing shards");
+                  missingShards(dir, keys, costs.units, have, shard_statuses) + "; run the missing shards");
   }
 
   // The journal is opened (and locked) before the status says "running": while the shard runs it
@@ -714,8 +711,9 @@ static Result<BakeReport> bakeRecorded(const worlds::World& given, const std::st
     status.fingerprint = fingerprintText(fingerprint);
     status.world = world_name;
     status.settings = report.settings.describe();
+    status.split = costs.split;
     for (size_t i = 0; i < keys.size(); ++i)
-      if (owner[i] == options.shard_index) ++status.sectors, status.cost += costs[i];
+      if (owner[i] == options.shard_index) ++status.sectors, status.cost += costs.units[i];
     if (auto w = writeShardStatus(dir, status); !w) return std::unexpected(w.error());
   }
 

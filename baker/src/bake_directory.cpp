@@ -81,13 +81,28 @@ Result<void> claimSectorDirectory(const fs::path& dir, uint64_t fingerprint, boo
   return detail::writeFileAtomically(stamp, fp_text);
 }
 
+namespace {
+// "estimated" -> "their estimated costs"; "measured <digest>" -> "the times of a bake report (<digest>)".
+std::string splitText(const std::string& split) {
+  if (split == "estimated") return "their estimated costs (no --costs)";
+  if (split.rfind("measured ", 0) == 0) return "the times of a bake report (--costs, digest " + split.substr(9) + ")";
+  return "'" + split + "'";
+}
+}  // namespace
+
 // The shards' status files (shard.h) in `dir`, each checked against the merge's bake: a shard
 // baked from another world or with other settings is named, with what differs.
 Result<std::vector<ShardStatus>> shardsOfThisBake(const fs::path& dir, const std::string& fingerprint, const std::string& world_name,
-                                                  const BakeSettings& settings) {
+                                                  const BakeSettings& settings, const std::string& split) {
   auto statuses = readShardStatuses(dir);
   if (!statuses) return std::unexpected(statuses.error());
   for (const ShardStatus& s : *statuses) {
+    // Shards that split otherwise may have left sectors to nobody, and the merge would name the
+    // wrong shards for them: one --costs for all (sector_costs.h).
+    if (s.split != split && (s.fingerprint.empty() || s.fingerprint == fingerprint))
+      return fail(shardStatusFile(dir, s.index, s.count).string() + ": shard " + std::to_string(s.index) + "/" +
+                  std::to_string(s.count) + " split the sectors by " + splitText(s.split) + ", this merge by " + splitText(split) +
+                  "; give every shard and the merge the same --costs (or none)");
     if (s.fingerprint.empty() || s.fingerprint == fingerprint) continue;  // empty: it failed before it knew
     const std::map<std::string, std::string> theirs(s.settings.begin(), s.settings.end());
     std::string differ;

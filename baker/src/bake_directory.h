@@ -31,9 +31,11 @@ std::string fingerprintText(uint64_t fingerprint);
 Result<void> claimSectorDirectory(const std::filesystem::path& dir, uint64_t fingerprint, bool fresh);
 
 // The shards' status files in `dir`, each checked against the merge's bake: a shard baked from
-// another world or with other settings is named, with what differs.
+// another world or with other settings is named, with what differs, and so is one that split the
+// sectors otherwise than `split` (SectorCosts::split: another --costs, or none).
 Result<std::vector<ShardStatus>> shardsOfThisBake(const std::filesystem::path& dir, const std::string& fingerprint,
-                                                  const std::string& world_name, const BakeSettings& settings);
+                                                  const std::string& world_name, const BakeSettings& settings,
+                                                  const std::string& split);
 // Why the sectors `keys[i]` with !have[i] are missing, shard by shard, as the shards' status files
 // tell it: which shard of each split owns them, and whether it failed (its error), is running or
 // was killed, says it is done (its journal lost them), or never ran.

@@ -81,7 +81,16 @@ std::string shellQuote(const std::string& word) {
   return out + "'";
 }
 
-Result<ShardEstimate> estimateShard(const worlds::World& world, const std::string& where, int shards, int max_cpus) {
+double ShardEstimate::slowestOverMean() const {
+  if (shard_units.empty()) return 1.0;
+  uint64_t most = 0;
+  double sum = 0;
+  for (const uint64_t u : shard_units) most = std::max(most, u), sum += double(u);
+  return sum > 0 ? double(most) / (sum / double(shard_units.size())) : 1.0;
+}
+
+Result<ShardEstimate> estimateShard(const worlds::World& world, const std::string& where, int shards, int max_cpus,
+                                   const MeasuredCosts* measured) {
   if (shards < 1) return fail("shards: " + std::to_string(shards) + " must be at least 1");
   if (max_cpus < 1) return fail("cpus: " + std::to_string(max_cpus) + " must be at least 1");
   auto geometry = raytrace::WorldGeometry::build(world, where);
@@ -92,9 +101,25 @@ Result<ShardEstimate> estimateShard(const worlds::World& world, const std::strin
   e.sectors = geometry->sectors().count();
   // The bake's own split (bake.cpp): the most sectors any shard owns.
   const std::vector<SectorKey> keys = bakeKeys(geometry->sectors());
-  std::vector<size_t> owned(size_t(shards), 0);
-  for (const int k : shardOwners(sectorCosts(*geometry, keys, halo_m), shards)) ++owned[size_t(k)];
-  e.sectors_per_shard = *std::max_element(owned.begin(), owned.end());
+  const SectorCosts costs = sectorCosts(*geometry, keys, halo_m, measured);
+  const std::vector<int> owner = shardOwners(costs.units, shards);
+  e.split = costs.split;
+  e.measured = costs.measured;
+  e.seconds_per_unit = costs.seconds_per_unit;
+  e.shard_sectors.assign(size_t(shards), 0);
+  e.shard_units.assign(size_t(shards), 0);
+  for (size_t i = 0; i < keys.size(); ++i) {
+    ++e.shard_sectors[size_t(owner[i])];
+    e.shard_units[size_t(owner[i])] += costs.units[i];
+  }
+  e.sectors_per_shard = *std::max_element(e.shard_sectors.begin(), e.shard_sectors.end());
+  if (costs.split != "estimated") {
+    const std::vector<int> by_triangles = shardOwners(sectorCosts(*geometry, keys, halo_m).units, shards);
+    std::vector<double> load(size_t(shards), 0.0);
+    double sum = 0;
+    for (size_t i = 0; i < keys.size(); ++i) load[size_t(by_triangles[i])] += double(costs.units[i]), sum += double(costs.units[i]);
+    e.triangle_split_slowest_over_mean = sum > 0 ? *std::max_element(load.begin(), load.end()) / (sum / shards) : 1.0;
+  }
   e.largest_gather = geometry->largestGather(geometry->sectors(), halo_m, &e.largest_at);
   for (const worlds::Mesh& m : world.meshes) e.world_bytes += m.positions.size() * sizeof(glm::vec3) + m.indices.size() * sizeof(uint32_t);
   e.cpus = int(std::clamp<size_t>(e.sectors_per_shard, 1, size_t(max_cpus)));

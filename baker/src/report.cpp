@@ -96,6 +96,8 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
   j["packed"] = r.packed;
   j["shard"] = r.shard;
   j["threads"] = r.threads;
+  j["geometry_fingerprint"] = r.geometry_fingerprint;  // what `--costs` matches (sector_costs.h)
+  j["split"] = r.split;
   nlohmann::json settings = nlohmann::json::object();
   for (const auto& [k, v] : r.settings.describe()) settings[k] = v;
   j["settings"] = settings;

@@ -132,6 +132,7 @@ Result<ShardStatus> readStatus(const fs::path& file) {
   s.world = text_of("world");
   s.host = text_of("host");
   s.error = text_of("error");
+  if (const std::string split = text_of("split"); !split.empty()) s.split = split;  // older statuses: estimated
   if (j.contains("settings") && j["settings"].is_object())
     for (const auto& [key, value] : j["settings"].items())
       if (value.is_string()) s.settings.emplace_back(key, value.get<std::string>());
@@ -191,6 +192,7 @@ Result<void> writeShardStatus(const fs::path& dir, const ShardStatus& s) {
   j["sectors"] = s.sectors;
   j["baked"] = s.baked;
   j["cost"] = s.cost;
+  j["split"] = s.split;
   j["wall_s"] = s.wall_s;
   if (!s.error.empty()) j["error"] = s.error;
   nlohmann::ordered_json settings = nlohmann::ordered_json::object();
@@ -255,9 +257,9 @@ Result<FarmStatus> farmStatus(const fs::path& archive) {
   for (const ShardStatus& s : *statuses) ++splits[s.count];
   for (const auto& [n, c] : splits)
     if (out.count == 0 || c > splits[out.count]) out.count = n;
-  std::string fingerprint;
+  std::string fingerprint, cost_split;
   for (const ShardStatus& s : *statuses)
-    if (s.count == out.count && !s.fingerprint.empty()) fingerprint = s.fingerprint;
+    if (s.count == out.count && !s.fingerprint.empty()) fingerprint = s.fingerprint, cost_split = s.split;
   for (int k = 0; k < out.count; ++k) {
     FarmShard shard;
     shard.index = k;
@@ -280,6 +282,11 @@ Result<FarmStatus> farmStatus(const fs::path& archive) {
     if (!fingerprint.empty() && !s.fingerprint.empty() && s.fingerprint != fingerprint)
       out.problems.push_back(shardStatusFile(dir, s.index, s.count).string() + ": shard " + std::to_string(s.index) + "/" +
                              std::to_string(s.count) + " of another bake (fingerprint " + s.fingerprint + ", not " + fingerprint + ")");
+    else if (!fingerprint.empty() && !s.fingerprint.empty() && s.split != cost_split)
+      // Shards that split by other costs (one given --costs, one not) may leave sectors to nobody.
+      out.problems.push_back(shardStatusFile(dir, s.index, s.count).string() + ": shard " + std::to_string(s.index) + "/" +
+                             std::to_string(s.count) + " split the sectors by '" + s.split + "', the others by '" + cost_split +
+                             "' (give every shard the same --costs)");
     FarmShard& shard = out.shards[size_t(s.index)];
     shard.state = stateName(s.state);
     if (s.state == ShardStatus::State::kRunning) {

@@ -105,8 +105,11 @@ TEST(Placement, AClosedRoomGetsAProbeEveryTwoMetresAndADeckDoesNot) {
   EXPECT_LE(room_old, 2u);
   EXPECT_GE(room_now, 12u) << "a 9.2 x 7.2 m room on a 2 m lattice: 4 x 4 columns, less those by its walls";
   for (const PlacedProbe& a : now.probes)
-    for (const PlacedProbe& b : now.probes)
-      if (&a != &b && in_room(a) && in_room(b)) EXPECT_GE(glm::distance(glm::vec2(a.position), glm::vec2(b.position)), 2.f - 1e-4f);
+    for (const PlacedProbe& b : now.probes) {
+      if (&a != &b && in_room(a) && in_room(b)) {
+        EXPECT_GE(glm::distance(glm::vec2(a.position), glm::vec2(b.position)), 2.f - 1e-4f);
+      }
+    }
   EXPECT_EQ(std::count_if(now.probes.begin(), now.probes.end(), under_deck), std::count_if(old.probes.begin(), old.probes.end(), under_deck))
       << "the deck's sides are open";
   // With nothing enclosed, the placement is the one before it.

@@ -982,6 +982,63 @@ TEST(Farm, SlurmScriptsRunAnArrayWithAppendedPerTaskLogsAndAMergeAfterEachTask) 
   EXPECT_NE(merge_script.find(" --max-memory "), std::string::npos) << merge_script;
 }
 
+TEST(Farm, ShardsSplitByAnEarlierBakesTimesMergeIntoTheSameBytesAndAMergeWithoutThemIsRefused) {
+  // The earlier bake: one process, its report beside the archive.
+  const std::string one = scratch("one/w.drtv"), report = scratch("one/bake-report.json");
+  const Outcome b = drtv("bake " + kFarmWorld + " -o " + one + " --quality draft --threads 1", kNoScheduler);
+  ASSERT_EQ(b.status, 0) << b.out;
+  const nlohmann::json rep = nlohmann::json::parse(slurp(report));
+  ASSERT_EQ(rep["geometry_fingerprint"].get<std::string>().size(), 16u);
+  EXPECT_EQ(rep["split"], "estimated");
+  double sum_s = 0;
+  for (const auto& s : rep["per_sector"]) sum_s += s["total_s"].get<double>();
+
+  // The plan, split by those times: every sector measured, the times summed as the report has them.
+  const Outcome p = drtv("farm plan " + kFarmWorld + " --shards 2 --costs " + report + " --json", kNoScheduler);
+  ASSERT_EQ(p.status, 0) << p.out;
+  const nlohmann::json plan = nlohmann::json::parse(p.out.substr(p.out.find('{')));
+  EXPECT_EQ(plan["split"].get<std::string>().rfind("measured ", 0), 0u) << p.out;
+  EXPECT_EQ(plan["measured_sectors"], plan["sectors"]) << p.out;
+  EXPECT_NEAR(plan["predicted"]["sum_s"].get<double>(), sum_s, 1e-5 * plan["sectors"].get<double>() + 1e-9) << p.out;
+  EXPECT_GE(plan["slowest_over_mean"].get<double>(), 1.0);
+
+  // The shards split by them; the merge must be told the same.
+  const std::string archive = scratch("timed/w.drtv");
+  bakeShards(archive, 2, " --costs " + report);
+  const nlohmann::json status = nlohmann::json::parse(slurp(archive + ".sectors/shard-1-of-2.json"));
+  EXPECT_EQ(status["split"], plan["split"]);
+  // One shard run again without them: the status names it.
+  ASSERT_EQ(bakeShard(scratch("mixed/w.drtv"), "0/2", "", " --costs " + report).status, 0);
+  ASSERT_EQ(bakeShard(scratch("mixed/w.drtv"), "1/2").status, 0);
+  const Outcome st = drtv("farm status " + scratch("mixed/w.drtv"), kNoScheduler);
+  EXPECT_NE(st.out.find("problem: "), std::string::npos) << st.out;
+  EXPECT_NE(st.out.find("(give every shard the same --costs)"), std::string::npos) << st.out;
+  const Outcome refused = merge(archive);
+  EXPECT_EQ(refused.status, 1) << refused.out;
+  EXPECT_NE(refused.out.find("shard 0/2 split the sectors by the times of a bake report (--costs, digest "), std::string::npos)
+      << refused.out;
+  EXPECT_NE(refused.out.find("this merge by their estimated costs (no --costs)"), std::string::npos) << refused.out;
+  EXPECT_FALSE(std::filesystem::exists(archive));
+  const Outcome m = drtv("bake " + kFarmWorld + " -o " + archive + " --quality draft --merge --costs " + report, kNoScheduler);
+  ASSERT_EQ(m.status, 0) << m.out;
+  EXPECT_EQ(slurp(archive), slurp(one)) << "the split moves no byte";
+
+  // The Slurm scripts hand the report to every shard and to the merge.
+  const std::string dir = scratch("slurm");
+  const Outcome s = drtv("farm slurm " + kFarmWorld + " -o " + scratch("s/w.drtv") + " --shards 2 --scripts " + dir +
+                             " --quality draft --costs " + report,
+                         kNoScheduler);
+  ASSERT_EQ(s.status, 0) << s.out;
+  EXPECT_NE(s.out.find("split by the times " + report + " measured"), std::string::npos) << s.out;
+  for (const char* file : {"/shards.sbatch", "/merge.sbatch"})
+    EXPECT_NE(slurp(dir + file).find(" --costs " + std::filesystem::absolute(report).lexically_normal().string()), std::string::npos)
+        << slurp(dir + file);
+  // A report that is not one is refused, naming it.
+  const Outcome bad = drtv("farm plan " + kFarmWorld + " --shards 2 --costs " + one, kNoScheduler);
+  EXPECT_EQ(bad.status, 1) << bad.out;
+  EXPECT_NE(bad.out.find(one + ": not JSON"), std::string::npos) << bad.out;
+}
+
 TEST(Farm, OneShardIsNoFarm) {
   const Outcome r = drtv("farm slurm " + kFarmWorld + " -o " + scratch("w.drtv") + " --shards 1 --scripts " + scratch("s"));
   EXPECT_EQ(r.status, 2) << r.out;

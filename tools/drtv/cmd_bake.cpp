@@ -1,6 +1,6 @@
 // drtv bake <world.json> -o <archive> [--threads N] [--quality draft|default|high]
 //           [--sectors x0:x1,y0:y1] [--shard k/N|slurm|k8s[/N]|auto[/N]] [--merge] [--fresh] [--keep-sectors] [--seed S]
-//           [--representation fc3|sh-l1]
+//           [--representation fc3|sh-l1] [--costs bake-report.json]
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -38,6 +38,7 @@ struct BakeCliOptions {
   std::string light_sources;
   std::optional<double> enclosed_spacing_m;
   std::optional<int> sweeps;
+  std::string costs;  // an earlier bake's report: the shards split by its sector times
 };
 
 void drawProgress(size_t done, size_t total) {
@@ -95,6 +96,11 @@ Result<void> runBake(const BakeCliOptions& o) {
     return std::unexpected(e);
   };
   if (auto made = createParentFolder(o.output); !made) return shardFailed(made.error());
+  if (!o.costs.empty()) {
+    auto costs = baker::readMeasuredCosts(o.costs);
+    if (!costs) return shardFailed(costs.error());
+    options.costs = std::move(*costs);
+  }
   auto world = worlds::loadWorld(o.world);
   if (!world) return shardFailed(world.error());
   auto report = baker::bake(*world, o.world, archive, options);
@@ -144,7 +150,7 @@ Command registerBake(CLI::App& app) {
   sub->add_option("--quality", o->quality, "draft | default | high")->check(CLI::IsMember({"draft", "default", "high"}));
   sub->add_option("--sectors", o->sectors, "Only sectors x0:x1,y0:y1 (inclusive sector keys)");
   sub->add_option("--shard", o->shard,
-                  "Bake shard k of N (the sectors balanced by estimated cost, the same split in every shard); pack later with --merge. k/N, or from the scheduler: "
+                  "Bake shard k of N (the sectors balanced by estimated cost, or --costs, the same split in every shard); pack later with --merge. k/N, or from the scheduler: "
                   "slurm (SLURM_ARRAY_TASK_ID - SLURM_ARRAY_TASK_MIN of SLURM_ARRAY_TASK_COUNT), k8s[/N] "
                   "(JOB_COMPLETION_INDEX of N, else of DRTV_SHARD_COUNT), auto[/N] (whichever is set)")
       ->check(CLI::Validator(
@@ -153,6 +159,10 @@ Command registerBake(CLI::App& app) {
             return shard ? std::string() : shard.error().message;
           },
           "SHARD"));
+  sub->add_option("--costs", o->costs,
+                  "An earlier bake's bake-report.json of this world (a draft bake, the last bake, a farm bake's merge): the shards "
+                  "split the sectors by its measured times instead of their triangles; give every shard and the merge the same")
+      ->type_name("REPORT");
   sub->add_flag("--merge", o->merge, "Pack the sectors all shards wrote (their journals) into the archive");
   sub->add_flag("--fresh", o->fresh, "Discard sector journals left by a different bake");
   sub->add_flag("--keep-sectors", o->keep_sectors, "Keep <archive>.sectors/ after packing");

@@ -1,6 +1,7 @@
 // drtv farm slurm <world> -o <archive> --shards N --scripts DIR [--submit] ...
 // drtv farm k8s   <world> -o <archive> --shards N --scripts DIR --image I --claim C ...
 // drtv farm status <archive> [--json]
+// drtv farm plan  <world> --shards N [--costs bake-report.json] [--json]
 // Writes the jobs of a sharded bake for an existing scheduler (drtv/baker/farm.h), and reads what
 // the shards left behind (drtv/baker/shard.h). docs/baker.md, "Baking on a farm".
 #include <cstdio>
@@ -32,6 +33,7 @@ struct FarmCliOptions {
   int max_cpus = 8;
   int mem_mb = 0;  // 0 = estimated
   std::string quality, seed;
+  std::string costs;  // an earlier bake's report (sector_costs.h)
   std::vector<std::string> bake_args;
   std::string name = "drtv-bake";
   // Slurm
@@ -56,11 +58,36 @@ Result<void> writeText(const fs::path& file, const std::string& text, bool execu
 
 fs::path absolute(const std::string& p) { return fs::absolute(fs::path(p)).lexically_normal(); }
 
-// The plan both schedulers share: the estimate from the world, the bake's own flags.
-Result<baker::FarmPlan> planFor(const FarmCliOptions& o, bool kubernetes) {
+// The estimate from the world (and --costs).
+Result<baker::ShardEstimate> estimateFor(const FarmCliOptions& o) {
+  std::optional<baker::MeasuredCosts> costs;
+  if (!o.costs.empty()) {
+    auto c = baker::readMeasuredCosts(o.costs);
+    if (!c) return std::unexpected(c.error());
+    costs = std::move(*c);
+  }
   auto world = worlds::loadWorld(o.world);
   if (!world) return std::unexpected(world.error());
-  auto estimate = baker::estimateShard(*world, o.world, o.shards, o.max_cpus);
+  return baker::estimateShard(*world, o.world, o.shards, o.max_cpus, costs ? &*costs : nullptr);
+}
+
+// How the sectors split, in one line.
+std::string splitLine(const FarmCliOptions& o, const baker::ShardEstimate& e) {
+  char line[512];
+  if (e.split != "estimated")
+    std::snprintf(line, sizeof line, "split by the times %s measured (%zu of %zu sectors; the rest by their triangles at its rate)",
+                  o.costs.c_str(), e.measured, e.sectors);
+  else if (e.seconds_per_unit > 0)
+    std::snprintf(line, sizeof line, "split by triangles gathered; %s measured another world, so only its rate predicts the times",
+                  o.costs.c_str());
+  else
+    std::snprintf(line, sizeof line, "split by triangles gathered (--costs an earlier bake's report to split by time)");
+  return line;
+}
+
+// The plan both schedulers share: the estimate from the world, the bake's own flags.
+Result<baker::FarmPlan> planFor(const FarmCliOptions& o, bool kubernetes) {
+  auto estimate = estimateFor(o);
   if (!estimate) return std::unexpected(estimate.error());
   baker::FarmPlan plan;
   plan.shards = o.shards;
@@ -71,6 +98,7 @@ Result<baker::FarmPlan> planFor(const FarmCliOptions& o, bool kubernetes) {
   if (!o.quality.empty()) plan.bake_args.insert(plan.bake_args.end(), {"--quality", o.quality});
   if (!o.seed.empty()) plan.bake_args.insert(plan.bake_args.end(), {"--seed", o.seed});
   plan.bake_args.insert(plan.bake_args.end(), o.bake_args.begin(), o.bake_args.end());
+  std::printf("%s; the costliest shard %.2fx the mean\n", splitLine(o, *estimate).c_str(), estimate->slowestOverMean());
   std::printf("%s: %zu sectors, %zu per shard at most; the largest gather %llu triangles (sector %s); per task %d CPUs, %llu MiB%s\n",
               o.world.c_str(), estimate->sectors, estimate->sectors_per_shard,
               static_cast<unsigned long long>(estimate->largest_gather), toString(estimate->largest_at).c_str(), plan.cpus_per_task,
@@ -91,6 +119,11 @@ Result<baker::FarmPlan> planFor(const FarmCliOptions& o, bool kubernetes) {
     if (!a) return std::unexpected(a.error());
     plan.world = *w;
     plan.archive = *a;
+    if (!o.costs.empty()) {
+      auto c = inPod(o.costs, "--costs report");
+      if (!c) return std::unexpected(c.error());
+      plan.bake_args.insert(plan.bake_args.end(), {"--costs", *c});
+    }
     plan.drtv = o.drtv.empty() ? "drtv" : o.drtv;
     plan.image = o.image;
     plan.claim = o.claim;
@@ -100,6 +133,7 @@ Result<baker::FarmPlan> planFor(const FarmCliOptions& o, bool kubernetes) {
   } else {
     plan.world = absolute(o.world).string();
     plan.archive = absolute(o.archive).string();
+    if (!o.costs.empty()) plan.bake_args.insert(plan.bake_args.end(), {"--costs", absolute(o.costs).string()});
     plan.log_dir = absolute(o.log_dir.empty() ? (fs::path(o.scripts) / "logs").string() : o.log_dir).string();
     std::error_code ec;
     plan.drtv = o.drtv.empty() ? fs::read_symlink("/proc/self/exe", ec).string() : absolute(o.drtv).string();
@@ -218,6 +252,56 @@ Result<void> runStatus(const FarmCliOptions& o) {
   return {};
 }
 
+// `drtv farm plan`: the split every shard would compute, shard by shard, and with --costs the
+// time each would take (sector_costs.h): to choose N, or to project a larger world from a
+// smaller one's measured rate.
+Result<void> runPlan(const FarmCliOptions& o) {
+  auto e = estimateFor(o);
+  if (!e) return std::unexpected(e.error());
+  const bool timed = e->seconds_per_unit > 0;
+  double sum_s = 0, most_s = 0;
+  for (int k = 0; k < o.shards; ++k) sum_s += e->shardSeconds(k), most_s = std::max(most_s, e->shardSeconds(k));
+  if (o.json) {
+    nlohmann::ordered_json j;
+    j["world"] = o.world;
+    j["sectors"] = e->sectors;
+    j["shards"] = o.shards;
+    j["split"] = e->split;
+    j["measured_sectors"] = e->measured;
+    j["cpus_per_task"] = e->cpus;
+    j["memory_mib"] = e->memory_bytes >> 20;
+    j["slowest_over_mean"] = e->slowestOverMean();
+    if (e->triangle_split_slowest_over_mean > 0) j["triangle_split_slowest_over_mean"] = e->triangle_split_slowest_over_mean;
+    nlohmann::ordered_json list = nlohmann::ordered_json::array();
+    for (int k = 0; k < o.shards; ++k) {
+      nlohmann::ordered_json s{{"shard", k}, {"sectors", e->shard_sectors[size_t(k)]}, {"cost", e->shard_units[size_t(k)]}};
+      if (timed) s["predicted_s"] = e->shardSeconds(k);
+      list.push_back(s);
+    }
+    j["list"] = list;
+    if (timed) j["predicted"] = {{"sum_s", sum_s}, {"slowest_s", most_s}, {"slowest_wall_s", most_s / e->cpus}};
+    std::printf("%s\n", j.dump(2).c_str());
+    return {};
+  }
+  std::printf("%s: %zu sectors in %d shards; %s\n", o.world.c_str(), e->sectors, o.shards, splitLine(o, *e).c_str());
+  std::printf("%-8s %8s %16s%s\n", "shard", "sectors", "cost", timed ? "  predicted s (sum of its sectors')" : "");
+  for (int k = 0; k < o.shards; ++k) {
+    std::printf("%-8s %8zu %16llu", (std::to_string(k) + "/" + std::to_string(o.shards)).c_str(), e->shard_sectors[size_t(k)],
+                static_cast<unsigned long long>(e->shard_units[size_t(k)]));
+    if (timed) std::printf("  %.1f", e->shardSeconds(k));
+    std::printf("\n");
+  }
+  std::printf("the costliest shard: %.3fx the mean", e->slowestOverMean());
+  if (e->triangle_split_slowest_over_mean > 0)
+    std::printf(" (split by triangles, by the same times: %.3fx)", e->triangle_split_slowest_over_mean);
+  std::printf("\n");
+  if (timed)
+    std::printf("predicted: %.1f s of sector time in all; the slowest shard %.1f s, about %.1f s on its %d CPUs (each task %d CPUs, "
+                "%llu MiB), plus loading the world\n",
+                sum_s, most_s, most_s / e->cpus, e->cpus, e->cpus, static_cast<unsigned long long>(e->memory_bytes >> 20));
+  return {};
+}
+
 void addPlanOptions(CLI::App* sub, FarmCliOptions& o) {
   sub->add_option("world", o.world, "World file (.json, .gltf, .glb), read here for the estimate")->required();
   sub->add_option("-o,--output", o.archive, "Archive the merge writes; shard journals go to <archive>.sectors/")->required();
@@ -229,6 +313,10 @@ void addPlanOptions(CLI::App* sub, FarmCliOptions& o) {
   sub->add_option("--quality", o.quality, "draft | default | high, passed to every shard and the merge")
       ->check(CLI::IsMember({"draft", "default", "high"}));
   sub->add_option("--seed", o.seed, "Seed, passed to every shard and the merge");
+  sub->add_option("--costs", o.costs,
+                  "An earlier bake's bake-report.json of this world: split the shards by its measured sector times (passed to every "
+                  "shard and the merge)")
+      ->type_name("REPORT");
   sub->add_option("--bake-arg", o.bake_args, "Another `drtv bake` argument for every shard and the merge (repeat it)")
       ->allow_extra_args(false);
   sub->add_option("--name", o.name, "Job name (Slurm) / name prefix (Kubernetes); default drtv-bake");
@@ -250,6 +338,15 @@ Command registerFarm(CLI::App& app) {
   slurm->add_option("--log-dir", o->log_dir, "Folder of the per-task logs %A_%a.log (default <scripts>/logs)");
   slurm->add_option("--drtv", o->drtv, "The drtv program as the nodes see it (default: this one's absolute path)");
   slurm->add_flag("--submit", o->submit, "Run submit.sh: sbatch the array and the merge, print their job ids");
+  CLI::App* plan = farm->add_subcommand(
+      "plan", "Print how N shards would split a world's sectors (by their triangles, or by an earlier bake's measured times with "
+      "--costs) and, with --costs, each shard's predicted time; a report of another world projects by its rate");
+  plan->add_option("world", o->world, "World file (.json, .gltf, .glb)")->required();
+  plan->add_option("--shards", o->shards, "Number of shards N")->required()->check(CLI::Range(1, 100000));
+  plan->add_option("--costs", o->costs, "An earlier bake's bake-report.json (this world's: its times; another's: its rate)")
+      ->type_name("REPORT");
+  plan->add_option("--max-cpus", o->max_cpus, "Most CPUs per shard task (default 8)")->check(CLI::Range(1, 1024));
+  plan->add_flag("--json", o->json, "Print JSON");
   CLI::App* k8s = farm->add_subcommand(
       "k8s", "Write shards-job.json (an Indexed Job), merge-job.json and submit.sh (kubectl apply, wait, apply the merge)");
   addPlanOptions(k8s, *o);
@@ -266,11 +363,12 @@ Command registerFarm(CLI::App& app) {
   status->add_option("archive", o->archive, "The archive the shards bake (its <archive>.sectors/ folder is read)")->required();
   status->add_flag("--json", o->json, "Print JSON instead of lines");
   return {farm,
-          [o, slurm, k8s, status]() -> Result<void> {
+          [o, slurm, k8s, plan, status]() -> Result<void> {
             if (slurm->parsed()) return runSlurm(*o);
             if (k8s->parsed()) return runKubernetes(*o);
+            if (plan->parsed()) return runPlan(*o);
             if (status->parsed()) return runStatus(*o);
-            return fail("farm: expected slurm, k8s or status");
+            return fail("farm: expected slurm, k8s, plan or status");
           },
           &o->world};
 }

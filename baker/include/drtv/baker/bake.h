@@ -42,6 +42,7 @@
 #include "drtv/baker/index_grid.h"
 #include "drtv/baker/placement.h"
 #include "drtv/baker/rooms.h"
+#include "drtv/baker/sector_costs.h"
 #include "drtv/baker/transfer.h"
 #include "drtv/raytrace/world_geometry.h"
 #include "drtv/formats/archive.h"
@@ -155,6 +156,9 @@ struct BakeOptions {
   // TransferSettings::sweeps; 0 = bounces - 1 (the bytes of the builds before 2026-12-07); unset =
   // the preset's (kPresetSweeps).
   std::optional<int> sweeps;
+  // Measured per-sector times of an earlier bake (sector_costs.h, `drtv bake --costs`): the
+  // shards split by them. Every shard and the merge of a bake must be given the same (or none).
+  std::optional<MeasuredCosts> costs;
   // Called after each sector with (done, total), from one thread at a time. May be empty.
   std::function<void(size_t, size_t)> progress;
 };
@@ -183,6 +187,8 @@ struct BakeReport {
   BakeSettings settings;
   int threads = 0;
   std::string shard;                     // "k/N", or "" for a whole bake
+  std::string geometry_fingerprint;      // the world's geometry (16 hex digits): what --costs matches
+  std::string split = "estimated";       // how the sectors were split among shards (SectorCosts::split)
   uint32_t effects_asked = 0, effects_baked = 0;
   std::vector<std::string> effects_skipped;  // "local_lights: the world has no point lights"
   std::vector<std::string> notes;        // geometry skips and repairs
@@ -235,9 +241,6 @@ double haloFor(const BakeSettings& settings, uint32_t effects);
 
 // The sectors of `range` in the order a bake numbers them (x, then y).
 std::vector<SectorKey> bakeKeys(const raytrace::SectorRange& range);
-// What each of `keys` costs to bake, in shardOwners' units (shard.h): 1 + the triangles it
-// gathers within `halo_m` (raytrace::WorldGeometry::gatherEstimate).
-std::vector<uint64_t> sectorCosts(const raytrace::WorldGeometry& geometry, std::span<const SectorKey> keys, double halo_m);
 
 // Places the probes of sector `key` in its own scene (the gather with haloFor's halo): what the
 // sector bakes and what its neighbours' LPRT sources name. Deterministic: the same world, key and

@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "drtv/baker/sector_costs.h"
 #include "drtv/formats/error.h"
 #include "drtv/formats/sector.h"
 #include "drtv/worlds/world.h"
@@ -33,6 +34,20 @@ struct ShardEstimate {
   int cpus = 1;                  // per task: one sector per core, at most max_cpus
   uint64_t memory_bytes = 0;     // per task: see kShardBaseBytes
   uint64_t merge_memory_bytes = 0;  // the merge: the world and its binning, no sector's scene
+  // The split (sector_costs.h) shard by shard, as every shard will compute it.
+  std::string split = "estimated";     // SectorCosts::split
+  size_t measured = 0;                 // sectors with a time of their own from the report
+  double seconds_per_unit = 0;         // 0 without a report: then no time is predicted
+  std::vector<size_t> shard_sectors;   // per shard
+  std::vector<uint64_t> shard_units;   // per shard: its sectors' cost summed
+  // Predicted seconds of shard k: the sum of its sectors' times (about its CPU time; on `cpus`
+  // cores about this / cpus), 0 without a report.
+  double shardSeconds(int k) const { return double(shard_units[size_t(k)]) * seconds_per_unit; }
+  // The costliest shard against the mean of all (1 = even).
+  double slowestOverMean() const;
+  // Split by measured times: the costliest shard of the triangles' split, timed by the same
+  // measured times, against the mean (what --costs gains); 0 otherwise.
+  double triangle_split_slowest_over_mean = 0;
 };
 
 // The floor of a shard's memory: the program, TBB's arenas, Embree's and the archive's buffers,
@@ -43,11 +58,12 @@ struct ShardEstimate {
 inline constexpr uint64_t kShardBaseBytes = 256ull << 20;
 
 // Estimates a shard of an N-way split of `world` (quality draft/default/high share the halo; LPRT
-// widens it): cpus = min(max_cpus, sectors_per_shard); memory = kShardBaseBytes + 2 x world_bytes
+// widens it), the sectors split by their estimated costs or by `measured` (sector_costs.h): cpus = min(max_cpus, sectors_per_shard); memory = kShardBaseBytes + 2 x world_bytes
 // (the world as loaded and as binned) + cpus x largest_gather x
 // WorldGeometry::kBakeBytesPerGatheredTriangle (each core bakes one sector at a time), rounded up
 // to 64 MiB. Errors: the world's (bad geometry), naming `where`; shards < 1 or max_cpus < 1.
-Result<ShardEstimate> estimateShard(const worlds::World& world, const std::string& where, int shards, int max_cpus);
+Result<ShardEstimate> estimateShard(const worlds::World& world, const std::string& where, int shards, int max_cpus,
+                                   const MeasuredCosts* measured = nullptr);
 
 // Everything the scripts and manifests say. Paths are as the machines that run the jobs see them.
 struct FarmPlan {

@@ -8,7 +8,7 @@
 //   sectors-<k>-of-<N>.log     its sector journal (sector_journal.h), resumed when it reruns
 //   placement-<k>-of-<N>.log   its placement journal (LPRT bakes only)
 //   shard-<k>-of-<N>.json      its status: running, done or failed (with the error), the bake's
-//                              fingerprint and settings, the sectors it owns, its wall time
+//                              fingerprint and settings, the split, the sectors it owns, its wall time
 // and all shards write the same stamp, bake.txt, each through a temporary file of its own.
 //
 // Schedulers (docs/baker.md, "Baking on a farm"):
@@ -37,14 +37,13 @@ struct ShardSpec {
   int count = 1;  // N
 };
 
-// Which of `count` shards bakes each sector, from the sectors' estimated costs (in key order):
+// Which of `count` shards bakes each sector, from the sectors' costs (in key order):
 // the longest-processing-time-first rule, each sector from the costliest down (ties: key order)
 // to the shard with the least cost so far (ties: the lowest index). A pure function: every shard
-// of a bake computes the same split. The bake's cost of a sector is 1 + the triangles it gathers
-// (raytrace::WorldGeometry::gatherEstimate), which its bake time follows (correlation 0.97 over
-// the island's 256 sectors). The island in 16 shards, each sector's time as measured in that
-// run: the costliest shard's sectors took 1.19x the mean split so, and would have taken 1.35x
-// split round-robin (i % N, the split before).
+// of a bake computes the same split. The costs are sector_costs.h's: 1 + the triangles a sector
+// gathers, or an earlier bake's measured times (--costs). The island in 16 shards, each sector's
+// time as measured in that run: the costliest shard's sectors took 1.19x the mean split by
+// triangles, and would have taken 1.35x split round-robin (i % N, the split before).
 // Precondition: count >= 1 (checked).
 std::vector<int> shardOwners(std::span<const uint64_t> costs, int count);
 
@@ -68,7 +67,8 @@ struct ShardStatus {
   std::string world;        // the world's name or file
   std::vector<std::pair<std::string, std::string>> settings;  // BakeSettings::describe()
   size_t sectors = 0;       // sectors this shard owns (shardOwners)
-  uint64_t cost = 0;        // their estimated cost, summed (shardOwners' units)
+  uint64_t cost = 0;        // their cost, summed (shardOwners' units: sector_costs.h)
+  std::string split = "estimated";  // how the bake split its sectors (SectorCosts::split)
   size_t baked = 0;         // of which baked by its last run (the rest were resumed)
   double wall_s = 0;        // its last run, wall seconds (0 while running)
   std::string host;         // where it ran (gethostname)

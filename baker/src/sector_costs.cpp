@@ -1,0 +1,105 @@
+// What each sector of a bake costs (see sector_costs.h).
+#include "drtv/baker/sector_costs.h"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <fstream>
+#include <optional>
+
+#include <nlohmann/json.hpp>
+#include <xxhash.h>
+
+#include "bake_directory.h"
+#include "drtv/raytrace/world_geometry.h"
+
+namespace drtv::baker {
+
+Result<MeasuredCosts> readMeasuredCosts(const std::filesystem::path& report) {
+  const std::string name = report.string();
+  auto bad = [&](const std::string& why) -> Result<MeasuredCosts> { return fail(name + ": " + why); };
+  std::ifstream in(report, std::ios::binary);
+  if (!in) return bad("cannot open (--costs takes an earlier bake's bake-report.json)");
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(in);
+  } catch (const nlohmann::json::exception& e) {
+    return bad(std::string("not JSON: ") + e.what());
+  }
+  if (!j.is_object() || !j.contains("per_sector") || !j["per_sector"].is_array())
+    return bad("not a bake report (no \"per_sector\" array; --costs takes an earlier bake's bake-report.json)");
+  MeasuredCosts m;
+  m.file = name;
+  if (!j.contains("geometry_fingerprint") || !j["geometry_fingerprint"].is_string() ||
+      j["geometry_fingerprint"].get<std::string>().size() != 16)
+    return bad("has no \"geometry_fingerprint\" (written by a drtv before it); bake again to measure the sectors");
+  m.geometry = j["geometry_fingerprint"].get<std::string>();
+  if (j.contains("world") && j["world"].is_string()) m.world = j["world"].get<std::string>();
+  if (j.contains("threads") && j["threads"].is_number_integer()) m.threads = j["threads"].get<int>();
+  double seconds = 0, units = 0;
+  XXH3_state_t* state = XXH3_createState();
+  XXH3_64bits_reset(state);
+  const auto& per = j["per_sector"];
+  for (size_t i = 0; i < per.size(); ++i) {
+    const auto& s = per[i];
+    const std::string where = "per_sector[" + std::to_string(i) + "]";
+    auto whole = [&](const char* key) -> std::optional<int64_t> {
+      if (!s.is_object() || !s.contains(key) || !s[key].is_number_integer()) return std::nullopt;
+      return s[key].get<int64_t>();
+    };
+    const auto ix = whole("ix"), iy = whole("iy"), triangles = whole("triangles");
+    if (!ix || !iy || !triangles || *triangles < 0 || *ix < INT32_MIN || *ix > INT32_MAX || *iy < INT32_MIN || *iy > INT32_MAX) {
+      XXH3_freeState(state);
+      return bad(where + ": needs whole numbers \"ix\", \"iy\" and \"triangles\" >= 0");
+    }
+    if (!s.contains("total_s") || !s["total_s"].is_number() || !std::isfinite(s["total_s"].get<double>()) || s["total_s"].get<double>() < 0) {
+      XXH3_freeState(state);
+      return bad(where + ": \"total_s\" must be a finite number of seconds >= 0");
+    }
+    const double t = s["total_s"].get<double>();
+    if (t <= 0) continue;  // resumed from a journal without times, or not baked: the fit covers it
+    const SectorKey key{int32_t(*ix), int32_t(*iy)};
+    if (!m.seconds.emplace(key, t).second) {
+      XXH3_freeState(state);
+      return bad(where + ": sector " + toString(key) + " is listed twice");
+    }
+    seconds += t;
+    units += 1.0 + double(*triangles);
+  }
+  // The digest over the map's order (keys sorted), the bits of each time.
+  for (const auto& [key, t] : m.seconds) {
+    const int64_t words[3] = {key.ix, key.iy, std::bit_cast<int64_t>(t)};
+    XXH3_64bits_update(state, words, sizeof words);
+  }
+  m.digest = detail::fingerprintText(XXH3_64bits_digest(state));
+  XXH3_freeState(state);
+  if (m.seconds.empty()) return bad("no sector has a bake time above 0");
+  m.seconds_per_unit = seconds / units;
+  return m;
+}
+
+SectorCosts sectorCosts(const raytrace::WorldGeometry& geometry, std::span<const SectorKey> keys, double halo_m,
+                        const MeasuredCosts* measured) {
+  SectorCosts out;
+  out.units.resize(keys.size());
+  for (size_t i = 0; i < keys.size(); ++i) out.units[i] = 1 + geometry.gatherEstimate(keys[i], halo_m);
+  if (!measured) return out;
+  if (measured->geometry != detail::fingerprintText(geometry.fingerprint())) {
+    // Another world: its rate predicts, the triangles split.
+    out.seconds_per_unit = measured->seconds_per_unit;
+    return out;
+  }
+  out.split = "measured " + measured->digest;
+  constexpr double kUnitsPerSecond = 1e6;  // microseconds
+  out.seconds_per_unit = 1.0 / kUnitsPerSecond;
+  for (size_t i = 0; i < keys.size(); ++i) {
+    const auto it = measured->seconds.find(keys[i]);
+    const double s = it != measured->seconds.end() ? it->second : double(out.units[i]) * measured->seconds_per_unit;
+    if (it != measured->seconds.end()) ++out.measured;
+    // At least 1: a sector is never free, and the units stay within shardOwners' sums.
+    out.units[i] = uint64_t(std::clamp(std::llround(s * kUnitsPerSecond), 1ll, 1ll << 50));
+  }
+  return out;
+}
+
+}  // namespace drtv::baker

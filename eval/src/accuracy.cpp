@@ -349,6 +349,7 @@ class RowEvaluator {
     const TechniqueCosts c = (*t)->costs();
     AccuracyRow row{spec.knob, spec.value, spec.is_default, 0, 0, c.prepare_s, timed ? ms[ms.size() / 2] : std::nan(""),
                     c.stored_bytes, c.runtime_bytes, spec.note, 0};
+    row.by_category = spec.by_category;
     if (spec.part < 0) {
       const ErrorStats e = compare(v, truth_);
       row.rel_error = e.rel, row.bias = e.bias, row.abs_error = e.abs;

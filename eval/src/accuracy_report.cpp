@@ -249,20 +249,11 @@ Result<void> writeAccuracyReport(const AccuracyReport& r, const fs::path& dir) {
   for (int c = 0; c < kSurfaceCategoryCount; ++c) md << "---:|";
   md << "---|\n";
   for (const AccuracyRow& row : r.rows) {
-    // The placement rows change where the probes stand, which the categories tell apart.
-    // So do the rooms' interiors (rooms.h) and the cache's sweeps and cells (transfer.h), indoors.
-    const bool placement = row.knob == "placement_under_roofs" && !row.is_default;
-    const bool rooms = (row.knob == "rooms" || row.knob == "sweeps" || row.knob == "cache_cells" || row.knob.rfind("fine", 0) == 0 ||
-                        row.knob == "placement_enclosed" || row.knob == "grid_sides" || row.knob == "covered_sight" || row.knob == "openings" || row.knob == "thinning" || row.knob == "before" ||
-                        row.knob == "own_sources local_lights") &&
-                       !row.is_default;
-    if (!(row.knob == "technique" || placement || rooms || (row.knob == "rays_per_basis" && row.is_default))) continue;
-    md << "| "
-       << (row.knob == "technique" ? row.value
-           : placement             ? "under roofs " + row.value
-           : rooms                 ? row.knob + " " + row.value
-                                   : std::string("default"))
-       << " |";
+    // The rows the techniques mark (KnobRow::by_category: those that move probes or light
+    // indoors), each technique at its defaults, and the default configuration.
+    const bool is_default_row = row.knob == "rays_per_basis" && row.is_default;
+    if (!(row.knob == "technique" || !row.by_category.empty() || is_default_row)) continue;
+    md << "| " << (row.knob == "technique" ? row.value : !row.by_category.empty() ? row.by_category : std::string("default")) << " |";
     int worst = -1;
     for (int c = 0; c < kSurfaceCategoryCount; ++c) {
       const CategoryError& e = row.categories[size_t(c)];

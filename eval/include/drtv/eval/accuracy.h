@@ -144,6 +144,7 @@ struct AccuracyRow {
   std::string note;         // what is special about the row
   double abs_error = 0;     // mean absolute error per point, hour and channel (see the header)
   std::array<CategoryError, kSurfaceCategoryCount> categories{};  // the same error by category
+  std::string by_category = {};  // its name in the report's table by category, "" if not there (KnobRow)
 };
 
 // One sample point at one hour, as the default DRTV row shaded it beside the reference

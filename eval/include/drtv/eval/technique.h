@@ -357,6 +357,9 @@ struct KnobRow {
   TechniqueParams params;
   std::string note;
   int part = -1;
+  // The row's name in the report's table by surface category (rows that move probes or light
+  // indoors, which the categories tell apart); "" = not in that table.
+  std::string by_category = {};
 };
 
 // What a technique's knob rows depend on: the accuracy table's default bake and world.

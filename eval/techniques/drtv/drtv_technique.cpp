@@ -393,6 +393,12 @@ std::string fmt(double v) {
 // DRTV's knobs, one at a time around the defaults (accuracy.h lists them), in the table's order. The
 // basis rows and the part probe-reference rows read DRTV's probes with path-traced values (the
 // probe-reference technique): what the probes and the index grid alone allow.
+// A row's name in the report's table by surface category (KnobRow::by_category): the rows that
+// move probes or light indoors, which the categories tell apart, when not the default.
+static std::string indoors(const std::string& knob, const std::string& value, bool is_default) {
+  return is_default ? std::string() : knob + " " + value;
+}
+
 // A bake setting's two rows: `on` (its parameter value `on_value`) and `off`, the default one first
 // marked "the default bake: " and baked with no parameter.
 static void twoWayRows(std::vector<KnobRow>& rows, const std::string& knob, const std::string& on_value, const std::string& off_value,
@@ -401,7 +407,7 @@ static void twoWayRows(std::vector<KnobRow>& rows, const std::string& knob, cons
     const bool def = on == on_is_default;
     const std::string& value = on ? on_value : off_value;
     rows.push_back({knob, value, def, "drtv", def ? TechniqueParams{} : TechniqueParams{{knob, value}},
-                    std::string(def ? "the default bake: " : "") + (on ? on_note : off_note)});
+                    std::string(def ? "the default bake: " : "") + (on ? on_note : off_note), -1, indoors(knob, value, def)});
   }
 }
 
@@ -427,14 +433,16 @@ std::vector<KnobRow> DrtvTechnique::knobs(const KnobContext& c) {
     const bool def = sweeps == default_sweeps;
     if (def && rows.back().knob == "sweeps") continue;  // the default is also one of the others: once
     rows.push_back({"sweeps", std::to_string(sweeps), def, "drtv",
-                    def ? TechniqueParams{} : TechniqueParams{{"sweeps", std::to_string(sweeps)}}, def ? "the default bake" : ""});
+                    def ? TechniqueParams{} : TechniqueParams{{"sweeps", std::to_string(sweeps)}}, def ? "the default bake" : "", -1,
+                    indoors("sweeps", std::to_string(sweeps), def)});
   }
   // Probes under roofs (placement.h): the column lattice there / the least distance between them.
   for (const auto& [spacing, min_h] : {std::pair{4.0, 8.0}, std::pair{4.0, 4.0}, std::pair{2.0, 2.0}, std::pair{2.0, 1.4}, std::pair{1.0, 1.0}}) {
     const bool def = spacing == base.placement.covered_column_spacing_m && min_h == base.placement.covered_min_horizontal_m;
     rows.push_back({"placement_under_roofs", fmt(spacing) + " m / " + fmt(min_h) + " m", def, "drtv",
                     def ? TechniqueParams{} : TechniqueParams{{"covered_spacing", fmt(spacing)}, {"covered_min_h", fmt(min_h)}},
-                    def ? "the default bake: columns / least distance under roofs" : "columns / least distance under roofs"});
+                    def ? "the default bake: columns / least distance under roofs" : "columns / least distance under roofs", -1,
+                    def ? std::string() : "under roofs " + fmt(spacing) + " m / " + fmt(min_h) + " m"});
   }
   // Probes in enclosed spaces under roofs (placement.h, issue 35): 0 = the covered values.
   for (double e : {2.0, 1.0, 3.0, 0.0}) {
@@ -442,7 +450,8 @@ std::vector<KnobRow> DrtvTechnique::knobs(const KnobContext& c) {
     rows.push_back({"placement_enclosed", e == 0.0 ? std::string("off") : fmt(e) + " m", def, "drtv",
                     def ? TechniqueParams{} : TechniqueParams{{"enclosed_spacing", fmt(e)}},
                     std::string(def ? "the default bake: " : "") +
-                        (e == 0.0 ? "as under any roof" : "columns and least distance in rooms and storeys")});
+                        (e == 0.0 ? "as under any roof" : "columns and least distance in rooms and storeys"),
+                    -1, indoors("placement_enclosed", e == 0.0 ? std::string("off") : fmt(e) + " m", def)});
   }
   // The visibility maps' rays (visibility_bake.h): the default against the builds before's 4,096.
   rows.push_back({"visibility_rays", std::to_string(base.visibility_rays), true, "drtv", {},
@@ -467,25 +476,32 @@ std::vector<KnobRow> DrtvTechnique::knobs(const KnobContext& c) {
   if (base.placement.covered_sight && base.visibility_openings && base.placement.thin_near_first && base.transfer.sweeps != 0)
     rows.push_back({"before", "2026-12-07", false, "drtv",
                     TechniqueParams{{"covered_sight", "off"}, {"openings", "off"}, {"thinning", "even"}, {"sweeps", "1"}},
-                    "covered_sight off, openings off, thinning even, 1 sweep: the default bake before 2026-12-07's second session"});
+                    "covered_sight off, openings off, thinning even, 1 sweep: the default bake before 2026-12-07's second session", -1,
+                    indoors("before", "2026-12-07", false)});
   // The fine level near surfaces (issue 35), against the volume and the interiors alone.
   rows.push_back({"fine", "on", true, "drtv", {}, "the default: covered probes that see the point, near surfaces"});
-  rows.push_back({"fine", "off", false, "drtv", {{"fine", "off"}}, "the volume and the interiors alone"});
+  rows.push_back({"fine", "off", false, "drtv", {{"fine", "off"}}, "the volume and the interiors alone", -1, indoors("fine", "off", false)});
   const runtime::FineOptions fine;
-  for (float r : {2.5f, 6.f}) rows.push_back({"fine_radius", fmt(r), false, "drtv", {{"fine_radius", fmt(r)}}, "metres (default " + fmt(fine.radius_m) + ")"});
+  for (float r : {2.5f, 6.f})
+    rows.push_back({"fine_radius", fmt(r), false, "drtv", {{"fine_radius", fmt(r)}}, "metres (default " + fmt(fine.radius_m) + ")", -1,
+                    indoors("fine_radius", fmt(r), false)});
   for (float w : {0.05f, 1.f})
-    rows.push_back({"fine_full_weight", fmt(w), false, "drtv", {{"fine_full_weight", fmt(w)}}, "default " + fmt(fine.full_weight)});
+    rows.push_back({"fine_full_weight", fmt(w), false, "drtv", {{"fine_full_weight", fmt(w)}}, "default " + fmt(fine.full_weight), -1,
+                    indoors("fine_full_weight", fmt(w), false)});
   // Closed rooms found at bake time and given interiors (rooms.h), against the artist's alone.
   rows.push_back({"rooms", "auto", base.rooms.enabled, "drtv", base.rooms.enabled ? TechniqueParams{} : TechniqueParams{{"rooms", "auto"}},
-                  base.rooms.enabled ? "the default bake: closed rooms get interiors" : "closed rooms get interiors"});
+                  base.rooms.enabled ? "the default bake: closed rooms get interiors" : "closed rooms get interiors", -1,
+                  indoors("rooms", "auto", base.rooms.enabled)});
   rows.push_back({"rooms", "off", !base.rooms.enabled, "drtv", !base.rooms.enabled ? TechniqueParams{} : TechniqueParams{{"rooms", "off"}},
-                  "the artist's interiors only"});
+                  "the artist's interiors only", -1, indoors("rooms", "off", !base.rooms.enabled)});
   // Surface cache cells split by the walls that cross them (transfer.h), against shared ones.
   rows.push_back({"cache_cells", "sides", base.transfer.cell_sides, "drtv",
                   base.transfer.cell_sides ? TechniqueParams{} : TechniqueParams{{"cache_cells", "sides"}},
-                  base.transfer.cell_sides ? "the default bake: a cell splits where a wall crosses it" : "a cell splits where a wall crosses it"});
+                  base.transfer.cell_sides ? "the default bake: a cell splits where a wall crosses it" : "a cell splits where a wall crosses it",
+                  -1, indoors("cache_cells", "sides", base.transfer.cell_sides)});
   rows.push_back({"cache_cells", "shared", !base.transfer.cell_sides, "drtv",
-                  !base.transfer.cell_sides ? TechniqueParams{} : TechniqueParams{{"cache_cells", "shared"}}, "one cell per cube and facing"});
+                  !base.transfer.cell_sides ? TechniqueParams{} : TechniqueParams{{"cache_cells", "shared"}}, "one cell per cube and facing", -1,
+                  indoors("cache_cells", "shared", !base.transfer.cell_sides)});
   const uint32_t components = runtime::componentsFromEffects(effects);
   const auto& parts = kRuntimeParts;
   for (size_t k = 0; k < parts.size(); ++k)
@@ -547,7 +563,7 @@ std::vector<KnobRow> DrtvTechnique::knobs(const KnobContext& c) {
                       {{"part", "local_lights"}, {"own_sources", own ? "on" : "off"}},
                       own ? "a source where each baked light stands, given that light whole"
                           : "every light shared out over the probes around it, as a moving light",
-                      reference::kRefLocalLights});
+                      reference::kRefLocalLights, indoors("own_sources local_lights", own ? "on" : "off", own)});
     // The local-light term with the probes under roofs denser (the placement rows above).
     for (const auto& [spacing, min_h] : {std::pair{2.0, 2.0}, std::pair{1.0, 1.0}})
       rows.push_back({"placement_under_roofs local_lights", fmt(spacing) + " m / " + fmt(min_h) + " m", false, "drtv",

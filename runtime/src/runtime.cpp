@@ -280,9 +280,13 @@ AmbientSample Runtime::ambient(const glm::dvec3& position, const glm::vec3& norm
     const glm::dvec3 sample = position + glm::dvec3(n) * double(options_.normal_offset_m);
     s.volume_weight = view->coverage(sample, options_.edge_fade_texels);
     if (s.volume_weight > 0.f)
-      s.volume = options_.volume_lookup == RuntimeOptions::VolumeLookup::kFacing
-                     ? sampleVolumeFacing(view.volume(), position, n, options_.normal_offset_m)
-                     : sampleVolume(view.volume(), position, n, options_.normal_offset_m);
+      switch (options_.volume_lookup) {
+        case RuntimeOptions::VolumeLookup::kFacing: s.volume = sampleVolumeFacing(view.volume(), position, n, options_.normal_offset_m); break;
+        case RuntimeOptions::VolumeLookup::kSided:
+          s.volume = sampleVolumeSided(view.volume(), cache_, position, n, options_.normal_offset_m);
+          break;
+        case RuntimeOptions::VolumeLookup::kTrilinear: s.volume = sampleVolume(view.volume(), position, n, options_.normal_offset_m); break;
+      }
   }
   s.irradiance = s.distant + (s.volume - s.distant) * s.volume_weight;
   const std::vector<uint32_t>* over = (options_.effects & kEffectInteriors) ? interiorsOver(sectorAt(position.x, position.y)) : nullptr;

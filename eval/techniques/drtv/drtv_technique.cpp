@@ -34,9 +34,11 @@
 //   representation     fc3 | sh-l1                  the directional representation baked
 //                                                   (representation.h; default sh-l1)
 //   fill               nearest | smooth             the volume fill (runtime FillMode)
-//   lookup             trilinear | facing           how ambient reads the volume: the shaders'
+//   lookup             trilinear | facing | sided   how ambient reads the volume: the shaders'
 //                                                   filter, or without the texels behind the
-//                                                   surface (runtime::sampleVolumeFacing)
+//                                                   surface (runtime::sampleVolumeFacing), or
+//                                                   without those behind it on the sky line's
+//                                                   other side (runtime::sampleVolumeSided)
 //   fine               on | off                     the fine level near surfaces (probe_cache.h
 //                                                   fineLookup, issue 35; default on)
 //   fine_radius, fine_bias, fine_min_visibility, fine_full_weight
@@ -155,7 +157,8 @@ Params readDrtv(ParamReader& r) {
   }
   r.oneOf("fill", out.runtime.fill, {{"nearest", runtime::FillMode::kNearest}, {"smooth", runtime::FillMode::kSmooth}})
       .oneOf("lookup", out.runtime.lookup,
-             {{"trilinear", runtime::RuntimeOptions::VolumeLookup::kTrilinear}, {"facing", runtime::RuntimeOptions::VolumeLookup::kFacing}})
+             {{"trilinear", runtime::RuntimeOptions::VolumeLookup::kTrilinear}, {"facing", runtime::RuntimeOptions::VolumeLookup::kFacing},
+              {"sided", runtime::RuntimeOptions::VolumeLookup::kSided}})
       .oneOf("fine", out.runtime.fine, {{"on", true}, {"off", false}})
       .real("fine_radius", out.runtime.fine_radius, 0, 64, true)
       .real("fine_bias", out.runtime.fine_bias, 0, 4, false)
@@ -537,6 +540,8 @@ std::vector<KnobRow> DrtvTechnique::knobs(const KnobContext& c) {
   rows.push_back({"fill", "smooth", false, "drtv", {{"fill", "smooth"}}, "trilinear over index-grid cells"});
   rows.push_back({"lookup", "trilinear", true, "drtv", {{"lookup", "trilinear"}}, "the shaders' filter"});
   rows.push_back({"lookup", "facing", false, "drtv", {{"lookup", "facing"}}, "texels behind the surface left out (CPU only)"});
+  rows.push_back({"lookup", "sided", false, "drtv", {{"lookup", "sided"}},
+                  "texels behind the surface and of the sky line's other side left out (CPU only)"});
   for (float t : {1.f, 2.f, 4.f})
     rows.push_back({"texel_m", fmt(t), glm::vec3(t, t, 2.f * t) == runtime::VolumeOptions{}.texel_size_m, "drtv", {{"texel_m", fmt(t)}},
                     "96x96x16 texels cover +-" + fmt(47.5 * t) + " m"});

@@ -98,8 +98,9 @@ struct RuntimeOptions {
   // Volume lookups fade to distant ambient over this many texels before the volume's edge.
   float edge_fade_texels = 2.f;
   // How ambient() reads the volume: the talk's trilinear filter (what the shaders do), or with
-  // the texels behind the surface left out (sampleVolumeFacing; the CPU only, for evaluation).
-  enum class VolumeLookup { kTrilinear, kFacing } volume_lookup = VolumeLookup::kTrilinear;
+  // the texels behind the surface left out (sampleVolumeFacing), or those behind it and of the
+  // other side of the sky line (sampleVolumeSided); the last two the CPU only, for evaluation.
+  enum class VolumeLookup { kTrilinear, kFacing, kSided } volume_lookup = VolumeLookup::kTrilinear;
   // A relight's blurred full refill is spread over this many updates (publish.h): each frame
   // does half the fill and blur, and the volume shows a time-of-day change one frame late. 1:
   // every update publishes its own lighting. Without blur a refill always takes one update. >= 1.

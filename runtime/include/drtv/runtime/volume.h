@@ -170,6 +170,20 @@ glm::vec3 sampleVolume(const Volume& volume, const glm::dvec3& position, const g
 // RuntimeOptions::volume_lookup). Thread-safe (const).
 glm::vec3 sampleVolumeFacing(const Volume& volume, const glm::dvec3& position, const glm::vec3& normal, float normal_offset_m);
 
+// sampleVolume with the texels behind the surface that lie on the other side of the sky line
+// left out (issue 35): a texel's side is whether the probe it was filled from (the one `cache`
+// names at its centre) is covered (under static geometry: a room, a storey, an arcade) or open,
+// and the point's side is that of the probe named at its offset sample. A texel behind the plane
+// through `position` with `normal` and of the other side gets no weight; the others share the
+// filter's; none left: the plain filter. A roof's top then reads the open probes above it, not
+// the room under it through a 4 m texel that straddles the roof, and a ceiling the room, not the
+// roof; on open ground (no covered probe near), and where the texels behind a surface are of its
+// own side (the ground's, which repeat the cell over it), it is the plain filter. `cache` is the
+// one the volume was filled from. Eight fetches and probe lookups per channel; the shaders do not
+// have it (an evaluation option, RuntimeOptions::volume_lookup). Thread-safe (const).
+glm::vec3 sampleVolumeSided(const Volume& volume, const ProbeCache& cache, const glm::dvec3& position, const glm::vec3& normal,
+                            float normal_offset_m);
+
 // The four colours the hardware would fetch at `position` (no normal offset), decoded (kFc3: basis
 // intensities; kShL1: e0..e3): what sampleVolume shades. Exposed for tests and the query tool.
 BasisColours fetchVolume(const Volume& volume, const glm::dvec3& position);

@@ -14,6 +14,11 @@
 #include "drtv/raytrace/world_geometry.h"
 
 namespace drtv::baker {
+namespace {
+// The most a report's sector may say it took (31 years): bounds the units (microseconds) well
+// inside shardOwners' 64-bit sums, whatever the report holds.
+constexpr double kMaxSectorSeconds = 1e9;
+}  // namespace
 
 Result<MeasuredCosts> readMeasuredCosts(const std::filesystem::path& report) {
   const std::string name = report.string();
@@ -52,9 +57,10 @@ Result<MeasuredCosts> readMeasuredCosts(const std::filesystem::path& report) {
       XXH3_freeState(state);
       return bad(where + ": needs whole numbers \"ix\", \"iy\" and \"triangles\" >= 0");
     }
-    if (!s.contains("total_s") || !s["total_s"].is_number() || !std::isfinite(s["total_s"].get<double>()) || s["total_s"].get<double>() < 0) {
+    if (!s.contains("total_s") || !s["total_s"].is_number() || !std::isfinite(s["total_s"].get<double>()) || s["total_s"].get<double>() < 0 ||
+        s["total_s"].get<double>() > kMaxSectorSeconds) {
       XXH3_freeState(state);
-      return bad(where + ": \"total_s\" must be a finite number of seconds >= 0");
+      return bad(where + ": \"total_s\" must be a number of seconds from 0 to 1e9");
     }
     const double t = s["total_s"].get<double>();
     if (t <= 0) continue;  // resumed from a journal without times, or not baked: the fit covers it
@@ -94,7 +100,8 @@ SectorCosts sectorCosts(const raytrace::WorldGeometry& geometry, std::span<const
   out.seconds_per_unit = 1.0 / kUnitsPerSecond;
   for (size_t i = 0; i < keys.size(); ++i) {
     const auto it = measured->seconds.find(keys[i]);
-    const double s = it != measured->seconds.end() ? it->second : double(out.units[i]) * measured->seconds_per_unit;
+    const double s = std::min(kMaxSectorSeconds,
+                              it != measured->seconds.end() ? it->second : double(out.units[i]) * measured->seconds_per_unit);
     if (it != measured->seconds.end()) ++out.measured;
     // At least 1: a sector is never free, and the units stay within shardOwners' sums.
     out.units[i] = uint64_t(std::clamp(std::llround(s * kUnitsPerSecond), 1ll, 1ll << 50));

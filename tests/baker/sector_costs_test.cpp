@@ -134,6 +134,7 @@ TEST(SectorCosts, AReportThatCannotBeReadIsAnErrorNamingTheFileAndWhatIsWrong) {
       {"array", nlohmann::json::array(), "not a bake report"},
       {"nofp", [&] { auto j = report(fp, {{0, 0}}, one, tri); j.erase("geometry_fingerprint"); return j; }(), "geometry_fingerprint"},
       {"negative", report(fp, {{0, 0}}, [](size_t) { return -1.0; }, tri), "per_sector[0]: \"total_s\" must be"},
+      {"huge", report(fp, {{0, 0}}, [](size_t) { return 1e300; }, tri), "per_sector[0]: \"total_s\" must be a number of seconds from 0 to 1e9"},
       {"zero", report(fp, {{0, 0}, {1, 0}}, [](size_t) { return 0.0; }, tri), "no sector has a bake time above 0"},
       {"twice", report(fp, {{0, 0}, {0, 0}}, one, tri), "per_sector[1]: sector (0,0) is listed twice"},
       {"nokey", [&] { auto j = report(fp, {{0, 0}}, one, tri); j["per_sector"][0].erase("iy"); return j; }(), "per_sector[0]: needs"},

@@ -52,8 +52,8 @@ struct MeasuredCosts {
 
 // Reads a bake report's per-sector times. Errors (bad input), naming the file: unreadable, not a
 // bake report (no `per_sector` array of sectors with ix, iy, triangles and total_s), a time that
-// is negative or not finite, no sector with a time above 0, no geometry fingerprint (a report of
-// a build before it; bake again).
+// is negative, above 1e9 s or not finite, a sector listed twice, no sector with a time above 0,
+// no geometry fingerprint (a report of a build before it; bake again).
 Result<MeasuredCosts> readMeasuredCosts(const std::filesystem::path& report);
 
 // What each sector of a bake costs.

@@ -73,16 +73,11 @@ Result<baker::ShardEstimate> estimateFor(const FarmCliOptions& o) {
 
 // How the sectors split, in one line.
 std::string splitLine(const FarmCliOptions& o, const baker::ShardEstimate& e) {
-  char line[512];
   if (e.split != "estimated")
-    std::snprintf(line, sizeof line, "split by the times %s measured (%zu of %zu sectors; the rest by their triangles at its rate)",
-                  o.costs.c_str(), e.measured, e.sectors);
-  else if (e.seconds_per_unit > 0)
-    std::snprintf(line, sizeof line, "split by triangles gathered; %s measured another world, so only its rate predicts the times",
-                  o.costs.c_str());
-  else
-    std::snprintf(line, sizeof line, "split by triangles gathered (--costs an earlier bake's report to split by time)");
-  return line;
+    return "split by the times " + o.costs + " measured (" + std::to_string(e.measured) + " of " + std::to_string(e.sectors) +
+           " sectors; the rest by their triangles at its rate)";
+  if (e.seconds_per_unit > 0) return "split by triangles gathered; " + o.costs + " measured another world, so only its rate predicts the times";
+  return "split by triangles gathered (--costs an earlier bake's report to split by time)";
 }
 
 // The plan both schedulers share: the estimate from the world, the bake's own flags.
@@ -296,9 +291,9 @@ Result<void> runPlan(const FarmCliOptions& o) {
     std::printf(" (split by triangles, by the same times: %.3fx)", e->triangle_split_slowest_over_mean);
   std::printf("\n");
   if (timed)
-    std::printf("predicted: %.1f s of sector time in all; the slowest shard %.1f s, about %.1f s on its %d CPUs (each task %d CPUs, "
-                "%llu MiB), plus loading the world\n",
-                sum_s, most_s, most_s / e->cpus, e->cpus, e->cpus, static_cast<unsigned long long>(e->memory_bytes >> 20));
+    std::printf("predicted: %.1f s of sector time in all; the slowest shard %.1f s, about %.1f s of wall time on its task's %d CPUs "
+                "(%llu MiB a task), plus loading the world\n",
+                sum_s, most_s, most_s / e->cpus, e->cpus, static_cast<unsigned long long>(e->memory_bytes >> 20));
   return {};
 }
 

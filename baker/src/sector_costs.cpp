@@ -6,6 +6,7 @@
 #include <cmath>
 #include <fstream>
 #include <optional>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 #include <xxhash.h>
@@ -42,8 +43,6 @@ Result<MeasuredCosts> readMeasuredCosts(const std::filesystem::path& report) {
   if (j.contains("world") && j["world"].is_string()) m.world = j["world"].get<std::string>();
   if (j.contains("threads") && j["threads"].is_number_integer()) m.threads = j["threads"].get<int>();
   double seconds = 0, units = 0;
-  XXH3_state_t* state = XXH3_createState();
-  XXH3_64bits_reset(state);
   const auto& per = j["per_sector"];
   for (size_t i = 0; i < per.size(); ++i) {
     const auto& s = per[i];
@@ -53,32 +52,23 @@ Result<MeasuredCosts> readMeasuredCosts(const std::filesystem::path& report) {
       return s[key].get<int64_t>();
     };
     const auto ix = whole("ix"), iy = whole("iy"), triangles = whole("triangles");
-    if (!ix || !iy || !triangles || *triangles < 0 || *ix < INT32_MIN || *ix > INT32_MAX || *iy < INT32_MIN || *iy > INT32_MAX) {
-      XXH3_freeState(state);
+    if (!ix || !iy || !triangles || *triangles < 0 || *ix < INT32_MIN || *ix > INT32_MAX || *iy < INT32_MIN || *iy > INT32_MAX)
       return bad(where + ": needs whole numbers \"ix\", \"iy\" and \"triangles\" >= 0");
-    }
     if (!s.contains("total_s") || !s["total_s"].is_number() || !std::isfinite(s["total_s"].get<double>()) || s["total_s"].get<double>() < 0 ||
-        s["total_s"].get<double>() > kMaxSectorSeconds) {
-      XXH3_freeState(state);
+        s["total_s"].get<double>() > kMaxSectorSeconds)
       return bad(where + ": \"total_s\" must be a number of seconds from 0 to 1e9");
-    }
     const double t = s["total_s"].get<double>();
     if (t <= 0) continue;  // resumed from a journal without times, or not baked: the fit covers it
     const SectorKey key{int32_t(*ix), int32_t(*iy)};
-    if (!m.seconds.emplace(key, t).second) {
-      XXH3_freeState(state);
-      return bad(where + ": sector " + toString(key) + " is listed twice");
-    }
+    if (!m.seconds.emplace(key, t).second) return bad(where + ": sector " + toString(key) + " is listed twice");
     seconds += t;
     units += 1.0 + double(*triangles);
   }
   // The digest over the map's order (keys sorted), the bits of each time.
-  for (const auto& [key, t] : m.seconds) {
-    const int64_t words[3] = {key.ix, key.iy, std::bit_cast<int64_t>(t)};
-    XXH3_64bits_update(state, words, sizeof words);
-  }
-  m.digest = detail::fingerprintText(XXH3_64bits_digest(state));
-  XXH3_freeState(state);
+  std::vector<int64_t> words;
+  words.reserve(3 * m.seconds.size());
+  for (const auto& [key, t] : m.seconds) words.insert(words.end(), {key.ix, key.iy, std::bit_cast<int64_t>(t)});
+  m.digest = detail::fingerprintText(XXH3_64bits(words.data(), words.size() * sizeof(int64_t)));
   if (m.seconds.empty()) return bad("no sector has a bake time above 0");
   m.seconds_per_unit = seconds / units;
   return m;

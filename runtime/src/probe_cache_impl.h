@@ -17,6 +17,7 @@
 #include "drtv/formats/error.h"
 #include "drtv/runtime/probe_cache.h"
 #include "relight_kernels.h"
+#include "world_limits.h"
 
 namespace drtv::runtime {
 namespace detail {
@@ -165,16 +166,27 @@ struct ProbeCache::Impl {
       if (slot_keys[s].used && slot_keys[s].key == key) return int(s);
     return -1;
   }
+  // The resident slot holding world position `pos` with probes in it, or -1 (not resident, no
+  // probes, `pos` not finite or beyond the world).
+  int slotWithProbes(const glm::dvec3& pos) const {
+    if (!(std::fabs(pos.x) < detail::kMaxWorldM && std::fabs(pos.y) < detail::kMaxWorldM && std::isfinite(pos.z))) return -1;
+    const int s = slotOf(sectorAt(pos.x, pos.y));
+    return s >= 0 && slots[s].count > 0 ? s : -1;
+  }
 
   // The probe the index grid of resident slot `s` names for world position `pos` (cell z clamped
   // into the grid; 255 resolved to the sector's nearest probe). Precondition: the slot has probes.
-  int namedProbe(int s, const glm::dvec3& pos) const {
+  int namedProbe(int s, const glm::dvec3& pos) const { return slots[s].nearest[cellAt(s, pos)]; }
+  // The probe the volume's nearest fill takes there (Slot::fill: interiors' cells remapped).
+  int filledProbe(int s, const glm::dvec3& pos) const { return slots[s].fill[cellAt(s, pos)]; }
+  // The index cell of slot s holding `pos` (z clamped into the grid).
+  size_t cellAt(int s, const glm::dvec3& pos) const {
     const Slot& sl = slots[s];
     auto cell = [](double v) { return int(std::clamp(std::floor(v), 0.0, double(kGridDim - 1))); };
     const int x = cell((pos.x - sl.origin.x) / kGridCellSizeM);
     const int y = cell((pos.y - sl.origin.y) / kGridCellSizeM);
     const int z = cell((pos.z - sl.z_min) / sl.cell_h);
-    return sl.nearest[IndexGrid::cellIndex(x, y, z)];
+    return size_t(IndexGrid::cellIndex(x, y, z));
   }
 
   // Source resolution, incremental: a slot's source_ids name the resident probes its sources are,

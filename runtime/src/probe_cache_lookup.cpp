@@ -118,12 +118,13 @@ glm::vec3 shade(Representation r, const BasisColours& c, const glm::vec3& n) {
 }
 
 ProbeRef ProbeCache::probeAt(const glm::dvec3& pos) const {
-  if (!(std::fabs(pos.x) < kMaxWorldM && std::fabs(pos.y) < kMaxWorldM && std::isfinite(pos.z))) return {};
-  const int s = slotOf(sectorAt(pos.x, pos.y));
-  if (s < 0) return {};
-  const Slot& sl = impl_->slots[s];
-  if (sl.count == 0) return {};
-  return {s, impl_->namedProbe(s, pos)};
+  const int s = impl_->slotWithProbes(pos);
+  return s < 0 ? ProbeRef{} : ProbeRef{s, impl_->namedProbe(s, pos)};
+}
+
+ProbeRef ProbeCache::filledAt(const glm::dvec3& pos) const {
+  const int s = impl_->slotWithProbes(pos);
+  return s < 0 ? ProbeRef{} : ProbeRef{s, impl_->filledProbe(s, pos)};
 }
 
 ProbeRef ProbeCache::interiorProbe(uint16_t index, const glm::dvec3& designated, const glm::dvec3& lo,

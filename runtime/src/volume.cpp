@@ -515,8 +515,8 @@ glm::vec3 sampleVolume(const Volume& volume, const glm::dvec3& position, const g
 }
 
 namespace {
-// The trilinear filter over the 8 texels around the offset sample, the texels that `keep(texel,
-// centre)` refuses given no weight and the rest sharing the filter's; all 8 refused: the plain
+// The trilinear filter over the 8 texels around the offset sample, the texels whose centre
+// `keep(centre)` refuses given no weight and the rest sharing the filter's; all 8 refused: the plain
 // filter. Eight fetches per channel.
 template <class Keep>
 glm::vec3 sampleKept(const Volume& volume, const glm::dvec3& position, const glm::vec3& normal, float normal_offset_m, Keep&& keep) {
@@ -534,7 +534,7 @@ glm::vec3 sampleKept(const Volume& volume, const glm::dvec3& position, const glm
     // Clamped into the covered range, as the texture's clamp addressing does at its edges.
     for (int a = 0; a < 3; ++a) g[size_t(c)][a] = int(std::clamp(corner[a], double(lo[a]), double(hi[a])));
     const glm::dvec3 centre = (glm::dvec3(g[size_t(c)]) + 0.5) * ts;
-    kept[size_t(c)] = keep(g[size_t(c)], centre) ? w[size_t(c)] : 0.0;
+    kept[size_t(c)] = keep(centre) ? w[size_t(c)] : 0.0;
     sum_kept += kept[size_t(c)];
   }
   const std::array<double, 8>& weights = sum_kept > 0.0 ? kept : w;
@@ -552,27 +552,24 @@ glm::vec3 sampleKept(const Volume& volume, const glm::dvec3& position, const glm
   return shadeFetched(volume, fetched, normal);
 }
 
-// Whether the probe named at `p` (the one a nearest fill gives the texel there) is covered; an
-// unnamed place (the sky fallback) is open.
-bool coveredAt(const ProbeCache& cache, const glm::dvec3& p) {
-  const ProbeRef r = cache.probeAt(p);
-  return r.valid() && (cache.flags(r) & kProbeCovered);
-}
+// Whether `probe` is covered; an invalid one (no resident probe: the sky fallback) is open.
+bool covered(const ProbeCache& cache, ProbeRef probe) { return probe.valid() && (cache.flags(probe) & kProbeCovered); }
 }  // namespace
 
 glm::vec3 sampleVolumeFacing(const Volume& volume, const glm::dvec3& position, const glm::vec3& normal, float normal_offset_m) {
   return sampleKept(volume, position, normal, normal_offset_m,
-                    [&](const glm::ivec3&, const glm::dvec3& centre) { return glm::dot(glm::dvec3(normal), centre - position) > 0.0; });
+                    [&](const glm::dvec3& centre) { return glm::dot(glm::dvec3(normal), centre - position) > 0.0; });
 }
 
 glm::vec3 sampleVolumeSided(const Volume& volume, const ProbeCache& cache, const glm::dvec3& position, const glm::vec3& normal,
                             float normal_offset_m) {
-  // The point's side: that of the probe named at its offset sample. (The side of the texel the
-  // sample falls in, one flag per texel as a texture would hold it, read worse: zdm2 16.0 -> 16.9 %,
-  // the Cornell world 17.0 -> 17.5 %, 2026-12-07.)
-  const bool covered = coveredAt(cache, position + glm::dvec3(normal) * double(normal_offset_m));
-  return sampleKept(volume, position, normal, normal_offset_m, [&](const glm::ivec3&, const glm::dvec3& centre) {
-    return glm::dot(glm::dvec3(normal), centre - position) > 0.0 || coveredAt(cache, centre) == covered;
+  // The point's side: that of the probe the index grid names at its offset sample. (The side of
+  // the texel the sample falls in, one flag per texel as a texture would hold it, read worse: zdm2
+  // 16.0 -> 16.9 %, the Cornell world 17.0 -> 17.5 %, 2026-12-07.) A texel's: that of the probe
+  // its nearest fill took (ProbeCache::filledAt), which in a found room's cells is one outside.
+  const bool side = covered(cache, cache.probeAt(position + glm::dvec3(normal) * double(normal_offset_m)));
+  return sampleKept(volume, position, normal, normal_offset_m, [&](const glm::dvec3& centre) {
+    return glm::dot(glm::dvec3(normal), centre - position) > 0.0 || covered(cache, cache.filledAt(centre)) == side;
   });
 }
 

@@ -279,11 +279,13 @@ namespace drtv::testing {
 namespace {
 
 // A runtime over every sector of an in-memory bake, lit by its sky at `hour` (no lights), with
-// the parts in `components`, the volume filled around `camera`.
-std::unique_ptr<runtime::Runtime> skyLit(const baker::InMemoryBake& b, uint32_t components, double hour, const glm::dvec3& camera) {
+// the parts in `components`, the volume filled around `camera` and read with `lookup`.
+std::unique_ptr<runtime::Runtime> skyLit(const baker::InMemoryBake& b, uint32_t components, double hour, const glm::dvec3& camera,
+                                         runtime::RuntimeOptions::VolumeLookup lookup = runtime::RuntimeOptions::VolumeLookup::kTrilinear) {
   runtime::RuntimeOptions o = runtime::optionsForEffects(b.manifest.effects);
   o.representation = b.manifest.representation;
   o.components = components;
+  o.volume_lookup = lookup;
   o.cache.max_sectors = std::max<int>(o.cache.max_sectors, int(b.sectors.size()));
   auto rt = std::make_unique<runtime::Runtime>(o);
   EXPECT_TRUE(rt->setLighting(b.manifest.sky, {}, b.manifest.interiors).has_value());
@@ -424,19 +426,9 @@ TEST(ClosedRoom, TheRoofsTopReadsTheSkyAboveItWithTheSidedLookup) {
   double got[3] = {};
   for (const auto lookup : {runtime::RuntimeOptions::VolumeLookup::kTrilinear, runtime::RuntimeOptions::VolumeLookup::kFacing,
                             runtime::RuntimeOptions::VolumeLookup::kSided}) {
-    runtime::RuntimeOptions o = runtime::optionsForEffects(b->manifest.effects);
-    o.representation = b->manifest.representation;
-    o.components = all;
-    o.volume_lookup = lookup;
-    o.cache.max_sectors = std::max<int>(o.cache.max_sectors, int(b->sectors.size()));
-    runtime::Runtime rt(o);
-    ASSERT_TRUE(rt.setLighting(b->manifest.sky, {}, b->manifest.interiors).has_value());
-    ASSERT_TRUE(rt.setTime(10.0).has_value());
-    for (const Sector& sec : b->sectors) ASSERT_TRUE(rt.addSector(sec).has_value());
-    rt.update({32, 32, 2});
-    rt.update({32, 32, 2});  // a blurred refill publishes one update late (publish.h)
+    const auto rt = skyLit(*b, all, 10.0, {32, 32, 2}, lookup);
     for (const glm::dvec3& p : roof) {
-      const glm::vec3 e = rt.ambient(p, up).irradiance;
+      const glm::vec3 e = rt->ambient(p, up).irradiance;
       got[int(lookup)] += e.r + e.g + e.b;
     }
   }

@@ -300,6 +300,10 @@ class ProbeCache {
   // resolved to the sector's nearest probe) — the talk's closest probe for transparencies.
   // Invalid ProbeRef when the sector is not resident, has no probes, or `pos` is not finite.
   ProbeRef probeAt(const glm::dvec3& pos) const;
+  // The probe a nearest volume fill gives the texel at `pos` (SlotView::nearest): probeAt's, except
+  // in the cells of interior volumes, which take the nearest cell outside (setInteriorBoxes).
+  // Invalid as probeAt's.
+  ProbeRef filledAt(const glm::dvec3& pos) const;
   // The resident probe nearest to `pos` by Euclidean distance (brute force; for tools and
   // interiors). Invalid when nothing is resident.
   ProbeRef nearestProbe(const glm::dvec3& pos) const;

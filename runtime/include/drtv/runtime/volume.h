@@ -171,9 +171,10 @@ glm::vec3 sampleVolume(const Volume& volume, const glm::dvec3& position, const g
 glm::vec3 sampleVolumeFacing(const Volume& volume, const glm::dvec3& position, const glm::vec3& normal, float normal_offset_m);
 
 // sampleVolume with the texels behind the surface that lie on the other side of the sky line
-// left out (issue 35): a texel's side is whether the probe it was filled from (the one `cache`
-// names at its centre) is covered (under static geometry: a room, a storey, an arcade) or open,
-// and the point's side is that of the probe named at its offset sample. A texel behind the plane
+// left out (issue 35): a texel's side is whether the probe its nearest fill took
+// (ProbeCache::filledAt at its centre; with the volume's blur, before the blur) is covered (under
+// static geometry: a room, a storey, an arcade) or open, and the point's side is that of the
+// probe the index grid names at its offset sample. A texel behind the plane
 // through `position` with `normal` and of the other side gets no weight; the others share the
 // filter's; none left: the plain filter. A roof's top then reads the open probes above it, not
 // the room under it through a 4 m texel that straddles the roof, and a ceiling the room, not the

@@ -101,7 +101,8 @@ Result<ShardEstimate> estimateShard(const worlds::World& world, const std::strin
   e.sectors = geometry->sectors().count();
   // The bake's own split (bake.cpp): the most sectors any shard owns.
   const std::vector<SectorKey> keys = bakeKeys(geometry->sectors());
-  const SectorCosts costs = sectorCosts(*geometry, keys, halo_m, measured);
+  const SectorCosts estimated = sectorCosts(*geometry, keys, halo_m);
+  const SectorCosts costs = measured ? measuredCosts(estimated, keys, geometry->fingerprint(), *measured) : estimated;
   const std::vector<int> owner = shardOwners(costs.units, shards);
   e.split = costs.split;
   e.measured = costs.measured;
@@ -114,7 +115,7 @@ Result<ShardEstimate> estimateShard(const worlds::World& world, const std::strin
   }
   e.sectors_per_shard = *std::max_element(e.shard_sectors.begin(), e.shard_sectors.end());
   if (costs.split != "estimated") {
-    const std::vector<int> by_triangles = shardOwners(sectorCosts(*geometry, keys, halo_m).units, shards);
+    const std::vector<int> by_triangles = shardOwners(estimated.units, shards);
     std::vector<double> load(size_t(shards), 0.0);
     double sum = 0;
     for (size_t i = 0; i < keys.size(); ++i) load[size_t(by_triangles[i])] += double(costs.units[i]), sum += double(costs.units[i]);

@@ -79,20 +79,24 @@ SectorCosts sectorCosts(const raytrace::WorldGeometry& geometry, std::span<const
   SectorCosts out;
   out.units.resize(keys.size());
   for (size_t i = 0; i < keys.size(); ++i) out.units[i] = 1 + geometry.gatherEstimate(keys[i], halo_m);
-  if (!measured) return out;
-  if (measured->geometry != detail::fingerprintText(geometry.fingerprint())) {
+  return measured ? measuredCosts(std::move(out), keys, geometry.fingerprint(), *measured) : out;
+}
+
+SectorCosts measuredCosts(SectorCosts estimated, std::span<const SectorKey> keys, uint64_t geometry_fingerprint,
+                          const MeasuredCosts& measured) {
+  SectorCosts out = std::move(estimated);
+  if (measured.geometry != detail::fingerprintText(geometry_fingerprint)) {
     // Another world: its rate predicts, the triangles split.
-    out.seconds_per_unit = measured->seconds_per_unit;
+    out.seconds_per_unit = measured.seconds_per_unit;
     return out;
   }
-  out.split = "measured " + measured->digest;
+  out.split = "measured " + measured.digest;
   constexpr double kUnitsPerSecond = 1e6;  // microseconds
   out.seconds_per_unit = 1.0 / kUnitsPerSecond;
   for (size_t i = 0; i < keys.size(); ++i) {
-    const auto it = measured->seconds.find(keys[i]);
-    const double s = std::min(kMaxSectorSeconds,
-                              it != measured->seconds.end() ? it->second : double(out.units[i]) * measured->seconds_per_unit);
-    if (it != measured->seconds.end()) ++out.measured;
+    const auto it = measured.seconds.find(keys[i]);
+    const double s = std::min(kMaxSectorSeconds, it != measured.seconds.end() ? it->second : double(out.units[i]) * measured.seconds_per_unit);
+    if (it != measured.seconds.end()) ++out.measured;
     // At least 1: a sector is never free, and the units stay within shardOwners' sums.
     out.units[i] = uint64_t(std::clamp(std::llround(s * kUnitsPerSecond), 1ll, 1ll << 50));
   }

@@ -71,5 +71,10 @@ struct SectorCosts {
 // the same world, keys and report computes the same units.
 SectorCosts sectorCosts(const raytrace::WorldGeometry& geometry, std::span<const SectorKey> keys, double halo_m,
                         const MeasuredCosts* measured = nullptr);
+// The same as measured by `measured`, from the estimate sectorCosts gives without it (its units
+// are the triangles'), for a world whose geometry has `geometry_fingerprint`
+// (WorldGeometry::fingerprint): to have both without gathering twice.
+SectorCosts measuredCosts(SectorCosts estimated, std::span<const SectorKey> keys, uint64_t geometry_fingerprint,
+                          const MeasuredCosts& measured);
 
 }  // namespace drtv::baker

@@ -23,6 +23,7 @@
 #include <sstream>
 
 #include "drtv/baker/shard.h"
+#include "drtv/formats/memory_limit.h"
 #include "drtv/raytrace/sampling.h"
 #include "atomic_file.h"
 #include "bake_directory.h"
@@ -759,6 +760,7 @@ static Result<BakeReport> bakeRecorded(const worlds::World& given, const std::st
     status.state = ShardStatus::State::kDone;
     status.baked = todo.size();
     status.wall_s = since(t_start);
+    status.peak_rss_bytes = peakResidentBytes();
     if (auto w = writeShardStatus(dir, status); !w) return std::unexpected(w.error());
   }
 
@@ -778,6 +780,7 @@ static Result<BakeReport> bakeRecorded(const worlds::World& given, const std::st
     if (!options.keep_sector_files) fs::remove_all(dir, ec);
   }
   report.wall_s = since(t_start);
+  report.peak_rss_bytes = peakResidentBytes();
   return report;
 }
 

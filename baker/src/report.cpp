@@ -5,6 +5,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "drtv/formats/memory_limit.h"
 #include "drtv/worlds/summary.h"
 #include "sector_stats.h"
 
@@ -136,6 +137,7 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
                   {"sum_over_sectors",
                    {{"gather", t_gather}, {"scene_build", t_build}, {"placement", t_place}, {"probe_rays", t_probe},
                     {"surface_cache", t_surfel}, {"lprt", t_lprt}, {"sun_transfer", t_sun}, {"visibility_maps", t_vis}, {"index_grid", t_grid}, {"total", t_total}}}};
+  j["memory"] = {{"peak_resident_bytes", r.peak_rss_bytes}};
   {
     nlohmann::json bs = nlohmann::json::array();
     for (const BuildingStats& b : r.buildings)
@@ -232,6 +234,8 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
   md << "| wall | " << fixed(r.wall_s, 2) << " |\n| world geometry | " << fixed(r.geometry_s, 2) << " |\n| room search | " << fixed(r.rooms_s, 2) << " |\n| sectors (wall) | "
      << fixed(r.bake_s, 2) << " |\n| placement pass (LPRT) | " << fixed(r.placement_pass.seconds, 2) << " |\n| pack | "
      << fixed(r.pack_s, 2) << " |\n";
+  if (r.peak_rss_bytes)
+    md << "\nPeak resident memory of the process (the world's load included): " << formatBytes(r.peak_rss_bytes) << ".\n";
   md << "\nSummed over sectors (each a wall time within its sector's task):\n\n| stage | seconds |\n|---|---|\n";
   md << "| gather | " << fixed(t_gather, 2) << " |\n| scene build | " << fixed(t_build, 2) << " |\n| placement | " << fixed(t_place, 2)
      << " |\n| probe rays | " << fixed(t_probe, 2) << " |\n| surface cache + bounces | " << fixed(t_surfel, 2) << " |\n| LPRT | "

@@ -140,6 +140,7 @@ Result<ShardStatus> readStatus(const fs::path& file) {
   s.baked = size_t(number("baked", 0, 1ll << 40).value_or(0));
   s.cost = uint64_t(number("cost", 0, 1ll << 62).value_or(0));
   if (j.contains("wall_s") && j["wall_s"].is_number()) s.wall_s = j["wall_s"].get<double>();
+  s.peak_rss_bytes = uint64_t(number("peak_rss_bytes", 0, 1ll << 62).value_or(0));  // older statuses: 0
   return s;
 }
 
@@ -194,6 +195,7 @@ Result<void> writeShardStatus(const fs::path& dir, const ShardStatus& s) {
   j["cost"] = s.cost;
   j["split"] = s.split;
   j["wall_s"] = s.wall_s;
+  j["peak_rss_bytes"] = s.peak_rss_bytes;
   if (!s.error.empty()) j["error"] = s.error;
   nlohmann::ordered_json settings = nlohmann::ordered_json::object();
   for (const auto& [k, v] : s.settings) settings[k] = v;
@@ -303,6 +305,7 @@ Result<FarmStatus> farmStatus(const fs::path& archive) {
     shard.sectors = s.sectors;
     shard.cost = s.cost;
     shard.wall_s = s.wall_s;
+    shard.peak_rss_bytes = s.peak_rss_bytes;
   }
   return out;
 }

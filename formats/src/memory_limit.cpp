@@ -30,6 +30,12 @@ void currentUse(uint64_t& virtual_bytes, uint64_t& resident_bytes, uint64_t& dat
 
 }  // namespace
 
+uint64_t peakResidentBytes() {
+  rusage usage{};
+  if (::getrusage(RUSAGE_SELF, &usage) != 0 || usage.ru_maxrss <= 0) return 0;
+  return uint64_t(usage.ru_maxrss) * 1024;  // Linux reports kilobytes
+}
+
 void setMemoryLimit(uint64_t bytes) { g_limit_bytes.store(bytes, std::memory_order_relaxed); }
 
 MemoryLimit memoryLimit() {

@@ -741,6 +741,12 @@ TEST(Cli, InfoAndTheBakeReportSayWhatWasDoneWithTheMaterials) {
   EXPECT_NE(json.find("-> 8 point lights of I = Le A / 2"), std::string::npos);
   EXPECT_NE(md.find("- materials: 5 (opaque 5,"), std::string::npos) << md.substr(0, 2000);
   EXPECT_NE(md.find("- loader emissive: "), std::string::npos) << md.substr(0, 2000);
+  // The bake's peak resident memory, in both reports and on the command's line.
+  const auto peak = nlohmann::json::parse(json)["memory"]["peak_resident_bytes"].get<uint64_t>();
+  EXPECT_GT(peak, uint64_t(4) << 20);
+  EXPECT_LT(peak, uint64_t(1) << 40);
+  EXPECT_NE(md.find("Peak resident memory of the process"), std::string::npos);
+  EXPECT_NE(bake.out.find(" resident -> "), std::string::npos) << bake.out;
 }
 
 // ---- Baking on a farm (docs/baker.md, "Baking on a farm"; drtv/baker/shard.h and farm.h) ----
@@ -940,6 +946,14 @@ TEST(Farm, TheStatusTellsAShardThatIsRunningFromOneThatWasKilled) {
   EXPECT_GE(b["balance"]["slowest_over_mean"].get<double>(), 1.0) << b.dump();
   EXPECT_GT(b["list"][0]["cost"].get<uint64_t>(), 0u) << b.dump();
   EXPECT_GT(b["list"][1]["cost"].get<uint64_t>(), 0u) << b.dump();
+  // Each done shard's peak resident memory, for sizing its task: a process that loaded and baked a
+  // world held megabytes, not bytes, and not more than this machine has.
+  for (int k = 0; k < 2; ++k) {
+    const auto peak = b["list"][k]["peak_rss_bytes"].get<uint64_t>();
+    EXPECT_GT(peak, uint64_t(4) << 20) << b.dump();
+    EXPECT_LT(peak, uint64_t(1) << 40) << b.dump();
+  }
+  EXPECT_NE(done.out.find(" resident, on "), std::string::npos) << done.out;
   ASSERT_EQ(merge(archive).status, 0);
 }
 

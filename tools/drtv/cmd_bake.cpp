@@ -11,6 +11,7 @@
 #include "commands.h"
 #include "drtv/baker/bake.h"
 #include "drtv/baker/shard.h"
+#include "drtv/formats/memory_limit.h"
 #include "drtv/worlds/load.h"
 
 namespace drtv::app {
@@ -131,11 +132,13 @@ Result<void> runBake(const BakeCliOptions& o) {
     rays += s.rays();
   }
   if (report->packed)
-    std::printf("baked %s: %zu sectors, %zu probes, %.1f M rays in %.2f s -> %s\n", o.world.c_str(), sectors, probes,
-                double(rays) / 1e6, report->wall_s, o.output.c_str());
+    std::printf("baked %s: %zu sectors, %zu probes, %.1f M rays in %.2f s, peak %s resident -> %s\n", o.world.c_str(), sectors,
+                probes, double(rays) / 1e6, report->wall_s, formatBytes(report->peak_rss_bytes).c_str(), o.output.c_str());
   else
-    std::printf("baked shard %s of %s: %zu sectors so far, %zu probes (sector journals in %s; run --merge when all shards are done)\n",
-                report->shard.c_str(), o.world.c_str(), sectors, probes, baker::sectorDirectory(archive).string().c_str());
+    std::printf("baked shard %s of %s: %zu sectors so far, %zu probes, peak %s resident (sector journals in %s; run --merge when all "
+                "shards are done)\n",
+                report->shard.c_str(), o.world.c_str(), sectors, probes, formatBytes(report->peak_rss_bytes).c_str(),
+                baker::sectorDirectory(archive).string().c_str());
   return {};
 }
 

@@ -21,6 +21,7 @@
 #include "commands.h"
 #include "drtv/baker/farm.h"
 #include "drtv/baker/shard.h"
+#include "drtv/formats/memory_limit.h"
 #include "drtv/worlds/load.h"
 
 namespace drtv::app {
@@ -213,7 +214,8 @@ Result<void> runStatus(const FarmCliOptions& o) {
     nlohmann::ordered_json list = nlohmann::ordered_json::array();
     for (const baker::FarmShard& s : status->shards) {
       nlohmann::ordered_json e{{"shard", s.index}, {"state", s.state}, {"sectors", s.sectors}, {"journaled", s.journaled},
-                               {"cost", s.cost}, {"wall_s", s.wall_s}, {"host", s.host}};
+                               {"cost", s.cost}, {"wall_s", s.wall_s}, {"peak_rss_bytes", s.peak_rss_bytes},
+                               {"host", s.host}};
       if (!s.error.empty()) e["error"] = s.error;
       list.push_back(e);
     }
@@ -235,6 +237,7 @@ Result<void> runStatus(const FarmCliOptions& o) {
   for (const baker::FarmShard& s : status->shards) {
     std::printf("shard %d/%d %-8s %zu/%zu sectors journaled", s.index, status->count, s.state.c_str(), s.journaled, s.sectors);
     if (s.state == "done") std::printf(", %.1f s", s.wall_s);
+    if (s.state == "done" && s.peak_rss_bytes) std::printf(", peak %s resident", formatBytes(s.peak_rss_bytes).c_str());
     if (!s.host.empty()) std::printf(", on %s", s.host.c_str());
     if (!s.error.empty()) std::printf(": %s", s.error.c_str());
     if (s.state == "stopped") std::printf(": no process holds its journal (killed or lost); rerun it");

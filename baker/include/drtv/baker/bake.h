@@ -204,6 +204,10 @@ struct BakeReport {
   // (the merge that packs reports them).
   std::vector<BuildingStats> buildings;
   double geometry_s = 0, rooms_s = 0, bake_s = 0, pack_s = 0, wall_s = 0;
+  // The process's peak resident memory when bake() returned (peakResidentBytes, memory_limit.h):
+  // everything it held since it started, the world's load included. 0 where the system does not
+  // say, and for bakeInMemory.
+  uint64_t peak_rss_bytes = 0;
   bool packed = false;                   // the archive was written (false for a shard)
 };
 

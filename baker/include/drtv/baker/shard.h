@@ -71,6 +71,7 @@ struct ShardStatus {
   std::string split = "estimated";  // how the bake split its sectors (SectorCosts::split)
   size_t baked = 0;         // of which baked by its last run (the rest were resumed)
   double wall_s = 0;        // its last run, wall seconds (0 while running)
+  uint64_t peak_rss_bytes = 0;  // its last run's peak resident memory (0 while running, or unknown)
   std::string host;         // where it ran (gethostname)
   std::string error;        // why it failed (kFailed only)
 };
@@ -102,6 +103,7 @@ struct FarmShard {
   size_t journaled = 0;  // whole records in its journal
   uint64_t cost = 0;     // its sectors' estimated cost (ShardStatus::cost)
   double wall_s = 0;
+  uint64_t peak_rss_bytes = 0;  // ShardStatus::peak_rss_bytes
 };
 struct FarmStatus {
   bool packed = false;        // the archive exists and no sector folder is left

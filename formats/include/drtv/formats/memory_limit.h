@@ -31,6 +31,11 @@ struct MemoryLimit {
 // The current limit (see the header). Thread-safe.
 MemoryLimit memoryLimit();
 
+// The most memory this process has held resident so far (getrusage's ru_maxrss), in bytes; 0 where
+// the system does not say. What a bake reports as its peak, so that a farm task's memory request
+// can be sized from a measurement (docs/baker.md). Thread-safe.
+uint64_t peakResidentBytes();
+
 // "1.5 GB", "640 MB", "12 KB", "512 B" (decimal units, as the message a person reads).
 std::string formatBytes(uint64_t bytes);
 // Parses "2G", "512M", "1.5GB", "64k", "1000000" (binary multiples: K = 1024). nullopt if not a

@@ -37,6 +37,10 @@ constexpr double kErrorRange = 1.0;
 // A reference ambient below this fraction of the image's mean is treated as this (dark corners
 // would otherwise show any absolute difference as a huge relative one).
 constexpr double kErrorFloorFraction = 0.02;
+// The blocks of the noise-robust error (RenderStats::block_*): squares of this many pixels a side,
+// counted where at least half their pixels hit geometry. The reference's noise in a block's mean
+// is its pixels' over sqrt(hits): 8x smaller in a full block of 8 x 8.
+constexpr int kErrorBlockPixels = 8;
 // Height of the error image's colour bar, pixels.
 constexpr int kBarHeight = 8;
 
@@ -228,6 +232,7 @@ Result<RenderResult> render(const worlds::World& world, const std::string& where
   }
   if (out.stats.pixels_hit) out.stats.preview_mean_ambient /= double(out.stats.pixels_hit);
   out.stats.mean_abs_rel_error = out.stats.mean_rel_error = out.stats.reference_rel_std_error = std::nan("");
+  out.stats.block_abs_rel_error = out.stats.block_rel_error = out.stats.block_reference_rel_std_error = std::nan("");
   if (!options.reference) return out;
 
   // The reference: path-trace only the pixels that hit geometry.
@@ -262,18 +267,22 @@ Result<RenderResult> render(const worlds::World& world, const std::string& where
   // The absolute floor too: a black reference (nothing to bounce from) must not divide by ~0.
   const double floor_lum = std::max(kAmbientErrorFloor, kErrorFloorFraction * ref_mean_lum);
   out.error = image::blankImage(cam.width, cam.height);
-  double abs_sum = 0, sum = 0, std_sum = 0;
   for (size_t i : hit_index) {
     const double r = std::max(detail::luminance(out.reference_ambient[i]), floor_lum);
-    const double e = (detail::luminance(out.preview_ambient[i]) - detail::luminance(out.reference_ambient[i])) / r;
-    abs_sum += std::abs(e);
-    sum += e;
-    std_sum += ref_std[i] / r;
-    put(out.error, i, diverging(e / kErrorRange));
+    put(out.error, i, diverging((detail::luminance(out.preview_ambient[i]) - detail::luminance(out.reference_ambient[i])) / r / kErrorRange));
   }
-  out.stats.mean_abs_rel_error = abs_sum / hits;
-  out.stats.mean_rel_error = sum / hits;
-  out.stats.reference_rel_std_error = std_sum / hits;
+  const ErrorFigures pixels =
+      errorFigures(out.preview_ambient, out.reference_ambient, ref_std, out.hit, cam.width, 1, floor_lum);
+  out.stats.mean_abs_rel_error = pixels.abs_rel;
+  out.stats.mean_rel_error = pixels.rel;
+  out.stats.reference_rel_std_error = pixels.noise;
+  const ErrorFigures blocks =
+      errorFigures(out.preview_ambient, out.reference_ambient, ref_std, out.hit, cam.width, kErrorBlockPixels, floor_lum);
+  out.stats.block_abs_rel_error = blocks.abs_rel;
+  out.stats.block_rel_error = blocks.rel;
+  out.stats.block_reference_rel_std_error = blocks.noise;
+  out.stats.error_blocks = blocks.blocks;
+  out.stats.block_pixels = kErrorBlockPixels;
   // Colour bar: -100% .. +100% across the width, ticks at -50%, 0, +50%.
   if (cam.height > 2 * kBarHeight)
     for (int y = cam.height - kBarHeight; y < cam.height; ++y)
@@ -284,6 +293,45 @@ Result<RenderResult> render(const worlds::World& world, const std::string& where
           if (std::abs(x - (tick / kErrorRange + 1.0) * 0.5 * cam.width) < 1.0 && y < cam.height - kBarHeight / 2) c = glm::u8vec3(0);
         put(out.error, size_t(y) * cam.width + x, c);
       }
+  return out;
+}
+
+ErrorFigures errorFigures(std::span<const glm::vec3> preview, std::span<const glm::vec3> reference,
+                          std::span<const double> reference_std, std::span<const uint8_t> hit, int width, int block,
+                          double floor) {
+  DRTV_CHECK(width > 0 && block > 0);
+  DRTV_CHECK(preview.size() == reference.size() && reference.size() == reference_std.size() && hit.size() == preview.size());
+  DRTV_CHECK(preview.size() % size_t(width) == 0);
+  const int height = int(preview.size() / size_t(width));
+  double abs_sum = 0, sum = 0, std_sum = 0;
+  ErrorFigures out;
+  for (int by = 0; by < height; by += block)
+    for (int bx = 0; bx < width; bx += block) {
+      double p = 0, r = 0, var = 0;
+      int count = 0, area = 0;
+      for (int y = by; y < std::min(height, by + block); ++y)
+        for (int x = bx; x < std::min(width, bx + block); ++x) {
+          const size_t i = size_t(y) * size_t(width) + size_t(x);
+          ++area;
+          if (!hit[i]) continue;
+          ++count;
+          p += detail::luminance(preview[i]);
+          r += detail::luminance(reference[i]);
+          var += reference_std[i] * reference_std[i];
+        }
+      if (count == 0 || 2 * count < area) continue;
+      const double ref = std::max(r / count, floor);
+      const double e = (p - r) / count / ref;
+      abs_sum += std::abs(e);
+      sum += e;
+      std_sum += std::sqrt(var) / count / ref;
+      ++out.blocks;
+    }
+  if (out.blocks) {
+    out.abs_rel = abs_sum / double(out.blocks);
+    out.rel = sum / double(out.blocks);
+    out.noise = std_sum / double(out.blocks);
+  }
   return out;
 }
 

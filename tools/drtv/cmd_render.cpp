@@ -110,6 +110,8 @@ Result<void> run(RenderCliOptions o) {
     j["mean_abs_rel_error"] = s.mean_abs_rel_error;
     j["mean_rel_error"] = s.mean_rel_error;
     j["reference_rel_std_error"] = s.reference_rel_std_error;
+    j["blocks"] = {{"pixels", s.block_pixels}, {"count", s.error_blocks}, {"mean_abs_rel_error", s.block_abs_rel_error},
+                   {"mean_rel_error", s.block_rel_error}, {"reference_rel_std_error", s.block_reference_rel_std_error}};
   }
   const std::filesystem::path json_path = std::filesystem::path(o.output).replace_extension(".json");
   std::ofstream f(json_path);
@@ -121,8 +123,9 @@ Result<void> run(RenderCliOptions o) {
               s.pixels, s.preview_s);
   if (o.reference)
     std::printf("reference %d paths/pixel in %.2f s: ambient mean |relative error| %.1f%%, bias %+.1f%% "
-                "(reference noise %.1f%%)\n",
-                o.samples, s.reference_s, 100 * s.mean_abs_rel_error, 100 * s.mean_rel_error, 100 * s.reference_rel_std_error);
+                "(reference noise %.1f%%); in %dx%d-pixel blocks %.1f%%, bias %+.1f%% (noise %.1f%%)\n",
+                o.samples, s.reference_s, 100 * s.mean_abs_rel_error, 100 * s.mean_rel_error, 100 * s.reference_rel_std_error,
+                s.block_pixels, s.block_pixels, 100 * s.block_abs_rel_error, 100 * s.block_rel_error, 100 * s.block_reference_rel_std_error);
   return {};
 }
 

@@ -29,6 +29,7 @@
 // their number.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <filesystem>
 #include <map>
@@ -83,8 +84,30 @@ struct RenderStats {
   double mean_abs_rel_error = 0;   // mean |preview - reference| / reference
   double mean_rel_error = 0;       // mean (preview - reference) / reference: the bias
   double reference_rel_std_error = 0;  // mean standard error / reference: the noise floor
+  // The same three over blocks of 8 x 8 pixels (those at least half hit), each block's mean
+  // luminance against the reference's: per pixel, a reference's noise inflates the mean |error|
+  // (a perfect engine reads about 0.8 x the noise) and the bias (E[1 / X] > 1 / E[X]: about the
+  // noise squared); a block's mean has an eighth of it. What the engine gets wrong over areas
+  // (a wall, a floor) shows in both; per-pixel detail (edges, contact shadows) only in the pixels'.
+  double block_abs_rel_error = 0, block_rel_error = 0, block_reference_rel_std_error = 0;
+  size_t error_blocks = 0;             // blocks counted
+  int block_pixels = 0;                // their side, pixels (8)
   glm::dvec3 preview_mean_ambient{0.0}, reference_mean_ambient{0.0};  // RGB means
 };
+
+// Mean |relative error|, bias and the reference's noise (RenderStats' figures) of the ambient
+// `preview` against `reference` (per pixel, row-major, `width` pixels a row; `reference_std` the
+// standard error of each reference pixel's luminance), over the pixels `hit`, in squares of
+// `block` x `block` pixels (1: per pixel): a square counts where at least half its pixels hit, and
+// compares the mean luminance of those pixels, divided by at least `floor` (> 0). NaN with no
+// square counted. Preconditions (bugs): spans of one size, a multiple of width; width, block > 0.
+struct ErrorFigures {
+  double abs_rel = std::nan(""), rel = std::nan(""), noise = std::nan("");
+  size_t blocks = 0;  // squares counted
+};
+ErrorFigures errorFigures(std::span<const glm::vec3> preview, std::span<const glm::vec3> reference,
+                          std::span<const double> reference_std, std::span<const uint8_t> hit, int width, int block,
+                          double floor);
 
 struct RenderResult {
   image::RgbImage preview;     // always

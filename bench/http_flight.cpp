@@ -21,16 +21,37 @@
 #include <string>
 #include <vector>
 
+#include <fcntl.h>
 #include <nlohmann/json.hpp>
+#include <spawn.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
-#include "drtv/baker/farm.h"
 #include "fault_proxy.h"
 #include "nginx_server.h"
 
+extern char** environ;
+
 namespace {
 
-using drtv::baker::shellQuote;
+// Runs `argv` (argv[0] a path, or a name looked up in PATH) with its standard output and error in `log`, no shell between:
+// its exit status, or -1 when it could not be started or did not exit.
+int runLogged(const std::vector<std::string>& argv, const std::filesystem::path& log) {
+  std::vector<char*> args;
+  for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+  args.push_back(nullptr);
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
+  pid_t pid = 0;
+  const int spawned = posix_spawnp(&pid, args[0], &actions, nullptr, args.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  if (spawned != 0) return -1;
+  int status = 0;
+  if (waitpid(pid, &status, 0) != pid || !WIFEXITED(status)) return -1;
+  return WEXITSTATUS(status);
+}
 
 int usage(const char* why) {
   std::fprintf(stderr,
@@ -97,16 +118,18 @@ int main(int argc, char** argv) {
       for (double speed : speeds)
         for (const bool http : {false, true}) {
           const auto out = (keep.empty() ? dir : keep) / ("run" + std::to_string(run++));
-          std::string cmd = shellQuote(bin) + " fly " + shellQuote(http ? url : archive.string()) + " --speed " + std::to_string(speed) +
-                            " --io-threads " + std::to_string(io_threads) + " -o " + shellQuote(out.string());
-          if (frames > 0) cmd += " --frames " + std::to_string(frames);
-          cmd += " > " + shellQuote(out.string() + ".log") + " 2>&1";
+          std::vector<std::string> argv = {bin, "fly", http ? url : archive.string(), "--speed", std::to_string(speed),
+                                            "--io-threads", std::to_string(io_threads), "-o", out.string()};
+          if (frames > 0) argv.insert(argv.end(), {"--frames", std::to_string(frames)});
           std::filesystem::create_directories(out.parent_path());
-          const int rc = std::system(cmd.c_str());
+          const int rc = runLogged(argv, out.string() + ".log");
           std::ifstream f(out / "fly-report.json");
           nlohmann::json j = nlohmann::json::parse(f, nullptr, /*allow_exceptions=*/false);
           if (rc != 0 || j.is_discarded()) {
-            std::printf("| %s | %s | %.0f | failed: see %s.log |\n", bin.c_str(), http ? "HTTP" : "file", speed, out.c_str());
+            if (rc == -1)
+              std::printf("| %s | %s | %.0f | could not run it (or it did not exit) |\n", bin.c_str(), http ? "HTTP" : "file", speed);
+            else
+              std::printf("| %s | %s | %.0f | failed: see %s.log |\n", bin.c_str(), http ? "HTTP" : "file", speed, out.c_str());
             status = 1;
             continue;
           }

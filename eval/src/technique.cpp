@@ -124,6 +124,15 @@ std::string Technique::describe() const {
   return s;
 }
 
+Result<const baker::InMemoryBake*> bakeFor(const PrepareInput& in, const baker::BakeSettings& settings,
+                                           std::optional<baker::InMemoryBake>& own) {
+  if (in.baked && in.baked->manifest.settings == settings.describe()) return in.baked;
+  auto b = baker::bakeInMemory(in.world, in.where, settings, in.block, in.threads);
+  if (!b) return std::unexpected(b.error());
+  own = std::move(*b);
+  return &*own;
+}
+
 Result<void> Technique::prepared(Result<void> r) {
   if (!r) {
     stage_ = Stage::kNew;

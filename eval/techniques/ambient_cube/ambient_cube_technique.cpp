@@ -144,13 +144,9 @@ class AmbientCube final : public Technique {
     if (params_.rays_per_basis) s.transfer.probe_rays_per_basis = *params_.rays_per_basis;
     if (params_.bounces) s.transfer.bounces = *params_.bounces;
     std::optional<baker::InMemoryBake> own;
-    const baker::InMemoryBake* bake = in.baked;
-    if (!bake || bake->manifest.settings != s.describe()) {
-      auto b = baker::bakeInMemory(in.world, in.where, s, in.block, in.threads);
-      if (!b) return std::unexpected(b.error());
-      own = std::move(*b);
-      bake = &*own;
-    }
+    auto baked = bakeFor(in, s, own);
+    if (!baked) return std::unexpected(baked.error());
+    const baker::InMemoryBake* bake = *baked;
     auto cube = baker::bakeCube(in.world, in.where, s, bake->sectors, in.threads, &bake->manifest.interiors);
     if (!cube) return std::unexpected(cube.error());
     cube_ = std::move(*cube);

@@ -76,13 +76,9 @@ class ProbeReference final : public Technique {
   Result<void> onPrepare(const PrepareInput& in) override {
     const baker::BakeSettings s = baker::BakeSettings::forQuality(baker::Quality::kDefault, in.seed);
     std::optional<baker::InMemoryBake> own;
-    const baker::InMemoryBake* bake = in.baked;
-    if (!bake || bake->manifest.settings != s.describe()) {
-      auto b = baker::bakeInMemory(in.world, in.where, s, in.block, in.threads);
-      if (!b) return std::unexpected(b.error());
-      own = std::move(*b);
-      bake = &*own;
-    }
+    auto baked = bakeFor(in, s, own);
+    if (!baked) return std::unexpected(baked.error());
+    const baker::InMemoryBake* bake = *baked;
     auto scene = reference::ReferenceScene::build(in.world, in.where);
     if (!scene) return std::unexpected(scene.error());
     scene_ = std::make_unique<reference::ReferenceScene>(std::move(*scene));

@@ -180,6 +180,12 @@ struct PrepareInput {
   bool streaming = false;
 };
 
+// The DRTV bake of `in`'s block with `settings`: `in.baked` where that is this bake (the same
+// settings; its seed is the input's), else one made now with bakeInMemory and kept in `own`.
+// Errors: bakeInMemory's.
+Result<const baker::InMemoryBake*> bakeFor(const PrepareInput& in, const baker::BakeSettings& settings,
+                                           std::optional<baker::InMemoryBake>& own);
+
 // How a streamed technique is set up (beginStreaming): the archive the streamer streams and the
 // volume's reach, and where its per-sector work runs.
 struct StreamingSetup {

@@ -39,6 +39,10 @@ struct Candidate {
 using detail::isStatic;
 using detail::nextRayStart;
 
+// How far behind a candidate the inside test's rays start (surroundings): a surface within this of
+// the point, or through it, is at distance ~0.
+constexpr float kOnSurfaceM = 1e-3f;
+
 // What the inside test's rays found around a point (step 4 of placement.h).
 struct Surroundings {
   bool inside = false;         // many of its hits are back faces: inside geometry
@@ -52,7 +56,15 @@ Surroundings surroundings(const raytrace::RayScene& scene, const raytrace::Secto
   std::vector<raytrace::Ray> rays(static_cast<size_t>(n));
   std::vector<raytrace::Hit> hits(static_cast<size_t>(n));
   const glm::vec2 shift(raytrace::unitFloat(raytrace::hashKey(key, 1)), raytrace::unitFloat(raytrace::hashKey(key, 2)));
-  for (int i = 0; i < n; ++i) rays[i] = raytrace::Ray{p, 0.f, raytrace::uniformSphere(raytrace::r2Point(uint32_t(i), shift)), float(s.inside_test_range_m)};
+  // Each ray starts kOnSurfaceM behind the point and its hits count from the point: a candidate
+  // lying on a surface (a lattice column on a wall's plane: walls modelled on whole metres meet
+  // the 2 m lattice) is at distance ~0 from it, where rays starting on the plane find no hit.
+  // Without a clearance (the talk's placement) a probe may touch a surface, and its rays start at it.
+  const float behind = s.clearance_m > 0.0 ? kOnSurfaceM : 0.f;
+  for (int i = 0; i < n; ++i) {
+    const glm::vec3 d = raytrace::uniformSphere(raytrace::r2Point(uint32_t(i), shift));
+    rays[i] = raytrace::Ray{p - behind * d, 0.f, d, float(s.inside_test_range_m) + behind};
+  }
   scene.intersect(rays, hits);
   stats.rays += uint64_t(n);
   Surroundings out;
@@ -61,7 +73,7 @@ Surroundings surroundings(const raytrace::RayScene& scene, const raytrace::Secto
     if (!hits[i].hit()) continue;
     ++hit;
     back += !scene.frontFace(rays[i], hits[i].prim);
-    if (isStatic(geometry.cls[hits[i].prim])) out.nearest_static = std::min(out.nearest_static, hits[i].t);
+    if (isStatic(geometry.cls[hits[i].prim])) out.nearest_static = std::min(out.nearest_static, std::max(0.f, hits[i].t - behind));
   }
   // Double-sided triangles have no back face, so this cannot see the inside of a closed
   // double-sided mesh. Counting their hits from behind the winding where every ray closes the

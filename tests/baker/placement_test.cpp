@@ -178,6 +178,29 @@ TEST(Placement, NoProbeInAGapThinnerThanItsClearanceNorCloserThanThatToAWall) {
   EXPECT_GT(around, 4u) << "the ground around the house keeps probes of its own";
 }
 
+// A room whose double-sided pillar has its face on the 2 m lattice (walls modelled on whole metres,
+// as tests/assets' living room's are): the enclosed column there lands on the face's plane, and its
+// inside test's rays, starting on the plane, saw neither the face (no hit at distance 0) nor a back
+// face (double-sided). The probe was kept half inside the pillar: its rays lit by nothing inside,
+// and the accuracy's points drawn from it lay inside the pillar, the path tracer's 0 there.
+TEST(Placement, NoProbeOnTheFaceOfADoubleSidedPillarStandingOnTheLattice) {
+  worlds::World w = test::planeWorld(200.0, glm::vec3(0.5f));
+  test::addWalledRoom(w, {10, 10}, {26, 26}, 3.f, 0.3f, 0.2f, glm::vec3(0.6f));
+  const glm::vec3 lo(17.5f, 19.5f, 0.f), hi(18.5f, 20.f, 3.f);  // its north face on y = 20, x from 17.5 to 18.5
+  worlds::Mesh pillar = test::box(lo, hi, glm::vec3(0.6f), "pillar");
+  pillar.double_sided = true;
+  test::add(w, pillar, worlds::InstanceClass::kStatic);
+  const PlacementSettings settings;
+  const Placed p = place(w, {0, 0}, settings);
+  size_t in_room = 0;
+  for (const PlacedProbe& q : p.probes) {
+    in_room += q.position.x > 10.3f && q.position.x < 25.7f && q.position.y > 10.3f && q.position.y < 25.7f && q.position.z < 3.f;
+    EXPECT_GE(distanceToBox(q.position, lo, hi), 0.9f * float(settings.clearance_m))
+        << "on or in the pillar: " << q.position.x << " " << q.position.y << " " << q.position.z;
+  }
+  EXPECT_GE(in_room, 30u) << "the rest of the room keeps its 2 m lattice";
+}
+
 // A room's covered candidate beside a pillar (0.05 m from it, within the clearance) is moved by
 // the inside test's offsets, up first. Lifted 2 m it stood on the roof, still flagged covered with
 // a visibility map (15 of 806 covered probes in the town test's 8-storey block, 2026-12-07); it

@@ -663,6 +663,7 @@ static Result<BakeReport> bakeRecorded(const worlds::World& given, const std::st
     auto s = shardsOfThisBake(dir, fingerprintText(fingerprint), world_name, report.settings, costs.split);
     if (!s) return std::unexpected(s.error());
     shard_statuses = std::move(*s);
+    report.shards = shard_statuses;
   }
   if (auto ok = claimSectorDirectory(dir, fingerprint, options.fresh); !ok) return std::unexpected(ok.error());
   std::error_code ec;

@@ -138,6 +138,16 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
                    {{"gather", t_gather}, {"scene_build", t_build}, {"placement", t_place}, {"probe_rays", t_probe},
                     {"surface_cache", t_surfel}, {"lprt", t_lprt}, {"sun_transfer", t_sun}, {"visibility_maps", t_vis}, {"index_grid", t_grid}, {"total", t_total}}}};
   j["memory"] = {{"peak_resident_bytes", r.peak_rss_bytes}};
+  if (!r.shards.empty()) {
+    nlohmann::json list = nlohmann::json::array();
+    for (const ShardStatus& s : r.shards)
+      list.push_back({{"shard", s.index}, {"of", s.count}, {"state", stateName(s.state)}, {"sectors", s.sectors}, {"cost", s.cost},
+                      {"wall_s", s.wall_s}, {"peak_resident_bytes", s.peak_rss_bytes}, {"host", s.host}});
+    j["shards"] = list;
+    if (const auto b = shardBalance(r.shards))
+      j["shard_balance"] = {{"slowest", b->slowest}, {"slowest_s", b->slowest_s}, {"mean_s", b->mean_s},
+                            {"slowest_over_mean", b->slowest_s / b->mean_s}, {"most_peak_resident_bytes", b->most_peak}};
+  }
   {
     nlohmann::json bs = nlohmann::json::array();
     for (const BuildingStats& b : r.buildings)
@@ -236,6 +246,16 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
      << fixed(r.pack_s, 2) << " |\n";
   if (r.peak_rss_bytes)
     md << "\nPeak resident memory of the process (the world's load included): " << formatBytes(r.peak_rss_bytes) << ".\n";
+  if (!r.shards.empty()) {
+    md << "\n## Shards (their status files: each one's last run)\n\n| shard | state | sectors | wall s | peak resident | host |\n|---|---|---:|---:|---:|---|\n";
+    for (const ShardStatus& s : r.shards)
+      md << "| " << s.index << "/" << s.count << " | " << stateName(s.state) << " | " << s.sectors << " | " << fixed(s.wall_s, 2) << " | "
+         << (s.peak_rss_bytes ? formatBytes(s.peak_rss_bytes) : "-") << " | " << s.host << " |\n";
+    if (const auto b = shardBalance(r.shards))
+      md << "\nThe slowest shard, " << b->slowest << ", took " << fixed(b->slowest_s, 2) << " s: " << fixed(b->slowest_s / b->mean_s, 2)
+         << "x the mean of the done shards' " << fixed(b->mean_s, 2) << " s; the most memory a shard held: "
+         << formatBytes(b->most_peak) << ".\n";
+  }
   md << "\nSummed over sectors (each a wall time within its sector's task):\n\n| stage | seconds |\n|---|---|\n";
   md << "| gather | " << fixed(t_gather, 2) << " |\n| scene build | " << fixed(t_build, 2) << " |\n| placement | " << fixed(t_place, 2)
      << " |\n| probe rays | " << fixed(t_probe, 2) << " |\n| surface cache + bounces | " << fixed(t_surfel, 2) << " |\n| LPRT | "

@@ -146,6 +146,27 @@ Result<ShardStatus> readStatus(const fs::path& file) {
 
 }  // namespace
 
+std::optional<ShardBalance> shardBalance(std::span<const ShardTime> done) {
+  ShardBalance b;
+  double sum = 0;
+  for (const ShardTime& t : done) {
+    ++b.done;
+    sum += t.wall_s;
+    if (b.done == 1 || t.wall_s > b.slowest_s) b.slowest = t.index, b.slowest_s = t.wall_s;
+    b.most_peak = std::max(b.most_peak, t.peak_rss_bytes);
+  }
+  if (b.done < 2 || !(sum > 0)) return std::nullopt;
+  b.mean_s = sum / b.done;
+  return b;
+}
+
+std::optional<ShardBalance> shardBalance(std::span<const ShardStatus> statuses) {
+  std::vector<ShardTime> done;
+  for (const ShardStatus& s : statuses)
+    if (s.state == ShardStatus::State::kDone) done.push_back({s.index, s.wall_s, s.peak_rss_bytes});
+  return shardBalance(std::span<const ShardTime>(done));
+}
+
 Result<ShardSpec> parseShard(std::string_view text, const EnvLookup& env) {
   std::string_view scheduler = text;
   std::optional<long long> count;

@@ -955,6 +955,16 @@ TEST(Farm, TheStatusTellsAShardThatIsRunningFromOneThatWasKilled) {
   }
   EXPECT_NE(done.out.find(" resident, on "), std::string::npos) << done.out;
   ASSERT_EQ(merge(archive).status, 0);
+  // The merge's report lists both shards as their status files had them, and their balance.
+  const nlohmann::json report = nlohmann::json::parse(slurp(std::filesystem::path(archive).parent_path().string() + "/bake-report.json"));
+  ASSERT_EQ(report["shards"].size(), 2u) << report.dump().substr(0, 2000);
+  for (int k = 0; k < 2; ++k) {
+    EXPECT_EQ(report["shards"][k]["shard"], k);
+    EXPECT_EQ(report["shards"][k]["state"], "done");
+    EXPECT_EQ(report["shards"][k]["wall_s"], b["list"][k]["wall_s"]);
+    EXPECT_EQ(report["shards"][k]["peak_resident_bytes"], b["list"][k]["peak_rss_bytes"]);
+  }
+  EXPECT_DOUBLE_EQ(report["shard_balance"]["slowest_over_mean"].get<double>(), b["balance"]["slowest_over_mean"].get<double>());
 }
 
 TEST(Farm, AShardThatSaysItIsDoneButLostItsJournalIsNamedByTheMerge) {

@@ -183,24 +183,12 @@ Result<void> runKubernetes(const FarmCliOptions& o) {
   return {};
 }
 
-// The slowest done shard against the mean of the done shards' wall times (issue 36: shards
-// balanced by cost); nothing until two are done.
-struct Balance {
-  int done = 0, slowest = 0;
-  double slowest_s = 0, mean_s = 0;
-};
-std::optional<Balance> balance(const baker::FarmStatus& status) {
-  Balance b;
-  double sum = 0;
-  for (const baker::FarmShard& s : status.shards) {
-    if (s.state != "done") continue;
-    ++b.done;
-    sum += s.wall_s;
-    if (b.done == 1 || s.wall_s > b.slowest_s) b.slowest = s.index, b.slowest_s = s.wall_s;
-  }
-  if (b.done < 2 || !(sum > 0)) return std::nullopt;
-  b.mean_s = sum / b.done;
-  return b;
+// The slowest done shard against the mean of the done shards' wall times (baker::shardBalance).
+std::optional<baker::ShardBalance> balance(const baker::FarmStatus& status) {
+  std::vector<baker::ShardTime> done;
+  for (const baker::FarmShard& s : status.shards)
+    if (s.state == "done") done.push_back({s.index, s.wall_s, s.peak_rss_bytes});
+  return baker::shardBalance(std::span<const baker::ShardTime>(done));
 }
 
 Result<void> runStatus(const FarmCliOptions& o) {

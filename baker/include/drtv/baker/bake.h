@@ -39,6 +39,7 @@
 #include <vector>
 
 #include "drtv/baker/buildings.h"
+#include "drtv/baker/shard.h"
 #include "drtv/baker/index_grid.h"
 #include "drtv/baker/placement.h"
 #include "drtv/baker/rooms.h"
@@ -208,6 +209,9 @@ struct BakeReport {
   // everything it held since it started, the world's load included. 0 where the system does not
   // say, and for bakeInMemory.
   uint64_t peak_rss_bytes = 0;
+  // A merge's: the status of every shard of this bake (its last run's time, peak memory and host),
+  // ordered by (count, index); empty for a whole bake or a shard.
+  std::vector<ShardStatus> shards;
   bool packed = false;                   // the archive was written (false for a shard)
 };
 

@@ -21,6 +21,7 @@
 #include <cstddef>
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <span>
 #include <cstdint>
 #include <string>
@@ -76,6 +77,23 @@ struct ShardStatus {
   std::string error;        // why it failed (kFailed only)
 };
 const char* stateName(ShardStatus::State state);  // "running", "done", "failed"
+
+// How even the done shards of a bake ran (issue 36: shards balanced by cost): the slowest against
+// the mean of their wall times, and the most memory one held.
+struct ShardTime {
+  int index = 0;
+  double wall_s = 0;
+  uint64_t peak_rss_bytes = 0;
+};
+struct ShardBalance {
+  int done = 0, slowest = 0;  // done shards; the slowest's index
+  double slowest_s = 0, mean_s = 0;
+  uint64_t most_peak = 0;     // the largest peak_rss_bytes
+};
+// Over the done shards' times; nothing until two are done (or their times sum to 0).
+std::optional<ShardBalance> shardBalance(std::span<const ShardTime> done);
+// The same over the shards of `statuses` that are done.
+std::optional<ShardBalance> shardBalance(std::span<const ShardStatus> statuses);
 
 // "<dir>/shard-<k>-of-<N>.json".
 std::filesystem::path shardStatusFile(const std::filesystem::path& dir, int index, int count);

@@ -70,6 +70,16 @@ Result<MeasuredCosts> readMeasuredCosts(const std::filesystem::path& report) {
   for (const auto& [key, t] : m.seconds) words.insert(words.end(), {key.ix, key.iy, std::bit_cast<int64_t>(t)});
   m.digest = detail::fingerprintText(XXH3_64bits(words.data(), words.size() * sizeof(int64_t)));
   if (m.seconds.empty()) return bad("no sector has a bake time above 0");
+  // The memory the bake measured, where the report has it (a figure beside the estimate, never a
+  // split): out-of-range or missing values read as none.
+  const auto bytes = [&](const nlohmann::json& parent, const char* key) -> uint64_t {
+    if (!parent.is_object() || !parent.contains(key) || !parent[key].is_number_unsigned()) return 0;
+    const uint64_t v = parent[key].get<uint64_t>();
+    return v < (uint64_t(1) << 50) ? v : 0;
+  };
+  if (j.contains("memory")) m.peak_bytes = bytes(j["memory"], "peak_resident_bytes");
+  if (j.contains("shard_balance")) m.shard_peak_bytes = bytes(j["shard_balance"], "most_peak_resident_bytes");
+  if (j.contains("shards") && j["shards"].is_array()) m.shards = int(std::min<size_t>(j["shards"].size(), 1 << 20));
   m.seconds_per_unit = seconds / units;
   return m;
 }

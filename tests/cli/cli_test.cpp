@@ -1025,6 +1025,9 @@ TEST(Farm, ShardsSplitByAnEarlierBakesTimesMergeIntoTheSameBytesAndAMergeWithout
   EXPECT_EQ(plan["measured_sectors"], plan["sectors"]) << p.out;
   EXPECT_NEAR(plan["predicted"]["sum_s"].get<double>(), sum_s, 1e-5 * plan["sectors"].get<double>() + 1e-9) << p.out;
   EXPECT_GE(plan["slowest_over_mean"].get<double>(), 1.0);
+  // Beside the estimate, the memory the report's bake measured (one process: no shards).
+  EXPECT_EQ(plan["measured_memory"]["peak_bytes"], rep["memory"]["peak_resident_bytes"]) << p.out;
+  EXPECT_EQ(plan["measured_memory"]["shards"], 0) << p.out;
 
   // The shards split by them; the merge must be told the same.
   const std::string archive = scratch("timed/w.drtv");
@@ -1046,6 +1049,13 @@ TEST(Farm, ShardsSplitByAnEarlierBakesTimesMergeIntoTheSameBytesAndAMergeWithout
   const Outcome m = drtv("bake " + kFarmWorld + " -o " + archive + " --quality draft --merge --costs " + report, kNoScheduler);
   ASSERT_EQ(m.status, 0) << m.out;
   EXPECT_EQ(slurp(archive), slurp(one)) << "the split moves no byte";
+  // The merge's report, given to the next plan: its two shards' peak memory beside the estimate.
+  const std::string merged = std::filesystem::path(archive).parent_path().string() + "/bake-report.json";
+  const Outcome again = drtv("farm plan " + kFarmWorld + " --shards 2 --costs " + merged, kNoScheduler);
+  ASSERT_EQ(again.status, 0) << again.out;
+  EXPECT_NE(again.out.find("measured: the report's 2 shards held "), std::string::npos) << again.out;
+  const nlohmann::json merged_rep = nlohmann::json::parse(slurp(merged));
+  EXPECT_GT(merged_rep["shard_balance"]["most_peak_resident_bytes"].get<uint64_t>(), uint64_t(4) << 20);
 
   // The Slurm scripts hand the report to every shard and to the merge.
   const std::string dir = scratch("slurm");

@@ -266,6 +266,10 @@ Result<void> runPlan(const FarmCliOptions& o) {
     }
     j["list"] = list;
     if (timed) j["predicted"] = {{"sum_s", sum_s}, {"slowest_s", most_s}, {"slowest_wall_s", most_s / e->cpus}};
+    if (e->measured_peak_bytes || e->measured_shard_peak_bytes)
+      j["measured_memory"] = {{"peak_bytes", e->measured_peak_bytes},
+                              {"shard_peak_bytes", e->measured_shard_peak_bytes},
+                              {"shards", e->measured_shards}};
     std::printf("%s\n", j.dump(2).c_str());
     return {};
   }
@@ -285,6 +289,13 @@ Result<void> runPlan(const FarmCliOptions& o) {
     std::printf("predicted: %.1f s of sector time in all; the slowest shard %.1f s, about %.1f s of wall time on its task's %d CPUs "
                 "(%llu MiB a task), plus loading the world\n",
                 sum_s, most_s, most_s / e->cpus, e->cpus, static_cast<unsigned long long>(e->memory_bytes >> 20));
+  if (e->measured_shard_peak_bytes)
+    std::printf("measured: the report's %d shards held %s resident at most (its merge %s); this plan asks %llu MiB a task\n",
+                e->measured_shards, formatBytes(e->measured_shard_peak_bytes).c_str(), formatBytes(e->measured_peak_bytes).c_str(),
+                static_cast<unsigned long long>(e->memory_bytes >> 20));
+  else if (e->measured_peak_bytes)
+    std::printf("measured: the report's bake held %s resident at most; this plan asks %llu MiB a task\n",
+                formatBytes(e->measured_peak_bytes).c_str(), static_cast<unsigned long long>(e->memory_bytes >> 20));
   return {};
 }
 

@@ -48,6 +48,10 @@ struct MeasuredCosts {
   std::map<SectorKey, double> seconds;  // sectors with a time > 0
   double seconds_per_unit = 0;          // fitted (above), > 0
   std::string digest;                   // 16 hex digits of XXH3 over (key, seconds): names the split
+  // The memory it measured (not part of the digest), 0 where the report has none (older builds):
+  uint64_t peak_bytes = 0;              // its process's peak resident memory (memory.peak_resident_bytes)
+  uint64_t shard_peak_bytes = 0;        // a merge's: the most any of its shards held (shard_balance)
+  int shards = 0;                       // a merge's: how many shards it listed
 };
 
 // Reads a bake report's per-sector times. Errors (bad input), naming the file: unreadable, not a

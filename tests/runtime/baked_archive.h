@@ -5,8 +5,13 @@
 
 #include <unistd.h>
 
+#include <algorithm>
+#include <array>
+#include <cmath>
 #include <filesystem>
 #include <memory>
+#include <optional>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -14,6 +19,7 @@
 
 #include "drtv/baker/bake.h"
 #include "drtv/formats/archive.h"
+#include "drtv/formats/representation.h"
 #include "drtv/runtime/runtime.h"
 #include "drtv/worlds/world.h"
 
@@ -60,6 +66,31 @@ inline std::unique_ptr<runtime::Runtime> relitArchive(const BakedArchive& b, dou
   for (const Sector& s : b.sectors) EXPECT_TRUE(rt->addSector(s).has_value());
   rt->update(camera);
   return rt;
+}
+
+// One bake per representation, made on first use and kept for the test program's life: the
+// shader-run tests bake each world once for all their cases. Each test keeps its own (a static).
+class BakedPerRepresentation {
+ public:
+  using Bake = BakedArchive (*)(Representation);
+  explicit BakedPerRepresentation(Bake bake) : bake_(bake) {}
+  const BakedArchive& operator()(Representation r) {
+    std::optional<BakedArchive>& b = baked_[size_t(r)];
+    if (!b) b = bake_(r);
+    return *b;
+  }
+
+ private:
+  Bake bake_;
+  std::array<std::optional<BakedArchive>, kRepresentationCount> baked_;
+};
+
+// A unit normal drawn uniformly on the sphere: z, then the azimuth, from `u` (two draws, in that
+// order, so that a test's points stay what they were).
+template <class Rng>
+glm::vec3 randomUnitNormal(Rng& rng, std::uniform_real_distribution<double>& u) {
+  const double z = 2.0 * u(rng) - 1.0, phi = 2.0 * M_PI * u(rng), r = std::sqrt(std::max(0.0, 1.0 - z * z));
+  return glm::normalize(glm::vec3(float(r * std::cos(phi)), float(r * std::sin(phi)), float(z)));
 }
 
 }  // namespace drtv::testing

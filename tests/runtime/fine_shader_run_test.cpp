@@ -49,10 +49,8 @@ Baked bakeTown(Representation representation) {
   return bakeArchive(*world, "town", options);
 }
 const Baked& bakedTown(Representation representation) {
-  static const Baked fc3 = bakeTown(Representation::kFc3);
-  if (representation == Representation::kFc3) return fc3;
-  static const Baked sh_l1 = bakeTown(Representation::kShL1);
-  return sh_l1;
+  static BakedPerRepresentation baked(bakeTown);
+  return baked(representation);
 }
 
 std::unique_ptr<runtime::Runtime> relit(const Baked& b, const glm::dvec3& camera) { return relitArchive(b, kHour, camera); }
@@ -86,8 +84,7 @@ std::vector<TestPoint> makePoints(const runtime::FineShaderData& level, uint32_t
         p[a] = (rng() % 2 ? lo[a] : hi[a]) + 12.0 * u(rng) - 6.0;
       }
     }
-    const double z = 2.0 * u(rng) - 1.0, phi = 2.0 * M_PI * u(rng), r = std::sqrt(std::max(0.0, 1.0 - z * z));
-    out.push_back({p, glm::normalize(glm::vec3(float(r * std::cos(phi)), float(r * std::sin(phi)), float(z)))});
+    out.push_back({p, randomUnitNormal(rng, u)});
   }
   return out;
 }

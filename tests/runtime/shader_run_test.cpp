@@ -68,10 +68,8 @@ Baked bakeIsland(Representation representation) {
   return bakeArchive(*world, "island", options);
 }
 const Baked& bakedIsland(Representation representation) {
-  static const Baked fc3 = bakeIsland(Representation::kFc3);
-  if (representation == Representation::kFc3) return fc3;
-  static const Baked sh_l1 = bakeIsland(Representation::kShL1);
-  return sh_l1;
+  static BakedPerRepresentation baked(bakeIsland);
+  return baked(representation);
 }
 
 // A runtime for the archive as `drtv query` builds one, lit at kHour, volume on `camera`.
@@ -109,8 +107,7 @@ std::vector<TestPoint> makePoints(const runtime::Volume& volume, float offset_m,
                                 sh::kBasis[0], sh::kBasis[1], sh::kBasis[2], sh::kBasis[3]};
       normal = glm::normalize(axes[rng() % std::size(axes)]);
     } else {
-      const double z = 2.0 * u(rng) - 1.0, phi = 2.0 * M_PI * u(rng), r = std::sqrt(std::max(0.0, 1.0 - z * z));
-      normal = glm::normalize(glm::vec3(float(r * std::cos(phi)), float(r * std::sin(phi)), float(z)));
+      normal = randomUnitNormal(rng, u);
     }
     points.push_back({t * ts - glm::dvec3(normal) * double(offset_m), normal});
   }

@@ -106,11 +106,6 @@ Result<ShardEstimate> estimateShard(const worlds::World& world, const std::strin
   const std::vector<int> owner = shardOwners(costs.units, shards);
   e.split = costs.split;
   e.measured = costs.measured;
-  if (measured) {
-    e.measured_peak_bytes = measured->peak_bytes;
-    e.measured_shard_peak_bytes = measured->shard_peak_bytes;
-    e.measured_shards = measured->shards;
-  }
   e.seconds_per_unit = costs.seconds_per_unit;
   e.shard_sectors.assign(size_t(shards), 0);
   e.shard_units.assign(size_t(shards), 0);

@@ -60,8 +60,10 @@ Result<void> writeText(const fs::path& file, const std::string& text, bool execu
 fs::path absolute(const std::string& p) { return fs::absolute(fs::path(p)).lexically_normal(); }
 
 // The estimate from the world (and --costs).
-Result<baker::ShardEstimate> estimateFor(const FarmCliOptions& o) {
-  std::optional<baker::MeasuredCosts> costs;
+// `read`, when given, receives the --costs report as read (its measured memory: runPlan).
+Result<baker::ShardEstimate> estimateFor(const FarmCliOptions& o, std::optional<baker::MeasuredCosts>* read = nullptr) {
+  std::optional<baker::MeasuredCosts> own;
+  std::optional<baker::MeasuredCosts>& costs = read ? *read : own;
   if (!o.costs.empty()) {
     auto c = baker::readMeasuredCosts(o.costs);
     if (!c) return std::unexpected(c.error());
@@ -242,7 +244,8 @@ Result<void> runStatus(const FarmCliOptions& o) {
 // time each would take (sector_costs.h): to choose N, or to project a larger world from a
 // smaller one's measured rate.
 Result<void> runPlan(const FarmCliOptions& o) {
-  auto e = estimateFor(o);
+  std::optional<baker::MeasuredCosts> costs;
+  auto e = estimateFor(o, &costs);
   if (!e) return std::unexpected(e.error());
   const bool timed = e->seconds_per_unit > 0;
   double sum_s = 0, most_s = 0;
@@ -266,10 +269,8 @@ Result<void> runPlan(const FarmCliOptions& o) {
     }
     j["list"] = list;
     if (timed) j["predicted"] = {{"sum_s", sum_s}, {"slowest_s", most_s}, {"slowest_wall_s", most_s / e->cpus}};
-    if (e->measured_peak_bytes || e->measured_shard_peak_bytes)
-      j["measured_memory"] = {{"peak_bytes", e->measured_peak_bytes},
-                              {"shard_peak_bytes", e->measured_shard_peak_bytes},
-                              {"shards", e->measured_shards}};
+    if (costs && (costs->peak_bytes || costs->shard_peak_bytes))
+      j["measured_memory"] = {{"peak_bytes", costs->peak_bytes}, {"shard_peak_bytes", costs->shard_peak_bytes}, {"shards", costs->shards}};
     std::printf("%s\n", j.dump(2).c_str());
     return {};
   }
@@ -289,13 +290,13 @@ Result<void> runPlan(const FarmCliOptions& o) {
     std::printf("predicted: %.1f s of sector time in all; the slowest shard %.1f s, about %.1f s of wall time on its task's %d CPUs "
                 "(%llu MiB a task), plus loading the world\n",
                 sum_s, most_s, most_s / e->cpus, e->cpus, static_cast<unsigned long long>(e->memory_bytes >> 20));
-  if (e->measured_shard_peak_bytes)
+  if (costs && costs->shard_peak_bytes)
     std::printf("measured: the report's %d shards held %s resident at most (its merge %s); this plan asks %llu MiB a task\n",
-                e->measured_shards, formatBytes(e->measured_shard_peak_bytes).c_str(), formatBytes(e->measured_peak_bytes).c_str(),
+                costs->shards, formatBytes(costs->shard_peak_bytes).c_str(), formatBytes(costs->peak_bytes).c_str(),
                 static_cast<unsigned long long>(e->memory_bytes >> 20));
-  else if (e->measured_peak_bytes)
+  else if (costs && costs->peak_bytes)
     std::printf("measured: the report's bake held %s resident at most; this plan asks %llu MiB a task\n",
-                formatBytes(e->measured_peak_bytes).c_str(), static_cast<unsigned long long>(e->memory_bytes >> 20));
+                formatBytes(costs->peak_bytes).c_str(), static_cast<unsigned long long>(e->memory_bytes >> 20));
   return {};
 }
 

@@ -37,10 +37,6 @@ struct ShardEstimate {
   // The split (sector_costs.h) shard by shard, as every shard will compute it.
   std::string split = "estimated";     // SectorCosts::split
   size_t measured = 0;                 // sectors with a time of their own from the report
-  // The report's measured memory (MeasuredCosts), 0 without: its process's peak, and a merge's
-  // largest shard peak over its `measured_shards` shards.
-  uint64_t measured_peak_bytes = 0, measured_shard_peak_bytes = 0;
-  int measured_shards = 0;
   double seconds_per_unit = 0;         // 0 without a report: then no time is predicted
   std::vector<size_t> shard_sectors;   // per shard
   std::vector<uint64_t> shard_units;   // per shard: its sectors' cost summed

@@ -138,13 +138,14 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
                    {{"gather", t_gather}, {"scene_build", t_build}, {"placement", t_place}, {"probe_rays", t_probe},
                     {"surface_cache", t_surfel}, {"lprt", t_lprt}, {"sun_transfer", t_sun}, {"visibility_maps", t_vis}, {"index_grid", t_grid}, {"total", t_total}}}};
   j["memory"] = {{"peak_resident_bytes", r.peak_rss_bytes}};
+  const std::optional<ShardBalance> balance = shardBalance(std::span<const ShardStatus>(r.shards));  // a merge's
   if (!r.shards.empty()) {
     nlohmann::json list = nlohmann::json::array();
     for (const ShardStatus& s : r.shards)
       list.push_back({{"shard", s.index}, {"of", s.count}, {"state", stateName(s.state)}, {"sectors", s.sectors}, {"cost", s.cost},
                       {"wall_s", s.wall_s}, {"peak_resident_bytes", s.peak_rss_bytes}, {"host", s.host}});
     j["shards"] = list;
-    if (const auto b = shardBalance(r.shards))
+    if (const auto& b = balance)
       j["shard_balance"] = {{"slowest", b->slowest}, {"slowest_s", b->slowest_s}, {"mean_s", b->mean_s},
                             {"slowest_over_mean", b->slowest_s / b->mean_s}, {"most_peak_resident_bytes", b->most_peak}};
   }
@@ -251,7 +252,7 @@ Result<void> writeReports(const BakeReport& r, const std::filesystem::path& json
     for (const ShardStatus& s : r.shards)
       md << "| " << s.index << "/" << s.count << " | " << stateName(s.state) << " | " << s.sectors << " | " << fixed(s.wall_s, 2) << " | "
          << (s.peak_rss_bytes ? formatBytes(s.peak_rss_bytes) : "-") << " | " << s.host << " |\n";
-    if (const auto b = shardBalance(r.shards))
+    if (const auto& b = balance)
       md << "\nThe slowest shard, " << b->slowest << ", took " << fixed(b->slowest_s, 2) << " s: " << fixed(b->slowest_s / b->mean_s, 2)
          << "x the mean of the done shards' " << fixed(b->mean_s, 2) << " s; the most memory a shard held: "
          << formatBytes(b->most_peak) << ".\n";

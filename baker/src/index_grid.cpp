@@ -40,11 +40,21 @@ void fillIndexGrid(const raytrace::RayScene& scene, std::span<const glm::vec3> p
   for (const uint16_t n : interiors.probe_interior) DRTV_CHECK_LE(size_t(n), interiors.boxes.size());
   grid.cells.fill(kNoProbe);
   if (probes.empty()) return;
+  // The interiors each probe lies in: its own (a designated probe's) and every box that holds its
+  // position (a room's lattice probes, which name no interior).
+  auto holds = [](const raytrace::Box& b, const glm::vec3& p) {
+    return glm::all(glm::greaterThanEqual(p, b.min)) && glm::all(glm::lessThan(p, b.max));
+  };
+  std::vector<std::vector<uint32_t>> probe_boxes(probes.size());
+  if (!interiors.probe_interior.empty())
+    for (size_t i = 0; i < probes.size(); ++i)
+      for (size_t j = 0; j < interiors.boxes.size(); ++j)
+        if (interiors.probe_interior[i] == j + 1u || holds(interiors.boxes[j], probes[i])) probe_boxes[i].push_back(uint32_t(j));
   // Whether probe i lies inside an interior whose box does not hold c (index_grid.h).
   auto inOtherInterior = [&](const glm::vec3& c, size_t i) {
-    if (interiors.probe_interior.empty() || interiors.probe_interior[i] == 0) return false;
-    const raytrace::Box& b = interiors.boxes[interiors.probe_interior[i] - 1u];
-    return !(glm::all(glm::greaterThanEqual(c, b.min)) && glm::all(glm::lessThan(c, b.max)));
+    for (const uint32_t j : probe_boxes[i])
+      if (!holds(interiors.boxes[j], c)) return true;
+    return false;
   };
   // Whether c is inside geometry, by one ray up in a fixed oblique direction: from a point of a
   // regular lattice it runs through no other lattice point and along no lattice edge (the slopes
@@ -163,6 +173,12 @@ void fillIndexGrid(const raytrace::RayScene& scene, std::span<const glm::vec3> p
             // (index_grid.h): the cell is inside, as its first ray should have said.
             found = false, inside = true;
             --*counted;
+            ++n_inside;
+          }
+          if (!found && !inside && settings.inside_from_neighbours && settings.search_beyond && insideGeometry(c, n_rays)) {
+            // No probe seen, and the centre is inside geometry: its first ray met a front face
+            // through a crack (index_grid.h), so it takes the cell above, not a neighbour's choice.
+            inside = true;
             ++n_inside;
           }
           if (inside) {

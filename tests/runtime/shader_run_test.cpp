@@ -219,9 +219,10 @@ Comparison compareShader(ShaderLanguage language, void (*perturb)(VolumeConstant
       const bool flat = contrast == glm::dvec3(0.0);
       out.flat_points += flat;
       const double tolerance = tolerance_steps * step * weight_sum;
-      // Where Runtime::ambient is the volume alone (full coverage, no interior), it must agree too.
+      // Where Runtime::ambient is the volume alone (full coverage, no interior, no fine level), it
+      // must agree too.
       const runtime::AmbientSample rs = rt->ambient(p.position, p.normal);
-      const bool volume_only = rs.volume_weight >= 1.f && rs.interior_weight <= 0.f;
+      const bool volume_only = rs.volume_weight >= 1.f && rs.interior_weight <= 0.f && rs.fine_weight <= 0.f;
       out.runtime_points += volume_only;
       for (int c = 0; c < 3; ++c) {
         for (const float reference : {cpu[c], volume_only ? rs.irradiance[c] : cpu[c]}) {

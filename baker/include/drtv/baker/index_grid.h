@@ -27,8 +27,16 @@
 // a cell that would name a probe inside an interior (the artist's volumes and the rooms found,
 // rooms.h) whose box does not hold the cell's centre is asked once more whether its centre is
 // inside geometry, by one ray in a fixed oblique direction (no lattice vertex or edge lies on it
-// from a lattice point): a back face first means inside. Cells that name no interior's probe, and
-// worlds without interiors, are as in every build before.
+// from a lattice point): a back face first means inside. A probe is inside an interior when it is
+// the interior's designated probe or when the box holds it: until 2026-12-07's sixth session only
+// the designated probe was, and room.json's lattice probe at (2, 2, 1.5), which ties with an
+// outside probe as the nearest of the cell under the ground at (2, 6, -1.5), was seen through the
+// terrain vertex (2, 4, 0) on AVX2 hosts (the ground outside the north wall read 7 % of the room's
+// lamp). And a cell that sees no probe at all is asked the same, and takes the cell above when its
+// centre is inside geometry: on AVX2 hosts room.json's segment above went on, after the vertex,
+// into the bottom face of the north wall, so the cell saw nothing, and took a neighbour's choice
+// breadth-first, which was the cell under the room's floor and the room's probe. Cells that name
+// no interior's probe and see one, and worlds without interiors, are as in every build before.
 //
 // Vertical extent (chooseGridExtent): from 2 m below the lower of the lowest ground sample and
 // the lowest probe, to 4 m above the highest probe, split in 16 cells, each at least

@@ -192,13 +192,14 @@ std::vector<SectorKey> bakeKeys(const raytrace::SectorRange& range) {
 
 // The placement settings of a bake: without the fine level (whose covered flags it clears), a
 // covered candidate is relocated and kept apart as in the builds before 2026-12-07
-// (covered_stays_under, covered_sight).
+// (covered_stays_under, covered_sight), with one probe per floor (covered_stack_m).
 namespace {
 PlacementSettings placementOf(const BakeSettings& settings) {
   PlacementSettings p = settings.placement;
   p.covered_stays_under = p.covered_stays_under && settings.covered_visibility;
   p.covered_sight = p.covered_sight && settings.covered_visibility;
   p.thin_near_first = p.thin_near_first && settings.covered_visibility;
+  if (!settings.covered_visibility) p.covered_stack_m = 0.0;
   return p;
 }
 }  // namespace
@@ -593,6 +594,7 @@ static Result<BakeReport> bakeRecorded(const worlds::World& given, const std::st
                 std::to_string(kVisRaysMin) + ", " + std::to_string(kVisRaysMax) + "]");
   if (options.light_sources) report.settings.light_sources = *options.light_sources;
   if (options.enclosed_spacing_m) report.settings.placement.setEnclosedSpacing(*options.enclosed_spacing_m);
+  if (options.covered_stack_m) report.settings.placement.covered_stack_m = *options.covered_stack_m;
   if (options.sweeps) report.settings.transfer.sweeps = *options.sweeps;
   if (auto why = validateSettings(report.settings); !why) return std::unexpected(why.error().context("bake settings"));
   report.threads = options.threads > 0 ? options.threads : int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));

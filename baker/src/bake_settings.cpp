@@ -28,6 +28,7 @@ Result<void> validateSettings(const BakeSettings& s) {
   if (!in(p.covered_min_horizontal_m, 0.0, 64.0)) return fail("covered_min_horizontal_m must be finite and in [0, 64] m");
   if (!in(p.enclosed_column_spacing_m, 1.0 / 16, 64.0)) return fail("enclosed_column_spacing_m must be in [1/16, 64] m");
   if (!in(p.enclosed_min_horizontal_m, 0.0, 64.0)) return fail("enclosed_min_horizontal_m must be finite and in [0, 64] m");
+  if (!(p.covered_stack_m == 0.0 || in(p.covered_stack_m, 1.0 / 16, 64.0))) return fail("covered_stack_m must be 0 (off) or in [1/16, 64] m");
   if (p.inside_test_rays < 0 || p.inside_test_rays > (1 << 16)) return fail("inside_test_rays must be in [0, 65536]");
   if (!in(p.inside_test_range_m, 0.0, 64.0)) return fail("inside_test_range_m must be in [0, 64] m");
   // A clearance above the lift would refuse flat ground itself.
@@ -144,6 +145,7 @@ std::vector<std::pair<std::string, std::string>> BakeSettings::describe() const 
   if (covered_visibility && placement.covered_stays_under) d.emplace_back("covered_stays_under", "1");
   if (covered_visibility && placement.covered_sight) d.emplace_back("covered_sight", "1");
   if (covered_visibility && placement.thin_near_first) d.emplace_back("thin_near_first", "1");
+  if (covered_visibility && placement.covered_stack_m > 0.0) d.emplace_back("covered_stack_m", fmt(placement.covered_stack_m));
   // Only when on: a bake without them describes itself (and hashes, and packs) as before. Also a
   // bake without LPRT, whose bytes the setting does not change.
   if (light_sources) d.emplace_back("light_sources", "1");

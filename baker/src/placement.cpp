@@ -177,6 +177,15 @@ std::vector<PlacedProbe> placeProbes(const raytrace::RayScene& scene, const rayt
             const float lift = std::min(float(s.lift_m), 0.5f * (z_above - z));
             cands.push_back({glm::vec3(origin.x, origin.y, z + lift), std::isinf(z_above) ? kTop : kCovered, order++, 0, 0, enclosed_only,
                              false, z_above});
+            // A space taller than a storey under its ceiling: more candidates up to lift_m / 2
+            // under it (PlacementSettings::covered_stack_m).
+            if (!std::isinf(z_above) && s.covered_stack_m > 0.0) {
+              const double stack = std::max(s.covered_stack_m, s.min_vertical_m + kStackMarginM);
+              const double top = double(z_above) - 0.5 * s.lift_m;
+              for (int k = 1; k < kMaxHitsPerColumn && double(z) + lift + k * stack <= top; ++k)
+                cands.push_back({glm::vec3(origin.x, origin.y, float(double(z) + lift + k * stack)), kCovered, order++, 0, 0,
+                                 enclosed_only, false, z_above});
+            }
           }
         }
         z_above = z;

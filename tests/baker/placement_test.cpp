@@ -201,6 +201,59 @@ TEST(Placement, NoProbeOnTheFaceOfADoubleSidedPillarStandingOnTheLattice) {
   EXPECT_GE(in_room, 30u) << "the rest of the room keeps its 2 m lattice";
 }
 
+// A hall 7 m tall (covered_stack_m): its columns give a probe 1.5 m over the floor and more every
+// 3 m up to the ceiling, so that no point of the hall is farther from a probe of its own column
+// than the fine level's 4 m reach; a 3 m storey beside it keeps one probe per column; with
+// covered_stack_m = 0 (the talk's rule) the hall's probes all stand 1.5 m over its floor and its
+// ceiling is 5.5 m from them.
+TEST(Placement, ATallHallStacksProbesUpToItsCeilingAndAStoreyDoesNot) {
+  worlds::World w = test::planeWorld(200.0, glm::vec3(0.5f));
+  test::addWalledRoom(w, {8, 8}, {28, 28}, 7.f, 0.3f, 0.3f, glm::vec3(0.6f));    // the hall
+  test::addWalledRoom(w, {36, 8}, {56, 28}, 3.f, 0.3f, 0.3f, glm::vec3(0.6f));   // a storey
+  const auto inHall = [](const PlacedProbe& q) { return q.position.x > 8.3f && q.position.x < 27.7f && q.position.y > 8.3f && q.position.y < 27.7f && q.position.z < 7.f; };
+  const auto inStorey = [](const PlacedProbe& q) { return q.position.x > 36.3f && q.position.x < 55.7f && q.position.y > 8.3f && q.position.y < 27.7f && q.position.z < 3.f; };
+  const PlacementSettings stacked;
+  ASSERT_EQ(stacked.covered_stack_m, 3.0);
+  const Placed p = place(w, {0, 0}, stacked);
+  size_t hall = 0, high = 0, storey = 0;
+  for (const PlacedProbe& q : p.probes) {
+    if (inHall(q)) {
+      ++hall;
+      EXPECT_LE(q.position.z, 7.f - 0.5f * float(stacked.lift_m) + kHeightTolerance) << "under the ceiling";
+      if (q.position.z > 4.f) {
+        ++high;
+        EXPECT_NEAR(q.position.z, 4.5f + 0.01f, kHeightTolerance) << "3 m (and the margin) over the floor's probe";
+        EXPECT_NE(q.flags & kProbeCovered, 0) << "a stacked probe is a covered one";
+      }
+    }
+    if (inStorey(q)) {
+      ++storey;
+      EXPECT_NEAR(q.position.z, 1.5f, 0.6f) << "a storey's probes stay 1.5 m over its floor (or moved from a wall)";
+    }
+  }
+  EXPECT_GE(high, 20u) << "the hall's upper half has probes of its own (" << hall << " in the hall)";
+  EXPECT_GE(storey, 20u);
+  // Every point just under the ceiling has a probe within 4 m (the fine level's reach).
+  for (float x = 9.f; x < 27.f; x += 1.f)
+    for (float y = 9.f; y < 27.f; y += 1.f) {
+      float best = INFINITY;
+      for (const PlacedProbe& q : p.probes)
+        if (inHall(q)) best = std::min(best, glm::distance(q.position, glm::vec3(x, y, 6.9f)));
+      EXPECT_LT(best, 4.f) << x << " " << y;
+    }
+  PlacementSettings one_per_floor;
+  one_per_floor.covered_stack_m = 0.0;
+  const Placed flat = place(w, {0, 0}, one_per_floor);
+  size_t flat_hall = 0;
+  for (const PlacedProbe& q : flat.probes)
+    if (inHall(q)) {
+      ++flat_hall;
+      EXPECT_LT(q.position.z, 4.f) << "without the stack no probe stands high in the hall";
+    }
+  EXPECT_GT(flat_hall, 20u);
+  EXPECT_GT(hall, flat_hall + 20);
+}
+
 // A room's covered candidate beside a pillar (0.05 m from it, within the clearance) is moved by
 // the inside test's offsets, up first. Lifted 2 m it stood on the roof, still flagged covered with
 // a visibility map (15 of 806 covered probes in the town test's 8-storey block, 2026-12-07); it

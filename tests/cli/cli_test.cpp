@@ -552,6 +552,9 @@ TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
                                  // covered probes it tells apart)
     const char* sweeps = "0";    // "0": bounces - 1 sweeps, the bytes of every build before
                                  // 2026-12-07's second session; "": the presets' 4
+    const char* stack = "0";     // "0": one probe per floor under roofs, the bytes of every build
+                                 // before 2026-12-07's sixth session; "": the default (a probe
+                                 // every 3 m up a space taller than a storey)
   };
   const Bake bakes[] = {
       {"worlds/island.json", "2", "fc3", "0", "nearest", "", "off", "probes", "0", "4096", "any"},
@@ -573,6 +576,8 @@ TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
       {"worlds/island_lit.json", "2", "sh-l1", "", "", "", "", "", "", "", ""},  // the same with LPRT
       {"worlds/island.json", "2", "sh-l1", "", "", "", "", "", "", "", "", ""},      // the default bake from 2026-12-07 (second session): 4 sweeps
       {"worlds/island_lit.json", "2", "sh-l1", "", "", "", "", "", "", "", "", ""},  // the same with LPRT (whose sweeps stay bounces - 1)
+      {"worlds/island.json", "2", "sh-l1", "", "", "", "", "", "", "", "", "", ""},      // the default bake from 2026-12-07 (sixth session): probes up tall spaces under roofs
+      {"worlds/island_lit.json", "2", "sh-l1", "", "", "", "", "", "", "", "", "", ""},  // the same with LPRT
   };
   constexpr size_t kBakes = sizeof bakes / sizeof bakes[0];
   struct Family {
@@ -601,13 +606,14 @@ TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
       // (every bake whose inside cells take a neighbour's choice, the default since 2026-12-02)
       // were recorded again: a cell that sees no probe, or would name a room's lattice probe from
       // outside the room's box, takes the cell above when its centre is inside geometry
-      // (index_grid.h; 737 of the island's 1,646 unseen cells).
+      // (index_grid.h; 737 of the island's 1,646 unseen cells); bakes 19-20 are the day's new
+      // default, probes up tall spaces under roofs (bakes 0-18 pass --covered-stack 0).
       {"AMD EPYC", 0xb719567d9ef9735full, "AuthenticAMD",
        {0xb5dc41527c49bc30ull, 0xb5dc41527c49bc30ull, 0x83e674d1c0876195ull, 0xce768512b03790c7ull, 0x602302430699b4b5ull,
         0x403bda8d7b11fe7dull, 0xeace7813206ac06aull,
         0xbf660e82432f0713ull, 0x12ed3c59d8920556ull, 0x47f40c944240d311ull, 0xe4024ee70a198315ull, 0x7a7415ee303a1497ull,
         0xfd4d534ba0dd5192ull, 0xd9c514f1e9ad8aeaull, 0x2e1d64f9d554c2ccull, 0x418934ccc05fd2dcull, 0xcddf6bd7e1ac308eull,
-        0x7d137a97e53167bfull, 0x9371fdcebf20cd21ull}},
+        0x7d137a97e53167bfull, 0x9371fdcebf20cd21ull, 0x8a9ec4b88b688acdull, 0x4073fe9a5c69d66eull}},
       // Intel Xeon, every CI host until 2026-12-01 (matched by vendor; the Xeon of 2026-12-02 had
       // the fingerprint 0xec281bdebf45ee62). The sh-l1 bakes changed on 2026-12-02 (the direct
       // sky's receiver-weighted fit) and were recorded again on a Xeon the same day. The last two
@@ -616,7 +622,7 @@ TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
       // (sixth session: the index grid's inside cells, as the EPYC's) and print themselves again.
       {"Intel Xeon", 0x0ull, "GenuineIntel",
        {0x797f2f8433a8ec21ull, 0x797f2f8433a8ec21ull, 0x906bc4b8292ce446ull, 0x725fcbb5a43280beull, 0x6cf058d923e27201ull,
-        0x75257267d87249e8ull, 0xdd36c7ae5d8cc7e2ull, 0x0ull, 0x0ull, 0x0ull, 0x0ull, 0x0ull, 0x0ull, 0x0ull, 0x0ull, 0x0ull, 0x0ull, 0x0ull, 0x0ull}},
+        0x75257267d87249e8ull, 0xdd36c7ae5d8cc7e2ull, 0x0ull, 0x0ull, 0x0ull, 0x0ull, 0x0ull, 0x0ull, 0x0ull, 0x0ull, 0x0ull, 0x0ull, 0x0ull, 0x0ull, 0x0ull, 0x0ull}},
   };
   const uint64_t fingerprint = reciprocalFingerprint();
   const std::string vendor = cpuVendor();
@@ -637,7 +643,8 @@ TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
                                (*g.enclosed ? std::string(" --enclosed-spacing ") + g.enclosed : "") +
                                (*g.vis ? std::string(" --visibility-rays ") + g.vis : "") +
                                (*g.sides ? std::string(" --grid-sides ") + g.sides : "") +
-                               (*g.sweeps ? std::string(" --sweeps ") + g.sweeps : ""),
+                               (*g.sweeps ? std::string(" --sweeps ") + g.sweeps : "") +
+                               (*g.stack ? std::string(" --covered-stack ") + g.stack : ""),
                            "DRTV_EMBREE_CONFIG=isa=sse2");
     EXPECT_EQ(r.status, 0) << r.out;
     const std::string bytes = slurp(out);
@@ -656,7 +663,7 @@ TEST(Cli, TheIslandBakesToTheBytesItAlwaysHas) {
     record += std::string(i ? ", " : "") + hex;
     const std::string what = std::string(g.world) + " --threads " + g.threads + " --representation " + g.representation +
                              " --clearance '" + g.clearance + "' --inside-cells '" + g.inside + "' --cache-cells '" + g.cells + "' --fine '" + g.fine +
-                             "' --light-sources '" + g.sources + "' --enclosed-spacing '" + g.enclosed + "' --visibility-rays '" + g.vis + "' --grid-sides '" + g.sides + "' --sweeps '" + g.sweeps + "' baked " +
+                             "' --light-sources '" + g.sources + "' --enclosed-spacing '" + g.enclosed + "' --visibility-rays '" + g.vis + "' --grid-sides '" + g.sides + "' --sweeps '" + g.sweeps + "' --covered-stack '" + g.stack + "' baked " +
                              std::to_string(size) + " bytes hashing " + hex + " on " + vendor + " (fingerprint " + fp + ")";
     if (family && family->xxh3[i]) {
       EXPECT_EQ(hash, family->xxh3[i]) << what << ", the " << family->name << "'s golden";

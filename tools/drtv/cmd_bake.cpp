@@ -38,6 +38,7 @@ struct BakeCliOptions {
   std::string fine;
   std::string light_sources;
   std::optional<double> enclosed_spacing_m;
+  std::optional<double> covered_stack_m;
   std::optional<int> sweeps;
   std::string costs;  // an earlier bake's report: the shards split by its sector times
 };
@@ -72,6 +73,7 @@ Result<void> runBake(const BakeCliOptions& o) {
   if (!o.fine.empty()) options.covered_visibility = o.fine == "on";
   if (!o.light_sources.empty()) options.light_sources = o.light_sources == "at-lights";
   options.enclosed_spacing_m = o.enclosed_spacing_m;
+  options.covered_stack_m = o.covered_stack_m;
   options.sweeps = o.sweeps;
   options.fresh = o.fresh;
   options.keep_sector_files = o.keep_sectors;
@@ -219,6 +221,11 @@ Command registerBake(CLI::App& app) {
                   "Probe spacing in enclosed spaces under roofs (rooms, storeys), metres: columns this far apart and "
                   "probes no nearer each other, for the fine level to blend (default 2); 0 = the spacing under any roof "
                   "(the bytes of the builds before 2026-12-06)")
+      ->check(CLI::Range(0.0, 64.0));
+  sub->add_option("--covered-stack", o->covered_stack_m,
+                  "Under roofs, a probe every this many metres up a space taller than a storey (a hall, an atrium, a "
+                  "stairwell), so that its ceiling is in the fine level's reach (default 3); 0 = one probe per floor "
+                  "(the bytes of the builds before 2026-12-07's sixth session)")
       ->check(CLI::Range(0.0, 64.0));
   return {sub, [o]() { return runBake(*o); }, &o->world};
 }

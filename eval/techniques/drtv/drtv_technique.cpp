@@ -12,6 +12,9 @@
 //   enclosed_spacing   metres in [0, 64]            the column lattice and least distance in
 //                                                   enclosed spaces under roofs (placement.h,
 //                                                   issue 35; default 2; 0 = the covered values)
+//   covered_stack      metres in [0, 64]            under a roof, a probe every this many metres
+//                                                   up a space taller than a storey (placement.h,
+//                                                   issue 35; default 3; 0 = one per floor)
 //   rooms              auto | off                   closed rooms found at bake time get
 //                                                   interiors (rooms.h, issue 16; default auto)
 //   visibility_rays    64..16384                    rays of a covered probe's visibility map
@@ -90,6 +93,7 @@ struct BakeParams {
   std::optional<int> rays_per_basis, bounces, sweeps;
   std::optional<double> covered_spacing, covered_min_h;  // placement under roofs (placement.h)
   std::optional<double> enclosed_spacing;                // in enclosed spaces (placement.h); 0 = covered
+  std::optional<double> covered_stack;                   // up tall spaces under roofs (placement.h); 0 = off
   Representation representation = Representation::kShL1;  // the baker's default for new worlds
   bool rooms = true;  // the room search (rooms.h)
   bool cell_sides = true;  // cache cells split by walls (transfer.h TransferSettings::cell_sides)
@@ -144,6 +148,7 @@ Params readDrtv(ParamReader& r) {
       .real("covered_spacing", out.bake.covered_spacing, 0, 64, true)
       .real("covered_min_h", out.bake.covered_min_h, 0, 64, true)
       .real("enclosed_spacing", out.bake.enclosed_spacing, 0, 64, false)
+      .real("covered_stack", out.bake.covered_stack, 0, 64, false)
       .oneOf("rooms", out.bake.rooms, {{"auto", true}, {"off", false}})
       .oneOf("cache_cells", out.bake.cell_sides, {{"sides", true}, {"shared", false}})
       .oneOf("own_sources", out.bake.own_sources, {{"on", true}, {"off", false}})
@@ -193,6 +198,7 @@ baker::BakeSettings bakeSettings(const BakeParams& p, uint64_t seed) {
   if (p.covered_spacing) s.placement.covered_column_spacing_m = *p.covered_spacing;
   if (p.covered_min_h) s.placement.covered_min_horizontal_m = *p.covered_min_h;
   if (p.enclosed_spacing) s.placement.setEnclosedSpacing(*p.enclosed_spacing);
+  if (p.covered_stack) s.placement.covered_stack_m = *p.covered_stack;
   s.transfer.representation = p.representation;
   s.rooms.enabled = p.rooms;
   s.transfer.cell_sides = p.cell_sides;
@@ -258,7 +264,7 @@ class DrtvTechnique final : public Technique {
     // would show the archive's light under another bake's name.
     if (!(params_.bake == BakeParams{}))
       return fail("a bake parameter was given (quality, rays_per_basis, bounces, sweeps, covered_spacing, covered_min_h, "
-                  "enclosed_spacing, rooms, cache_cells, own_sources, grid_sides, covered_sight, openings, thinning, "
+                  "enclosed_spacing, covered_stack, rooms, cache_cells, own_sources, grid_sides, covered_sight, openings, thinning, "
                   "visibility_rays, representation), but this archive is baked already: bake it again with the setting "
                   "(drtv bake), or measure it with drtv accuracy, which bakes each row");
     adopt(manifest, std::vector<Sector>(sectors.begin(), sectors.end()), 0.0);
@@ -455,6 +461,16 @@ std::vector<KnobRow> DrtvTechnique::knobs(const KnobContext& c) {
                     std::string(def ? "the default bake: " : "") +
                         (e == 0.0 ? "as under any roof" : "columns and least distance in rooms and storeys"),
                     -1, indoors("placement_enclosed", e == 0.0 ? std::string("off") : fmt(e) + " m", def)});
+  }
+  // Probes up tall spaces under roofs (placement.h, issue 35): the default stack against one per floor.
+  for (double k : {3.0, 0.0}) {
+    const bool def = k == base.placement.covered_stack_m;
+    rows.push_back({"covered_stack", k == 0.0 ? std::string("off") : fmt(k) + " m", def, "drtv",
+                    def ? TechniqueParams{} : TechniqueParams{{"covered_stack", fmt(k)}},
+                    std::string(def ? "the default bake: " : "") +
+                        (k == 0.0 ? "one probe per floor under roofs (the builds before 2026-12-07's sixth session)"
+                                  : "a probe every " + fmt(k) + " m up spaces taller than a storey under roofs"),
+                    -1, indoors("covered_stack", k == 0.0 ? std::string("off") : fmt(k) + " m", def)});
   }
   // The visibility maps' rays (visibility_bake.h): the default against the builds before's 4,096.
   rows.push_back({"visibility_rays", std::to_string(base.visibility_rays), true, "drtv", {},

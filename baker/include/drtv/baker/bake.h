@@ -154,6 +154,9 @@ struct BakeOptions {
   // PlacementSettings::enclosed_column_spacing_m and enclosed_min_horizontal_m both; 0 = the
   // covered values (the placement before 2026-12-06); unset = the preset's (2 m).
   std::optional<double> enclosed_spacing_m;
+  // PlacementSettings::covered_stack_m; 0 = one probe per floor under roofs (the bytes of the
+  // builds before 2026-12-07's sixth session); unset = the preset's (3 m).
+  std::optional<double> covered_stack_m;
   // TransferSettings::sweeps; 0 = bounces - 1 (the bytes of the builds before 2026-12-07); unset =
   // the preset's (kPresetSweeps).
   std::optional<int> sweeps;

@@ -9,7 +9,9 @@
 //     min(lift_m, half the gap to the static surface above it). Vegetation triangles are passed
 //     through (their leaves give noisy heights [1, slide 16]). A hit under a surface less than
 //     2 clearance_m above it (a building resting 2 cm above the ground, a slab on short legs) is
-//     no candidate: a probe there would see nothing but the two surfaces (issue 16).
+//     no candidate: a probe there would see nothing but the two surfaces (issue 16). Under a
+//     static surface a space taller than a storey gives more candidates above the first, every
+//     `covered_stack_m` (a hall's ceiling 6 m over its floor keeps a probe near it, issue 35).
 //     If no column of a sector finds static geometry but static triangles overlap the sector
 //     (an object smaller than the spacing, between columns), one more column is cast through the
 //     centre of their bounds clipped to the sector, so that a lone small object gets a probe.
@@ -81,6 +83,9 @@ inline constexpr double kInsideBackfaceFraction = 0.25;
 inline constexpr int kEnclosedRays = 8;
 inline constexpr int kEnclosedWalls = 6;
 inline constexpr double kEnclosedRangeM = 12.0;
+// PlacementSettings::covered_stack_m: stacked candidates stand at least min_vertical_m plus this
+// apart, so that the float sum does not put them a hair under the least distance.
+inline constexpr double kStackMarginM = 0.01;
 
 struct PlacementSettings {
   double column_spacing_m = 4.0;      // static pass ray spacing [1, slide 15]
@@ -108,6 +113,14 @@ struct PlacementSettings {
   // placement of the builds before 2026-12-06.
   double enclosed_column_spacing_m = 2.0;
   double enclosed_min_horizontal_m = 2.0;
+  // Under a roof, a space taller than a storey (a hall, an atrium, a stairwell, a gallery's void)
+  // gets more than its floor's candidate: one every `covered_stack_m` above the first (at least
+  // min_vertical_m apart, kStackMarginM more so that rounding does not reject them), up to
+  // lift_m / 2 under its ceiling. Its ceiling then has a probe within the fine level's reach
+  // (runtime::FineLookupOptions::radius_m): with one probe per floor, zdm2's 6.5 m halls read
+  // their ceilings from the far field, +101 % too bright (2026-12-07). 0 = one probe per floor
+  // (the talk's rule, the builds before 2026-12-07's sixth session).
+  double covered_stack_m = 3.0;
   // Both enclosed values to `m` metres; 0 = the covered values (the placement before 2026-12-06).
   void setEnclosedSpacing(double m) {
     enclosed_column_spacing_m = m == 0.0 ? covered_column_spacing_m : m;

@@ -28,16 +28,22 @@ struct Sets {
   }
 };
 
-// Probes per storey of one building, bottom up (buildings.h): each probe's rank in its column.
-std::vector<size_t> storeys(std::vector<glm::dvec3> ps, const BuildingOptions& o) {
+// Probes per storey of one building, bottom up (buildings.h): each probe's rank in its column,
+// where a stacked probe (kProbeStacked) keeps the rank of the probe under it.
+struct ColumnProbe {
+  glm::dvec3 position;
+  bool stacked;
+};
+std::vector<size_t> storeys(std::vector<ColumnProbe> ps, const BuildingOptions& o) {
   const double q = std::max(o.column_m, 1e-3);
   auto column = [&](const glm::dvec3& p) { return std::pair(std::llround(p.x / q), std::llround(p.y / q)); };
-  std::sort(ps.begin(), ps.end(), [&](const glm::dvec3& a, const glm::dvec3& b) {
-    return std::tuple(column(a), a.z) < std::tuple(column(b), b.z);
+  std::sort(ps.begin(), ps.end(), [&](const ColumnProbe& a, const ColumnProbe& b) {
+    return std::tuple(column(a.position), a.position.z, a.stacked) < std::tuple(column(b.position), b.position.z, b.stacked);
   });
   std::vector<size_t> out;
   for (size_t i = 0, rank = 0; i < ps.size(); ++i) {
-    rank = i > 0 && column(ps[i]) == column(ps[i - 1]) ? rank + 1 : 0;
+    const bool same = i > 0 && column(ps[i].position) == column(ps[i - 1].position);
+    rank = same ? rank + (ps[i].stacked ? 0 : 1) : 0;
     if (rank == out.size()) out.push_back(0);
     ++out[rank];
   }
@@ -57,7 +63,7 @@ void BuildingCollector::addSector(const Sector& sector) {
   for (const ProbeRecord& p : sector.probes) {
     if (!(p.flags & kProbeCovered)) continue;
     const uint16_t interior = (p.flags & kProbeInterior) ? p.interior : 0;
-    probes_.push_back({origin + glm::dvec3(p.position[0], p.position[1], p.position[2]), interior, sector.key});
+    probes_.push_back({origin + glm::dvec3(p.position[0], p.position[1], p.position[2]), interior, sector.key, (p.flags & kProbeStacked) != 0});
   }
 }
 
@@ -100,7 +106,7 @@ std::vector<BuildingStats> BuildingCollector::buildings() const {
     b.max = glm::dvec2(-INFINITY);
     b.bottom_z = INFINITY;
     b.top_z = -INFINITY;
-    std::vector<glm::dvec3> at;
+    std::vector<ColumnProbe> at;
     std::set<uint16_t> rooms;
     std::set<SectorKey> keys;
     for (const uint32_t i : idx) {
@@ -109,7 +115,7 @@ std::vector<BuildingStats> BuildingCollector::buildings() const {
       b.max = glm::max(b.max, glm::dvec2(p.position));
       b.bottom_z = std::min(b.bottom_z, p.position.z);
       b.top_z = std::max(b.top_z, p.position.z);
-      at.push_back(p.position);
+      at.push_back({p.position, p.stacked});
       if (p.interior) rooms.insert(p.interior);
       keys.insert(p.key);
     }

@@ -183,7 +183,7 @@ std::vector<PlacedProbe> placeProbes(const raytrace::RayScene& scene, const rayt
               const double stack = std::max(s.covered_stack_m, s.min_vertical_m + kStackMarginM);
               const double top = double(z_above) - 0.5 * s.lift_m;
               for (int k = 1; k < kMaxHitsPerColumn && double(z) + lift + k * stack <= top; ++k)
-                cands.push_back({glm::vec3(origin.x, origin.y, float(double(z) + lift + k * stack)), kCovered, order++, 0, 0,
+                cands.push_back({glm::vec3(origin.x, origin.y, float(double(z) + lift + k * stack)), kCovered, order++, kProbeStacked, 0,
                                  enclosed_only, false, z_above});
             }
           }

@@ -74,6 +74,7 @@ Result<void> validateProbe(const ProbeRecord& r) {
   if (r.flags & ~kProbeKnownFlags) return fail("unknown flag bits " + std::to_string(r.flags & ~kProbeKnownFlags));
   if ((r.flags & kProbeLightSource) && (r.flags & (kProbeCovered | kProbeInterior)))
     return fail("a light source is flagged covered or interior: no lookup reads it");
+  if ((r.flags & kProbeStacked) && !(r.flags & kProbeCovered)) return fail("a stacked probe is not flagged covered: only a space under a roof is stacked");
   auto number = [](float v) {
     std::ostringstream s;
     s << v;

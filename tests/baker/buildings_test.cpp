@@ -25,8 +25,9 @@ ProbeRecord probe(double x, double y, double z, uint16_t flags = kProbeCovered, 
 // lifted 0.6 m (as over a sill); a staircase's 4 probes stacked beside it, a probe a step; the
 // designated probes of rooms 1 and 2 stacked over one spot (room 2 twice: a double-height hall,
 // one room, one count); open ground probes around it; and a tower of six storeys, one probe each.
-// Sector (1,0): a one-storey hall that crosses into sector (2,0), 20 m east of the first
-// building (a street apart).
+// Sector (1,0): a one-storey hall 6.5 m tall that crosses into sector (2,0), 20 m east of the
+// first building (a street apart), with a probe stacked 3 m over each of its floor's
+// (kProbeStacked: one storey, two probes a column).
 std::vector<Sector> town() {
   Sector a, b, c;
   a.key = {0, 0}, b.key = {1, 0}, c.key = {2, 0};
@@ -42,6 +43,7 @@ std::vector<Sector> town() {
   for (int ix = 0; ix < 10; ++ix) {
     const double x = 50.0 + 2.0 * ix;  // world x 114-132: sector 1 then sector 2
     (x < 64.0 ? b : c).probes.push_back(probe(x < 64.0 ? x : x - 64.0, 24.0, 2.0));
+    (x < 64.0 ? b : c).probes.push_back(probe(x < 64.0 ? x : x - 64.0, 24.0, 5.01, kProbeCovered | kProbeStacked));
   }
   return {a, b, c};
 }
@@ -65,8 +67,8 @@ TEST(Buildings, CoveredProbesJoinIntoBuildingsWithTheirStoreysAndRooms) {
   EXPECT_NEAR(house.top_z, 8.8, 1e-6);
   EXPECT_EQ(house.bytes, house.probes * (sizeof(ProbeRecord) + 512u));
   const BuildingStats& hall = bs[1];
-  EXPECT_EQ(hall.probes, 10u);
-  EXPECT_EQ(hall.storey_probes, std::vector<size_t>{10});
+  EXPECT_EQ(hall.probes, 20u);
+  EXPECT_EQ(hall.storey_probes, std::vector<size_t>{20}) << "the stacked probes start no storey";
   EXPECT_EQ(hall.sectors, 2) << "joined across the sector border";
   EXPECT_EQ(hall.rooms, 0u);
   EXPECT_EQ(bs[2].storey_probes, std::vector<size_t>(6, 1)) << "the tower's storeys, none folded";

@@ -224,10 +224,14 @@ TEST(Placement, ATallHallStacksProbesUpToItsCeilingAndAStoreyDoesNot) {
         ++high;
         EXPECT_NEAR(q.position.z, 4.5f + 0.01f, kHeightTolerance) << "3 m (and the margin) over the floor's probe";
         EXPECT_NE(q.flags & kProbeCovered, 0) << "a stacked probe is a covered one";
+        EXPECT_NE(q.flags & kProbeStacked, 0) << "flagged, so that the report counts no storey for it";
+      } else {
+        EXPECT_EQ(q.flags & kProbeStacked, 0) << "the floor's own probe";
       }
     }
     if (inStorey(q)) {
       ++storey;
+      EXPECT_EQ(q.flags & kProbeStacked, 0);
       EXPECT_NEAR(q.position.z, 1.5f, 0.6f) << "a storey's probes stay 1.5 m over its floor (or moved from a wall)";
     }
   }

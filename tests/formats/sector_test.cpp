@@ -109,6 +109,31 @@ TEST(Sector, ALightSourceThatACellNamesOrThatIsCoveredIsRefused) {
   EXPECT_GT(refused_named, 0) << decoded << " probes named by no cell decoded with the flag";
 }
 
+// A stacked probe (kProbeStacked, placed up a tall space under a roof) is always a covered one: the
+// flag decodes on a covered probe and is refused on any other.
+TEST(Sector, AStackedProbeThatIsNotCoveredIsRefused) {
+  Sector s = testing::makeSector({0, 0}, 30, 0, 2);
+  testing::coverProbes(s, 2, 1);
+  const std::vector<uint8_t> good = encodeSector(s);
+  int decoded = 0, refused = 0;
+  for (size_t i = 0; i < s.probes.size(); ++i) {
+    std::vector<uint8_t> bytes = good;
+    bytes[kSectorHeaderBytes + i * sizeof(ProbeRecord) + 13] |= uint8_t(kProbeStacked >> 8);  // flags, little-endian
+    auto d = decodeSector(bytes, "x.drtv");
+    if (s.probes[i].flags & kProbeCovered) {
+      ASSERT_TRUE(d.has_value()) << i << ": " << d.error().message;
+      EXPECT_NE(d->probes[i].flags & kProbeStacked, 0);
+      ++decoded;
+    } else {
+      ASSERT_FALSE(d.has_value()) << i;
+      EXPECT_NE(d.error().message.find("a stacked probe is not flagged covered"), std::string::npos) << d.error().message;
+      ++refused;
+    }
+  }
+  EXPECT_GT(decoded, 0);
+  EXPECT_GT(refused, 0);
+}
+
 TEST(Sector, ACoveredCountThatDisagreesWithTheFlagsIsRefused) {
   Sector s = testing::makeSector({0, 0}, 30, 0, 2);
   testing::coverProbes(s, 2, 1);

@@ -28,7 +28,8 @@ nlohmann::json vec3Json(const glm::dvec3& v) { return {v.x, v.y, v.z}; }
 std::string flagNames(uint16_t f) {
   static constexpr std::pair<uint16_t, const char*> kNames[] = {
       {kProbeRelocated, "relocated"}, {kProbeVegetation, "vegetation"}, {kProbeInterior, "interior"},
-      {kProbeManual, "manual"},       {kProbeCovered, "covered"},       {kProbeLightSource, "light-source"}};
+      {kProbeManual, "manual"},       {kProbeCovered, "covered"},       {kProbeLightSource, "light-source"},
+      {kProbeStacked, "stacked"}};
   std::string out;
   for (const auto& [bit, name] : kNames)
     if (f & bit) out += (out.empty() ? "" : ",") + std::string(name);

@@ -12,7 +12,9 @@
 // one. Its storeys are counted up each column of probes (those whose horizontal positions round
 // to the same point of a `column_m` grid): placement keeps at most one covered probe a storey in a column
 // (min_vertical_m, 3 m), so a probe's rank in its column, bottom up, is its storey, whatever the
-// height of its wing's ground or how far the inside test lifted it. (Clusters of probe heights
+// height of its wing's ground or how far the inside test lifted it; a probe placed up a space
+// taller than a storey (kProbeStacked, placement.h covered_stack_m) keeps the rank of the one
+// under it, so a 6.5 m hall is one storey with two probes a column. (Clusters of probe heights
 // did not give the storeys: the town's wings stand on ground up to 0.7 m apart and lifted probes
 // fill the gaps between floors, chaining the eight storeys of its test block into four.) The top
 // storeys holding fewer than `small_level` of the ground storey's probes fold into the one below:
@@ -64,6 +66,7 @@ class BuildingCollector {
     glm::dvec3 position;
     uint16_t interior;  // the interior's index + 1 when designated, else 0
     SectorKey key;
+    bool stacked;       // kProbeStacked: counted on the storey of the probe under it
   };
   BuildingOptions options_;
   std::vector<Probe> probes_;

@@ -62,8 +62,9 @@ enum ProbeFlag : uint16_t {
   kProbeSkyFit = 1u << 5,        // sky_vis_sh and sky_terms hold the direct sky's a and b (sh-l1, version 3)
   kProbeCovered = 1u << 6,       // under static geometry (a roof, a storey, an overhang): carries a visibility map (visibility.h)
   kProbeLightSource = 1u << 7,   // an LPRT source where a still light under a roof stands: no index cell names it, no lookup reads it
+  kProbeStacked = 1u << 8,       // covered, placed up a space taller than a storey above its floor's probe (placement.h, covered_stack_m): starts no storey of its own
 };
-inline constexpr uint16_t kProbeKnownFlags = 0x00ff;
+inline constexpr uint16_t kProbeKnownFlags = 0x01ff;
 // Snorm range of the direct sky's b with kProbeSkyFit (|b_i| <= 0.8 pi / 2 + ... < 1.3).
 inline constexpr float kSkyFitRange = 4.f;
 

@@ -168,17 +168,15 @@ void fillIndexGrid(const raytrace::RayScene& scene, std::span<const glm::vec3> p
           } else {
             select(-1);
           }
-          if (found && settings.inside_from_neighbours && inOtherInterior(c, chosen) && insideGeometry(c, n_rays)) {
-            // A ray that reached an interior's probe from inside geometry went through a crack
-            // (index_grid.h): the cell is inside, as its first ray should have said.
+          // Two outcomes a crack in the first ray's test (index_grid.h) can give a cell inside
+          // geometry: it reached an interior's probe from outside the interior's box, or it saw
+          // no probe (its first ray met a front face beyond the crack). Either is asked once more,
+          // by the oblique ray; inside, the cell takes the cell above, as its first ray should
+          // have said.
+          const bool doubtful = found ? inOtherInterior(c, chosen) : !inside && settings.search_beyond;
+          if (settings.inside_from_neighbours && doubtful && insideGeometry(c, n_rays)) {
+            if (found) --*counted;
             found = false, inside = true;
-            --*counted;
-            ++n_inside;
-          }
-          if (!found && !inside && settings.inside_from_neighbours && settings.search_beyond && insideGeometry(c, n_rays)) {
-            // No probe seen, and the centre is inside geometry: its first ray met a front face
-            // through a crack (index_grid.h), so it takes the cell above, not a neighbour's choice.
-            inside = true;
             ++n_inside;
           }
           if (inside) {

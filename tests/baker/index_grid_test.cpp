@@ -1,4 +1,6 @@
 // The index grid prefers the nearest VISIBLE probe (beyond the talk's nearest probe).
+#include <span>
+
 #include <gtest/gtest.h>
 
 #include "drtv/baker/index_grid.h"
@@ -24,6 +26,32 @@ struct HouseScene {
     scene.emplace(std::move(*s));
   }
 };
+
+// Triangles made by hand for the crack tests: quads (a, b, c, d counter-clockwise seen from the
+// side they face), and the ground at z = 0 over the sector, facing +z, with a 0.2 m square hole
+// centred on `hole` (the crack Embree's AVX2 kernels leave at a terrain vertex, made on purpose).
+struct Triangles {
+  std::vector<glm::vec3> tris;
+  void quad(glm::vec3 a, glm::vec3 b, glm::vec3 c, glm::vec3 d) { tris.insert(tris.end(), {a, b, c, a, c, d}); }
+  void groundWithHole(glm::vec2 hole) {
+    const float x0 = hole.x - 0.1f, x1 = hole.x + 0.1f, y0 = hole.y - 0.1f, y1 = hole.y + 0.1f;
+    auto ground = [&](float ax, float ay, float bx, float by) { quad({ax, ay, 0}, {bx, ay, 0}, {bx, by, 0}, {ax, by, 0}); };
+    ground(0, 0, 64, y0);
+    ground(0, y1, 64, 64);
+    ground(0, y0, x0, y1);
+    ground(x1, y0, 64, y1);
+  }
+};
+// The grid of a crack test: layers 0 and 1 (centres -1.5 and -0.5 m) under the ground, 1 m cells.
+IndexGrid crackGrid(const Triangles& t, std::span<const glm::vec3> probes, const IndexGridInteriors& interiors, IndexGridStats& stats) {
+  auto scene = raytrace::RayScene::build(t.tris);
+  EXPECT_TRUE(scene) << scene.error().message;
+  IndexGrid grid;
+  grid.z_min_m = -2.f;
+  grid.cell_height_m = 1.f;
+  if (scene) fillIndexGrid(*scene, probes, IndexGridSettings{}, grid, stats, interiors);
+  return grid;
+}
 
 IndexGrid gridFor(const HouseScene& h, int candidates, IndexGridStats& stats, bool search_beyond = true) {
   IndexGrid grid;
@@ -78,28 +106,14 @@ TEST(IndexGrid, EveryCellTakesAProbeAndOpenCellsTakeTheNearest) {
 // its oblique inside test sees the ground's underside, and it takes the cell above, which sees the
 // probe west of the room. No other cell changes.
 TEST(IndexGrid, ACellUnderTheGroundNamesNoRoomsProbeThroughACrack) {
-  std::vector<glm::vec3> tris;
-  auto quad = [&](glm::vec3 a, glm::vec3 b, glm::vec3 c, glm::vec3 d) { tris.insert(tris.end(), {a, b, c, a, c, d}); };
-  auto ground = [&](float x0, float y0, float x1, float y1) { quad({x0, y0, 0}, {x1, y0, 0}, {x1, y1, 0}, {x0, y1, 0}); };  // faces +z
-  ground(0, 0, 64, 18.9f);
-  ground(0, 19.1f, 64, 64);
-  ground(0, 18.9f, 16.9f, 19.1f);
-  ground(17.1f, 18.9f, 64, 19.1f);
-  quad({16, 16, 0}, {16, 16, 3}, {16, 24, 3}, {16, 24, 0});  // the west wall, facing -x
-  auto scene = raytrace::RayScene::build(tris);
-  ASSERT_TRUE(scene) << scene.error().message;
+  Triangles t;
+  t.groundWithHole({17.f, 19.f});
+  t.quad({16, 16, 0}, {16, 16, 3}, {16, 24, 3}, {16, 24, 0});  // the west wall, facing -x
   const std::vector<glm::vec3> probes = {{20.f, 20.f, 1.5f}, {4.f, 20.f, 1.5f}};  // the room's, one west of it
   const std::vector<raytrace::Box> boxes = {{{16.f, 16.f, 0.f}, {24.f, 24.f, 3.f}}};
   const std::vector<uint16_t> probe_interior = {1, 0};
-  auto fill = [&](const IndexGridInteriors& interiors, IndexGridStats& stats) {
-    IndexGrid grid;
-    grid.z_min_m = -2.f;  // layers 0 and 1 under the ground
-    grid.cell_height_m = 1.f;
-    fillIndexGrid(*scene, probes, IndexGridSettings{}, grid, stats, interiors);
-    return grid;
-  };
   IndexGridStats before_stats, after_stats;
-  const IndexGrid before = fill({}, before_stats), after = fill({boxes, probe_interior}, after_stats);
+  const IndexGrid before = crackGrid(t, probes, {}, before_stats), after = crackGrid(t, probes, {boxes, probe_interior}, after_stats);
   // Cell (3, 4, 0): centre (14, 18, -1.5); its segment to the room's probe crosses z = 0 at
   // (17, 19), in the crack, and passes under the wall at z = -0.5.
   EXPECT_EQ(before.at(3, 4, 0), 0) << "the crack lets the cell under the ground see the room's probe";
@@ -126,25 +140,15 @@ TEST(IndexGrid, ACellUnderTheGroundNamesNoRoomsProbeThroughACrack) {
 // the cell takes the cell above. Until 2026-12-07's sixth session only the designated probe
 // counted, and room.json's ground outside its north wall read 7 % of the lamp on AVX2 hosts.
 TEST(IndexGrid, ACellUnderTheGroundNamesNoLatticeProbeOfARoomThroughACrack) {
-  std::vector<glm::vec3> tris;
-  auto quad = [&](glm::vec3 a, glm::vec3 b, glm::vec3 c, glm::vec3 d) { tris.insert(tris.end(), {a, b, c, a, c, d}); };
-  auto ground = [&](float x0, float y0, float x1, float y1) { quad({x0, y0, 0}, {x1, y0, 0}, {x1, y1, 0}, {x0, y1, 0}); };
-  ground(0, 0, 64, 18.9f);
-  ground(0, 19.1f, 64, 64);
-  ground(0, 18.9f, 16.9f, 19.1f);
-  ground(17.1f, 18.9f, 64, 19.1f);
-  quad({16, 16, 0}, {16, 16, 3}, {16, 24, 3}, {16, 24, 0});
-  auto scene = raytrace::RayScene::build(tris);
-  ASSERT_TRUE(scene) << scene.error().message;
+  Triangles t;
+  t.groundWithHole({17.f, 19.f});
+  t.quad({16, 16, 0}, {16, 16, 3}, {16, 24, 3}, {16, 24, 0});
   // The room's lattice probe (nearest to the cell), its designated probe, one west of the room.
   const std::vector<glm::vec3> probes = {{20.f, 20.f, 1.5f}, {22.f, 22.f, 1.5f}, {4.f, 20.f, 1.5f}};
   const std::vector<raytrace::Box> boxes = {{{16.f, 16.f, 0.f}, {24.f, 24.f, 3.f}}};
   const std::vector<uint16_t> probe_interior = {0, 1, 0};
-  IndexGrid grid;
-  grid.z_min_m = -2.f;
-  grid.cell_height_m = 1.f;
   IndexGridStats stats;
-  fillIndexGrid(*scene, probes, IndexGridSettings{}, grid, stats, {boxes, probe_interior});
+  const IndexGrid grid = crackGrid(t, probes, {boxes, probe_interior}, stats);
   EXPECT_EQ(grid.at(3, 4, 2), 2) << "the cell in the open west of the wall sees the west probe";
   EXPECT_EQ(grid.at(3, 4, 0), 2) << "the cell under the ground outside the room named the room's lattice probe";
   EXPECT_EQ(grid.at(4, 4, 3), 0) << "a cell in the room keeps the room's nearest probe";
@@ -159,26 +163,16 @@ TEST(IndexGrid, ACellUnderTheGroundNamesNoLatticeProbeOfARoomThroughACrack) {
 // asked whether its centre is inside geometry, and then takes the cell above. The room lies south
 // of the cell (y < 16.5), so that the cell under its floor is the neighbour of lowest index.
 TEST(IndexGrid, ACellUnderTheGroundThatSeesNoProbeTakesTheCellAboveIt) {
-  std::vector<glm::vec3> tris;
-  auto quad = [&](glm::vec3 a, glm::vec3 b, glm::vec3 c, glm::vec3 d) { tris.insert(tris.end(), {a, b, c, a, c, d}); };
-  auto ground = [&](float x0, float y0, float x1, float y1) { quad({x0, y0, 0}, {x1, y0, 0}, {x1, y1, 0}, {x0, y1, 0}); };
-  ground(0, 0, 64, 15.9f);  // faces +z, with a 0.2 m hole at (18, 16)
-  ground(0, 16.1f, 64, 64);
-  ground(0, 15.9f, 17.9f, 16.1f);
-  ground(18.1f, 15.9f, 64, 16.1f);
-  quad({16, 16.5f, 0}, {16, 16.5f, 3}, {24, 16.5f, 3}, {24, 16.5f, 0});                     // the room's north wall, facing +y
-  quad({17.5f, 14.7f, 0.75f}, {17.5f, 15.3f, 0.75f}, {18.5f, 15.3f, 0.75f}, {18.5f, 14.7f, 0.75f});  // a shelf, facing down
-  auto scene = raytrace::RayScene::build(tris);
-  ASSERT_TRUE(scene) << scene.error().message;
+  Triangles t;
+  t.groundWithHole({18.f, 16.f});
+  t.quad({16, 16.5f, 0}, {16, 16.5f, 3}, {24, 16.5f, 3}, {24, 16.5f, 0});                       // the room's north wall, facing +y
+  t.quad({17.5f, 14.7f, 0.75f}, {17.5f, 15.3f, 0.75f}, {18.5f, 15.3f, 0.75f}, {18.5f, 14.7f, 0.75f});  // a shelf, facing down
   // The room's lattice probe (nearest to the cell), one north of the room, the room's designated probe.
   const std::vector<glm::vec3> probes = {{18.f, 14.f, 1.5f}, {18.f, 30.f, 1.5f}, {20.f, 12.f, 1.5f}};
   const std::vector<raytrace::Box> boxes = {{{16.f, 8.f, 0.f}, {24.f, 16.5f, 3.f}}};
   const std::vector<uint16_t> probe_interior = {0, 0, 1};
-  IndexGrid grid;
-  grid.z_min_m = -2.f;
-  grid.cell_height_m = 1.f;
   IndexGridStats stats;
-  fillIndexGrid(*scene, probes, IndexGridSettings{}, grid, stats, {boxes, probe_interior});
+  const IndexGrid grid = crackGrid(t, probes, {boxes, probe_interior}, stats);
   // Cell (4, 4, 0): centre (18, 18, -1.5); its segment to the lattice probe crosses z = 0 at
   // (18, 16), in the hole, passes under the wall at z = -0.375 and meets the shelf at z = 0.75.
   EXPECT_EQ(grid.at(4, 4, 2), 1) << "the cell in the open north of the wall sees the north probe";

@@ -463,15 +463,10 @@ std::vector<KnobRow> DrtvTechnique::knobs(const KnobContext& c) {
                     -1, indoors("placement_enclosed", e == 0.0 ? std::string("off") : fmt(e) + " m", def)});
   }
   // Probes up tall spaces under roofs (placement.h, issue 35): the default stack against one per floor.
-  for (double k : {3.0, 0.0}) {
-    const bool def = k == base.placement.covered_stack_m;
-    rows.push_back({"covered_stack", k == 0.0 ? std::string("off") : fmt(k) + " m", def, "drtv",
-                    def ? TechniqueParams{} : TechniqueParams{{"covered_stack", fmt(k)}},
-                    std::string(def ? "the default bake: " : "") +
-                        (k == 0.0 ? "one probe per floor under roofs (the builds before 2026-12-07's sixth session)"
-                                  : "a probe every " + fmt(k) + " m up spaces taller than a storey under roofs"),
-                    -1, indoors("covered_stack", k == 0.0 ? std::string("off") : fmt(k) + " m", def)});
-  }
+  const double stack = base.placement.covered_stack_m;
+  twoWayRows(rows, "covered_stack", fmt(stack > 0.0 ? stack : 3.0), "0", stack > 0.0,
+             "a probe every so many metres up spaces taller than a storey under roofs",
+             "one probe per floor under roofs (the builds before 2026-12-07's sixth session)");
   // The visibility maps' rays (visibility_bake.h): the default against the builds before's 4,096.
   rows.push_back({"visibility_rays", std::to_string(base.visibility_rays), true, "drtv", {},
                   "the default bake: rays of a covered probe's visibility map"});

@@ -429,6 +429,38 @@ TEST(Cli, TheRoomsLampDoesNotLightTheGroundOutsideItsClosedWalls) {
   for (const char* outside : {"0,6,0.05", "7,0,0.05", "-7,0,0.05"}) EXPECT_LT(lamp(outside), 0.01 * inside) << outside;
 }
 
+// Physics: no light reaches the inside of a closed opaque box. tests/reference/data/closed_hall.json
+// is a 20 x 14 m hall 7.5 m tall with 0.2 m walls and roof and no opening, baked with --rooms off
+// (so that no interior volume stands in for its light). At noon its floor, its upper walls and
+// its ceiling read 0: at most 1e-3 of the open ground's light outside (a bake ray in thousands
+// may slip through a seam of the boxes: the east wall reads 3e-4 of a 1.5 outside, the rest 0 to
+// the last bit). With one probe per floor (--covered-stack 0, the placement before
+// 2026-12-07's sixth session) its ceiling and upper walls were 6 m from every probe, beyond the fine
+// level, and read the far field's light through the roof (0.21 on the ceiling, 0.16 on the west
+// wall at 6.5 m).
+TEST(Cli, AClosedHallsCeilingReadsNoLightWhateverItsHeight) {
+  const std::string hall = src("tests/reference/data/closed_hall.json");
+  auto irradiance = [&](const std::string& archive, const char* at, const char* normal) {
+    const Outcome q = drtv("query " + archive + " --at " + at + " --normal=" + normal + " --time 12:00 --json");
+    EXPECT_EQ(q.status, 0) << q.out;
+    const auto e = nlohmann::json::parse(q.out.substr(q.out.find('{'))).at("irradiance");
+    return std::max({e.at(0).get<double>(), e.at(1).get<double>(), e.at(2).get<double>()});
+  };
+  struct Point {
+    const char* at;
+    const char* normal;
+  };
+  const Point points[] = {{"1,3,7.4", "0,0,-1"}, {"-4,-2,7.4", "0,0,-1"}, {"1,6.9,6", "0,-1,0"}, {"-9.9,0,6.5", "1,0,0"},
+                          {"9.9,-3,5", "-1,0,0"}, {"1,0,0.05", "0,0,1"}};
+  const std::string stacked = scratch("closed-hall.drtv"), flat = scratch("closed-hall-flat.drtv");
+  ASSERT_EQ(drtv("bake " + hall + " -o " + stacked + " --rooms off").status, 0);
+  const double outside = irradiance(stacked, "30,0,0.05", "0,0,1");
+  ASSERT_GT(outside, 1.0) << "the open ground beside the hall at noon";
+  for (const Point& p : points) EXPECT_LT(irradiance(stacked, p.at, p.normal), 1e-3 * outside) << p.at << " facing " << p.normal;
+  ASSERT_EQ(drtv("bake " + hall + " -o " + flat + " --rooms off --covered-stack 0").status, 0);
+  EXPECT_GT(irradiance(flat, "1,3,7.4", "0,0,-1"), 0.02 * outside) << "one probe per floor: the ceiling reads the far field";
+}
+
 // Issue 16's interiors without an artist (rooms.h): tests/reference/data/room.json's closed room
 // (0.1 m walls, a window) is found at bake time and its surfaces read its designated probe, the
 // wall's outer face and the roof's top the volume; the Cornell box, open on one side, is no room;

@@ -51,40 +51,57 @@ template <class V>
   const V z = y < hi ? y : hi;
   return x == x ? z : zero;
 }
-template <int L, bool kSun, bool kLocal>
-[[gnu::always_inline]] inline int32_t shL1Blocks(const float* __restrict in, float* __restrict out, int n, int stride,
-                                                 const ShL1Weights& w_, const float* __restrict sx, const float* __restrict sy,
-                                                 const float* __restrict local) {
+// One output plane q (= channel x 4 + coefficient) of shL1Blocks, with e0's clamp or e1..3's.
+template <int L, bool kSun, bool kLocal, bool kSigned>
+[[gnu::always_inline]] inline void shL1Plane(const float* __restrict in, float* __restrict out, int n, int stride,
+                                             const ShL1Weights& w, int q, const float* __restrict sx, const float* __restrict sy,
+                                             const float* __restrict local, typename Lanes<L>::I& mx) {
   using F = typename Lanes<L>::F;
   using I = typename Lanes<L>::I;
-  const ShL1Weights w = w_;
-  I mx{};
-  for (int k = 0; k < n; k += 16, in += kShL1Block, sx += kSunBlock, sy += kSunBlock)
+  const int c = q / 4, i = q % 4;
+  const float l0 = w.lc[c][0], l1 = w.lc[c][1], l2 = w.lc[c][2], l3 = w.lc[c][3], e0 = w.d0[c], e2 = w.d2[c];
+  const float a = w.a[q], b = w.b[q];
+  const float* __restrict t = in + q * 64;
+  const float* __restrict p0 = in + (kTransferPlanes + i) * 16;
+  const float* __restrict p2 = in + (kTransferPlanes + 4 + i) * 16;
+  const float* __restrict x = sx + q * 16;
+  const float* __restrict y = sy + q * 16;
+  float* __restrict o = out + size_t(q) * stride;
+  const float* __restrict z = local + size_t(q) * stride;  // plane-major, as `out`
+  for (int k = 0; k < n; k += 16, t += kShL1Block, p0 += kShL1Block, p2 += kShL1Block, x += kSunBlock, y += kSunBlock)
     for (int h = 0; h < 16; h += L) {
-      float* o = out + k + h;
-      const float* x = local + k + h;  // plane-major, as `out`
-#pragma GCC unroll 12
-      for (int q = 0; q < 12; ++q) {
-        const int c = q / 4, i = q % 4;
-        const float* t = in + q * 64 + h;
-        // The terms in the order of one chain (fused by GCC where the target has FMA): the 12
-        // outputs of a block are independent, so that their chains overlap.
-        const F p0 = loadLanes<F>(in + (kTransferPlanes + i) * 16 + h), p2 = loadLanes<F>(in + (kTransferPlanes + 4 + i) * 16 + h);
-        F v = w.lc[c][0] * loadLanes<F>(t) + w.lc[c][1] * loadLanes<F>(t + 16) + w.lc[c][2] * loadLanes<F>(t + 32) +
-              w.lc[c][3] * loadLanes<F>(t + 48) + w.d0[c] * p0 + w.d2[c] * p2;
-        if constexpr (kSun) v = v + w.a[q] * loadLanes<F>(sx + q * 16 + h) + w.b[q] * loadLanes<F>(sy + q * 16 + h);
-        if constexpr (kLocal) v = v + loadLanes<F>(x);
-        v = i == 0 ? clampColourLanes(v) : clampSignedLanes(v);
-        // Clamped values order like their bit patterns once the sign bit is cleared.
-        I bits;
-        std::memcpy(&bits, &v, sizeof bits);
-        bits &= 0x7fffffff;
-        mx = bits > mx ? bits : mx;
-        storeLanes(o, v);
-        o += stride;
-        x += stride;
-      }
+      // The terms in the order of one chain (fused by GCC where the target has FMA).
+      F v = l0 * loadLanes<F>(t + h) + l1 * loadLanes<F>(t + 16 + h) + l2 * loadLanes<F>(t + 32 + h) +
+            l3 * loadLanes<F>(t + 48 + h) + e0 * loadLanes<F>(p0 + h) + e2 * loadLanes<F>(p2 + h);
+      if constexpr (kSun) v = v + a * loadLanes<F>(x + h) + b * loadLanes<F>(y + h);
+      if constexpr (kLocal) v = v + loadLanes<F>(z + k + h);
+      if constexpr (kSigned)
+        v = clampSignedLanes(v);
+      else
+        v = clampColourLanes(v);
+      // Clamped values order like their bit patterns once the sign bit is cleared.
+      I bits;
+      std::memcpy(&bits, &v, sizeof bits);
+      if constexpr (kSigned) bits &= 0x7fffffff;
+      mx = bits > mx ? bits : mx;
+      storeLanes(o + k + h, v);
     }
+}
+
+// sh-l1 output plane by output plane (q = channel x 4 + coefficient), each a loop over the slot's
+// blocks: the inputs at fixed offsets from the block, the 8 weights in registers, the clamp of
+// e0 or of e1..3 chosen outside the loop. Blocks-outer with all 12 outputs in one step held 42
+// weights, which GCC spilled and reloaded before its multiply-adds (1.45-1.6x the limit kernel).
+// The iterations of one plane are independent, so that their chains of 8 multiply-adds overlap.
+// The same terms in the same order as before, so the same results.
+template <int L, bool kSun, bool kLocal>
+[[gnu::always_inline]] inline int32_t shL1Blocks(const float* in, float* out, int n, int stride, const ShL1Weights& w,
+                                                 const float* sx, const float* sy, const float* local) {
+  typename Lanes<L>::I mx{};
+  for (int c = 0; c < 3; ++c) {
+    shL1Plane<L, kSun, kLocal, false>(in, out, n, stride, w, c * 4, sx, sy, local, mx);
+    for (int i = 1; i < 4; ++i) shL1Plane<L, kSun, kLocal, true>(in, out, n, stride, w, c * 4 + i, sx, sy, local, mx);
+  }
   int32_t m = 0;
   for (int l = 0; l < L; ++l) m = std::max(m, mx[l]);
   return m;
@@ -98,34 +115,39 @@ template <int L>
   return local ? shL1Blocks<L, false, true>(in, out, n, stride, w, in, in, local) : shL1Blocks<L, false, false>(in, out, n, stride, w, in, in, in);
 }
 
-// fc3's relight (relightPlanes) L probes at a time through all 12 (channel, basis) outputs, each
-// input at a fixed offset from one pointer: one loop per slot instead of twelve, whose 5 to 10
-// iterations (70 probes) paid the loop's set-up twelve times (issue 38: 2.65x the limit kernel of
-// drtv_limit_bench, planes one after another). The same terms in the same order as before, so
-// the same results, bit for bit, on every target.
+// fc3's relight (relightPlanes): output plane by output plane, each a loop over the slot's probes,
+// L at a time, on six pointers (four transfer planes, the visibility plane, the output) whose
+// weights stay in registers. Probes-outer with all 12 outputs in one step held 52
+// input pointers and 24 weights, which GCC spilled: a reload from the stack before most loads
+// (1.45-1.6x the limit kernel of drtv_limit_bench); an earlier form, one auto-vectorised loop per
+// plane with its own set-up and remainder, was 2.65x.
+// The same terms in the same order, so the same results, bit for bit, on every target.
 template <int L, bool kLocal>
 [[gnu::always_inline]] inline int32_t fc3Blocks(const float* __restrict in, float* __restrict out, int n, int stride,
-                                                const float (&lc_)[3][4], const float (&direct_)[3][4],
+                                                const float (&lc)[3][4], const float (&direct)[3][4],
                                                 const float* __restrict local) {
   using F = typename Lanes<L>::F;
   using I = typename Lanes<L>::I;
-  float lc[3][4], direct[3][4];
-  std::memcpy(lc, lc_, sizeof lc);
-  std::memcpy(direct, direct_, sizeof direct);
   I mx{};
-  for (int k = 0; k < n; k += L) {
-#pragma GCC unroll 12
-    for (int q = 0; q < 12; ++q) {
-      const int c = q / 4, b = q % 4;
-      const float* t = in + size_t(q * 4) * stride + k;
-      F v = lc[c][0] * loadLanes<F>(t) + lc[c][1] * loadLanes<F>(t + stride) + lc[c][2] * loadLanes<F>(t + 2 * stride) +
-            lc[c][3] * loadLanes<F>(t + 3 * stride) + direct[c][b] * loadLanes<F>(in + size_t(kTransferPlanes + b) * stride + k);
-      if constexpr (kLocal) v = v + loadLanes<F>(local + size_t(q) * stride + k);
+  for (int q = 0; q < 12; ++q) {
+    const int c = q / 4, b = q % 4;
+    const float* __restrict t0 = in + size_t(q * 4) * stride;
+    const float* __restrict t1 = t0 + stride;
+    const float* __restrict t2 = t1 + stride;
+    const float* __restrict t3 = t2 + stride;
+    const float* __restrict vis = in + size_t(kTransferPlanes + b) * stride;
+    const float* __restrict x = local + size_t(q) * stride;
+    float* __restrict o = out + size_t(q) * stride;
+    const float l0 = lc[c][0], l1 = lc[c][1], l2 = lc[c][2], l3 = lc[c][3], d = direct[c][b];
+    for (int k = 0; k < n; k += L) {
+      F v = l0 * loadLanes<F>(t0 + k) + l1 * loadLanes<F>(t1 + k) + l2 * loadLanes<F>(t2 + k) + l3 * loadLanes<F>(t3 + k) +
+            d * loadLanes<F>(vis + k);
+      if constexpr (kLocal) v = v + loadLanes<F>(x + k);
       v = clampColourLanes(v);
       I bits;
       std::memcpy(&bits, &v, sizeof bits);  // >= 0 once clamped: ordered like the floats
       mx = bits > mx ? bits : mx;
-      storeLanes(out + size_t(q) * stride + k, v);
+      storeLanes(o + k, v);
     }
   }
   int32_t m = 0;

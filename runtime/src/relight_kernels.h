@@ -32,10 +32,10 @@ inline float clampSigned(float x) {
 }
 // sh-l1 keeps its inputs in blocks of 16 probes: block b holds the kInputPlanes planes' 16 values
 // of probes 16b..16b+15 side by side (kShL1Block floats), and the sun transfer likewise, 12 planes
-// per sample and block. The relight then runs a block through all 12 (channel, coefficient)
-// outputs with every input at a fixed offset from one pointer. Relit plane
-// by plane, each 16-probe step was one chain of 8 dependent multiply-adds on 10 pointers, and the
-// relight waited on their latency (1.6x fc3's, whose chain is 5).
+// per sample and block. The relight runs output plane by output plane over the blocks, every
+// input at a fixed offset from the block. (Over plane-major inputs, each 16-probe step was one
+// chain of 8 dependent multiply-adds on 10 pointers, and the relight waited on their latency; all
+// 12 outputs in one step per block spilled their 42 weights.)
 inline constexpr int kShL1Block = kInputPlanes * 16;
 inline constexpr int kSunBlock = 12 * 16;
 // Where plane p of probe i sits in a run of blocks of `planes` planes x 16 probes.

@@ -51,21 +51,35 @@ bool sameTexels(const Volume& a, const Volume& b) {
   return true;
 }
 
+// At an even origin (a texel pair per index cell) and an odd one (each cell split between two
+// pairs), and with the storage wrap inside a cell (its first texel in the last stored column, its
+// second in column 0): the fill stores a cell's two texels at once where they are adjacent.
 TEST(VolumeFill, NearestModeMatchesTheReferenceForEveryTexel) {
   const ProbeCache cache = makeWorld();
   const VolumeOptions o;
-  Volume v(o);
-  v.rebuild(v.originFor({17.0, -23.0, 12.0}), cache);
-  const glm::ivec3 n = v.period();
-  int mismatches = 0;
-  for (int z = 0; z < n.z; ++z)
-    for (int y = 0; y < n.y; ++y)
-      for (int x = 0; x < n.x; ++x) {
-        const glm::ivec3 g = v.origin() + glm::ivec3(x, y, z);
-        for (int c = 0; c < 3; ++c) mismatches += v.worldTexel(c, g) != referenceNearestTexel(cache, o, g, c);
-      }
-  EXPECT_EQ(mismatches, 0);
-  EXPECT_EQ(v.texture(0).size(), 147456u);  // the talk's 96x96x16
+  int parities = 0;  // bit 0: an even origin in x was filled, bit 1: an odd one
+  bool wrap_in_cell = false;
+  for (const glm::dvec3 camera : {glm::dvec3(17.0, -23.0, 12.0), glm::dvec3(19.0, -21.0, 12.0), glm::dvec3(150.0, -23.0, 12.0)}) {
+    Volume v(o);
+    v.rebuild(v.originFor(camera), cache);
+    const glm::ivec3 n = v.period();
+    parities |= 1 << (v.origin().x & 1);
+    for (int x = 0; x + 1 < n.x; ++x) {
+      const int g = v.origin().x + x;  // 2 m texels in 4 m cells: g and g + 1 share a cell when g is even
+      wrap_in_cell |= (g & 1) == 0 && ((g % n.x) + n.x) % n.x == n.x - 1;
+    }
+    int mismatches = 0;
+    for (int z = 0; z < n.z; ++z)
+      for (int y = 0; y < n.y; ++y)
+        for (int x = 0; x < n.x; ++x) {
+          const glm::ivec3 g = v.origin() + glm::ivec3(x, y, z);
+          for (int c = 0; c < 3; ++c) mismatches += v.worldTexel(c, g) != referenceNearestTexel(cache, o, g, c);
+        }
+    EXPECT_EQ(mismatches, 0) << "origin " << v.origin().x << ", " << v.origin().y;
+    EXPECT_EQ(v.texture(0).size(), 147456u);  // the talk's 96x96x16
+  }
+  EXPECT_EQ(parities, 3);
+  EXPECT_TRUE(wrap_in_cell);
 }
 
 // The texels of `blurred` that differ from the talk's PC-path blur of `plain` (same origin),

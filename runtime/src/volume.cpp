@@ -238,11 +238,12 @@ uint32_t Volume::worldTexel(int channel, const glm::ivec3& g) const {
         const ProbeCache::SlotView& v = table.views[size_t(t)];
         const uint8_t* __restrict cells = v.nearest + (cz_row[t] * kGridDim + ya.cell) * kGridDim;
         const uint32_t* __restrict packed = v.packed;
-        const XSeg* __restrict seg = xsegs.data();
-        for (int g = run.begin; g < run.end; ++g) {
-          const uint32_t* tx = packed + 3 * cells[seg[g].cell];
-          const int sx = seg[g].s;
-          if (seg[g].len == 2) {
+        const XSeg* __restrict seg = xsegs.data() + run.begin;
+        const XSeg* const seg_end = xsegs.data() + run.end;
+        for (; seg != seg_end; ++seg) {
+          const uint32_t* tx = packed + 3 * cells[seg->cell];
+          const int sx = seg->s;
+          if (seg->len == 2) {
             const uint64_t w0 = tx[0] * 0x100000001ull, w1 = tx[1] * 0x100000001ull, w2 = tx[2] * 0x100000001ull;
             std::memcpy(r0 + sx, &w0, 8), std::memcpy(r1 + sx, &w1, 8), std::memcpy(r2 + sx, &w2, 8);
           } else {
@@ -340,7 +341,10 @@ void Volume::mirrorBoundary(uint32_t* tex, std::span<const int> xs, std::span<co
         uint32_t* r = row(sy, sz);
         r[n.x] = r[0];
       }
+  // A box of whole rows (every rebuild) copies each row at once, duplicated column included.
+  const bool whole_rows = int(xs.size()) == n.x;
   auto mirror = [&](const uint32_t* from, uint32_t* to) {
+    if (whole_rows) return (void)std::memcpy(to, from, (size_t(n.x) + 1) * sizeof(uint32_t));
     for (const int sx : xs) to[sx] = from[sx];
     if (x0) to[n.x] = from[n.x];
   };

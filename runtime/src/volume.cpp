@@ -187,34 +187,42 @@ uint32_t Volume::worldTexel(int channel, const glm::ivec3& g) const {
     filled_ += uint64_t(d.x) * d.y * d.z;
     return;
   }
-  // The box's columns in runs of one sector, and each run in segments of one index cell over
-  // consecutive storage texels: two for the talk's 2 m texels in 4 m cells, one at a cell's split
-  // by the toroidal wrap or an odd origin. Per segment, one index read and, for a pair, one 8-byte
-  // store per texture. Found per box, not per row: the search for each row's sector runs and one
-  // index read and three 4-byte stores per texel were a third of a full refill (perf).
-  struct XSeg {
-    int s, cell, len;
+  // The box's columns in runs of one sector, and each run in pieces: chains of texel pairs, a pair
+  // being one index cell's two texels in consecutive storage columns (the talk's 2 m texels in
+  // 4 m cells) and a chain pairs of consecutive cells over consecutive storage; or a single texel
+  // (a cell split by an odd origin, the toroidal wrap or the run's end). Per pair, one index read
+  // and one 8-byte store per texture. Found per box, not per row: the search for each row's sector
+  // runs and one index read and three 4-byte stores per texel were a third of a full refill (perf).
+  struct XPiece {
+    int s, cell, pairs;  // storage column and index cell of the first texel; 0 pairs: one texel
   };
   struct XRun {
-    int t, begin, end;  // the sector's column in the slot table; segments [begin, end)
+    int t, begin, end;  // the sector's column in the slot table; pieces [begin, end)
     int first, last;    // its columns in xs
   };
-  thread_local std::vector<XSeg> xsegs;
+  thread_local std::vector<XPiece> pieces;
   thread_local std::vector<XRun> xruns;
-  xsegs.clear();
+  pieces.clear();
   xruns.clear();
   for (int i = 0; i < d.x;) {
     const int sec = xs[size_t(i)].sector;
     int j = i;
     while (j < d.x && xs[size_t(j)].sector == sec) ++j;
-    XRun run{sec - table.ix0, int(xsegs.size()), 0, i, j};
+    XRun run{sec - table.ix0, int(pieces.size()), 0, i, j};
     for (int k = i; k < j;) {
       const Axis& xa = xs[size_t(k)];
       const bool pair = k + 1 < j && xs[size_t(k + 1)].cell == xa.cell && xs[size_t(k + 1)].s == xa.s + 1;
-      xsegs.push_back({xa.s, xa.cell, pair ? 2 : 1});
+      if (!pair) {
+        pieces.push_back({xa.s, xa.cell, 0});
+      } else if (pieces.size() > size_t(run.begin) && pieces.back().pairs > 0 &&
+                 pieces.back().s + 2 * pieces.back().pairs == xa.s && pieces.back().cell + pieces.back().pairs == xa.cell) {
+        ++pieces.back().pairs;
+      } else {
+        pieces.push_back({xa.s, xa.cell, 1});
+      }
       k += pair ? 2 : 1;
     }
-    run.end = int(xsegs.size());
+    run.end = int(pieces.size());
     xruns.push_back(run);
     i = j;
   }
@@ -238,16 +246,20 @@ uint32_t Volume::worldTexel(int channel, const glm::ivec3& g) const {
         const ProbeCache::SlotView& v = table.views[size_t(t)];
         const uint8_t* __restrict cells = v.nearest + (cz_row[t] * kGridDim + ya.cell) * kGridDim;
         const uint32_t* __restrict packed = v.packed;
-        const XSeg* __restrict seg = xsegs.data() + run.begin;
-        const XSeg* const seg_end = xsegs.data() + run.end;
-        for (; seg != seg_end; ++seg) {
-          const uint32_t* tx = packed + 3 * cells[seg->cell];
-          const int sx = seg->s;
-          if (seg->len == 2) {
+        for (const XPiece* p = pieces.data() + run.begin, *p_end = pieces.data() + run.end; p != p_end; ++p) {
+          const uint8_t* __restrict cc = cells + p->cell;
+          if (p->pairs == 0) {
+            const uint32_t* tx = packed + 3 * cc[0];
+            r0[p->s] = tx[0], r1[p->s] = tx[1], r2[p->s] = tx[2];
+            continue;
+          }
+          uint32_t* __restrict o0 = r0 + p->s;
+          uint32_t* __restrict o1 = r1 + p->s;
+          uint32_t* __restrict o2 = r2 + p->s;
+          for (int g = 0, m = p->pairs; g < m; ++g) {
+            const uint32_t* tx = packed + 3 * cc[g];
             const uint64_t w0 = tx[0] * 0x100000001ull, w1 = tx[1] * 0x100000001ull, w2 = tx[2] * 0x100000001ull;
-            std::memcpy(r0 + sx, &w0, 8), std::memcpy(r1 + sx, &w1, 8), std::memcpy(r2 + sx, &w2, 8);
-          } else {
-            r0[sx] = tx[0], r1[sx] = tx[1], r2[sx] = tx[2];
+            std::memcpy(o0 + 2 * g, &w0, 8), std::memcpy(o1 + 2 * g, &w1, 8), std::memcpy(o2 + 2 * g, &w2, 8);
           }
         }
       }

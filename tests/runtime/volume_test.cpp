@@ -82,6 +82,34 @@ TEST(VolumeFill, NearestModeMatchesTheReferenceForEveryTexel) {
   EXPECT_TRUE(wrap_in_cell);
 }
 
+// Texels of other sizes: four in a cell along x and y (two pairs of one cell side by side), one in
+// a cell (no pair), and 3 m (cells of one, two or no pair in turn); and a 48-texel volume whose
+// storage wraps between two pairs of consecutive cells in one sector (texels 93 and 94 of its
+// period of 47, world x 186-190 m), where the pairs are consecutive in the world but not in storage.
+TEST(VolumeFill, NearestModeMatchesTheReferenceAtOtherTexelSizes) {
+  const ProbeCache cache = makeWorld();
+  const std::pair<VolumeOptions, glm::dvec3> cases[] = {
+      {{.size = {64, 64, 8}, .texel_size_m = {1.f, 1.f, 4.f}}, {17.0, -23.0, 12.0}},
+      {{.size = {64, 64, 8}, .texel_size_m = {4.f, 4.f, 4.f}}, {17.0, -23.0, 12.0}},
+      {{.size = {64, 64, 8}, .texel_size_m = {3.f, 3.f, 4.f}}, {17.0, -23.0, 12.0}},
+      {{.size = {48, 48, 8}}, {180.0, -23.0, 12.0}},
+  };
+  for (const auto& [o, camera] : cases) {
+    Volume v(o);
+    v.rebuild(v.originFor(camera), cache);
+    const glm::ivec3 n = v.period();
+    int mismatches = 0;
+    for (int z = 0; z < n.z; ++z)
+      for (int y = 0; y < n.y; ++y)
+        for (int x = 0; x < n.x; ++x) {
+          const glm::ivec3 g = v.origin() + glm::ivec3(x, y, z);
+          for (int c = 0; c < 3; ++c) mismatches += v.worldTexel(c, g) != referenceNearestTexel(cache, o, g, c);
+        }
+    EXPECT_EQ(mismatches, 0) << "texels of " << o.texel_size_m.x << " m, " << o.size.x << " wide";
+    if (o.size.x == 48) EXPECT_TRUE(v.origin().x <= 92 && v.origin().x + n.x > 95) << v.origin().x;
+  }
+}
+
 // The texels of `blurred` that differ from the talk's PC-path blur of `plain` (same origin),
 // straight from its definition: 27 taps of [1 2 1] (x) [1 2 1] (x) [1 2 1] over the unblurred
 // texels, neighbours clamped into the volume, each byte (sum + 32) / 64.

@@ -42,6 +42,7 @@
 #include "drtv/formats/sh.h"
 #include "drtv/runtime/lighting_sh.h"
 #include "drtv/runtime/runtime.h"
+#include "refill_loop.h"
 #include "runtime_world.h"
 #include "simd_clones.h"
 
@@ -273,13 +274,7 @@ void runtimeRefill(benchmark::State& state, VolumeOptions o) {
   in.sun_transfer = sh_l1;
   cache.relightAll(in);
   cache.pack(cache.maxColour() * 1.25f);
-  Volume v(o);
-  const glm::ivec3 origin = v.originFor({10.0, -20.0, 12.0});
-  for (auto _ : state) {
-    v.rebuild(origin, cache);
-    benchmark::ClobberMemory();
-  }
-  state.SetItemsProcessed(state.iterations() * int64_t(v.period().x) * v.period().y * v.period().z);
+  testing::timeFullRefill(state, cache, o);
 }
 void BM_RuntimeRefillFc3(benchmark::State& state) { runtimeRefill(state, {}); }
 void BM_RuntimeRefillShL1(benchmark::State& state) { runtimeRefill(state, {.representation = Representation::kShL1}); }

@@ -9,6 +9,7 @@
 
 #include "drtv/runtime/lighting_sh.h"
 #include "drtv/runtime/runtime.h"
+#include "refill_loop.h"
 #include "runtime_world.h"  // bench/common: the synthetic sectors the tests use too
 
 namespace drtv::runtime {
@@ -252,16 +253,7 @@ ProbeCache makePackedCache(Representation r = Representation::kFc3) {
   return cache;
 }
 
-void fullRefill(benchmark::State& state, VolumeOptions o) {
-  const ProbeCache cache = makePackedCache(o.representation);
-  Volume v(o);
-  const glm::ivec3 origin = v.originFor({10.0, -20.0, 12.0});
-  for (auto _ : state) {
-    v.rebuild(origin, cache);
-    benchmark::ClobberMemory();
-  }
-  state.SetItemsProcessed(state.iterations() * int64_t(v.period().x) * v.period().y * v.period().z);
-}
+void fullRefill(benchmark::State& state, VolumeOptions o) { testing::timeFullRefill(state, makePackedCache(o.representation), o); }
 void BM_FullRefillNearest(benchmark::State& state) { fullRefill(state, {}); }
 void BM_FullRefillSmooth(benchmark::State& state) { fullRefill(state, {.fill = FillMode::kSmooth}); }
 void BM_FullRefillNearestBlurred(benchmark::State& state) { fullRefill(state, {.blur = true}); }

@@ -42,18 +42,15 @@ void fillIndexGrid(const raytrace::RayScene& scene, std::span<const glm::vec3> p
   if (probes.empty()) return;
   // The interiors each probe lies in: its own (a designated probe's) and every box that holds its
   // position (a room's lattice probes, which name no interior).
-  auto holds = [](const raytrace::Box& b, const glm::vec3& p) {
-    return glm::all(glm::greaterThanEqual(p, b.min)) && glm::all(glm::lessThan(p, b.max));
-  };
   std::vector<std::vector<uint32_t>> probe_boxes(probes.size());
   if (!interiors.probe_interior.empty())
     for (size_t i = 0; i < probes.size(); ++i)
       for (size_t j = 0; j < interiors.boxes.size(); ++j)
-        if (interiors.probe_interior[i] == j + 1u || holds(interiors.boxes[j], probes[i])) probe_boxes[i].push_back(uint32_t(j));
+        if (interiors.probe_interior[i] == j + 1u || interiors.boxes[j].contains(probes[i])) probe_boxes[i].push_back(uint32_t(j));
   // Whether probe i lies inside an interior whose box does not hold c (index_grid.h).
   auto inOtherInterior = [&](const glm::vec3& c, size_t i) {
     for (const uint32_t j : probe_boxes[i])
-      if (!holds(interiors.boxes[j], c)) return true;
+      if (!interiors.boxes[j].contains(c)) return true;
     return false;
   };
   // Whether c is inside geometry, by one ray up in a fixed oblique direction: from a point of a

@@ -364,7 +364,7 @@ std::vector<PlacedProbe> placeProbes(const raytrace::RayScene& scene, const rayt
     if (c.priority == kCovered || c.priority == kDesignated) p.flags |= kProbeCovered;
     if (p.interior == 0)
       for (const LocalInterior& in : interiors)
-        if (glm::all(glm::greaterThanEqual(p.position, in.box.min)) && glm::all(glm::lessThan(p.position, in.box.max))) {
+        if (in.box.contains(p.position)) {
           p.interior = in.index;
           break;
         }

@@ -464,7 +464,7 @@ std::vector<KnobRow> DrtvTechnique::knobs(const KnobContext& c) {
   }
   // Probes up tall spaces under roofs (placement.h, issue 35): the default stack against one per floor.
   const double stack = base.placement.covered_stack_m;
-  twoWayRows(rows, "covered_stack", fmt(stack > 0.0 ? stack : 3.0), "0", stack > 0.0,
+  twoWayRows(rows, "covered_stack", fmt(stack > 0.0 ? stack : baker::PlacementSettings{}.covered_stack_m), "0", stack > 0.0,
              "a probe every so many metres up spaces taller than a storey under roofs",
              "one probe per floor under roofs (the builds before 2026-12-07's sixth session)");
   // The visibility maps' rays (visibility_bake.h): the default against the builds before's 4,096.

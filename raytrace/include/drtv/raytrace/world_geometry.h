@@ -43,6 +43,8 @@ inline constexpr size_t kLargeMeshTriangles = 4096;
 // An axis-aligned box in the gather's local frame (metres).
 struct Box {
   glm::vec3 min{0.f}, max{0.f};
+  // Half-open: min <= p < max on every axis (a point on a shared face belongs to one box).
+  bool contains(const glm::vec3& p) const { return glm::all(glm::greaterThanEqual(p, min)) && glm::all(glm::lessThan(p, max)); }
 };
 
 // The geometry one sector is baked from: everything within `halo_m` of the sector (xy).

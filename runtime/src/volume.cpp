@@ -56,6 +56,20 @@ struct SlotTable {
   }
 };
 
+// Each present slot's index-grid layer for texel layers [z0, z0 + dz) of `texel_z` metres:
+// cz[z * slots + t] (0 for absent slots). Computed once per box: a thin slab has many rows of one
+// texel, and per-row float work would dominate.
+void layerCells(const SlotTable& table, int z0, int dz, double texel_z, std::vector<int>& cz) {
+  const int table_size = table.w * table.h;
+  cz.assign(size_t(dz) * table_size, 0);
+  for (int z = 0; z < dz; ++z) {
+    const double zc = (z0 + z + 0.5) * texel_z;
+    for (int t = 0; t < table_size; ++t)
+      if (table.present[t])
+        cz[size_t(z) * table_size + t] = cellOf((zc - table.views[t].grid_z_min_m) / table.views[t].grid_cell_height_m);
+  }
+}
+
 }  // namespace
 
 Volume::Volume(const VolumeOptions& options) : options_(options) {
@@ -63,8 +77,30 @@ Volume::Volume(const VolumeOptions& options) : options_(options) {
   for (int a = 0; a < 3; ++a) DRTV_CHECK(std::isfinite(options.texel_size_m[a]) && options.texel_size_m[a] > 0.f);
   const size_t n = size_t(options.size.x) * options.size.y * options.size.z;
   for (auto& t : texels_) t.assign(n, 0);
-  if (options.blur)
-    for (auto& t : source_) t.assign(n, 0);
+  if (!options.blur) return;
+  const float half_cell = float(kGridCellSizeM / 2.0);
+  cell_source_ = options.fill == FillMode::kNearest && options.texel_size_m.x == half_cell && options.texel_size_m.y == half_cell;
+  const glm::ivec3 p = period();
+  if (cell_source_) {
+    // Rows of whole vectors of cells (8: 32 16-bit lanes): the blur's passes over rows of cells
+    // then leave no scalar remainder.
+    cell_period_ = glm::ivec2((p.x / 2 + 2 + 7) / 8 * 8, p.y / 2 + 2);
+    source_stride_ = {1, cell_period_.x, cell_period_.x * cell_period_.y};
+  } else {
+    source_stride_ = {1, options.size.x, options.size.x * options.size.y};
+  }
+  const size_t source_n = cell_source_ ? size_t(source_stride_.z) * size_t(p.z) : n;
+  for (auto& t : source_) t.assign(source_n, 0);
+}
+
+
+void Volume::sourceOffsets(const glm::ivec3& a0, const glm::ivec3& a, std::vector<size_t>& xs, std::vector<size_t>& ys,
+                           std::vector<size_t>& zs) const {
+  std::vector<size_t>* v[3] = {&xs, &ys, &zs};
+  for (int k = 0; k < 3; ++k) {
+    v[k]->resize(size_t(a[k]));
+    for (int i = 0; i < a[k]; ++i) (*v[k])[size_t(i)] = sourceOffset(k, a0[k] + i);
+  }
 }
 
 glm::ivec3 volumeOriginFor(const VolumeOptions& options, const glm::dvec3& camera) {
@@ -116,17 +152,9 @@ uint32_t Volume::worldTexel(int channel, const glm::ivec3& g) const {
   for (int i = 0; i < d.z; ++i) szs[size_t(i)] = floorMod(g0.z + i, n.z);
   const SlotTable table(cache, xs.front().sector, xs.back().sector, ys.front().sector, ys.back().sector);
   const std::array<uint32_t, 3> fb = cache.packedFallback();
-  // Each sector's grid row base per layer, computed once per box (a thin slab has many rows of
-  // one texel: per-row float work would dominate).
   const int table_size = table.w * table.h;
   thread_local std::vector<int> cz;
-  cz.assign(size_t(d.z) * table_size, 0);
-  for (int z = 0; z < d.z; ++z) {
-    const double zc = (g0.z + z + 0.5) * double(options_.texel_size_m.z);
-    for (int t = 0; t < table_size; ++t)
-      if (table.present[t])
-        cz[size_t(z) * table_size + t] = cellOf((zc - table.views[t].grid_z_min_m) / table.views[t].grid_cell_height_m);
-  }
+  layerCells(table, g0.z, d.z, double(options_.texel_size_m.z), cz);
   if (d.x <= kThinSlabX) {
     // A slab this thin in x (a scroll along x) has one or two texels per row: the row loop below
     // would pay its per-row set-up (row pointers, sector runs, boundary checks) for each of them
@@ -269,6 +297,79 @@ uint32_t Volume::worldTexel(int channel, const glm::ivec3& g) const {
   filled_ += uint64_t(d.x) * d.y * d.z;
 }
 
+// The cells are those of fillBox's texels: a texel 2 m across at world column g has its centre
+// at 4 m * g / 2 + 1 or 3 m, in index cell floor(g / 2) (sector boundaries, every 16 cells, are
+// cell boundaries). A cell only partly inside the box is written whole: its other texel takes the
+// probe it already had, or, if the cache changed since, the current one.
+void Volume::fillCells(const glm::ivec3& g0, const glm::ivec3& g1, const ProbeCache& cache) {
+  const glm::ivec3 d = g1 - g0;
+  if (d.x <= 0 || d.y <= 0 || d.z <= 0) return;
+  struct Axis {
+    int sector, cell;
+    size_t offset;  // in source_
+  };
+  thread_local std::vector<Axis> xs, ys;
+  auto axis = [&](int a, std::vector<Axis>& v) {
+    const int c0 = floorDiv(g0[a], 2), c1 = floorDiv(g1[a] - 1, 2) + 1;
+    v.resize(size_t(c1 - c0));
+    for (int c = c0; c < c1; ++c) {
+      const int sec = floorDiv(c, kGridDim);
+      v[size_t(c - c0)] = {sec, c - sec * kGridDim, size_t(floorMod(c, cell_period_[a])) * size_t(source_stride_[a])};
+    }
+  };
+  axis(0, xs);
+  axis(1, ys);
+  const SlotTable table(cache, xs.front().sector, xs.back().sector, ys.front().sector, ys.back().sector);
+  const std::array<uint32_t, 3> fb = cache.packedFallback();
+  const int table_size = table.w * table.h;
+  thread_local std::vector<int> cz;
+  layerCells(table, g0.z, d.z, double(options_.texel_size_m.z), cz);
+  uint32_t* __restrict c0 = source_[0].data();
+  uint32_t* __restrict c1 = source_[1].data();
+  uint32_t* __restrict c2 = source_[2].data();
+  // The columns in runs of one sector and consecutive storage (found once per box): per run, one
+  // row of index bytes read in order and three rows of cells written in order.
+  struct XRun {
+    int t, cell, len;  // the sector's column in the slot table; its first index cell; cells
+    size_t offset;     // in source_, of the first cell
+  };
+  thread_local std::vector<XRun> xruns;
+  xruns.clear();
+  for (size_t i = 0; i < xs.size(); ++i) {
+    const Axis& xa = xs[i];
+    if (i > 0 && xa.sector == xs[i - 1].sector && xa.offset == xs[i - 1].offset + 1)
+      ++xruns.back().len;
+    else
+      xruns.push_back({xa.sector - table.ix0, xa.cell, 1, xa.offset});
+  }
+  for (int z = 0; z < d.z; ++z) {
+    const size_t layer = size_t(floorMod(g0.z + z, period().z)) * size_t(source_stride_.z);
+    const int* cz_row = cz.data() + size_t(z) * table_size;
+    for (const Axis& ya : ys) {
+      const int ty = (ya.sector - table.iy0) * table.w;
+      const size_t row = layer + ya.offset;
+      for (const XRun& run : xruns) {
+        const int t = ty + run.t, len = run.len;
+        uint32_t* __restrict o0 = c0 + row + run.offset;
+        uint32_t* __restrict o1 = c1 + row + run.offset;
+        uint32_t* __restrict o2 = c2 + row + run.offset;
+        if (!table.present[size_t(t)]) {
+          for (int k = 0; k < len; ++k) o0[k] = fb[0], o1[k] = fb[1], o2[k] = fb[2];
+          continue;
+        }
+        const ProbeCache::SlotView& v = table.views[size_t(t)];
+        const uint8_t* __restrict cells = v.nearest + (cz_row[t] * kGridDim + ya.cell) * kGridDim + run.cell;
+        const uint32_t* __restrict packed = v.packed;
+        for (int k = 0; k < len; ++k) {
+          const uint32_t* tx = packed + 3 * cells[k];
+          o0[k] = tx[0], o1[k] = tx[1], o2[k] = tx[2];
+        }
+      }
+    }
+  }
+  filled_ += uint64_t(d.x) * d.y * d.z;
+}
+
 void Volume::fillBoxSmooth(const glm::ivec3& g0, const glm::ivec3& g1, const ProbeCache& cache) {
   const glm::ivec3 n = period();
   const glm::ivec3 d = g1 - g0;
@@ -371,6 +472,8 @@ void Volume::writeRangeBox(const glm::ivec3& g0, const glm::ivec3& g1, const Pro
   DRTV_CHECK(cache.representation() == options_.representation);  // Runtime sets both from one field
   if (options_.fill == FillMode::kSmooth)
     fillBoxSmooth(g0, g1, cache);
+  else if (cell_source_)
+    fillCells(g0, g1, cache);
   else
     fillBox(g0, g1, cache);
 }

@@ -15,12 +15,16 @@
 namespace drtv::runtime {
 namespace {
 
+using detail::floorDiv;
 using detail::floorMod;
 
 // Boxes at most this many texels wide in x are blurred with y as the fast axis (see blurBox).
 constexpr int kThinBlurX = 4;
 // Box rows blurred together (blurBox): a strip's buffers fit in L1.
 constexpr int kBlurStripRows = 8;
+// The same from the cell source (blurWholeRowsFromCells), whose buffers are a quarter the size; a
+// strip's first and last rows of cells are also its neighbours'.
+constexpr int kCellStripRows = 16;
 
 // The blur's row kernels, on 16-bit lanes (sums stay below 64 * 255), written so that they
 // vectorise: restrict pointers, no widening to int. They are compiled for AVX-512 and AVX2 as well
@@ -67,6 +71,35 @@ DRTV_SIMD_CLONES void blurFinishPatches(const uint16_t* __restrict m, uint8_t* _
       std::memcpy(out + patches[p].to, &bytes, 4);
     }
 }
+// The x pass and the rounding from a row of cells (four 16-bit lanes each, the z and y passes'
+// sums; blurWholeRowsFromCells): cell i's two texels, bytes [8 i, 8 i + 8) of `out`, are
+// (y[i - 1] + 3 y[i] + 32) >> 6 and (3 y[i] + y[i + 1] + 32) >> 6. Reads cells -1 to count.
+// Written with vectors of four cells: a plain loop did not vectorise.
+using BlurLanes16 = uint16_t __attribute__((vector_size(32)));
+using BlurBytes32 = uint8_t __attribute__((vector_size(32)));
+DRTV_SIMD_CLONES void blurCellsFinish(const uint16_t* __restrict y, uint8_t* __restrict out, int count) {
+  // Vectors of four cells; the last one ends at `count` and overlaps the one before (the same
+  // bytes twice): the scalar remainder of up to three cells per run cost as much as the vectors.
+  for (int j = 0; count >= 4 && j < count; j += 4) {
+    const int i = std::min(j, count - 4);
+    BlurLanes16 l, c, r;
+    std::memcpy(&l, y + 4 * i - 4, sizeof l), std::memcpy(&c, y + 4 * i, sizeof c), std::memcpy(&r, y + 4 * i + 4, sizeof r);
+    const BlurLanes16 t = c + c + c + 32;
+    const BlurLanes16 lo = (l + t) >> 6, hi = (t + r) >> 6;
+    // The low bytes of lo's and hi's lanes, alternating texel by texel (four bytes) within each
+    // 128-bit half: two in-lane byte shuffles and a blend. Interleaving lo and hi as 16-bit lanes
+    // first and packing after took three times as many shuffles, across lanes.
+    const auto lo8 = reinterpret_cast<BlurBytes32>(lo), hi8 = reinterpret_cast<BlurBytes32>(hi);
+    const BlurBytes32 bytes = __builtin_shufflevector(lo8, hi8, 0, 2, 4, 6, 32, 34, 36, 38, 8, 10, 12, 14, 40, 42, 44, 46, 16, 18, 20, 22, 48,
+                                                      50, 52, 54, 24, 26, 28, 30, 56, 58, 60, 62);
+    std::memcpy(out + 8 * i, &bytes, sizeof bytes);
+  }
+  for (int i = 0; count < 4 && i < count; ++i)
+    for (int l = 0; l < 4; ++l) {
+      const int k = 4 * i + l, t = 3 * y[k] + 32;
+      out[8 * i + l] = uint8_t((y[k - 4] + t) >> 6), out[8 * i + 4 + l] = uint8_t((t + y[k + 4]) >> 6);
+    }
+}
 // Weights sum to 64: round half up, back to a byte.
 DRTV_SIMD_CLONES void blurFinish(const uint16_t* __restrict r0, const uint16_t* __restrict r1, const uint16_t* __restrict r2,
                 uint8_t* __restrict out, int n) {
@@ -93,6 +126,9 @@ void Volume::blurBox(glm::ivec3 g0, glm::ivec3 g1) {
   for (int x = 0; x < a.x; ++x) sx[x] = floorMod(a0.x + x, n.x);
   for (int y = 0; y < a.y; ++y) sy[y] = floorMod(a0.y + y, n.y);
   for (int z = 0; z < a.z; ++z) sz[z] = floorMod(a0.z + z, n.z);
+  // Where the apron's unblurred texels are read (source_: texels, or cells).
+  thread_local std::vector<size_t> src_x, src_y, src_z;
+  sourceOffsets(a0, a, src_x, src_y, src_z);
   const size_t row_stride = size_t(options_.size.x), layer_stride = row_stride * size_t(options_.size.y);
   // Columns [0, apron_run) of the apron and [0, box_run) of the box are contiguous in storage; the
   // rest (if any) continues from storage column 0.
@@ -132,8 +168,12 @@ void Volume::blurBox(glm::ivec3 g0, glm::ivec3 g1) {
         if (ring_z[zi % 3] == zi) return out_layer;
         ring_z[zi % 3] = zi;
         for (int r = 0; r < rn; ++r) {
-          const uint32_t* row = in + sz[zi] * layer_stride + sy[r0 + r] * row_stride;
+          const uint32_t* row = in + src_z[size_t(zi)] + src_y[size_t(r0 + r)];
           uint8_t* out = &src[size_t(r) * W];
+          if (cell_source_) {
+            for (int x = 0; x < a.x; ++x) std::memcpy(out + 4 * x, row + src_x[size_t(x)], 4);
+            continue;
+          }
           // sx runs contiguously up to the storage wrap: at most two copies.
           std::memcpy(out, row + sx[0], size_t(apron_run) * 4);
           if (apron_run < a.x) std::memcpy(out + 4 * apron_run, row + sx[apron_run], size_t(a.x - apron_run) * 4);
@@ -193,6 +233,7 @@ void Volume::blurBox(glm::ivec3 g0, glm::ivec3 g1) {
 // (blurFinishPatches). The sums are the same integers as blurBox's: the texels are equal bit for
 // bit. No texel depends on the source's duplicated column, row or layer.
 void Volume::blurWholeRows(const glm::ivec3& g0, const glm::ivec3& b, const glm::ivec3& a0, const glm::ivec3& a) {
+  if (cell_source_) return blurWholeRowsFromCells(g0, b, a0, a);
   const glm::ivec3 n = period();
   thread_local std::vector<int> sy, sz;
   sy.resize(size_t(a.y)), sz.resize(size_t(a.z));
@@ -271,6 +312,99 @@ void Volume::blurWholeRows(const glm::ivec3& g0, const glm::ivec3& b, const glm:
   }
 }
 
+// blurWholeRows with the cell source. Per output layer, channel and strip of rows: the z pass on
+// the cells of the strip's apron rows (a quarter of the texels' lanes), the y pass per box row on
+// its clamped taps' cells (half), and the x pass with the rounding from that row of cells straight
+// into the texels (blurCellsFinish): a texel's x taps are its cell's neighbour and its cell twice.
+// The storage row is written in runs of columns whose texels are consecutive and whose cells are
+// stored consecutively (ExpandRun, at most four: the texel and the cell storage wrap); each run's
+// first and last column, whose taps may lie across a seam or be clamped, and the duplicated
+// column, are patched (blurFinishPatches on the row of cells). The sums are those of the texels'
+// passes, since a cell's texels hold its bytes: the texels equal blurWholeRows's bit for bit.
+void Volume::blurWholeRowsFromCells(const glm::ivec3& g0, const glm::ivec3& b, const glm::ivec3& a0, const glm::ivec3& a) {
+  const glm::ivec3 n = period();
+  thread_local std::vector<int> sy, sz, ky;  // ky: each apron row's cell row
+  sy.resize(size_t(a.y)), sz.resize(size_t(a.z)), ky.resize(size_t(a.y));
+  for (int y = 0; y < a.y; ++y) sy[size_t(y)] = floorMod(a0.y + y, n.y), ky[size_t(y)] = floorDiv(a0.y + y, 2);
+  for (int z = 0; z < a.z; ++z) sz[size_t(z)] = floorMod(a0.z + z, n.z);
+  const int oy = g0.y - a0.y, oz = g0.z - a0.z;  // the box inside the apron (in x it is the apron)
+  const size_t row_stride = size_t(options_.size.x), layer_stride = row_stride * size_t(options_.size.y);
+  const int Wc = 4 * cell_period_.x;  // lanes per row of cells
+  auto cellLane = [&](int gx) { return 4 * floorMod(floorDiv(gx, 2), cell_period_.x); };
+  auto texelAt = [&](int s) { return a0.x + floorMod(s - a0.x, n.x); };  // the covered texel stored at s (a.x == n.x)
+  struct ExpandRun {
+    int begin, end;     // storage columns [begin, end): consecutive texels, in cells stored consecutively
+    int first, cells, lane;  // blurCellsFinish: from column `first` (a cell's first texel), `cells` cells from lane `lane`
+  };
+  thread_local std::vector<ExpandRun> runs;
+  runs.clear();
+  for (int s = 0; s < n.x; ++s) {
+    const int gx = texelAt(s);
+    if (s > 0 && texelAt(s - 1) + 1 == gx && (floorMod(gx, 2) == 1 || cellLane(gx) == cellLane(gx - 1) + 4))
+      runs.back().end = s + 1;
+    else
+      runs.push_back({s, s + 1, 0, 0, 0});
+  }
+  for (ExpandRun& run : runs) {
+    // An odd count writes one texel past the run: the next run's first, or the duplicated column,
+    // both patched.
+    run.first = floorMod(texelAt(run.begin), 2) == 1 ? run.begin + 1 : run.begin;
+    run.cells = (run.end - run.first + 1) / 2;
+    run.lane = run.first < run.end ? cellLane(texelAt(run.first)) : 0;
+  }
+  thread_local std::vector<BlurPatch> patches;
+  patches.clear();
+  auto patch = [&](int to, int s) {
+    const int gx = texelAt(s);
+    patches.push_back({4 * to, cellLane(std::max(gx - 1, a0.x)), cellLane(gx), cellLane(std::min(gx + 1, a0.x + a.x - 1))});
+  };
+  for (const ExpandRun& run : runs) {
+    patch(run.begin, run.begin);
+    if (run.end - 1 > run.begin) patch(run.end - 1, run.end - 1);
+  }
+  patch(n.x, 0);
+  // Rows of cells: the z pass's, and one y pass's with a cell of slack before it and two after
+  // (blurCellsFinish reads a run's outer neighbours; blurFinishPatches reads two cells).
+  thread_local std::vector<uint16_t> zt, yrow;
+  zt.resize(size_t(Wc) * (kCellStripRows / 2 + 2)), yrow.assign(size_t(Wc) + 12, 0);
+  uint16_t* const yc = yrow.data() + 4;
+  for (int z = 0; z < b.z; ++z) {
+    const int gz = oz + z, tz = sz[size_t(gz)];
+    const size_t lm = sourceOffset(2, a0.z + std::max(gz - 1, 0)), l0 = sourceOffset(2, a0.z + gz),
+                 lp = sourceOffset(2, a0.z + std::min(gz + 1, a.z - 1));
+    for (int c = 0; c < 3; ++c) {
+      const auto* in = reinterpret_cast<const uint8_t*>(source_[c].data());
+      uint32_t* dst = texels_[c].data();
+      for (int y0 = 0; y0 < b.y; y0 += kCellStripRows) {
+        const int y1 = std::min(y0 + kCellStripRows, b.y);
+        const int r0 = std::max(oy + y0 - 1, 0), r1 = std::min(oy + y1 + 1, a.y);  // apron rows the strip reads
+        const int k0 = ky[size_t(r0)], k1 = ky[size_t(r1 - 1)] + 1;  // and their cells
+        for (int k = k0; k < k1; ++k) {
+          const size_t row = 4 * sourceOffset(1, 2 * k);
+          blurRows3Bytes(in + 4 * lm + row, in + 4 * l0 + row, in + 4 * lp + row, &zt[size_t(k - k0) * Wc], Wc);
+        }
+        auto cellRow = [&](int apron_row) { return &zt[size_t(ky[size_t(apron_row)] - k0) * Wc]; };
+        for (int y = y0; y < y1; ++y) {
+          const int r = oy + y;
+          blurRows3(cellRow(std::max(r - 1, 0)), cellRow(r), cellRow(std::min(r + 1, a.y - 1)), yc, Wc);
+          auto* out = reinterpret_cast<uint8_t*>(dst + size_t(tz) * layer_stride + size_t(sy[size_t(r)]) * row_stride);
+          for (const ExpandRun& run : runs)
+            if (run.cells > 0) blurCellsFinish(yc + run.lane, out + 4 * run.first, run.cells);
+          blurFinishPatches(yc, out, 1, 0, patches.data(), int(patches.size()));
+        }
+        // The duplicated row and layer (mirrorBoundary's y and z; x is done).
+        auto row = [&](int ry, int rz) { return dst + size_t(rz) * layer_stride + size_t(ry) * row_stride; };
+        for (int y = y0; y < y1; ++y) {
+          const int ty = sy[size_t(oy + y)];
+          if (ty == 0) std::memcpy(row(n.y, tz), row(0, tz), row_stride * 4);
+          if (tz == 0) std::memcpy(row(ty, n.z), row(ty, 0), row_stride * 4);
+          if (ty == 0 && tz == 0) std::memcpy(row(n.y, n.z), row(0, 0), row_stride * 4);
+        }
+      }
+    }
+  }
+}
+
 // blurBox for a box at most kThinBlurX texels wide in x (what a scroll along x re-blurs: the
 // entered slab with one texel either side, and the new face). Its rows along x are a few texels
 // long, so the row-wise passes of blurBox paid their per-row set-up for every texel (136 us for a
@@ -295,12 +429,14 @@ void Volume::blurThinX(const glm::ivec3& g0, const glm::ivec3& b, const glm::ive
   px.resize(size_t(b.x) * a.z * ay4);
   py.resize(size_t(b.x) * a.z * by4);
   out.resize(by4);
+  thread_local std::vector<size_t> src_x, src_y, src_z;
+  sourceOffsets(a0, a, src_x, src_y, src_z);
   for (int c = 0; c < 3; ++c) {
     const uint32_t* in = source_[c].data();
     for (int z = 0; z < a.z; ++z)
       for (int y = 0; y < a.y; ++y) {
-        const uint32_t* row = in + size_t(sz[size_t(z)]) * layer_stride + size_t(sy[size_t(y)]) * row_stride;
-        for (int x = 0; x < a.x; ++x) std::memcpy(&src[(size_t(x) * a.z + z) * ay4 + size_t(y) * 4], row + sx[size_t(x)], 4);
+        const uint32_t* row = in + src_z[size_t(z)] + src_y[size_t(y)];
+        for (int x = 0; x < a.x; ++x) std::memcpy(&src[(size_t(x) * a.z + z) * ay4 + size_t(y) * 4], row + src_x[size_t(x)], 4);
       }
     // x: neighbours clamped into the apron (the same as into the covered range, see blurBox).
     for (int x = 0; x < b.x; ++x) {

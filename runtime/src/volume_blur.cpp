@@ -71,6 +71,15 @@ DRTV_SIMD_CLONES void blurFinishPatches(const uint16_t* __restrict m, uint8_t* _
       std::memcpy(out + patches[p].to, &bytes, 4);
     }
 }
+// blurRows3 for a cell's two rows of texels (blurWholeRowsFromCells): the first's taps are the
+// cell above and its own cell twice, the second's its own cell twice and the cell below.
+DRTV_SIMD_CLONES void blurRows3Pair(const uint16_t* __restrict up, const uint16_t* __restrict mid, const uint16_t* __restrict down,
+                                    uint16_t* __restrict first, uint16_t* __restrict second, int n) {
+  for (int i = 0; i < n; ++i) {
+    const uint16_t t = uint16_t(3 * mid[i]);
+    first[i] = uint16_t(up[i] + t), second[i] = uint16_t(t + down[i]);
+  }
+}
 // The x pass and the rounding from a row of cells (four 16-bit lanes each, the z and y passes'
 // sums; blurWholeRowsFromCells): cell i's two texels, bytes [8 i, 8 i + 8) of `out`, are
 // (y[i - 1] + 3 y[i] + 32) >> 6 and (3 y[i] + y[i + 1] + 32) >> 6. Reads cells -1 to count.
@@ -365,9 +374,9 @@ void Volume::blurWholeRowsFromCells(const glm::ivec3& g0, const glm::ivec3& b, c
   patch(n.x, 0);
   // Rows of cells: the z pass's, and one y pass's with a cell of slack before it and two after
   // (blurCellsFinish reads a run's outer neighbours; blurFinishPatches reads two cells).
-  thread_local std::vector<uint16_t> zt, yrow;
-  zt.resize(size_t(Wc) * (kCellStripRows / 2 + 2)), yrow.assign(size_t(Wc) + 12, 0);
-  uint16_t* const yc = yrow.data() + 4;
+  thread_local std::vector<uint16_t> zt, yrows;
+  zt.resize(size_t(Wc) * (kCellStripRows / 2 + 2)), yrows.assign(2 * (size_t(Wc) + 12), 0);
+  uint16_t* const yc[2] = {yrows.data() + 4, yrows.data() + Wc + 16};
   for (int z = 0; z < b.z; ++z) {
     const int gz = oz + z, tz = sz[size_t(gz)];
     const size_t lm = sourceOffset(2, a0.z + std::max(gz - 1, 0)), l0 = sourceOffset(2, a0.z + gz),
@@ -384,13 +393,21 @@ void Volume::blurWholeRowsFromCells(const glm::ivec3& g0, const glm::ivec3& b, c
           blurRows3Bytes(in + 4 * lm + row, in + 4 * l0 + row, in + 4 * lp + row, &zt[size_t(k - k0) * Wc], Wc);
         }
         auto cellRow = [&](int apron_row) { return &zt[size_t(ky[size_t(apron_row)] - k0) * Wc]; };
-        for (int y = y0; y < y1; ++y) {
+        for (int y = y0; y < y1;) {
           const int r = oy + y;
-          blurRows3(cellRow(std::max(r - 1, 0)), cellRow(r), cellRow(std::min(r + 1, a.y - 1)), yc, Wc);
-          auto* out = reinterpret_cast<uint8_t*>(dst + size_t(tz) * layer_stride + size_t(sy[size_t(r)]) * row_stride);
-          for (const ExpandRun& run : runs)
-            if (run.cells > 0) blurCellsFinish(yc + run.lane, out + 4 * run.first, run.cells);
-          blurFinishPatches(yc, out, 1, 0, patches.data(), int(patches.size()));
+          // A cell's two rows, neither at the apron's edge, in one pass (blurRows3Pair); else one.
+          const bool pair = floorMod(a0.y + r, 2) == 0 && r > 0 && y + 1 < y1 && r + 2 < a.y;
+          if (pair)
+            blurRows3Pair(cellRow(r - 1), cellRow(r), cellRow(r + 2), yc[0], yc[1], Wc);
+          else
+            blurRows3(cellRow(std::max(r - 1, 0)), cellRow(r), cellRow(std::min(r + 1, a.y - 1)), yc[0], Wc);
+          for (int k = 0; k < (pair ? 2 : 1); ++k) {
+            auto* out = reinterpret_cast<uint8_t*>(dst + size_t(tz) * layer_stride + size_t(sy[size_t(r + k)]) * row_stride);
+            for (const ExpandRun& run : runs)
+              if (run.cells > 0) blurCellsFinish(yc[k] + run.lane, out + 4 * run.first, run.cells);
+            blurFinishPatches(yc[k], out, 1, 0, patches.data(), int(patches.size()));
+          }
+          y += pair ? 2 : 1;
         }
         // The duplicated row and layer (mirrorBoundary's y and z; x is done).
         auto row = [&](int ry, int rz) { return dst + size_t(rz) * layer_stride + size_t(ry) * row_stride; };

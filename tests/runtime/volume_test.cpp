@@ -193,6 +193,48 @@ TEST(VolumeFill, WholeRowBlurMatchesTheDefinitionAtEveryStoragePhase) {
   }
 }
 
+// With 2 m texels the blur keeps the unblurred texels once per index cell, stored modulo a
+// period of cells (P = 56 in x for 95 texels, 4 in y for 5) that the covered range crosses at
+// every cell phase; whole-row boxes are blurred from runs of cells between the storage wraps,
+// with the runs' ends patched. Origins over two periods of cells in x (every third texel) and y,
+// odd and even (a cell split at the range's edge), rebuilt and after x, y and z scrolls: against
+// the definition.
+TEST(VolumeFill, BlurFromCellsMatchesTheDefinitionAtEveryCellPhase) {
+  const ProbeCache cache = makeWorld();
+  VolumeOptions plain_o, blur_o;
+  plain_o.size = blur_o.size = {96, 6, 4};
+  blur_o.blur = true;
+  Volume plain(plain_o), blurred(blur_o);
+  int checked = 0;
+  for (int oy = 0; oy < 8; ++oy)
+    for (int ox = 0; ox < 112; ox += oy < 2 ? 3 : 13) {
+      const glm::ivec3 origin(ox - 40, oy - 20, 1);
+      const glm::ivec3 move = ox % 3 == 0 ? glm::ivec3(0) : (ox % 3 == 1 ? glm::ivec3(1, 0, 0) : glm::ivec3(0, -1, 1));
+      plain.rebuild(origin, cache);
+      blurred.rebuild(origin - move, cache);
+      blurred.scrollTo(origin, cache);
+      const int mismatches = blurMismatches(plain, blurred);
+      EXPECT_EQ(mismatches, 0) << "origin " << origin.x << "," << origin.y << " move " << move.x << "," << move.y << "," << move.z;
+      ++checked;
+      if (mismatches != 0) return;
+    }
+  EXPECT_GT(checked, 100);
+}
+
+// The blur's unblurred copy, with 2 m texels, is kept per index cell: a quarter of the texels'
+// bytes (and a little for the cells' storage period), where a copy of every texel doubled them.
+TEST(VolumeFill, BlurWithTwoMetreTexelsAddsAQuarterOfTheTexelsBytes) {
+  const VolumeOptions plain_o;
+  VolumeOptions blur_o, blur4_o;
+  blur_o.blur = blur4_o.blur = true;
+  blur4_o.texel_size_m = {4.f, 4.f, 4.f};
+  const Volume plain(plain_o), blurred(blur_o), blurred4(blur4_o);
+  EXPECT_EQ(plain.bytes(), 3u * 96 * 96 * 16 * 4);
+  EXPECT_LE(blurred.bytes(), plain.bytes() + plain.bytes() * 3 / 10);
+  EXPECT_GT(blurred.bytes(), plain.bytes() + plain.bytes() / 4);
+  EXPECT_EQ(blurred4.bytes(), 2 * plain.bytes());  // 4 m texels are whole cells: a copy of each
+}
+
 TEST(VolumeFill, DuplicatedBoundaryTexelsMirrorTheFirstLayerOnEveryAxis) {
   const ProbeCache cache = makeWorld();
   for (bool blur : {false, true}) {

@@ -123,6 +123,13 @@ class Volume {
   VolumeShaderConstants shaderConstants() const;
   // Texels computed so far (a counter for tests: a one-texel scroll computes one slab).
   uint64_t texelsFilled() const { return filled_; }
+  // The memory the volume holds: its textures and, with blur, the unblurred copy the blur reads
+  // (a quarter of the textures with the default 2 m texels, their size otherwise).
+  size_t bytes() const {
+    size_t n = 0;
+    for (int c = 0; c < 3; ++c) n += (texels_[c].size() + source_[c].size()) * sizeof(uint32_t);
+    return n;
+  }
 
   // Where the volume's lookups are valid, in world texel units of the sample point p / texel
   // size - origin: [0.5, N - 0.5] per axis (beyond, the filter would mix the far side).

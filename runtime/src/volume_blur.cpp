@@ -86,7 +86,7 @@ DRTV_SIMD_CLONES void blurRows3Pair(const uint16_t* __restrict up, const uint16_
 // Written with vectors of four cells: a plain loop did not vectorise.
 using BlurLanes16 = uint16_t __attribute__((vector_size(32)));
 using BlurBytes32 = uint8_t __attribute__((vector_size(32)));
-DRTV_SIMD_CLONES void blurCellsFinish(const uint16_t* __restrict y, uint8_t* __restrict out, int count) {
+[[gnu::always_inline]] inline void blurCellsFinish(const uint16_t* __restrict y, uint8_t* __restrict out, int count) {
   // Vectors of four cells; the last one ends at `count` and overlaps the one before (the same
   // bytes twice): the scalar remainder of up to three cells per run cost as much as the vectors.
   for (int j = 0; count >= 4 && j < count; j += 4) {
@@ -108,6 +108,26 @@ DRTV_SIMD_CLONES void blurCellsFinish(const uint16_t* __restrict y, uint8_t* __r
       const int k = 4 * i + l, t = 3 * y[k] + 32;
       out[8 * i + l] = uint8_t((y[k - 4] + t) >> 6), out[8 * i + 4 + l] = uint8_t((t + y[k + 4]) >> 6);
     }
+}
+// A row (or a cell's two rows) of texels from rows of cells (blurWholeRowsFromCells): the runs
+// (blurCellsFinish) and then the patches, in one call per row pair (the calls through the clones'
+// dispatch were a tenth of a blurred refill when each run and the patches were one).
+struct CellRun {
+  int first, cells, lane;  // from storage column `first` (its cell's first texel), `cells` cells from lane `lane`
+};
+DRTV_SIMD_CLONES void blurCellRows(const uint16_t* __restrict y, int y_stride, uint8_t* const* out_rows, int rows,
+                                   const CellRun* __restrict runs, int run_count, const BlurPatch* __restrict patches, int patch_count) {
+  for (int r = 0; r < rows; ++r, y += y_stride) {
+    uint8_t* __restrict out = out_rows[r];
+    for (int k = 0; k < run_count; ++k) blurCellsFinish(y + runs[k].lane, out + 4 * runs[k].first, runs[k].cells);
+    for (int p = 0; p < patch_count; ++p) {
+      BlurLanes8 l, c, x;
+      std::memcpy(&l, y + patches[p].left, sizeof l), std::memcpy(&c, y + patches[p].centre, sizeof c);
+      std::memcpy(&x, y + patches[p].right, sizeof x);
+      const BlurBytes8 bytes = __builtin_convertvector((l + c + c + x + 32) >> 6, BlurBytes8);
+      std::memcpy(out + patches[p].to, &bytes, 4);
+    }
+  }
 }
 // Weights sum to 64: round half up, back to a byte.
 DRTV_SIMD_CLONES void blurFinish(const uint16_t* __restrict r0, const uint16_t* __restrict r1, const uint16_t* __restrict r2,
@@ -342,8 +362,7 @@ void Volume::blurWholeRowsFromCells(const glm::ivec3& g0, const glm::ivec3& b, c
   auto cellLane = [&](int gx) { return 4 * floorMod(floorDiv(gx, 2), cell_period_.x); };
   auto texelAt = [&](int s) { return a0.x + floorMod(s - a0.x, n.x); };  // the covered texel stored at s (a.x == n.x)
   struct ExpandRun {
-    int begin, end;     // storage columns [begin, end): consecutive texels, in cells stored consecutively
-    int first, cells, lane;  // blurCellsFinish: from column `first` (a cell's first texel), `cells` cells from lane `lane`
+    int begin, end;  // storage columns [begin, end): consecutive texels, in cells stored consecutively
   };
   thread_local std::vector<ExpandRun> runs;
   runs.clear();
@@ -352,14 +371,15 @@ void Volume::blurWholeRowsFromCells(const glm::ivec3& g0, const glm::ivec3& b, c
     if (s > 0 && texelAt(s - 1) + 1 == gx && (floorMod(gx, 2) == 1 || cellLane(gx) == cellLane(gx - 1) + 4))
       runs.back().end = s + 1;
     else
-      runs.push_back({s, s + 1, 0, 0, 0});
+      runs.push_back({s, s + 1});
   }
-  for (ExpandRun& run : runs) {
-    // An odd count writes one texel past the run: the next run's first, or the duplicated column,
-    // both patched.
-    run.first = floorMod(texelAt(run.begin), 2) == 1 ? run.begin + 1 : run.begin;
-    run.cells = (run.end - run.first + 1) / 2;
-    run.lane = run.first < run.end ? cellLane(texelAt(run.first)) : 0;
+  thread_local std::vector<CellRun> cell_runs;
+  cell_runs.clear();
+  for (const ExpandRun& run : runs) {
+    // From the run's first texel that is its cell's first. An odd count writes one texel past the
+    // run: the next run's first (written after it, or patched), or the duplicated column (patched).
+    const int first = floorMod(texelAt(run.begin), 2) == 1 ? run.begin + 1 : run.begin;
+    if (first < run.end) cell_runs.push_back({first, (run.end - first + 1) / 2, cellLane(texelAt(first))});
   }
   thread_local std::vector<BlurPatch> patches;
   patches.clear();
@@ -373,7 +393,7 @@ void Volume::blurWholeRowsFromCells(const glm::ivec3& g0, const glm::ivec3& b, c
   }
   patch(n.x, 0);
   // Rows of cells: the z pass's, and one y pass's with a cell of slack before it and two after
-  // (blurCellsFinish reads a run's outer neighbours; blurFinishPatches reads two cells).
+  // (blurCellsFinish reads a run's outer neighbours; a patch reads two cells).
   thread_local std::vector<uint16_t> zt, yrows;
   zt.resize(size_t(Wc) * (kCellStripRows / 2 + 2)), yrows.assign(2 * (size_t(Wc) + 12), 0);
   uint16_t* const yc[2] = {yrows.data() + 4, yrows.data() + Wc + 16};
@@ -401,12 +421,11 @@ void Volume::blurWholeRowsFromCells(const glm::ivec3& g0, const glm::ivec3& b, c
             blurRows3Pair(cellRow(r - 1), cellRow(r), cellRow(r + 2), yc[0], yc[1], Wc);
           else
             blurRows3(cellRow(std::max(r - 1, 0)), cellRow(r), cellRow(std::min(r + 1, a.y - 1)), yc[0], Wc);
-          for (int k = 0; k < (pair ? 2 : 1); ++k) {
-            auto* out = reinterpret_cast<uint8_t*>(dst + size_t(tz) * layer_stride + size_t(sy[size_t(r + k)]) * row_stride);
-            for (const ExpandRun& run : runs)
-              if (run.cells > 0) blurCellsFinish(yc[k] + run.lane, out + 4 * run.first, run.cells);
-            blurFinishPatches(yc[k], out, 1, 0, patches.data(), int(patches.size()));
-          }
+          uint8_t* out_rows[2];
+          for (int k = 0; k < (pair ? 2 : 1); ++k)
+            out_rows[k] = reinterpret_cast<uint8_t*>(dst + size_t(tz) * layer_stride + size_t(sy[size_t(r + k)]) * row_stride);
+          blurCellRows(yc[0], int(yc[1] - yc[0]), out_rows, pair ? 2 : 1, cell_runs.data(), int(cell_runs.size()), patches.data(),
+                       int(patches.size()));
           y += pair ? 2 : 1;
         }
         // The duplicated row and layer (mirrorBoundary's y and z; x is done).

@@ -60,16 +60,16 @@ struct BlurPatch {
 };
 using BlurBytes8 = uint8_t __attribute__((vector_size(8)));
 using BlurLanes8 = uint16_t __attribute__((vector_size(16)));
+[[gnu::always_inline]] inline void blurFinishPatch(const uint16_t* __restrict m, uint8_t* __restrict out, const BlurPatch& p) {
+  BlurLanes8 l, c, x;
+  std::memcpy(&l, m + p.left, sizeof l), std::memcpy(&c, m + p.centre, sizeof c), std::memcpy(&x, m + p.right, sizeof x);
+  const BlurBytes8 bytes = __builtin_convertvector((l + c + c + x + 32) >> 6, BlurBytes8);
+  std::memcpy(out + p.to, &bytes, 4);
+}
 DRTV_SIMD_CLONES void blurFinishPatches(const uint16_t* __restrict m, uint8_t* __restrict out, int rows, int stride,
                                         const BlurPatch* __restrict patches, int count) {
   for (int r = 0; r < rows; ++r, m += stride, out += stride)
-    for (int p = 0; p < count; ++p) {
-      BlurLanes8 l, c, x;
-      std::memcpy(&l, m + patches[p].left, sizeof l), std::memcpy(&c, m + patches[p].centre, sizeof c);
-      std::memcpy(&x, m + patches[p].right, sizeof x);
-      const BlurBytes8 bytes = __builtin_convertvector((l + c + c + x + 32) >> 6, BlurBytes8);
-      std::memcpy(out + patches[p].to, &bytes, 4);
-    }
+    for (int p = 0; p < count; ++p) blurFinishPatch(m, out, patches[p]);
 }
 // blurRows3 for a cell's two rows of texels (blurWholeRowsFromCells): the first's taps are the
 // cell above and its own cell twice, the second's its own cell twice and the cell below.
@@ -120,13 +120,7 @@ DRTV_SIMD_CLONES void blurCellRows(const uint16_t* __restrict y, int y_stride, u
   for (int r = 0; r < rows; ++r, y += y_stride) {
     uint8_t* __restrict out = out_rows[r];
     for (int k = 0; k < run_count; ++k) blurCellsFinish(y + runs[k].lane, out + 4 * runs[k].first, runs[k].cells);
-    for (int p = 0; p < patch_count; ++p) {
-      BlurLanes8 l, c, x;
-      std::memcpy(&l, y + patches[p].left, sizeof l), std::memcpy(&c, y + patches[p].centre, sizeof c);
-      std::memcpy(&x, y + patches[p].right, sizeof x);
-      const BlurBytes8 bytes = __builtin_convertvector((l + c + c + x + 32) >> 6, BlurBytes8);
-      std::memcpy(out + patches[p].to, &bytes, 4);
-    }
+    for (int p = 0; p < patch_count; ++p) blurFinishPatch(y, out, patches[p]);
   }
 }
 // Weights sum to 64: round half up, back to a byte.

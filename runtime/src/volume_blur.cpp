@@ -83,27 +83,53 @@ DRTV_SIMD_CLONES void blurRows3Pair(const uint16_t* __restrict up, const uint16_
 // The x pass and the rounding from a row of cells (four 16-bit lanes each, the z and y passes'
 // sums; blurWholeRowsFromCells): cell i's two texels, bytes [8 i, 8 i + 8) of `out`, are
 // (y[i - 1] + 3 y[i] + 32) >> 6 and (3 y[i] + y[i + 1] + 32) >> 6. Reads cells -1 to count.
-// Written with vectors of four cells: a plain loop did not vectorise.
+// Written with vectors of cells: a plain loop did not vectorise.
 using BlurLanes16 = uint16_t __attribute__((vector_size(32)));
 using BlurBytes32 = uint8_t __attribute__((vector_size(32)));
-[[gnu::always_inline]] inline void blurCellsFinish(const uint16_t* __restrict y, uint8_t* __restrict out, int count) {
-  // Vectors of four cells; the last one ends at `count` and overlaps the one before (the same
-  // bytes twice): the scalar remainder of up to three cells per run cost as much as the vectors.
-  for (int j = 0; count >= 4 && j < count; j += 4) {
-    const int i = std::min(j, count - 4);
-    BlurLanes16 l, c, r;
-    std::memcpy(&l, y + 4 * i - 4, sizeof l), std::memcpy(&c, y + 4 * i, sizeof c), std::memcpy(&r, y + 4 * i + 4, sizeof r);
-    const BlurLanes16 t = c + c + c + 32;
-    const BlurLanes16 lo = (l + t) >> 6, hi = (t + r) >> 6;
-    // The low bytes of lo's and hi's lanes, alternating texel by texel (four bytes) within each
-    // 128-bit half: two in-lane byte shuffles and a blend. Interleaving lo and hi as 16-bit lanes
-    // first and packing after took three times as many shuffles, across lanes.
-    const auto lo8 = reinterpret_cast<BlurBytes32>(lo), hi8 = reinterpret_cast<BlurBytes32>(hi);
-    const BlurBytes32 bytes = __builtin_shufflevector(lo8, hi8, 0, 2, 4, 6, 32, 34, 36, 38, 8, 10, 12, 14, 40, 42, 44, 46, 16, 18, 20, 22, 48,
-                                                      50, 52, 54, 24, 26, 28, 30, 56, 58, 60, 62);
-    std::memcpy(out + 8 * i, &bytes, sizeof bytes);
+using BlurLanes32 = uint16_t __attribute__((vector_size(64)));
+using BlurBytes64 = uint8_t __attribute__((vector_size(64)));
+// Cells [i, i + 4 V) of blurCellsFinish, V = 1 or 2 (vectors of 32 or 64 bytes: AVX-512 takes
+// the eight cells in one register, AVX2 in two).
+template <class Lanes, class Bytes>
+[[gnu::always_inline]] inline void blurCellsFinishAt(const uint16_t* __restrict y, uint8_t* __restrict out, int i) {
+  Lanes l, c, r;
+  std::memcpy(&l, y + 4 * i - 4, sizeof l), std::memcpy(&c, y + 4 * i, sizeof c), std::memcpy(&r, y + 4 * i + 4, sizeof r);
+  const Lanes t = c + c + c + 32;
+  const Lanes lo = (l + t) >> 6, hi = (t + r) >> 6;
+  // The low bytes of lo's and hi's lanes, alternating texel by texel (four bytes) within each
+  // 128-bit quarter. Interleaving lo and hi as 16-bit lanes first and packing after took three
+  // times as many shuffles, across lanes.
+  const auto lo8 = reinterpret_cast<Bytes>(lo), hi8 = reinterpret_cast<Bytes>(hi);
+  // One in-lane byte shuffle of each (the same indices: texel k's bytes at 8 k and 8 k + 4 of
+  // its half), then lo's or hi's by texel: a blend. (Two-source shuffles became vpermt2w.)
+  Bytes a, b;
+  if constexpr (sizeof(Bytes) == 32) {
+    a = __builtin_shufflevector(lo8, lo8, 0, 2, 4, 6, 0, 2, 4, 6, 8, 10, 12, 14, 8, 10, 12, 14, 16, 18, 20, 22, 16, 18, 20, 22, 24, 26, 28, 30, 24, 26, 28, 30);
+    b = __builtin_shufflevector(hi8, hi8, 0, 2, 4, 6, 0, 2, 4, 6, 8, 10, 12, 14, 8, 10, 12, 14, 16, 18, 20, 22, 16, 18, 20, 22, 24, 26, 28, 30, 24, 26, 28, 30);
+  } else {
+    a = __builtin_shufflevector(lo8, lo8, 0, 2, 4, 6, 0, 2, 4, 6, 8, 10, 12, 14, 8, 10, 12, 14, 16, 18, 20, 22, 16, 18, 20, 22, 24, 26, 28, 30, 24, 26, 28, 30, 32, 34, 36, 38, 32, 34, 36, 38, 40, 42, 44, 46, 40, 42, 44, 46, 48, 50, 52, 54, 48, 50, 52, 54, 56, 58, 60, 62, 56, 58, 60, 62);
+    b = __builtin_shufflevector(hi8, hi8, 0, 2, 4, 6, 0, 2, 4, 6, 8, 10, 12, 14, 8, 10, 12, 14, 16, 18, 20, 22, 16, 18, 20, 22, 24, 26, 28, 30, 24, 26, 28, 30, 32, 34, 36, 38, 32, 34, 36, 38, 40, 42, 44, 46, 40, 42, 44, 46, 48, 50, 52, 54, 48, 50, 52, 54, 56, 58, 60, 62, 56, 58, 60, 62);
   }
-  for (int i = 0; count < 4 && i < count; ++i)
+  Bytes odd{};  // 0xff where the second texel of a cell goes: bytes 4-7 of every 8
+  for (size_t k = 0; k < sizeof(Bytes); ++k) odd[k] = (k & 4) ? 0xff : 0;
+  const Bytes bytes = (a & ~odd) | (b & odd);
+  std::memcpy(out + 8 * i, &bytes, sizeof bytes);
+}
+template <int kVectorBytes>
+[[gnu::always_inline]] inline void blurCellsFinish(const uint16_t* __restrict y, uint8_t* __restrict out, int count) {
+  // Vectors of kVectorBytes / 8 cells; the last one ends at `count` and overlaps the one before
+  // (the same bytes twice): a scalar remainder per run cost as much as the vectors.
+  if constexpr (kVectorBytes == 64) {
+    if (count >= 8) {
+      for (int i = 0; i < count - 8; i += 8) blurCellsFinishAt<BlurLanes32, BlurBytes64>(y, out, i);
+      return blurCellsFinishAt<BlurLanes32, BlurBytes64>(y, out, count - 8);
+    }
+  }
+  if (count >= 4) {
+    for (int i = 0; i < count - 4; i += 4) blurCellsFinishAt<BlurLanes16, BlurBytes32>(y, out, i);
+    return blurCellsFinishAt<BlurLanes16, BlurBytes32>(y, out, count - 4);
+  }
+  for (int i = 0; i < count; ++i)
     for (int l = 0; l < 4; ++l) {
       const int k = 4 * i + l, t = 3 * y[k] + 32;
       out[8 * i + l] = uint8_t((y[k - 4] + t) >> 6), out[8 * i + 4 + l] = uint8_t((t + y[k + 4]) >> 6);
@@ -115,13 +141,33 @@ using BlurBytes32 = uint8_t __attribute__((vector_size(32)));
 struct CellRun {
   int first, cells, lane;  // from storage column `first` (its cell's first texel), `cells` cells from lane `lane`
 };
-DRTV_SIMD_CLONES void blurCellRows(const uint16_t* __restrict y, int y_stride, uint8_t* const* out_rows, int rows,
-                                   const CellRun* __restrict runs, int run_count, const BlurPatch* __restrict patches, int patch_count) {
+template <int kVectorBytes>
+[[gnu::always_inline]] inline void blurCellRowsOf(const uint16_t* __restrict y, int y_stride, uint8_t* const* out_rows, int rows,
+                                                  const CellRun* __restrict runs, int run_count, const BlurPatch* __restrict patches,
+                                                  int patch_count) {
   for (int r = 0; r < rows; ++r, y += y_stride) {
     uint8_t* __restrict out = out_rows[r];
-    for (int k = 0; k < run_count; ++k) blurCellsFinish(y + runs[k].lane, out + 4 * runs[k].first, runs[k].cells);
+    for (int k = 0; k < run_count; ++k) blurCellsFinish<kVectorBytes>(y + runs[k].lane, out + 4 * runs[k].first, runs[k].cells);
     for (int p = 0; p < patch_count; ++p) blurFinishPatch(y, out, patches[p]);
   }
+}
+// One version per target, as relight_kernels.cpp's (DRTV_SIMD_CLONES gives every clone the same
+// vectors): eight cells a vector with AVX-512, four with AVX2, where GCC split the AVX-512
+// version's shuffles into byte inserts.
+#if DRTV_SIMD_MULTIVERSION
+__attribute__((target("arch=x86-64-v4"))) void blurCellRows(const uint16_t* y, int y_stride, uint8_t* const* out_rows, int rows,
+                                                          const CellRun* runs, int run_count, const BlurPatch* patches, int patch_count) {
+  blurCellRowsOf<64>(y, y_stride, out_rows, rows, runs, run_count, patches, patch_count);
+}
+__attribute__((target("arch=x86-64-v3"))) void blurCellRows(const uint16_t* y, int y_stride, uint8_t* const* out_rows, int rows,
+                                                          const CellRun* runs, int run_count, const BlurPatch* patches, int patch_count) {
+  blurCellRowsOf<32>(y, y_stride, out_rows, rows, runs, run_count, patches, patch_count);
+}
+__attribute__((target("default")))
+#endif
+void blurCellRows(const uint16_t* y, int y_stride, uint8_t* const* out_rows, int rows, const CellRun* runs, int run_count,
+                  const BlurPatch* patches, int patch_count) {
+  blurCellRowsOf<32>(y, y_stride, out_rows, rows, runs, run_count, patches, patch_count);
 }
 // Weights sum to 64: round half up, back to a byte.
 DRTV_SIMD_CLONES void blurFinish(const uint16_t* __restrict r0, const uint16_t* __restrict r1, const uint16_t* __restrict r2,

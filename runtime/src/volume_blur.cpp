@@ -6,6 +6,7 @@
 #include <array>
 #include <cstring>
 #include <span>
+#include <type_traits>
 #include <vector>
 
 #include "drtv/formats/error.h"
@@ -70,15 +71,6 @@ DRTV_SIMD_CLONES void blurFinishPatches(const uint16_t* __restrict m, uint8_t* _
                                         const BlurPatch* __restrict patches, int count) {
   for (int r = 0; r < rows; ++r, m += stride, out += stride)
     for (int p = 0; p < count; ++p) blurFinishPatch(m, out, patches[p]);
-}
-// blurRows3 for a cell's two rows of texels (blurWholeRowsFromCells): the first's taps are the
-// cell above and its own cell twice, the second's its own cell twice and the cell below.
-DRTV_SIMD_CLONES void blurRows3Pair(const uint16_t* __restrict up, const uint16_t* __restrict mid, const uint16_t* __restrict down,
-                                    uint16_t* __restrict first, uint16_t* __restrict second, int n) {
-  for (int i = 0; i < n; ++i) {
-    const uint16_t t = uint16_t(3 * mid[i]);
-    first[i] = uint16_t(up[i] + t), second[i] = uint16_t(t + down[i]);
-  }
 }
 // The x pass and the rounding from a row of cells (four 16-bit lanes each, the z and y passes'
 // sums; blurWholeRowsFromCells): cell i's two texels, bytes [8 i, 8 i + 8) of `out`, are
@@ -151,24 +143,44 @@ template <int kVectorBytes>
     for (int p = 0; p < patch_count; ++p) blurFinishPatch(y, out, patches[p]);
   }
 }
-// One version per target, as relight_kernels.cpp's (DRTV_SIMD_CLONES gives every clone the same
-// vectors): eight cells a vector with AVX-512, four with AVX2, where GCC split the AVX-512
-// version's shuffles into byte inserts.
+// The kernels of the blur from cells, one version per target as relight_kernels.cpp's
+// (DRTV_SIMD_CLONES gives every clone the same vectors): 64-byte vectors with AVX-512, 32-byte
+// ones with AVX2 and the baseline, where GCC split the 64-byte shuffles into byte inserts.
 #if DRTV_SIMD_MULTIVERSION
-__attribute__((target("arch=x86-64-v4"))) void blurCellRows(const uint16_t* y, int y_stride, uint8_t* const* out_rows, int rows,
-                                                          const CellRun* runs, int run_count, const BlurPatch* patches, int patch_count) {
-  blurCellRowsOf<64>(y, y_stride, out_rows, rows, runs, run_count, patches, patch_count);
-}
-__attribute__((target("arch=x86-64-v3"))) void blurCellRows(const uint16_t* y, int y_stride, uint8_t* const* out_rows, int rows,
-                                                          const CellRun* runs, int run_count, const BlurPatch* patches, int patch_count) {
-  blurCellRowsOf<32>(y, y_stride, out_rows, rows, runs, run_count, patches, patch_count);
-}
-__attribute__((target("default")))
+#define DRTV_CELL_KERNEL(name, params, args)                                                      \
+  __attribute__((target("arch=x86-64-v4"))) void name params { name##Of<64> args; }             \
+  __attribute__((target("arch=x86-64-v3"))) void name params { name##Of<32> args; }             \
+  __attribute__((target("default"))) void name params { name##Of<32> args; }
+#else
+#define DRTV_CELL_KERNEL(name, params, args) \
+  void name params { name##Of<32> args; }
 #endif
-void blurCellRows(const uint16_t* y, int y_stride, uint8_t* const* out_rows, int rows, const CellRun* runs, int run_count,
-                  const BlurPatch* patches, int patch_count) {
-  blurCellRowsOf<32>(y, y_stride, out_rows, rows, runs, run_count, patches, patch_count);
+DRTV_CELL_KERNEL(blurCellRows,
+                 (const uint16_t* y, int y_stride, uint8_t* const* out_rows, int rows, const CellRun* runs, int run_count,
+                  const BlurPatch* patches, int patch_count),
+                 (y, y_stride, out_rows, rows, runs, run_count, patches, patch_count))
+
+
+// The y pass for a cell's two rows of texels: the first's taps are the cell above and its own
+// cell twice, the second's its own cell twice and the cell below. n lanes: a multiple of 32
+// (whole rows of cells, whose period is a multiple of 8).
+template <int kVectorBytes>
+[[gnu::always_inline]] inline void blurCellsYPairOf(const uint16_t* __restrict up, const uint16_t* __restrict mid,
+                                                    const uint16_t* __restrict down, uint16_t* __restrict first,
+                                                    uint16_t* __restrict second, int n) {
+  using Lanes = std::conditional_t<kVectorBytes == 64, BlurLanes32, BlurLanes16>;
+  constexpr int kLanes = kVectorBytes / 2;
+  for (int i = 0; i < n; i += kLanes) {
+    Lanes u, m, d;
+    std::memcpy(&u, up + i, sizeof u), std::memcpy(&m, mid + i, sizeof m), std::memcpy(&d, down + i, sizeof d);
+    const Lanes t = m + m + m, a = u + t, b = t + d;
+    std::memcpy(first + i, &a, sizeof a), std::memcpy(second + i, &b, sizeof b);
+  }
 }
+DRTV_CELL_KERNEL(blurCellsYPair,
+                 (const uint16_t* up, const uint16_t* mid, const uint16_t* down, uint16_t* first, uint16_t* second, int n),
+                 (up, mid, down, first, second, n))
+#undef DRTV_CELL_KERNEL
 // Weights sum to 64: round half up, back to a byte.
 DRTV_SIMD_CLONES void blurFinish(const uint16_t* __restrict r0, const uint16_t* __restrict r1, const uint16_t* __restrict r2,
                 uint8_t* __restrict out, int n) {
@@ -455,10 +467,10 @@ void Volume::blurWholeRowsFromCells(const glm::ivec3& g0, const glm::ivec3& b, c
         auto cellRow = [&](int apron_row) { return &zt[size_t(ky[size_t(apron_row)] - k0) * Wc]; };
         for (int y = y0; y < y1;) {
           const int r = oy + y;
-          // A cell's two rows, neither at the apron's edge, in one pass (blurRows3Pair); else one.
+          // A cell's two rows, neither at the apron's edge, in one pass (blurCellsYPair); else one.
           const bool pair = floorMod(a0.y + r, 2) == 0 && r > 0 && y + 1 < y1 && r + 2 < a.y;
           if (pair)
-            blurRows3Pair(cellRow(r - 1), cellRow(r), cellRow(r + 2), yc[0], yc[1], Wc);
+            blurCellsYPair(cellRow(r - 1), cellRow(r), cellRow(r + 2), yc[0], yc[1], Wc);
           else
             blurRows3(cellRow(std::max(r - 1, 0)), cellRow(r), cellRow(std::min(r + 1, a.y - 1)), yc[0], Wc);
           uint8_t* out_rows[2];

@@ -25,7 +25,7 @@ constexpr int kThinBlurX = 4;
 constexpr int kBlurStripRows = 8;
 // The same from the cell source (blurWholeRowsFromCells), whose buffers are a quarter the size; a
 // strip's first and last rows of cells are also its neighbours'.
-constexpr int kCellStripRows = 16;
+constexpr int kCellStripRows = 32;
 
 // The blur's row kernels, on 16-bit lanes (sums stay below 64 * 255), written so that they
 // vectorise: restrict pointers, no widening to int. They are compiled for AVX-512 and AVX2 as well

@@ -348,6 +348,13 @@ void Volume::fillCells(const glm::ivec3& g0, const glm::ivec3& g1, const ProbeCa
     for (const Axis& ya : ys) {
       const int ty = (ya.sector - table.iy0) * table.w;
       const size_t row = layer + ya.offset;
+      // The next row's lines, for writing: they were last written a refill ago, and the textures
+      // written since have evicted them.
+      if (&ya != &ys.back())
+        for (size_t b = 0; b < size_t(source_stride_.y); b += 16) {
+          const size_t next = layer + (&ya + 1)->offset + b;
+          __builtin_prefetch(c0 + next, 1), __builtin_prefetch(c1 + next, 1), __builtin_prefetch(c2 + next, 1);
+        }
       for (const XRun& run : xruns) {
         const int t = ty + run.t, len = run.len;
         uint32_t* __restrict o0 = c0 + row + run.offset;

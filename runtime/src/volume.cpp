@@ -254,6 +254,10 @@ uint32_t Volume::worldTexel(int channel, const glm::ivec3& g) const {
     xruns.push_back(run);
     i = j;
   }
+  // A box of whole rows copies a row whose index cells (its y cell, in the same sector) are the
+  // row before's: a 4 m cell's second row of 2 m texels. Half the rows of a refill are then one
+  // copy each instead of a lookup per pair.
+  const bool whole_rows = d.x == n.x;
   for (int z = g0.z; z < g1.z; ++z) {
     const int sz = floorMod(z, n.z);
     const int* cz_row = cz.data() + size_t(z - g0.z) * table_size;
@@ -261,6 +265,12 @@ uint32_t Volume::worldTexel(int channel, const glm::ivec3& g) const {
       uint32_t* __restrict r0 = dst[0].data() + physicalIndex({0, ya.s, sz});
       uint32_t* __restrict r1 = dst[1].data() + physicalIndex({0, ya.s, sz});
       uint32_t* __restrict r2 = dst[2].data() + physicalIndex({0, ya.s, sz});
+      if (whole_rows && &ya != ys.data() && (&ya - 1)->sector == ya.sector && (&ya - 1)->cell == ya.cell) {
+        const size_t from = physicalIndex({0, (&ya - 1)->s, sz}), bytes = size_t(n.x) * sizeof(uint32_t);
+        std::memcpy(r0, dst[0].data() + from, bytes), std::memcpy(r1, dst[1].data() + from, bytes);
+        std::memcpy(r2, dst[2].data() + from, bytes);
+        continue;
+      }
       const int ty = (ya.sector - table.iy0) * table.w;
       for (const XRun& run : xruns) {
         const int t = ty + run.t;

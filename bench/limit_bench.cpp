@@ -228,6 +228,8 @@ BENCHMARK(BM_RuntimeRelightShL1)->Unit(benchmark::kMicrosecond);
 // three words stored twice (the cell's two texels in x) with one 8-byte store per texture; the
 // texel-to-probe index resolved beforehand (2 bytes a cell, 48 x 48 x 16 cells), the probes'
 // words in one array (3,570 probes), no toroidal wrap, no sector lookups, no boundary copies.
+// A cell's second row of texels (2 m rows in 4 m cells) is a copy of its first: the runtime's fill
+// does that since 2026-12-08, and a limit that looked it up again was slower than the runtime.
 constexpr int kFillX = 96, kFillY = 96, kFillZ = 16, kCellsX = kFillX / 2;
 void limitFill(const uint16_t* __restrict cells, const uint32_t* __restrict packed, uint32_t* __restrict c0,
                uint32_t* __restrict c1, uint32_t* __restrict c2) {
@@ -235,6 +237,12 @@ void limitFill(const uint16_t* __restrict cells, const uint32_t* __restrict pack
     for (int y = 0; y < kFillY; ++y) {
       const uint16_t* __restrict row = cells + (size_t(z) * (kFillY / 2) + size_t(y / 2)) * kCellsX;
       const size_t base = (size_t(z) * kFillY + size_t(y)) * kFillX;
+      if (y % 2 == 1) {
+        std::memcpy(c0 + base, c0 + base - kFillX, kFillX * sizeof(uint32_t));
+        std::memcpy(c1 + base, c1 + base - kFillX, kFillX * sizeof(uint32_t));
+        std::memcpy(c2 + base, c2 + base - kFillX, kFillX * sizeof(uint32_t));
+        continue;
+      }
       for (int x = 0; x < kCellsX; ++x) {
         const uint32_t* p = packed + 3 * size_t(row[x]);
         const uint64_t w0 = p[0] * 0x100000001ull, w1 = p[1] * 0x100000001ull, w2 = p[2] * 0x100000001ull;

@@ -93,6 +93,10 @@ Volume::Volume(const VolumeOptions& options) : options_(options) {
   for (auto& t : source_) t.assign(source_n, 0);
 }
 
+size_t Volume::sourceOffset(int a, int g) const {
+  const int i = a < 2 && cell_source_ ? floorMod(floorDiv(g, 2), cell_period_[a]) : floorMod(g, period()[a]);
+  return size_t(i) * size_t(source_stride_[a]);
+}
 
 void Volume::sourceOffsets(const glm::ivec3& a0, const glm::ivec3& a, std::vector<size_t>& xs, std::vector<size_t>& ys,
                            std::vector<size_t>& zs) const {

@@ -187,6 +187,20 @@ DRTV_SIMD_CLONES void blurFinish(const uint16_t* __restrict r0, const uint16_t* 
   for (int i = 0; i < n; ++i) out[i] = uint8_t(uint16_t(r0[i] + uint16_t(2 * r1[i]) + r2[i] + 32) >> 6);
 }
 
+// The duplicated row and layer of box rows [y0, y1) of layer tz just written whole into `dst`
+// (mirrorBoundary's y and z; the whole-row blurs write x's duplicated column themselves). sy: the
+// storage row of each apron row, oy: the box's first row in the apron.
+void mirrorWholeRows(uint32_t* dst, const glm::ivec3& n, size_t row_stride, size_t layer_stride, const int* sy, int oy, int y0, int y1,
+                     int tz) {
+  auto row = [&](int ry, int rz) { return dst + size_t(rz) * layer_stride + size_t(ry) * row_stride; };
+  for (int y = y0; y < y1; ++y) {
+    const int ty = sy[oy + y];
+    if (ty == 0) std::memcpy(row(n.y, tz), row(0, tz), row_stride * 4);
+    if (tz == 0) std::memcpy(row(ty, n.z), row(ty, 0), row_stride * 4);
+    if (ty == 0 && tz == 0) std::memcpy(row(n.y, n.z), row(0, 0), row_stride * 4);
+  }
+}
+
 }  // namespace
 
 void Volume::blurBox(glm::ivec3 g0, glm::ivec3 g1) {
@@ -380,14 +394,7 @@ void Volume::blurWholeRows(const glm::ivec3& g0, const glm::ivec3& b, const glm:
           blurFinishPatches(m, out, y_end - y, W, patches.data(), patch_count);
           y = y_end;
         }
-        // The duplicated row and layer (mirrorBoundary's y and z; x is done).
-        auto row = [&](int ry, int rz) { return dst + size_t(rz) * layer_stride + size_t(ry) * row_stride; };
-        for (int y = y0; y < y1; ++y) {
-          const int ty = sy[size_t(oy + y)];
-          if (ty == 0) std::memcpy(row(n.y, tz), row(0, tz), size_t(W));
-          if (tz == 0) std::memcpy(row(ty, n.z), row(ty, 0), size_t(W));
-          if (ty == 0 && tz == 0) std::memcpy(row(n.y, n.z), row(0, 0), size_t(W));
-        }
+        mirrorWholeRows(dst, n, row_stride, layer_stride, sy.data(), oy, y0, y1, tz);
       }
     }
   }
@@ -398,9 +405,9 @@ void Volume::blurWholeRows(const glm::ivec3& g0, const glm::ivec3& b, const glm:
 // its clamped taps' cells (half), and the x pass with the rounding from that row of cells straight
 // into the texels (blurCellsFinish): a texel's x taps are its cell's neighbour and its cell twice.
 // The storage row is written in runs of columns whose texels are consecutive and whose cells are
-// stored consecutively (ExpandRun, at most four: the texel and the cell storage wrap); each run's
-// first and last column, whose taps may lie across a seam or be clamped, and the duplicated
-// column, are patched (blurFinishPatches on the row of cells). The sums are those of the texels'
+// stored consecutively (ExpandRun, at most three: split at the texel and the cell storage wrap);
+// each run's first and last column, whose taps may lie across a seam or be clamped, and the
+// duplicated column, are patched (blurFinishPatch on the row of cells, in blurCellRows). The sums are those of the texels'
 // passes, since a cell's texels hold its bytes: the texels equal blurWholeRows's bit for bit.
 void Volume::blurWholeRowsFromCells(const glm::ivec3& g0, const glm::ivec3& b, const glm::ivec3& a0, const glm::ivec3& a) {
   const glm::ivec3 n = period();
@@ -480,14 +487,7 @@ void Volume::blurWholeRowsFromCells(const glm::ivec3& g0, const glm::ivec3& b, c
                        int(patches.size()));
           y += pair ? 2 : 1;
         }
-        // The duplicated row and layer (mirrorBoundary's y and z; x is done).
-        auto row = [&](int ry, int rz) { return dst + size_t(rz) * layer_stride + size_t(ry) * row_stride; };
-        for (int y = y0; y < y1; ++y) {
-          const int ty = sy[size_t(oy + y)];
-          if (ty == 0) std::memcpy(row(n.y, tz), row(0, tz), row_stride * 4);
-          if (tz == 0) std::memcpy(row(ty, n.z), row(ty, 0), row_stride * 4);
-          if (ty == 0 && tz == 0) std::memcpy(row(n.y, n.z), row(0, 0), row_stride * 4);
-        }
+        mirrorWholeRows(dst, n, row_stride, layer_stride, sy.data(), oy, y0, y1, tz);
       }
     }
   }

@@ -143,11 +143,7 @@ class Volume {
   void fillCells(const glm::ivec3& g0, const glm::ivec3& g1, const ProbeCache& cache);
   // Where the blur reads the unblurred texel of world column, row or layer g (axis a = 0, 1, 2):
   // the offset of its column, row or layer in source_[c] (its storage index, or its cell's).
-  size_t sourceOffset(int a, int g) const {
-    const int p = a < 2 && cell_source_ ? cell_period_[a] : period()[a];
-    const int i = a < 2 && cell_source_ ? (g >= 0 ? g / 2 : -((1 - g) / 2)) : g;  // the cell: floor(g / 2)
-    return size_t(((i % p) + p) % p) * size_t(source_stride_[a]);
-  }
+  size_t sourceOffset(int a, int g) const;
   // sourceOffset for the apron's columns, rows and layers: world texels a0 + [0, a).
   void sourceOffsets(const glm::ivec3& a0, const glm::ivec3& a, std::vector<size_t>& xs, std::vector<size_t>& ys,
                      std::vector<size_t>& zs) const;
@@ -174,9 +170,9 @@ class Volume {
   // across (the default 2 m), each index cell's 2x2 texels of a layer are one probe's: source_
   // then holds one texel per cell (cell_source_), a quarter of the bytes to write on a refill, and
   // the blur's z and y passes run on cells (issue 38). Cell (cx, cy) of layer z is element
-  // (cx mod P.x) + P.x ((cy mod P.y) + P.y (z mod N.z)) with P = N / 2 + 2 (in x rounded up to a multiple of 8) in x and y, more cells
-  // than a covered range spans (N / 2 + 1), so that cells are stored independently of the camera
-  // as texels are. Otherwise source_ is laid out as texels_.
+  // (cx mod P.x) + P.x ((cy mod P.y) + P.y (z mod N.z)), P = N / 2 + 2 per axis (in x rounded up
+  // to a multiple of 8): more cells than a covered range spans (N / 2 + 1), so that cells are
+  // stored independently of the camera, as texels are. Otherwise source_ is laid out as texels_.
   bool cell_source_ = false;
   glm::ivec3 source_stride_{0};  // elements between source columns, rows, layers
   glm::ivec2 cell_period_{0};    // P (with the cell source)
